@@ -1,0 +1,246 @@
+"""The per-pixel oracle: the seed's listings 3.1 (TraceRay) and 3.2 (FindIntensity), one ray at a time.
+
+Plain Python floats and tuples, no NumPy, written to be read beside the seed rather than to be fast (about 19 s for
+a 640x480 frame). The vectorized tracer must equal it to 1e-9 on every pixel.
+"""
+
+from __future__ import annotations
+
+import math
+
+from . import camera as cam
+from . import scene as sc
+from . import transforms as tf
+from .transforms import add, cross, dot, length, scale, sub
+
+INF = math.inf
+CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0, hits behind the camera are dropped
+SHADOW_T_MIN = 0.001  # listing 3.2
+REFLECTION_T_MIN = 0.01  # listing 3.1
+
+
+def normalize(v: sc.Vec3) -> sc.Vec3:
+    size = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    return (v[0] / size, v[1] / size, v[2] / size)
+
+
+def reflect_ray(X: sc.Vec3, N: sc.Vec3) -> sc.Vec3:
+    """Seed 2.9 for X pointing away from the surface: R = 2 N (N.X) - X."""
+    k = 2.0 * dot(N, X)
+    return (N[0] * k - X[0], N[1] * k - X[1], N[2] * k - X[2])
+
+
+# ---- intersections (seed 2.5): each returns [(t, part), ...] for t in (t_min, t_max) ------------------------------
+
+
+def _sphere(O: sc.Vec3, D: sc.Vec3, s: tf.WorldSphere) -> list[tuple[float, int]]:
+    CO = sub(O, s.center)
+    k1 = dot(D, D)
+    k2 = 2.0 * dot(CO, D)
+    k3 = dot(CO, CO) - s.radius * s.radius
+    discriminant = k2 * k2 - 4.0 * k1 * k3
+    if discriminant < 0.0:
+        return []
+    root = math.sqrt(discriminant)
+    return [((-k2 + root) / (2.0 * k1), 0), ((-k2 - root) / (2.0 * k1), 0)]
+
+
+def _plane_t(O: sc.Vec3, D: sc.Vec3, normal: sc.Vec3, point: sc.Vec3) -> float | None:
+    """Seed 2.17: t = (V, OC) / (V, D); None for a ray parallel to the plane."""
+    denominator = dot(normal, D)
+    if denominator == 0.0:
+        return None
+    return dot(normal, sub(point, O)) / denominator
+
+
+def _plane(O: sc.Vec3, D: sc.Vec3, p: tf.WorldPlane) -> list[tuple[float, int]]:
+    t = _plane_t(O, D, p.normal, p.point)
+    if t is None:
+        return []
+    if p.half_size is not None:
+        offset = sub(add(O, scale(D, t)), p.point)
+        if abs(dot(offset, p.u_axis)) > p.half_size[0] or abs(dot(offset, p.v_axis)) > p.half_size[1]:
+            return []
+    return [(t, 0)]
+
+
+def _cylinder(O: sc.Vec3, D: sc.Vec3, c: tf.WorldCylinder) -> list[tuple[float, int]]:
+    """Side (2.23, part 0) with 0 <= h <= H, then the bottom (part 1) and top (part 2) caps."""
+    hits: list[tuple[float, int]] = []
+    CO = sub(O, c.base)
+    DV = dot(D, c.axis)
+    COV = dot(CO, c.axis)
+    a = dot(D, D) - DV * DV
+    b = 2.0 * (dot(CO, D) - COV * DV)
+    k = dot(CO, CO) - COV * COV - c.radius * c.radius
+    discriminant = b * b - 4.0 * a * k
+    if a != 0.0 and discriminant >= 0.0:
+        root = math.sqrt(discriminant)
+        for t in ((-b + root) / (2.0 * a), (-b - root) / (2.0 * a)):
+            h = COV + DV * t
+            if 0.0 <= h <= c.height:
+                hits.append((t, 0))
+    top = add(c.base, scale(c.axis, c.height))
+    down = (-c.axis[0], -c.axis[1], -c.axis[2])
+    for part, normal, centre in ((1, down, c.base), (2, c.axis, top)):
+        t = _plane_t(O, D, normal, centre)
+        if t is None:
+            continue
+        offset = sub(add(O, scale(D, t)), centre)
+        if dot(offset, offset) <= c.radius * c.radius:
+            hits.append((t, part))
+    return hits
+
+
+def _triangles(O: sc.Vec3, D: sc.Vec3, mesh: tf.WorldTriangles) -> list[tuple[float, int]]:
+    """Moller-Trumbore as the seed writes it (2.29), one triangle at a time; part = triangle index."""
+    hits: list[tuple[float, int]] = []
+    for index, (V0, V1, V2) in enumerate(mesh.triangles):
+        E1 = sub(V1, V0)
+        E2 = sub(V2, V0)
+        T = sub(O, V0)
+        P = cross(D, E2)
+        Q = cross(T, E1)
+        determinant = dot(P, E1)
+        if determinant == 0.0:
+            continue
+        t = dot(Q, E2) / determinant
+        u = dot(P, T) / determinant
+        v = dot(Q, D) / determinant
+        if u >= 0.0 and v >= 0.0 and u + v <= 1.0:
+            hits.append((t, index))
+    return hits
+
+
+def _hits(O: sc.Vec3, D: sc.Vec3, primitive: tf.WorldPrimitive) -> list[tuple[float, int]]:
+    if isinstance(primitive, tf.WorldSphere):
+        return _sphere(O, D, primitive)
+    if isinstance(primitive, tf.WorldPlane):
+        return _plane(O, D, primitive)
+    if isinstance(primitive, tf.WorldCylinder):
+        return _cylinder(O, D, primitive)
+    return _triangles(O, D, primitive)
+
+
+def find_normal(primitive: tf.WorldPrimitive, part: int, P: sc.Vec3) -> sc.Vec3:
+    """The surface normal at P (not yet normalised, as findNormal in listing 3.1)."""
+    if isinstance(primitive, tf.WorldSphere):
+        return sub(P, primitive.center)
+    if isinstance(primitive, tf.WorldPlane):
+        return primitive.normal
+    if isinstance(primitive, tf.WorldCylinder):
+        if part == 1:
+            return (-primitive.axis[0], -primitive.axis[1], -primitive.axis[2])
+        if part == 2:
+            return primitive.axis
+        h = dot(sub(P, primitive.base), primitive.axis)
+        return sub(P, add(primitive.base, scale(primitive.axis, h)))
+    return primitive.normals[part]
+
+
+class ReferenceTracer:
+    """Traces one ray at a time exactly as the listings do; counts rays by kind."""
+
+    def __init__(self, scene: sc.Scene) -> None:
+        self.scene = scene
+        self.settings = scene.render
+        self.primitives = tf.world_primitives(scene)
+        self.materials = [scene.materials[obj.material] for obj in scene.objects]
+        self.rays = {"camera": 0, "shadow": 0, "reflection": 0}
+        self.documented_direction = cam.documented_background_direction(scene.camera, scene.render)
+
+    def closest_intersection(self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float) -> tuple[int, int, float]:
+        """(object index or -1, part, t): the nearest hit with t_min < t < t_max, first object on ties."""
+        closest_t = INF
+        closest_object = -1
+        closest_part = 0
+        for index, primitive in enumerate(self.primitives):
+            for t, part in _hits(O, D, primitive):
+                if t_min < t < t_max and t < closest_t:
+                    closest_t, closest_object, closest_part = t, index, part
+        return closest_object, closest_part, closest_t
+
+    def background(self, D: sc.Vec3) -> sc.Color:
+        background = self.scene.background
+        if background.type == "none":
+            return (0.0, 0.0, 0.0)
+        if background.type == "solid":
+            return background.color
+        direction = self.documented_direction if background.type == "documented" else D
+        k = min(max(direction[2], 0.0), 1.0)
+        h, z = background.horizon, background.zenith
+        return (h[0] + (z[0] - h[0]) * k, h[1] + (z[1] - h[1]) * k, h[2] + (z[2] - h[2]) * k)
+
+    def find_intensity(self, P: sc.Vec3, N: sc.Vec3, V: sc.Vec3, specular: float) -> float:
+        """Listing 3.2."""
+        intensity = 0.0
+        length_n = length(N)
+        length_v = length(V)
+        for light in self.scene.lights:
+            if isinstance(light, sc.AmbientLight):
+                intensity += light.intensity
+                continue
+            if isinstance(light, sc.PointLight):
+                light_vector = sub(light.location, P)
+                t_max = 1.0
+            else:
+                light_vector = light.direction
+                t_max = INF
+            self.rays["shadow"] += 1
+            shadow_object, _, _ = self.closest_intersection(P, light_vector, SHADOW_T_MIN, t_max)
+            if shadow_object >= 0:
+                continue
+            NL = dot(N, light_vector)
+            if NL > 0.0:
+                intensity += light.intensity * NL / (length_n * length(light_vector))
+            if specular <= 0.0 or (self.settings.gate_specular and NL <= 0.0):
+                continue
+            if self.settings.model == "phong":
+                R = reflect_ray(light_vector, N)
+                RV = dot(R, V)
+                if RV > 0.0:
+                    intensity += light.intensity * (RV / (length(R) * length_v)) ** specular
+            else:
+                H = add(normalize(light_vector), normalize(V))
+                HN = dot(H, N)
+                if HN > 0.0:
+                    intensity += light.intensity * (HN / (length(H) * length_n)) ** (specular * self.settings.coef)
+        return intensity
+
+    def trace_ray(self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, depth: int) -> sc.Color:
+        """Listing 3.1."""
+        closest_object, part, closest_t = self.closest_intersection(O, D, t_min, t_max)
+        if closest_object < 0:
+            return self.background(D)
+        P = add(O, scale(D, closest_t))
+        N = normalize(find_normal(self.primitives[closest_object], part, P))
+        material = self.materials[closest_object]
+        V = (-D[0], -D[1], -D[2])
+        intensity = self.find_intensity(P, N, V, material.specular)
+        weight = intensity * (1.0 - material.reflective)
+        color = material.color
+        local = (weight * color[0], weight * color[1], weight * color[2])
+        if depth <= 0 or material.reflective <= 0.0:
+            return local
+        self.rays["reflection"] += 1
+        reflected = self.trace_ray(P, reflect_ray(V, N), REFLECTION_T_MIN, INF, depth - 1)
+        r = material.reflective
+        return (local[0] + reflected[0] * r, local[1] + reflected[1] * r, local[2] + reflected[2] * r)
+
+    def pixel(self, i: int, j: int) -> sc.Color:
+        """The box-filtered mean of the pixel's samples."""
+        total = [0.0, 0.0, 0.0]
+        for s in range(self.settings.samples):
+            x, y = cam.sample_position(self.settings, i, j, s)
+            D = cam.primary_direction(self.scene.camera, self.settings, x, y)
+            self.rays["camera"] += 1
+            color = self.trace_ray(self.scene.camera.location, D, CAMERA_T_MIN, INF, self.settings.depth)
+            total = [total[0] + color[0], total[1] + color[1], total[2] + color[2]]
+        n = self.settings.samples
+        return (total[0] / n, total[1] / n, total[2] / n)
+
+
+def render_reference(scene: sc.Scene) -> list[list[sc.Color]]:
+    """The whole image as rows of (r, g, b) linear floats, unclamped; rows from the top."""
+    tracer = ReferenceTracer(scene)
+    return [[tracer.pixel(i, j) for i in range(scene.render.width)] for j in range(scene.render.height)]

@@ -1,0 +1,127 @@
+"""A scene -> a linear float image, in bands of rows over a persistent pool of worker processes.
+
+Bands have a fixed height that depends only on the image (never on the number of workers), and each band is traced
+by the same code, so the image is bit-identical for any number of workers. Memory stays bounded by the band.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import pickle
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import scene as sc
+from .wavefront import PreparedScene, RayCounts
+
+RAYS_PER_BAND = 16384  # camera samples per band: small enough for the cache-sized arrays, large for NumPy
+
+Progress = Callable[[int, int], None]
+
+
+def default_workers() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def bands(settings: sc.RenderSettings) -> list[tuple[int, int]]:
+    """Row ranges [start, stop) covering the image; their height depends only on width and samples."""
+    rows = max(1, RAYS_PER_BAND // (settings.width * settings.samples))
+    return [(start, min(start + rows, settings.height)) for start in range(0, settings.height, rows)]
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray  # (height, width, 3) linear RGB, unclamped, in the scene's dtype
+    rays: RayCounts
+    seconds: float
+
+    @property
+    def mrays_per_second(self) -> float:
+        return self.rays.total / self.seconds / 1e6 if self.seconds > 0 else 0.0
+
+
+# ---- worker side -------------------------------------------------------------------------------------------------
+
+_worker_cache: dict[str, object] = {}
+
+
+def _prepared_for(key: int, scene_bytes: bytes | None) -> PreparedScene:
+    if _worker_cache.get("key") != key:
+        assert scene_bytes is not None
+        _worker_cache["key"] = key
+        _worker_cache["prepared"] = PreparedScene(pickle.loads(scene_bytes))
+    prepared = _worker_cache["prepared"]
+    assert isinstance(prepared, PreparedScene)
+    return prepared
+
+
+def _render_band(task: tuple[int, bytes, int, int]) -> tuple[int, np.ndarray, RayCounts]:
+    key, scene_bytes, start, stop = task
+    image, counts = _prepared_for(key, scene_bytes).render_rows(start, stop)
+    return start, image, counts
+
+
+# ---- parent side -------------------------------------------------------------------------------------------------
+
+
+class Renderer:
+    """Renders scenes with a pool of worker processes kept alive between frames (use as a context manager)."""
+
+    def __init__(self, workers: int = 0) -> None:
+        self.workers = workers if workers > 0 else default_workers()
+        self._pool = None
+        self._key = 0
+        if self.workers > 1:
+            method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+            self._pool = multiprocessing.get_context(method).Pool(self.workers)
+
+    def __enter__(self) -> Renderer:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
+
+    def _results(self, scene: sc.Scene) -> Iterator[tuple[int, np.ndarray, RayCounts]]:
+        if self._pool is None:
+            prepared = PreparedScene(scene)
+            for start, stop in bands(scene.render):
+                image, counts = prepared.render_rows(start, stop)
+                yield start, image, counts
+            return
+        self._key += 1
+        scene_bytes = pickle.dumps(scene)
+        tasks = [(self._key, scene_bytes, start, stop) for start, stop in bands(scene.render)]
+        yield from self._pool.imap_unordered(_render_band, tasks)
+
+    def render(self, scene: sc.Scene, progress: Progress | None = None) -> RenderResult:
+        """Trace the whole image; progress(bands_done, bands_total) is called as bands finish."""
+        settings = scene.render
+        started = time.perf_counter()
+        image = np.empty((settings.height, settings.width, 3), dtype=np.dtype(settings.dtype))
+        counts = RayCounts()
+        total = len(bands(settings))
+        for done, (start, band, band_counts) in enumerate(self._results(scene), start=1):
+            image[start : start + band.shape[0]] = band
+            counts.add(band_counts)
+            if progress is not None:
+                progress(done, total)
+        return RenderResult(image, counts, time.perf_counter() - started)
+
+
+def render(scene: sc.Scene, workers: int | None = None, progress: Progress | None = None) -> RenderResult:
+    """Render once; workers defaults to the scene's setting (0: all cores)."""
+    with Renderer(scene.render.workers if workers is None else workers) as renderer:
+        return renderer.render(scene, progress)

@@ -1,0 +1,177 @@
+"""The scene model: frozen dataclasses in Blender's world conventions.
+
+Z is up, lengths are metres, rotations are Euler XYZ angles in degrees (as Blender's UI shows them), colors are
+linear RGB in [0, 1]. Every object has a location, a rotation, a size of its own kind and the name of a material.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+Vec3 = tuple[float, float, float]
+Color = tuple[float, float, float]
+
+MODELS = ("phong", "blinn-phong")
+BACKGROUNDS = ("solid", "sky", "documented", "none")
+SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
+DTYPES = ("float32", "float64")
+
+
+@dataclass(frozen=True)
+class Material:
+    """Surface response of the documented model.
+
+    specular: the Phong exponent s (Blinn-Phong uses s * coef); 0 means matte, no specular term at all.
+    reflective: r in [0, 1]; the local color is weighted by 1 - r and the mirror ray by r.
+    """
+
+    color: Color = (0.8, 0.8, 0.8)
+    specular: float = 0.0
+    reflective: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Primitive:
+    name: str
+    material: str
+    location: Vec3 = (0.0, 0.0, 0.0)
+    rotation: Vec3 = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Sphere(Primitive):
+    radius: float = 1.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Plane(Primitive):
+    """The plane through location with normal = local +Z; infinite, or a size_x by size_y rectangle."""
+
+    size: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class Cylinder(Primitive):
+    """A capped cylinder centred on location, its axis along local +Z (as Blender's cylinder primitive)."""
+
+    radius: float = 1.0
+    height: float = 2.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Box(Primitive):
+    """A box centred on location with full dimensions size = (x, y, z); 12 triangles."""
+
+    size: Vec3 = (2.0, 2.0, 2.0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Pyramid(Primitive):
+    """A four-sided pyramid: base size[0] by size[1] at local z = -size[2]/2, apex at z = +size[2]/2; 6 triangles."""
+
+    size: Vec3 = (1.0, 1.0, 1.0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class TriangleMesh(Primitive):
+    """Triangles in local coordinates (vertices and index triples), counter-clockwise seen from outside."""
+
+    vertices: tuple[Vec3, ...] = ()
+    triangles: tuple[tuple[int, int, int], ...] = ()
+
+
+SceneObject = Sphere | Plane | Cylinder | Box | Pyramid | TriangleMesh
+
+
+@dataclass(frozen=True)
+class AmbientLight:
+    intensity: float = 0.2
+
+
+@dataclass(frozen=True)
+class PointLight:
+    location: Vec3 = (0.0, 0.0, 5.0)
+    intensity: float = 0.6
+
+
+@dataclass(frozen=True)
+class DirectionalLight:
+    """direction points from the surface toward the light, as in the seed; its length is kept, as the seed does."""
+
+    direction: Vec3 = (0.0, 0.0, 1.0)
+    intensity: float = 0.2
+
+
+Light = AmbientLight | PointLight | DirectionalLight
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Blender's camera: looks along its local -Z with local +Y up; lens and sensor in millimetres."""
+
+    location: Vec3 = (7.36, -6.93, 4.96)
+    rotation: Vec3 = (63.6, 0.0, 46.7)
+    lens: float = 50.0
+    sensor_width: float = 36.0
+    sensor_height: float = 24.0
+    sensor_fit: Literal["AUTO", "HORIZONTAL", "VERTICAL"] = "AUTO"
+
+
+@dataclass(frozen=True)
+class Vane:
+    """The turning group: parts rotate by heading degrees about axis through pivot (right-handed)."""
+
+    parts: tuple[str, ...] = ()
+    pivot: Vec3 = (0.0, 0.0, 0.0)
+    axis: Vec3 = (0.0, 0.0, 1.0)
+    heading: float = 0.0
+    name: str = "vane"
+
+
+@dataclass(frozen=True)
+class Background:
+    """solid: color for every miss; sky: a vertical gradient from horizon to zenith by the ray's elevation;
+    documented: the seed's mode, every miss takes the sky's color at the canvas centre; none: black."""
+
+    type: Literal["solid", "sky", "documented", "none"] = "sky"
+    color: Color = (0.05, 0.05, 0.05)
+    horizon: Color = (0.75, 0.82, 0.9)
+    zenith: Color = (0.25, 0.45, 0.8)
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """samples is per pixel and a perfect square (stratified sqrt x sqrt grid); workers 0 means all cores."""
+
+    width: int = 640
+    height: int = 480
+    depth: int = 3
+    model: Literal["phong", "blinn-phong"] = "blinn-phong"
+    coef: float = 3.0
+    samples: int = 1
+    workers: int = 0
+    dtype: Literal["float32", "float64"] = "float64"
+    seed: int = 0
+    gate_specular: bool = False
+
+
+@dataclass(frozen=True)
+class Scene:
+    materials: dict[str, Material]
+    objects: tuple[SceneObject, ...]
+    lights: tuple[Light, ...]
+    camera: Camera = field(default_factory=Camera)
+    background: Background = field(default_factory=Background)
+    render: RenderSettings = field(default_factory=RenderSettings)
+    vane: Vane | None = None
+
+    def with_render(self, **changes: object) -> Scene:
+        """The same scene with some render settings changed (CLI flags, benchmarks)."""
+        return replace(self, render=replace(self.render, **changes))
+
+    def with_heading(self, heading: float) -> Scene:
+        """The same scene with the vane turned to heading degrees."""
+        if self.vane is None:
+            return self
+        return replace(self, vane=replace(self.vane, heading=heading))

@@ -1,0 +1,202 @@
+"""Scene objects -> world-space primitive parameters, in plain Python floats.
+
+Both the vectorized tracer and the per-pixel reference start from these numbers, so the two agree on geometry
+and differ only in how they trace. Rotations follow Blender: Euler XYZ in degrees, R = Rz @ Ry @ Rx.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from . import scene as sc
+
+Matrix3 = tuple[sc.Vec3, sc.Vec3, sc.Vec3]
+
+IDENTITY: Matrix3 = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
+def euler_xyz_matrix(rotation_degrees: sc.Vec3) -> Matrix3:
+    """Blender's XYZ Euler rotation as a row-major 3x3 matrix (applied to column vectors: R @ v)."""
+    x, y, z = (math.radians(angle) for angle in rotation_degrees)
+    cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
+    return (
+        (cy * cz, sx * sy * cz - cx * sz, cx * sy * cz + sx * sz),
+        (cy * sz, sx * sy * sz + cx * cz, cx * sy * sz - sx * cz),
+        (-sy, sx * cy, cx * cy),
+    )
+
+
+def axis_angle_matrix(axis: sc.Vec3, angle_degrees: float) -> Matrix3:
+    """Right-handed rotation by angle about a (not necessarily unit) axis (Rodrigues)."""
+    length = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
+    x, y, z = axis[0] / length, axis[1] / length, axis[2] / length
+    angle = math.radians(angle_degrees)
+    c, s = math.cos(angle), math.sin(angle)
+    t = 1.0 - c
+    return (
+        (t * x * x + c, t * x * y - s * z, t * x * z + s * y),
+        (t * x * y + s * z, t * y * y + c, t * y * z - s * x),
+        (t * x * z - s * y, t * y * z + s * x, t * z * z + c),
+    )
+
+
+def apply(matrix: Matrix3, v: sc.Vec3) -> sc.Vec3:
+    return (
+        matrix[0][0] * v[0] + matrix[0][1] * v[1] + matrix[0][2] * v[2],
+        matrix[1][0] * v[0] + matrix[1][1] * v[1] + matrix[1][2] * v[2],
+        matrix[2][0] * v[0] + matrix[2][1] * v[1] + matrix[2][2] * v[2],
+    )
+
+
+def matmul(a: Matrix3, b: Matrix3) -> Matrix3:
+    columns = [apply(a, (b[0][j], b[1][j], b[2][j])) for j in range(3)]
+    return tuple(tuple(columns[j][i] for j in range(3)) for i in range(3))  # type: ignore[return-value]
+
+
+def add(a: sc.Vec3, b: sc.Vec3) -> sc.Vec3:
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def sub(a: sc.Vec3, b: sc.Vec3) -> sc.Vec3:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def scale(v: sc.Vec3, k: float) -> sc.Vec3:
+    return (v[0] * k, v[1] * k, v[2] * k)
+
+
+def dot(a: sc.Vec3, b: sc.Vec3) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def cross(a: sc.Vec3, b: sc.Vec3) -> sc.Vec3:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def length(v: sc.Vec3) -> float:
+    return math.sqrt(dot(v, v))
+
+
+def normalize(v: sc.Vec3) -> sc.Vec3:
+    size = length(v)
+    return (v[0] / size, v[1] / size, v[2] / size)
+
+
+# ---- world-space primitives --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class WorldSphere:
+    material: str
+    center: sc.Vec3
+    radius: float
+
+
+@dataclass(frozen=True)
+class WorldPlane:
+    """normal is unit length; u_axis, v_axis and half_size bound a finite plane (half_size None: infinite)."""
+
+    material: str
+    point: sc.Vec3
+    normal: sc.Vec3
+    u_axis: sc.Vec3
+    v_axis: sc.Vec3
+    half_size: tuple[float, float] | None
+
+
+@dataclass(frozen=True)
+class WorldCylinder:
+    """The seed's cylinder (2.18-2.23): base centre C, unit axis V, height H, radius r."""
+
+    material: str
+    base: sc.Vec3
+    axis: sc.Vec3
+    height: float
+    radius: float
+
+
+@dataclass(frozen=True)
+class WorldTriangles:
+    """Triangles (v0, v1, v2) with normals computed once before tracing (seed 2.6): unit (v1-v0) x (v2-v0)."""
+
+    material: str
+    triangles: tuple[tuple[sc.Vec3, sc.Vec3, sc.Vec3], ...]
+    normals: tuple[sc.Vec3, ...]
+
+
+WorldPrimitive = WorldSphere | WorldPlane | WorldCylinder | WorldTriangles
+
+BOX_TRIANGLES = (
+    # two counter-clockwise triangles per face, seen from outside; corners indexed by (x, y, z) bits
+    (0, 1, 3), (0, 3, 2),  # -X
+    (4, 6, 7), (4, 7, 5),  # +X
+    (0, 4, 5), (0, 5, 1),  # -Y
+    (2, 3, 7), (2, 7, 6),  # +Y
+    (0, 2, 6), (0, 6, 4),  # -Z
+    (1, 5, 7), (1, 7, 3),  # +Z
+)  # fmt: skip
+
+PYRAMID_TRIANGLES = (
+    (0, 1, 3), (0, 3, 2),  # base, facing -Z
+    (1, 0, 4), (3, 1, 4), (2, 3, 4), (0, 2, 4),  # sides up to the apex
+)  # fmt: skip
+
+
+def box_vertices(size: sc.Vec3) -> list[sc.Vec3]:
+    hx, hy, hz = size[0] / 2.0, size[1] / 2.0, size[2] / 2.0
+    return [(sx * hx, sy * hy, sz * hz) for sx in (-1.0, 1.0) for sy in (-1.0, 1.0) for sz in (-1.0, 1.0)]
+
+
+def pyramid_vertices(size: sc.Vec3) -> list[sc.Vec3]:
+    hx, hy, hz = size[0] / 2.0, size[1] / 2.0, size[2] / 2.0
+    base = [(sx * hx, sy * hy, -hz) for sx in (-1.0, 1.0) for sy in (-1.0, 1.0)]
+    return [*base, (0.0, 0.0, hz)]
+
+
+def object_frame(obj: sc.SceneObject, vane: sc.Vane | None) -> tuple[Matrix3, sc.Vec3]:
+    """The object's world rotation and location, turned with the vane when it is one of its parts."""
+    rotation = euler_xyz_matrix(obj.rotation)
+    location = obj.location
+    if vane is not None and obj.name in vane.parts and vane.heading != 0.0:
+        turn = axis_angle_matrix(vane.axis, vane.heading)
+        rotation = matmul(turn, rotation)
+        location = add(vane.pivot, apply(turn, sub(location, vane.pivot)))
+    return rotation, location
+
+
+def _triangles(material: str, rotation: Matrix3, location: sc.Vec3, vertices: list[sc.Vec3],
+               faces: tuple[tuple[int, int, int], ...]) -> WorldTriangles:
+    world = [add(location, apply(rotation, vertex)) for vertex in vertices]
+    triangles = tuple((world[a], world[b], world[c]) for a, b, c in faces)
+    normals = []
+    for v0, v1, v2 in triangles:
+        n = cross(sub(v1, v0), sub(v2, v0))
+        size = length(n)
+        normals.append((n[0] / size, n[1] / size, n[2] / size) if size > 0.0 else (0.0, 0.0, 0.0))
+    return WorldTriangles(material, triangles, tuple(normals))
+
+
+def world_primitive(obj: sc.SceneObject, vane: sc.Vane | None) -> WorldPrimitive:
+    """One scene object in world space, as the seed's intersection formulas want it."""
+    rotation, location = object_frame(obj, vane)
+    z_axis = (rotation[0][2], rotation[1][2], rotation[2][2])
+    if isinstance(obj, sc.Sphere):
+        return WorldSphere(obj.material, location, obj.radius)
+    if isinstance(obj, sc.Plane):
+        x_axis = (rotation[0][0], rotation[1][0], rotation[2][0])
+        y_axis = (rotation[0][1], rotation[1][1], rotation[2][1])
+        half = None if obj.size is None else (obj.size[0] / 2.0, obj.size[1] / 2.0)
+        return WorldPlane(obj.material, location, z_axis, x_axis, y_axis, half)
+    if isinstance(obj, sc.Cylinder):
+        base = sub(location, scale(z_axis, obj.height / 2.0))
+        return WorldCylinder(obj.material, base, z_axis, obj.height, obj.radius)
+    if isinstance(obj, sc.Box):
+        return _triangles(obj.material, rotation, location, box_vertices(obj.size), BOX_TRIANGLES)
+    if isinstance(obj, sc.Pyramid):
+        return _triangles(obj.material, rotation, location, pyramid_vertices(obj.size), PYRAMID_TRIANGLES)
+    return _triangles(obj.material, rotation, location, list(obj.vertices), obj.triangles)
+
+
+def world_primitives(scene: sc.Scene) -> list[WorldPrimitive]:
+    return [world_primitive(obj, scene.vane) for obj in scene.objects]

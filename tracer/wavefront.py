@@ -1,0 +1,228 @@
+"""A scene -> the documented tracer over arrays: every ray of a bounce at once (listings 3.1 and 3.2, vectorized).
+
+TraceRay's recursion becomes a loop over bounces: each bounce finds the closest hit of all live rays, adds the
+background for misses and weight * local color for hits, and the rays that hit reflective surfaces continue with
+their weight multiplied by r. FindIntensity runs per light over all hit points, shadow rays as any-hit tests.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import camera as cam
+from . import scene as sc
+from . import transforms as tf
+from .kernels import Kernel, column, dot, make_kernel
+
+CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0
+SHADOW_T_MIN = 0.001  # listing 3.2
+REFLECTION_T_MIN = 0.01  # listing 3.1
+
+
+@dataclass
+class RayCounts:
+    camera: int = 0
+    shadow: int = 0
+    reflection: int = 0
+
+    @property
+    def total(self) -> int:
+        return self.camera + self.shadow + self.reflection
+
+    def add(self, other: RayCounts) -> None:
+        self.camera += other.camera
+        self.shadow += other.shadow
+        self.reflection += other.reflection
+
+
+@dataclass
+class _Light:
+    kind: str
+    intensity: float
+    vector: np.ndarray | None = None  # (3, 1): point location or direction toward the light
+    t_max: float = math.inf
+
+
+@dataclass
+class PreparedScene:
+    """What tracing needs, built once per scene: kernels, per-object materials, lights, background."""
+
+    scene: sc.Scene
+    dtype: np.dtype = field(init=False)
+    kernels: list[Kernel] = field(init=False)
+
+    def __post_init__(self) -> None:
+        settings = self.scene.render
+        self.dtype = np.dtype(settings.dtype)
+        self.kernels = [make_kernel(primitive, self.dtype) for primitive in tf.world_primitives(self.scene)]
+        materials = [self.scene.materials[obj.material] for obj in self.scene.objects]
+        self.colors = np.asarray([m.color for m in materials], dtype=self.dtype).T.reshape(3, -1)  # (3, objects)
+        self.specular = np.asarray([m.specular for m in materials], dtype=self.dtype)
+        self.reflective = np.asarray([m.reflective for m in materials], dtype=self.dtype)
+        self.lights = []
+        for light in self.scene.lights:
+            if isinstance(light, sc.AmbientLight):
+                self.lights.append(_Light("ambient", light.intensity))
+            elif isinstance(light, sc.PointLight):
+                self.lights.append(_Light("point", light.intensity, column(light.location, self.dtype), 1.0))
+            else:
+                self.lights.append(_Light("directional", light.intensity, column(light.direction, self.dtype)))
+        background = self.scene.background
+        self.documented_color = None
+        if background.type == "documented":
+            direction = cam.documented_background_direction(self.scene.camera, settings)
+            self.documented_color = column(_sky(background, direction[2]), self.dtype)
+        self.origin = column(self.scene.camera.location, self.dtype)
+
+    # ---- intersection ------------------------------------------------------------------------------------------
+
+    def closest(self, O: np.ndarray, D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Nearest hit per ray with t_min < t: (t (N,), object index (N,) or -1, part (N,))."""
+        count = D.shape[1]
+        best_t = np.full(count, np.inf, dtype=self.dtype)
+        best_object = np.full(count, -1, dtype=np.int32)
+        best_part = np.zeros(count, dtype=np.int32)
+        for index, kernel in enumerate(self.kernels):
+            t, part = kernel.hit(O, D, t_min, math.inf)
+            closer = t < best_t
+            best_t = np.where(closer, t, best_t)
+            best_object[closer] = index
+            best_part[closer] = part[closer]
+        return best_t, best_object, best_part
+
+    def occluded(self, O: np.ndarray, L: np.ndarray, t_max: float) -> np.ndarray:
+        """Any hit with SHADOW_T_MIN < t < t_max, testing only the rays not yet blocked: bool (N,)."""
+        blocked = np.zeros(L.shape[1], dtype=bool)
+        live = np.arange(L.shape[1])
+        for kernel in self.kernels:
+            if live.size == 0:
+                break
+            t, _ = kernel.hit(O[:, live], L[:, live], SHADOW_T_MIN, t_max)
+            hit = t < np.inf
+            blocked[live[hit]] = True
+            live = live[~hit]
+        return blocked
+
+    def normals(self, P: np.ndarray, obj: np.ndarray, part: np.ndarray) -> np.ndarray:
+        """Unit normals (3, N) at hit points P (3, N) on objects obj (N,)."""
+        N = np.empty_like(P)
+        for index in np.unique(obj):
+            rows = np.flatnonzero(obj == index)
+            N[:, rows] = self.kernels[index].normal(P[:, rows], part[rows])
+        return N / np.sqrt(dot(N, N))
+
+    # ---- shading -----------------------------------------------------------------------------------------------
+
+    def find_intensity(self, P: np.ndarray, N: np.ndarray, V: np.ndarray, specular: np.ndarray,
+                       counts: RayCounts) -> np.ndarray:
+        """Listing 3.2 for every hit point at once: P, N, V (3, n), specular (n,) -> intensity (n,)."""
+        settings = self.scene.render
+        intensity = np.zeros(P.shape[1], dtype=self.dtype)
+        length_n = np.sqrt(dot(N, N))
+        length_v = np.sqrt(dot(V, V))
+        shiny = specular > 0.0
+        exponent = specular * settings.coef if settings.model == "blinn-phong" else specular
+        for light in self.lights:
+            if light.kind == "ambient":
+                intensity = intensity + light.intensity
+                continue
+            L = light.vector - P if light.kind == "point" else np.broadcast_to(light.vector, P.shape)
+            counts.shadow += P.shape[1]
+            lit = ~self.occluded(P, L, light.t_max)
+            NL = dot(N, L)
+            length_l = np.sqrt(dot(L, L))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                diffuse = light.intensity * NL / (length_n * length_l)
+            intensity = np.where(lit & (NL > 0.0), intensity + diffuse, intensity)
+            gate = lit & shiny
+            if settings.gate_specular:
+                gate &= NL > 0.0
+            if settings.model == "phong":
+                k = 2.0 * dot(N, L)
+                R = N * k - L
+                RV = dot(R, V)
+                gate &= RV > 0.0
+                cosine = RV / (np.sqrt(dot(R, R)) * length_v)
+            else:
+                H = L / length_l + V / length_v
+                HN = dot(H, N)
+                gate &= HN > 0.0
+                cosine = HN / (np.sqrt(dot(H, H)) * length_n)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                highlight = light.intensity * np.power(np.where(gate, cosine, 1.0), exponent)
+            intensity = np.where(gate, intensity + highlight, intensity)
+        return intensity
+
+    def background(self, D: np.ndarray) -> np.ndarray:
+        """Colors (3, n) for rays (3, n) that hit nothing."""
+        background = self.scene.background
+        if background.type == "none":
+            return np.zeros_like(D)
+        if background.type == "solid":
+            return np.broadcast_to(column(background.color, self.dtype), D.shape)
+        if background.type == "documented":
+            return np.broadcast_to(self.documented_color, D.shape)
+        k = np.minimum(np.maximum(D[2], 0.0), 1.0)
+        horizon = column(background.horizon, self.dtype)
+        zenith = column(background.zenith, self.dtype)
+        return horizon + (zenith - horizon) * k
+
+    # ---- TraceRay as a wavefront -------------------------------------------------------------------------------
+
+    def trace(self, D: np.ndarray, counts: RayCounts) -> np.ndarray:
+        """Camera rays (3, N) from the camera -> linear colors (3, N), unclamped."""
+        depth = self.scene.render.depth
+        total = D.shape[1]
+        counts.camera += total
+        color = np.zeros((3, total), dtype=self.dtype)
+        weight = np.ones(total, dtype=self.dtype)
+        pixel = np.arange(total)
+        O = np.broadcast_to(self.origin, D.shape)
+        t_min = CAMERA_T_MIN
+        for bounce in range(depth + 1):
+            t, obj, part = self.closest(O, D, t_min)
+            miss = obj < 0
+            if miss.any():
+                color[:, pixel[miss]] += weight[miss] * self.background(D[:, miss])
+            hit = ~miss
+            if not hit.any():
+                break
+            O, D, t, obj, part = O[:, hit], D[:, hit], t[hit], obj[hit], part[hit]
+            weight, pixel = weight[hit], pixel[hit]
+            P = O + D * t
+            N = self.normals(P, obj, part)
+            V = -D
+            intensity = self.find_intensity(P, N, V, self.specular[obj], counts)
+            reflective = self.reflective[obj]
+            local = (intensity * (1.0 - reflective)) * self.colors[:, obj]
+            color[:, pixel] += weight * local
+            go_on = reflective > 0.0
+            if bounce == depth or not go_on.any():
+                break
+            P, N, V = P[:, go_on], N[:, go_on], V[:, go_on]
+            k = 2.0 * dot(N, V)
+            O, D = P, N * k - V
+            weight, pixel = weight[go_on] * reflective[go_on], pixel[go_on]
+            counts.reflection += D.shape[1]
+            t_min = REFLECTION_T_MIN
+        return color
+
+    def render_rows(self, row_start: int, row_stop: int) -> tuple[np.ndarray, RayCounts]:
+        """Rows [row_start, row_stop) -> (rows, width, 3) linear image in the scene's dtype, and the ray counts."""
+        settings = self.scene.render
+        counts = RayCounts()
+        D = cam.band_directions(self.scene.camera, settings, row_start, row_stop).astype(self.dtype, copy=False)
+        color = self.trace(D, counts)
+        rows = row_stop - row_start
+        samples = color.reshape(3, rows, settings.width, settings.samples)
+        image = samples.sum(axis=3) / settings.samples if settings.samples > 1 else samples[..., 0]
+        return np.ascontiguousarray(image.transpose(1, 2, 0)), counts
+
+
+def _sky(background: sc.Background, elevation: float) -> sc.Color:
+    k = min(max(elevation, 0.0), 1.0)
+    h, z = background.horizon, background.zenith
+    return (h[0] + (z[0] - h[0]) * k, h[1] + (z[1] - h[1]) * k, h[2] + (z[2] - h[2]) * k)
