@@ -4,6 +4,6 @@ No Blender import anywhere in this package: it runs in any Python 3.11 with NumP
 """
 
 from .loader import SceneError, default_scene, load_scene, scene_from_dict
-from .render import Renderer, RenderResult, render
+from .parallel import Renderer, RenderResult, render
 
 __all__ = ["RenderResult", "Renderer", "SceneError", "default_scene", "load_scene", "render", "scene_from_dict"]

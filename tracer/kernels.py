@@ -47,12 +47,21 @@ class Kernel:
         """Unnormalised normals (3, N) at hit points P (3, N) of the given parts."""
         raise NotImplementedError
 
+    def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """World axis-aligned box (lower (3,), upper (3,)) float64, or None for an unbounded surface."""
+        return None
+
 
 class SphereKernel(Kernel):
     def __init__(self, sphere: tf.WorldSphere, dtype: np.dtype) -> None:
         self.center = column(sphere.center, dtype)
         self.radius_squared = dtype.type(sphere.radius) * dtype.type(sphere.radius)
         self.dtype = dtype
+        self.lower = np.asarray(sphere.center) - sphere.radius
+        self.upper = np.asarray(sphere.center) + sphere.radius
+
+    def bounds(self):
+        return self.lower, self.upper
 
     def hit(self, O, D, t_min, t_max):
         CO = O - self.center
@@ -89,6 +98,17 @@ class PlaneKernel(Kernel):
         self.v_axis = column(plane.v_axis, dtype)
         self.half_size = plane.half_size
         self.dtype = dtype
+        self.box = None
+        if plane.half_size is not None:
+            corners = [
+                tf.add(plane.point, tf.add(tf.scale(plane.u_axis, su * plane.half_size[0]),
+                                           tf.scale(plane.v_axis, sv * plane.half_size[1])))
+                for su in (-1.0, 1.0) for sv in (-1.0, 1.0)
+            ]
+            self.box = (np.min(corners, axis=0), np.max(corners, axis=0))
+
+    def bounds(self):
+        return self.box
 
     def hit(self, O, D, t_min, t_max):
         t, ok = _plane_t(O, D, self.plane_normal, self.point)
@@ -115,6 +135,13 @@ class CylinderKernel(Kernel):
         self.height = cylinder.height
         self.radius_squared = dtype.type(cylinder.radius) * dtype.type(cylinder.radius)
         self.dtype = dtype
+        ends = np.asarray([cylinder.base, tf.add(cylinder.base, tf.scale(cylinder.axis, cylinder.height))])
+        # a disc of radius r about unit axis a reaches r * sqrt(1 - a_i^2) along world axis i
+        reach = cylinder.radius * np.sqrt(np.maximum(0.0, 1.0 - np.asarray(cylinder.axis) ** 2))
+        self.lower, self.upper = ends.min(axis=0) - reach, ends.max(axis=0) + reach
+
+    def bounds(self):
+        return self.lower, self.upper
 
     def hit(self, O, D, t_min, t_max):
         CO = O - self.base
@@ -147,7 +174,7 @@ class CylinderKernel(Kernel):
 
 
 class TrianglesKernel(Kernel):
-    """Moller-Trumbore (seed 2.29) over all triangles of a mesh at once; rays that miss its bounding sphere skip."""
+    """Moller-Trumbore (seed 2.29) over all triangles of a mesh at once, first triangle on ties."""
 
     def __init__(self, mesh: tf.WorldTriangles, dtype: np.dtype) -> None:
         triangles = np.asarray(mesh.triangles, dtype=np.float64)  # (T, 3 vertices, 3)
@@ -159,36 +186,16 @@ class TrianglesKernel(Kernel):
         self.e1 = np.asarray(e1, dtype=dtype).T[:, None, :]
         self.e2 = np.asarray(e2, dtype=dtype).T[:, None, :]
         self.normals = np.asarray(mesh.normals, dtype=dtype).T  # (3, T)
-        points = triangles.reshape(-1, 3)
-        centre = (points.min(axis=0) + points.max(axis=0)) / 2.0
-        radius = float(np.sqrt(((points - centre) ** 2).sum(axis=1)).max())
-        # a generous margin: culling must never drop a ray that the exact test would hit
-        self.bound_center = column(tuple(centre), np.dtype(np.float64))
-        self.bound_radius_squared = (radius * (1.0 + 1e-6) + 1e-9) ** 2
+        self.lower = triangles.reshape(-1, 3).min(axis=0)
+        self.upper = triangles.reshape(-1, 3).max(axis=0)
         self.dtype = dtype
 
-    def _may_hit(self, O: np.ndarray, D: np.ndarray) -> np.ndarray:
-        """Rays whose line passes within the bounding sphere (float64, distance from centre to the line)."""
-        O64 = O.astype(np.float64, copy=False)
-        D64 = D.astype(np.float64, copy=False)
-        CO = self.bound_center - O64
-        dd = dot(D64, D64)
-        along = dot(CO, D64)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            distance_squared = dot(CO, CO) - along * along / dd
-        return ~(distance_squared > self.bound_radius_squared)
+    def bounds(self):
+        return self.lower, self.upper
 
     def hit(self, O, D, t_min, t_max):
-        count = O.shape[1]
-        best_t = np.full(count, np.inf, dtype=self.dtype)
-        best_part = np.zeros(count, dtype=np.int16)
-        rays = np.flatnonzero(self._may_hit(O, D))
-        if rays.size == 0:
-            return best_t, best_part
-        Oc = O[:, rays, None]
-        Dc = D[:, rays, None]
-        t_max_c = t_max[rays, None] if isinstance(t_max, np.ndarray) else t_max
-        T = Oc - self.v0
+        Dc = D[:, :, None]
+        T = O[:, :, None] - self.v0
         P = cross(Dc, self.e2)
         Q = cross(T, self.e1)
         determinant = dot(P, self.e1)
@@ -197,12 +204,10 @@ class TrianglesKernel(Kernel):
             t = dot(Q, self.e2) / determinant
             u = dot(P, T) / determinant
             v = dot(Q, Dc) / determinant
-        ok = solvable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < t_max_c)
+        ok = solvable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < t_max)
         t = np.where(ok, t, np.inf)
         nearest = np.argmin(t, axis=1)  # first triangle on ties, as the reference's loop
-        best_t[rays] = t[np.arange(rays.size), nearest]
-        best_part[rays] = nearest
-        return best_t, best_part
+        return t[np.arange(t.shape[0]), nearest], nearest
 
     def normal(self, P, part):
         return self.normals[:, part]

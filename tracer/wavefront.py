@@ -15,6 +15,7 @@ import numpy as np
 from . import camera as cam
 from . import scene as sc
 from . import transforms as tf
+from .bvh import Hierarchy
 from .kernels import Kernel, column, dot, make_kernel
 
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0
@@ -58,6 +59,7 @@ class PreparedScene:
         settings = self.scene.render
         self.dtype = np.dtype(settings.dtype)
         self.kernels = [make_kernel(primitive, self.dtype) for primitive in tf.world_primitives(self.scene)]
+        self.hierarchy = Hierarchy(self.kernels, self.dtype)
         materials = [self.scene.materials[obj.material] for obj in self.scene.objects]
         self.colors = np.asarray([m.color for m in materials], dtype=self.dtype).T.reshape(3, -1)  # (3, objects)
         self.specular = np.asarray([m.specular for m in materials], dtype=self.dtype)
@@ -78,33 +80,6 @@ class PreparedScene:
         self.origin = column(self.scene.camera.location, self.dtype)
 
     # ---- intersection ------------------------------------------------------------------------------------------
-
-    def closest(self, O: np.ndarray, D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Nearest hit per ray with t_min < t: (t (N,), object index (N,) or -1, part (N,))."""
-        count = D.shape[1]
-        best_t = np.full(count, np.inf, dtype=self.dtype)
-        best_object = np.full(count, -1, dtype=np.int32)
-        best_part = np.zeros(count, dtype=np.int32)
-        for index, kernel in enumerate(self.kernels):
-            t, part = kernel.hit(O, D, t_min, math.inf)
-            closer = t < best_t
-            best_t = np.where(closer, t, best_t)
-            best_object[closer] = index
-            best_part[closer] = part[closer]
-        return best_t, best_object, best_part
-
-    def occluded(self, O: np.ndarray, L: np.ndarray, t_max: float) -> np.ndarray:
-        """Any hit with SHADOW_T_MIN < t < t_max, testing only the rays not yet blocked: bool (N,)."""
-        blocked = np.zeros(L.shape[1], dtype=bool)
-        live = np.arange(L.shape[1])
-        for kernel in self.kernels:
-            if live.size == 0:
-                break
-            t, _ = kernel.hit(O[:, live], L[:, live], SHADOW_T_MIN, t_max)
-            hit = t < np.inf
-            blocked[live[hit]] = True
-            live = live[~hit]
-        return blocked
 
     def normals(self, P: np.ndarray, obj: np.ndarray, part: np.ndarray) -> np.ndarray:
         """Unit normals (3, N) at hit points P (3, N) on objects obj (N,)."""
@@ -131,7 +106,7 @@ class PreparedScene:
                 continue
             L = light.vector - P if light.kind == "point" else np.broadcast_to(light.vector, P.shape)
             counts.shadow += P.shape[1]
-            lit = ~self.occluded(P, L, light.t_max)
+            lit = ~self.hierarchy.occluded(P, L, SHADOW_T_MIN, light.t_max)
             NL = dot(N, L)
             length_l = np.sqrt(dot(L, L))
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -183,7 +158,7 @@ class PreparedScene:
         O = np.broadcast_to(self.origin, D.shape)
         t_min = CAMERA_T_MIN
         for bounce in range(depth + 1):
-            t, obj, part = self.closest(O, D, t_min)
+            t, obj, part = self.hierarchy.closest(O, D, t_min)
             miss = obj < 0
             if miss.any():
                 color[:, pixel[miss]] += weight[miss] * self.background(D[:, miss])

@@ -1,0 +1,137 @@
+"""Kernels -> a small bounding-volume hierarchy of padded boxes, and vectorized closest-hit and any-hit over it.
+
+Boxes only decide which rays an object's own test sees; the object tests are the exact kernels, so culling never
+changes a result. Planes skip the hierarchy (their test costs no more than a box's). Ties between objects go to
+the lower object index, as the reference's loop over objects does.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .kernels import Kernel, PlaneKernel
+
+LEAF_SIZE = 2
+
+
+@dataclass
+class Node:
+    lower: np.ndarray  # (3, 1) in the tracing dtype
+    upper: np.ndarray
+    objects: list[int]  # leaf: object indices; inner: empty
+    children: list[Node]
+
+
+def _padded(lower: np.ndarray, upper: np.ndarray, dtype: np.dtype) -> tuple[np.ndarray, np.ndarray]:
+    # rounding in the slab test is far below this margin, so a ray that touches an object is never culled
+    relative = 1e-6 if dtype == np.float64 else 1e-4
+    pad = relative * (np.max(np.abs(np.concatenate((lower, upper)))) + np.max(upper - lower)) + 1e-9
+    return (lower - pad).astype(dtype).reshape(3, 1), (upper + pad).astype(dtype).reshape(3, 1)
+
+
+def _build(indices: list[int], boxes: dict[int, tuple[np.ndarray, np.ndarray]], dtype: np.dtype) -> Node:
+    lower = np.min([boxes[i][0] for i in indices], axis=0)
+    upper = np.max([boxes[i][1] for i in indices], axis=0)
+    padded = _padded(lower, upper, dtype)
+    if len(indices) <= LEAF_SIZE:
+        return Node(*padded, objects=sorted(indices), children=[])
+    centres = np.asarray([(boxes[i][0] + boxes[i][1]) / 2.0 for i in indices])
+    axis = int(np.argmax(centres.max(axis=0) - centres.min(axis=0)))
+    order = [indices[k] for k in np.argsort(centres[:, axis], kind="stable")]
+    half = len(order) // 2
+    return Node(*padded, objects=[], children=[_build(order[:half], boxes, dtype), _build(order[half:], boxes, dtype)])
+
+
+class Hierarchy:
+    """Closest-hit and any-hit queries over all kernels of a scene."""
+
+    def __init__(self, kernels: list[Kernel], dtype: np.dtype) -> None:
+        self.kernels = kernels
+        self.dtype = dtype
+        boxes = {}
+        self.unbounded: list[int] = []
+        for index, kernel in enumerate(kernels):
+            box = kernel.bounds()
+            if box is None or isinstance(kernel, PlaneKernel):
+                self.unbounded.append(index)
+            else:
+                boxes[index] = box
+        self.root = _build(sorted(boxes), boxes, dtype) if boxes else None
+
+    @staticmethod
+    def _slab(O: np.ndarray, inverse: np.ndarray, node: Node) -> tuple[np.ndarray, np.ndarray]:
+        """Entry and exit t of each ray (3, n) through the node's box; NaN axes (0 * inf) are ignored."""
+        with np.errstate(invalid="ignore"):
+            a = (node.lower - O) * inverse
+            b = (node.upper - O) * inverse
+        near = np.fmax(np.fmax(np.fmin(a[0], b[0]), np.fmin(a[1], b[1])), np.fmin(a[2], b[2]))
+        far = np.fmin(np.fmin(np.fmax(a[0], b[0]), np.fmax(a[1], b[1])), np.fmax(a[2], b[2]))
+        return near, far
+
+    def closest(self, O: np.ndarray, D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,)."""
+        count = D.shape[1]
+        best_t = np.full(count, np.inf, dtype=self.dtype)
+        best_object = np.full(count, -1, dtype=np.int32)
+        best_part = np.zeros(count, dtype=np.int32)
+
+        def test(index: int, rays: np.ndarray | None, O: np.ndarray, D: np.ndarray) -> None:
+            t, part = self.kernels[index].hit(O, D, t_min, math.inf)
+            if rays is None:
+                current_t, current_object = best_t, best_object
+            else:
+                current_t, current_object = best_t[rays], best_object[rays]
+            better = (t < current_t) | ((t == current_t) & (t < np.inf) & (index < current_object))
+            chosen = np.flatnonzero(better) if rays is None else rays[better]
+            best_t[chosen] = t[better]
+            best_object[chosen] = index
+            best_part[chosen] = part[better]
+
+        for index in self.unbounded:
+            test(index, None, O, D)
+        if self.root is not None:
+            with np.errstate(divide="ignore"):
+                inverse = 1.0 / D
+            # each entry carries its rays compacted, so deeper nodes gather from ever smaller arrays
+            stack = [(self.root, np.arange(count), O, D, inverse)]
+            while stack:
+                node, rays, O_n, D_n, inverse_n = stack.pop()
+                near, far = self._slab(O_n, inverse_n, node)
+                keep = (near <= far) & (far > t_min) & (near <= best_t[rays])
+                if not keep.any():
+                    continue
+                rays, O_n, D_n, inverse_n = rays[keep], O_n[:, keep], D_n[:, keep], inverse_n[:, keep]
+                for index in node.objects:
+                    test(index, rays, O_n, D_n)
+                stack.extend((child, rays, O_n, D_n, inverse_n) for child in node.children)
+        return best_t, best_object, best_part
+
+    def occluded(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float) -> np.ndarray:
+        """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first."""
+        count = L.shape[1]
+        blocked = np.zeros(count, dtype=bool)
+        for index in self.unbounded:
+            t, _ = self.kernels[index].hit(O, L, t_min, t_max)
+            blocked |= t < np.inf
+        if self.root is None or blocked.all():
+            return blocked
+        live = np.flatnonzero(~blocked)
+        O_live, L_live = O[:, live], L[:, live]
+        with np.errstate(divide="ignore"):
+            inverse = 1.0 / L_live
+        stack = [(self.root, live, O_live, L_live, inverse)]
+        while stack:
+            node, rays, O_n, L_n, inverse_n = stack.pop()
+            near, far = self._slab(O_n, inverse_n, node)
+            keep = (near <= far) & (far > t_min) & (near < t_max) & ~blocked[rays]
+            if not keep.any():
+                continue
+            rays, O_n, L_n, inverse_n = rays[keep], O_n[:, keep], L_n[:, keep], inverse_n[:, keep]
+            for index in node.objects:
+                t, _ = self.kernels[index].hit(O_n, L_n, t_min, t_max)
+                blocked[rays[t < np.inf]] = True
+            stack.extend((child, rays, O_n, L_n, inverse_n) for child in node.children)
+        return blocked

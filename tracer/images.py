@@ -1,0 +1,65 @@
+"""Linear float images -> files: .npy (float32 linear) or 8-bit .png (the documented clamp, or sRGB), atomically.
+
+Every file is written beside its target under a temporary name and renamed into place, so an error or Ctrl-C
+never leaves a partial image where the user expects one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+SUFFIXES = (".png", ".npy")
+
+
+def to_8bit(image: np.ndarray, srgb: bool = False) -> np.ndarray:
+    """(H, W, 3) linear floats -> uint8: clamp to [0, 1] as the seed's canvas does, optionally sRGB-encode, round."""
+    clamped = np.clip(np.nan_to_num(image.astype(np.float64), nan=0.0), 0.0, 1.0)
+    if srgb:
+        clamped = np.where(clamped <= 0.0031308, clamped * 12.92, 1.055 * np.power(clamped, 1.0 / 2.4) - 0.055)
+    return np.floor(clamped * 255.0 + 0.5).astype(np.uint8)
+
+
+@contextlib.contextmanager
+def atomic_path(target: Path) -> Iterator[Path]:
+    """A temporary path beside target that replaces it only when the block finishes without an exception."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".partial", dir=target.parent)
+    os.close(handle)
+    temporary = Path(name)
+    try:
+        yield temporary
+        os.replace(temporary, target)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+
+
+def encode_png(image: np.ndarray, srgb: bool = False) -> bytes:
+    from PIL import Image  # the CLI's need only; the tracer itself runs on NumPy alone
+
+    buffer = io.BytesIO()
+    Image.fromarray(to_8bit(image, srgb), mode="RGB").save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def write_image(image: np.ndarray, target: str | Path, srgb: bool = False) -> Path:
+    """Write (H, W, 3) linear floats to target (.png or .npy) atomically; returns the path."""
+    target = Path(target)
+    suffix = target.suffix.lower()
+    if suffix not in SUFFIXES:
+        raise ValueError(f"output must end in .png or .npy, got {target.name!r}")
+    payload = encode_png(image, srgb) if suffix == ".png" else None
+    with atomic_path(target) as temporary:
+        if payload is not None:
+            temporary.write_bytes(payload)
+        else:
+            with temporary.open("wb") as stream:
+                np.save(stream, image.astype(np.float32))
+    return target
