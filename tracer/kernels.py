@@ -204,7 +204,7 @@ class TrianglesKernel(Kernel):
             t = dot(Q, self.e2) / determinant
             u = dot(P, T) / determinant
             v = dot(Q, Dc) / determinant
-        ok = solvable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < t_max)
+            ok = solvable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < t_max)
         t = np.where(ok, t, np.inf)
         nearest = np.argmin(t, axis=1)  # first triangle on ties, as the reference's loop
         return t[np.arange(t.shape[0]), nearest], nearest

@@ -1,0 +1,77 @@
+"""Seeded random scene documents that cover every primitive, rotation, light type, model, depth and background."""
+
+from __future__ import annotations
+
+import random
+from typing import Any
+
+KINDS = ("sphere", "cylinder", "box", "pyramid", "mesh", "plane")
+BACKGROUNDS = ("solid", "sky", "documented", "none")
+
+
+def _vector(rng: random.Random, low: float, high: float) -> list[float]:
+    return [rng.uniform(low, high) for _ in range(3)]
+
+
+def _object(rng: random.Random, kind: str, index: int) -> dict[str, Any]:
+    body: dict[str, Any] = {
+        "name": f"{kind}{index}",
+        "type": kind,
+        "material": f"m{rng.randrange(3)}",
+        "location": [rng.uniform(-1.8, 1.8), rng.uniform(-1.0, 2.0), rng.uniform(-0.5, 1.5)],
+        "rotation": _vector(rng, -180.0, 180.0),
+    }
+    if kind == "sphere":
+        body["radius"] = rng.uniform(0.3, 1.0)
+    elif kind == "cylinder":
+        body.update(radius=rng.uniform(0.2, 0.7), height=rng.uniform(0.4, 2.0))
+    elif kind in ("box", "pyramid"):
+        body["size"] = _vector(rng, 0.3, 1.6)
+    elif kind == "mesh":
+        body["vertices"] = [_vector(rng, -0.8, 0.8) for _ in range(4)]
+        body["triangles"] = [[0, 1, 2], [0, 2, 3], [1, 3, 2]]
+    else:  # a floor or a wall, infinite or finite, tilted a little
+        body["location"] = [0.0, 0.0, -1.0]
+        body["rotation"] = [rng.uniform(-20, 20), rng.uniform(-20, 20), rng.uniform(0, 90)]
+        if rng.random() < 0.5:
+            body["size"] = [rng.uniform(3, 8), rng.uniform(3, 8)]
+    return body
+
+
+def random_scene_document(seed: int, width: int = 16, height: int = 12) -> dict[str, Any]:
+    rng = random.Random(seed)
+    kinds = [KINDS[seed % 5]] + [rng.choice(KINDS[:5]) for _ in range(rng.randrange(1, 4))]
+    objects = [_object(rng, kind, i) for i, kind in enumerate(kinds)]
+    if seed % 3 != 2:
+        objects.append(_object(rng, "plane", len(objects)))
+    lights: list[dict[str, Any]] = [{"type": "ambient", "intensity": rng.uniform(0.0, 0.3)}]
+    for _ in range(rng.randrange(1, 3)):
+        lights.append({"type": "point", "location": _vector(rng, -4, 5), "intensity": rng.uniform(0.2, 0.7)})
+    if seed % 2 == 0:
+        lights.append({"type": "directional", "direction": _vector(rng, -1, 1), "intensity": rng.uniform(0.1, 0.5)})
+    materials = {
+        f"m{k}": {
+            "color": [rng.random() for _ in range(3)],
+            "specular": rng.choice([0, 5, 50, 500]),
+            "reflective": rng.choice([0.0, 0.2, 0.5, 0.9]),
+        }
+        for k in range(3)
+    }
+    return {
+        "materials": materials,
+        "objects": objects,
+        "lights": lights,
+        "camera": {"location": [rng.uniform(-1, 1), -7.0, rng.uniform(0.5, 2.5)], "rotation": [80, 0, 0],
+                   "lens": rng.choice([25, 35, 50]), "sensor_fit": rng.choice(["AUTO", "HORIZONTAL", "VERTICAL"])},
+        "background": {"type": BACKGROUNDS[seed % 4], "color": [0.1, 0.2, 0.3]},
+        "render": {
+            "width": width,
+            "height": height,
+            "depth": seed % 6,
+            "model": ("phong", "blinn-phong")[(seed // 2) % 2],
+            "coef": rng.choice([2, 3, 4]),
+            "samples": 4 if seed % 7 == 0 else 1,
+            "gate_specular": seed % 5 == 4,
+            "seed": seed,
+        },
+    }

@@ -1,0 +1,118 @@
+"""Camera rays agree with Blender's camera to the pixel: points projected with Blender's formula land where traced."""
+
+from __future__ import annotations
+
+import math
+import random
+
+import numpy as np
+import pytest
+
+from tracer import camera as cam
+from tracer import scene as sc
+from tracer.parallel import render
+
+
+def blender_world_to_camera_view(camera: sc.Camera, width: int, height: int, point: sc.Vec3) -> tuple[float, float]:
+    """bpy_extras.object_utils.world_to_camera_view, written out: normalised (x, y) with (0, 0) bottom-left.
+
+    Blender's view frame: the sensor side chosen by sensor_fit (AUTO: the wider image side takes sensor_width;
+    HORIZONTAL: sensor_width across; VERTICAL: sensor_height up) spans the image at distance lens.
+    """
+    rx, ry, rz = (math.radians(a) for a in camera.rotation)
+    # camera matrix_world rotation = Rz Ry Rx; its inverse is the transpose
+    def rot_x(a): return np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])  # noqa: E704
+    def rot_y(a): return np.array([[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]])  # noqa: E704
+    def rot_z(a): return np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])  # noqa: E704
+    rotation = rot_z(rz) @ rot_y(ry) @ rot_x(rx)
+    local = rotation.T @ (np.asarray(point) - np.asarray(camera.location))
+    z = -local[2]
+    fit = camera.sensor_fit
+    if fit == "AUTO":
+        fit = "HORIZONTAL" if width >= height else "VERTICAL"
+        sensor = camera.sensor_width
+    else:
+        sensor = camera.sensor_width if fit == "HORIZONTAL" else camera.sensor_height
+    if fit == "HORIZONTAL":
+        half_x = sensor / 2 / camera.lens
+        half_y = half_x * height / width
+    else:
+        half_y = sensor / 2 / camera.lens
+        half_x = half_y * width / height
+    x = (local[0] / z + half_x) / (2 * half_x)
+    y = (local[1] / z + half_y) / (2 * half_y)
+    return x, y
+
+
+CAMERAS = [
+    (sc.Camera(location=(7.36, -6.93, 4.96), rotation=(63.6, 0, 46.7)), 64, 48),
+    (sc.Camera(location=(1, -8, 2), rotation=(85, 3, -10), lens=35, sensor_fit="HORIZONTAL"), 40, 60),
+    (sc.Camera(location=(-3, 4, 6), rotation=(30, -20, 200), lens=80, sensor_fit="VERTICAL", sensor_height=20), 50,
+     30),
+    (sc.Camera(location=(0, -5, 1), rotation=(95, 0, 0), lens=24, sensor_fit="AUTO"), 30, 50),
+]
+
+
+@pytest.mark.parametrize(("camera", "width", "height"), CAMERAS)
+def test_pixel_centre_rays_project_back_onto_their_pixels(camera: sc.Camera, width: int, height: int) -> None:
+    settings = sc.RenderSettings(width=width, height=height)
+    rng = random.Random(width)
+    for _ in range(50):
+        i, j = rng.randrange(width), rng.randrange(height)
+        direction = cam.primary_direction(camera, settings, i + 0.5, j + 0.5)
+        point = tuple(camera.location[k] + 7.0 * direction[k] for k in range(3))
+        x, y = blender_world_to_camera_view(camera, width, height, point)
+        # Blender's normalised coordinates: pixel column x * width, row from the top (1 - y) * height
+        assert x * width == pytest.approx(i + 0.5, abs=1e-9)
+        assert (1 - y) * height == pytest.approx(j + 0.5, abs=1e-9)
+
+
+@pytest.mark.parametrize(("camera", "width", "height"), CAMERAS)
+def test_small_spheres_appear_on_the_projected_pixels(camera: sc.Camera, width: int, height: int) -> None:
+    rng = random.Random(height)
+    # a sphere about 3 pixels across at 6 m
+    radius = 6.0 * 1.5 * cam.sensor_size(camera, width, height)[0] / width / camera.lens
+    for _ in range(4):
+        # a point somewhere in view, about 6 m ahead
+        settings = sc.RenderSettings(width=width, height=height, depth=0)
+        x, y = rng.uniform(0.2, 0.8) * width, rng.uniform(0.2, 0.8) * height
+        d = cam.primary_direction(camera, settings, x, y)
+        centre = tuple(camera.location[k] + 6.0 * d[k] for k in range(3))
+        u, v = blender_world_to_camera_view(camera, width, height, centre)
+        expected = (u * width, (1 - v) * height)
+        scene = sc.Scene(
+            materials={"white": sc.Material(color=(1, 1, 1))},
+            objects=(sc.Sphere(name="dot", material="white", location=centre, radius=radius),),
+            lights=(sc.AmbientLight(1.0),),
+            camera=camera,
+            background=sc.Background(type="none"),
+            render=settings,
+        )
+        covered = render(scene, workers=1).image[..., 0] > 0.5
+        rows, columns = np.nonzero(covered)
+        assert rows.size >= 3
+        assert columns.mean() + 0.5 == pytest.approx(expected[0], abs=0.5)
+        assert rows.mean() + 0.5 == pytest.approx(expected[1], abs=0.5)
+
+
+def test_sensor_fit_auto_uses_the_wider_side() -> None:
+    camera = sc.Camera(sensor_width=36, sensor_height=24)
+    assert cam.sensor_size(camera, 200, 100) == (36, 18)
+    assert cam.sensor_size(camera, 100, 200) == (18, 36)
+    assert cam.sensor_size(sc.Camera(sensor_fit="VERTICAL", sensor_height=24), 200, 100) == (48, 24)
+    assert cam.sensor_size(sc.Camera(sensor_fit="HORIZONTAL", sensor_width=36), 100, 200) == (36, 72)
+
+
+def test_stratified_samples_stay_in_their_strata_and_band_rays_match_scalar_rays() -> None:
+    camera = CAMERAS[0][0]
+    settings = sc.RenderSettings(width=8, height=6, samples=9, seed=3)
+    directions = cam.band_directions(camera, settings, 2, 4)
+    k = 0
+    for j in range(2, 4):
+        for i in range(8):
+            for s in range(9):
+                x, y = cam.sample_position(settings, i, j, s)
+                assert i + (s % 3) / 3 <= x < i + (s % 3 + 1) / 3
+                assert j + (s // 3) / 3 <= y < j + (s // 3 + 1) / 3
+                assert tuple(directions[:, k]) == cam.primary_direction(camera, settings, x, y)
+                k += 1
