@@ -61,8 +61,12 @@ def random_scene_document(seed: int, width: int = 16, height: int = 12) -> dict[
         "materials": materials,
         "objects": objects,
         "lights": lights,
-        "camera": {"location": [rng.uniform(-1, 1), -7.0, rng.uniform(0.5, 2.5)], "rotation": [80, 0, 0],
-                   "lens": rng.choice([25, 35, 50]), "sensor_fit": rng.choice(["AUTO", "HORIZONTAL", "VERTICAL"])},
+        "camera": {
+            "location": [rng.uniform(-1, 1), -7.0, rng.uniform(0.5, 2.5)],
+            "rotation": [80, 0, 0],
+            "lens": rng.choice([25, 35, 50]),
+            "sensor_fit": rng.choice(["AUTO", "HORIZONTAL", "VERTICAL"]),
+        },
         "background": {"type": BACKGROUNDS[seed % 4], "color": [0.1, 0.2, 0.3]},
         "render": {
             "width": width,

@@ -20,10 +20,17 @@ def blender_world_to_camera_view(camera: sc.Camera, width: int, height: int, poi
     HORIZONTAL: sensor_width across; VERTICAL: sensor_height up) spans the image at distance lens.
     """
     rx, ry, rz = (math.radians(a) for a in camera.rotation)
+
     # camera matrix_world rotation = Rz Ry Rx; its inverse is the transpose
-    def rot_x(a): return np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])  # noqa: E704
-    def rot_y(a): return np.array([[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]])  # noqa: E704
-    def rot_z(a): return np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])  # noqa: E704
+    def rot_x(a):
+        return np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
+
+    def rot_y(a):
+        return np.array([[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]])
+
+    def rot_z(a):
+        return np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
+
     rotation = rot_z(rz) @ rot_y(ry) @ rot_x(rx)
     local = rotation.T @ (np.asarray(point) - np.asarray(camera.location))
     z = -local[2]
@@ -47,8 +54,7 @@ def blender_world_to_camera_view(camera: sc.Camera, width: int, height: int, poi
 CAMERAS = [
     (sc.Camera(location=(7.36, -6.93, 4.96), rotation=(63.6, 0, 46.7)), 64, 48),
     (sc.Camera(location=(1, -8, 2), rotation=(85, 3, -10), lens=35, sensor_fit="HORIZONTAL"), 40, 60),
-    (sc.Camera(location=(-3, 4, 6), rotation=(30, -20, 200), lens=80, sensor_fit="VERTICAL", sensor_height=20), 50,
-     30),
+    (sc.Camera(location=(-3, 4, 6), rotation=(30, -20, 200), lens=80, sensor_fit="VERTICAL", sensor_height=20), 50, 30),
     (sc.Camera(location=(0, -5, 1), rotation=(95, 0, 0), lens=24, sensor_fit="AUTO"), 30, 50),
 ]
 

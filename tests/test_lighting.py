@@ -24,8 +24,14 @@ def centre_pixel(scene: sc.Scene) -> np.ndarray:
     return image[scene.render.height // 2, scene.render.width // 2]
 
 
-def sphere_scene(lights: tuple[sc.Light, ...], model: str = "phong", specular: float = 10.0, coef: float = 3.0,
-                 reflective: float = 0.0, extra: tuple[sc.SceneObject, ...] = ()) -> sc.Scene:
+def sphere_scene(
+    lights: tuple[sc.Light, ...],
+    model: str = "phong",
+    specular: float = 10.0,
+    coef: float = 3.0,
+    reflective: float = 0.0,
+    extra: tuple[sc.SceneObject, ...] = (),
+) -> sc.Scene:
     material = sc.Material(color=COLOR, specular=specular, reflective=reflective)
     return sc.Scene(
         materials={"m": material, "black": sc.Material(color=(0, 0, 0))},
@@ -131,7 +137,8 @@ def test_backgrounds() -> None:
     assert centre_pixel(replace(up, background=replace(sky, type="solid"))) == pytest.approx([0, 1, 0])
     assert centre_pixel(replace(up, background=replace(sky, type="none"))) == pytest.approx([0, 0, 0])
     # the documented mode: every miss takes the sky's color at the canvas centre, here the horizon
-    level = replace(base, camera=sc.Camera(location=(0, -5, 3), rotation=(90, 0, 0)),
-                    background=replace(sky, type="documented"))
+    level = replace(
+        base, camera=sc.Camera(location=(0, -5, 3), rotation=(90, 0, 0)), background=replace(sky, type="documented")
+    )
     image = render(level.with_render(width=5, height=5), workers=1).image
     assert np.allclose(image, [1, 0, 0])

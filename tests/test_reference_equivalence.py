@@ -28,7 +28,10 @@ def test_random_scenes_cover_every_feature() -> None:
     kinds = {type(obj).__name__ for scene in scenes for obj in scene.objects}
     assert kinds == {"Sphere", "Cylinder", "Box", "Pyramid", "TriangleMesh", "Plane"}
     assert {type(light).__name__ for scene in scenes for light in scene.lights} == {
-        "AmbientLight", "PointLight", "DirectionalLight"}
+        "AmbientLight",
+        "PointLight",
+        "DirectionalLight",
+    }
     assert {scene.render.model for scene in scenes} == {"phong", "blinn-phong"}
     assert {scene.render.depth for scene in scenes} == set(range(6))
     assert {scene.background.type for scene in scenes} == {"solid", "sky", "documented", "none"}
@@ -46,7 +49,10 @@ def test_ray_counts_match_reference() -> None:
             tracer.pixel(i, j)
     rays = render(scene, workers=1).rays
     assert (rays.camera, rays.shadow, rays.reflection) == (
-        tracer.rays["camera"], tracer.rays["shadow"], tracer.rays["reflection"])
+        tracer.rays["camera"],
+        tracer.rays["shadow"],
+        tracer.rays["reflection"],
+    )
 
 
 def test_default_scene_matches_reference() -> None:

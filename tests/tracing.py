@@ -14,8 +14,9 @@ MATERIALS = {"m": sc.Material(color=(0.5, 0.25, 0.1), specular=10.0, reflective=
 
 
 def one_object_scene(obj: sc.SceneObject, **render: object) -> sc.Scene:
-    return sc.Scene(materials=MATERIALS, objects=(obj,), lights=(sc.AmbientLight(1.0),),
-                    render=sc.RenderSettings(**render))
+    return sc.Scene(
+        materials=MATERIALS, objects=(obj,), lights=(sc.AmbientLight(1.0),), render=sc.RenderSettings(**render)
+    )
 
 
 def first_hit(scene: sc.Scene, origin: sc.Vec3, direction: sc.Vec3, t_min: float = 0.0) -> tuple[float, float]:

@@ -66,21 +66,36 @@ def build_parser() -> argparse.ArgumentParser:
         "the scene's render settings. Exit codes: 0 done, 2 bad input (scene or flags), 1 failure, 130 interrupted.",
     )
     render.add_argument("scene", nargs="?", type=Path, help="JSON scene file (docs/scene-format.md)")
-    render.add_argument("-o", "--output", required=True, type=_output, metavar="OUT",
-                        help=".png: 8-bit, clamped to [0, 1] as the seed's canvas (linear values unless --srgb); "
-                        ".npy: float32 linear H x W x 3")
+    render.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        type=_output,
+        metavar="OUT",
+        help=".png: 8-bit, clamped to [0, 1] as the seed's canvas (linear values unless --srgb); "
+        ".npy: float32 linear H x W x 3",
+    )
     render.add_argument("--width", type=_integer(1, 16384), help="image width in pixels")
     render.add_argument("--height", type=_integer(1, 16384), help="image height in pixels")
     render.add_argument("--depth", type=_integer(0, 64), help="recursion depth: reflections per camera ray")
     render.add_argument("--model", choices=sc.MODELS, help="specular model of FindIntensity")
-    render.add_argument("--coef", type=_positive_number,
-                        help="Blinn-Phong exponent factor: the exponent is specular * coef (2-4 is typical)")
-    render.add_argument("--samples", type=_integer(1, 1024, check_samples),
-                        help="samples per pixel, a perfect square: stratified n x n grid, box filter")
+    render.add_argument(
+        "--coef",
+        type=_positive_number,
+        help="Blinn-Phong exponent factor: the exponent is specular * coef (2-4 is typical)",
+    )
+    render.add_argument(
+        "--samples",
+        type=_integer(1, 1024, check_samples),
+        help="samples per pixel, a perfect square: stratified n x n grid, box filter",
+    )
     render.add_argument("--workers", type=_integer(0, 256), help="worker processes over bands of rows; 0: all cores")
     render.add_argument("--dtype", choices=sc.DTYPES, help="floating-point precision of the tracing")
-    render.add_argument("--background", choices=sc.BACKGROUNDS,
-                        help="solid color, sky gradient, the seed's single-color mode (documented), or none (black)")
+    render.add_argument(
+        "--background",
+        choices=sc.BACKGROUNDS,
+        help="solid color, sky gradient, the seed's single-color mode (documented), or none (black)",
+    )
     render.add_argument("--srgb", action="store_true", help="encode the PNG as sRGB instead of linear values")
     render.add_argument("--quiet", action="store_true", help="no progress bar and no summary line")
     return parser
@@ -98,7 +113,7 @@ def _apply_flags(scene: sc.Scene, args: argparse.Namespace) -> sc.Scene:
     return scene
 
 
-def _summary(output: Path, scene: sc.Scene, workers: int, result) -> str:  # noqa: ANN001
+def _summary(output: Path, scene: sc.Scene, workers: int, result) -> str:
     settings, rays = scene.render, result.rays
     return (
         f"{output}: {settings.width}x{settings.height}, {settings.samples} spp, depth {settings.depth}, "

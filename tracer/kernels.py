@@ -101,9 +101,14 @@ class PlaneKernel(Kernel):
         self.box = None
         if plane.half_size is not None:
             corners = [
-                tf.add(plane.point, tf.add(tf.scale(plane.u_axis, su * plane.half_size[0]),
-                                           tf.scale(plane.v_axis, sv * plane.half_size[1])))
-                for su in (-1.0, 1.0) for sv in (-1.0, 1.0)
+                tf.add(
+                    plane.point,
+                    tf.add(
+                        tf.scale(plane.u_axis, su * plane.half_size[0]), tf.scale(plane.v_axis, sv * plane.half_size[1])
+                    ),
+                )
+                for su in (-1.0, 1.0)
+                for sv in (-1.0, 1.0)
             ]
             self.box = (np.min(corners, axis=0), np.max(corners, axis=0))
 
@@ -156,7 +161,7 @@ class CylinderKernel(Kernel):
         denominator = np.where(side, 2.0 * a, 1.0)
         best_t = np.full(a.shape, np.inf, dtype=self.dtype)
         best_part = np.zeros(a.shape, dtype=np.int8)
-        in_range = (lambda t: (t > t_min) & (t < t_max))  # noqa: E731
+        in_range = lambda t: (t > t_min) & (t < t_max)  # noqa: E731
         for t in ((-b + root) / denominator, (-b - root) / denominator):
             h = COV + DV * t
             _nearest(best_t, best_part, t, side & (h >= 0.0) & (h <= self.height) & in_range(t), 0)

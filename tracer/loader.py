@@ -43,7 +43,7 @@ class _Reader:
         self.data = data if isinstance(data, dict) else {}
         self.seen: set[str] = set()
         if not isinstance(data, dict):
-            self.fail("", f"must be an object, got {_json_type(data)}")
+            self.fail("", f"must be an object, got {_show_shape(data)}")
 
     def at(self, key: str) -> str:
         if not key:
@@ -63,18 +63,34 @@ class _Reader:
             return ...
         return default
 
-    def number(self, key: str, default: Any = ..., *, low: float | None = None, high: float | None = None,
-               low_open: bool = False, integer: bool = False) -> Any:
+    def number(
+        self,
+        key: str,
+        default: Any = ...,
+        *,
+        low: float | None = None,
+        high: float | None = None,
+        low_open: bool = False,
+        integer: bool = False,
+    ) -> Any:
         if key not in self.data:
             value = self.raw(key, default)
             return _fallback_number(low) if value is ... else value
         return self.check_number(key, self.raw(key), low=low, high=high, low_open=low_open, integer=integer)
 
-    def check_number(self, key: str, value: Any, *, low: float | None = None, high: float | None = None,
-                     low_open: bool = False, integer: bool = False) -> Any:
+    def check_number(
+        self,
+        key: str,
+        value: Any,
+        *,
+        low: float | None = None,
+        high: float | None = None,
+        low_open: bool = False,
+        integer: bool = False,
+    ) -> Any:
         kind = "an integer" if integer else "a number"
         if isinstance(value, bool) or not isinstance(value, int | float):
-            self.fail(key, f"must be {kind}, got {_json_type(value)} {_show(value)}")
+            self.fail(key, f"must be {kind}, got {_show_shape(value)}")
             return _fallback_number(low)
         if not math.isfinite(value):
             self.fail(key, f"must be a finite number, got {_show(value)}")
@@ -88,8 +104,17 @@ class _Reader:
             self.fail(key, f"must be <= {_show(high)}, got {_show(value)}")
         return int(value) if integer else float(value)
 
-    def vector(self, key: str, default: Any = ..., *, length: int = 3, low: float | None = None,
-               high: float | None = None, low_open: bool = False, nonzero: bool = False) -> Any:
+    def vector(
+        self,
+        key: str,
+        default: Any = ...,
+        *,
+        length: int = 3,
+        low: float | None = None,
+        high: float | None = None,
+        low_open: bool = False,
+        nonzero: bool = False,
+    ) -> Any:
         if key not in self.data:
             value = self.raw(key, default)
             return (0.0,) * length if value is ... else value
@@ -98,7 +123,8 @@ class _Reader:
             self.fail(key, f"must be a list of {length} numbers, got {_show_shape(value)}")
             return (0.0,) * length
         items = tuple(
-            self.check_number(f"{key}[{i}]", item, low=low, high=high, low_open=low_open) for i, item in enumerate(value)
+            self.check_number(f"{key}[{i}]", item, low=low, high=high, low_open=low_open)
+            for i, item in enumerate(value)
         )
         if nonzero and all(isinstance(item, float) and item == 0.0 for item in items):
             self.fail(key, "must not be the zero vector, got [0, 0, 0]")
@@ -153,8 +179,13 @@ def _json_type(value: Any) -> str:
 
 
 def _show_shape(value: Any) -> str:
+    """What a wrong value is, for messages: 'a list of 2', 'an object', 'null', 'string "x"', 'boolean true'."""
     if isinstance(value, list):
         return f"a list of {len(value)}"
+    if isinstance(value, dict):
+        return "an object"
+    if value is None:
+        return "null"
     return f"{_json_type(value)} {_show(value)}"
 
 
@@ -183,7 +214,9 @@ def _object(reader: _Reader, materials: dict[str, sc.Material], index: int) -> s
     name = reader.string("name", f"object{index}")
     material = reader.string("material")
     if material and materials and material not in materials:
-        reader.fail("material", f"must name one of the materials ({', '.join(sorted(materials))}), got {_show(material)}")
+        reader.fail(
+            "material", f"must name one of the materials ({', '.join(sorted(materials))}), got {_show(material)}"
+        )
     common = {
         "name": name,
         "material": material,
@@ -230,12 +263,17 @@ def _mesh(reader: _Reader, common: dict[str, Any]) -> sc.TriangleMesh:
             for i, triangle in enumerate(raw_triangles):
                 key = f"triangles[{i}]"
                 valid = isinstance(triangle, list) and len(triangle) == 3
-                if valid and all(isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(vertices)
-                                 for k in triangle):
+                if valid and all(
+                    isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(vertices) for k in triangle
+                ):
                     triangles.append((triangle[0], triangle[1], triangle[2]))
                 else:
-                    reader.fail(key, f"must be 3 vertex indices in 0..{len(vertices) - 1}, got {_show(triangle)}"
-                                if valid else f"must be a list of 3 vertex indices, got {_show_shape(triangle)}")
+                    reader.fail(
+                        key,
+                        f"must be 3 vertex indices in 0..{len(vertices) - 1}, got {_show(triangle)}"
+                        if valid
+                        else f"must be a list of 3 vertex indices, got {_show_shape(triangle)}",
+                    )
     return sc.TriangleMesh(vertices=tuple(vertices), triangles=tuple(triangles), **common)
 
 

@@ -165,8 +165,13 @@ def object_frame(obj: sc.SceneObject, vane: sc.Vane | None) -> tuple[Matrix3, sc
     return rotation, location
 
 
-def _triangles(material: str, rotation: Matrix3, location: sc.Vec3, vertices: list[sc.Vec3],
-               faces: tuple[tuple[int, int, int], ...]) -> WorldTriangles:
+def _triangles(
+    material: str,
+    rotation: Matrix3,
+    location: sc.Vec3,
+    vertices: list[sc.Vec3],
+    faces: tuple[tuple[int, int, int], ...],
+) -> WorldTriangles:
     world = [add(location, apply(rotation, vertex)) for vertex in vertices]
     triangles = tuple((world[a], world[b], world[c]) for a, b, c in faces)
     normals = []

@@ -91,8 +91,9 @@ class PreparedScene:
 
     # ---- shading -----------------------------------------------------------------------------------------------
 
-    def find_intensity(self, P: np.ndarray, N: np.ndarray, V: np.ndarray, specular: np.ndarray,
-                       counts: RayCounts) -> np.ndarray:
+    def find_intensity(
+        self, P: np.ndarray, N: np.ndarray, V: np.ndarray, specular: np.ndarray, counts: RayCounts
+    ) -> np.ndarray:
         """Listing 3.2 for every hit point at once: P, N, V (3, n), specular (n,) -> intensity (n,)."""
         settings = self.scene.render
         intensity = np.zeros(P.shape[1], dtype=self.dtype)

@@ -1,0 +1,159 @@
+"""Scene files: the shipped ones load and match the JSON Schema; malformed ones get one clear message per problem."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+import pytest
+
+from tracer import scene as sc
+from tracer.loader import SceneError, default_scene, default_scene_dict, load_scene, scene_from_dict
+
+ROOT = Path(__file__).resolve().parents[1]
+SCHEMA = json.loads((ROOT / "docs" / "scene.schema.json").read_text())
+
+
+def test_default_scene_loads_and_follows_the_schema() -> None:
+    jsonschema.validate(default_scene_dict(), SCHEMA)
+    scene = default_scene()
+    assert scene.vane is not None and "arrow_head" in scene.vane.parts
+    kinds = {type(obj) for obj in scene.objects}
+    assert {sc.Plane, sc.Box, sc.Cylinder, sc.Sphere, sc.Pyramid} <= kinds
+    assert {type(light) for light in scene.lights} == {sc.AmbientLight, sc.PointLight, sc.DirectionalLight}
+
+
+@pytest.mark.parametrize("seed", range(0, 60, 7))
+def test_random_test_scenes_follow_the_schema(seed: int) -> None:
+    from tests.random_scenes import random_scene_document
+
+    jsonschema.validate(random_scene_document(seed), SCHEMA)
+
+
+def test_fov_sets_the_lens_as_blender_does() -> None:
+    document = default_scene_dict()
+    del document["camera"]["lens"]
+    document["camera"]["fov"] = 90.0
+    assert scene_from_dict(document).camera.lens == pytest.approx(18.0)  # 36 mm / 2 / tan(45 degrees)
+
+
+def _set(document: dict[str, Any], path: str, value: Any) -> None:
+    keys: list[Any] = [int(k) if k.isdigit() else k for k in path.split("/")]
+    target = document
+    for key in keys[:-1]:
+        target = target[key]
+    if value is DELETE:
+        del target[keys[-1]]
+    else:
+        target[keys[-1]] = value
+
+
+DELETE = object()
+
+MALFORMED = [
+    ("objects/2/radius", -1, "objects[2].radius: must be > 0, got -1"),
+    ("objects/2/radius", 0, "objects[2].radius: must be > 0, got 0"),
+    ("objects/2/radius", "thick", 'objects[2].radius: must be a number, got string "thick"'),
+    ("objects/2/height", DELETE, "objects[2].height: is required"),
+    ("objects/9/radius", True, "objects[9].radius: must be a number, got boolean true"),
+    ("objects/1/size", [1, 2], "objects[1].size: must be a list of 3 numbers, got a list of 2"),
+    ("objects/1/size", [1, -2, 3], "objects[1].size[1]: must be > 0, got -2"),
+    ("objects/0/size", [40], "objects[0].size: must be a list of 2 numbers, got a list of 1"),
+    ("objects/12/size", "big", 'objects[12].size: must be a list of 3 numbers, got string "big"'),
+    (
+        "objects/0/type",
+        "torus",
+        'objects[0].type: must be one of "sphere", "plane", "cylinder", "box", "pyramid", "mesh", got "torus"',
+    ),
+    ("objects/0/type", DELETE, "objects[0].type: is required (one of sphere, plane, cylinder, box, pyramid, mesh)"),
+    (
+        "objects/0/material",
+        "gold",
+        "objects[0].material: must name one of the materials (brass, copper, iron, stone, "
+        'tiles, verdigris), got "gold"',
+    ),
+    ("objects/0/material", DELETE, "objects[0].material: is required"),
+    ("objects/0/location", [0, 0], "objects[0].location: must be a list of 3 numbers, got a list of 2"),
+    ("objects/3/rotation", [90, "x", 0], 'objects[3].rotation[1]: must be a number, got string "x"'),
+    ("objects/0/colour", [1, 0, 0], "objects[0].colour: is not a known field"),
+    ("objects/1/name", "ground", 'objects[1].name: must be unique, got "ground" twice'),
+    ("objects", [], "objects: must be a non-empty list of objects, got a list of 0"),
+    ("objects", DELETE, "objects: is required"),
+    ("objects/0", 7, "objects[0]: must be an object, got number 7"),
+    ("materials", DELETE, "materials: is required"),
+    ("materials/brass/color", [1.5, 0, 0], "materials.brass.color[0]: must be <= 1, got 1.5"),
+    ("materials/brass/color", DELETE, "materials.brass.color: is required"),
+    ("materials/brass/reflective", 2, "materials.brass.reflective: must be <= 1, got 2"),
+    ("materials/brass/specular", -5, "materials.brass.specular: must be >= 0, got -5"),
+    ("lights/0/type", "spot", 'lights[0].type: must be one of "ambient", "point", "directional", got "spot"'),
+    ("lights/1/intensity", -0.5, "lights[1].intensity: must be >= 0, got -0.5"),
+    ("lights/1/location", DELETE, "lights[1].location: is required"),
+    ("lights/2/direction", [0, 0, 0], "lights[2].direction: must not be the zero vector, got [0, 0, 0]"),
+    ("lights", {"type": "ambient"}, "lights: must be a list of lights, got an object"),
+    ("camera/lens", 0, "camera.lens: must be > 0, got 0"),
+    ("camera/sensor_fit", "auto", 'camera.sensor_fit: must be one of "AUTO", "HORIZONTAL", "VERTICAL", got "auto"'),
+    ("camera/fov", 60, "camera.fov: give either lens or fov, not both"),
+    ("render/width", 0, "render.width: must be >= 1, got 0"),
+    ("render/height", 2.5, "render.height: must be an integer, got 2.5"),
+    ("render/depth", -1, "render.depth: must be >= 0, got -1"),
+    ("render/model", "lambert", 'render.model: must be one of "phong", "blinn-phong", got "lambert"'),
+    ("render/coef", 0, "render.coef: must be > 0, got 0"),
+    ("render/samples", 3, "render.samples: must be a perfect square (1, 4, 9, 16, ...) for the stratified grid, got 3"),
+    ("render/dtype", "float16", 'render.dtype: must be one of "float32", "float64", got "float16"'),
+    ("render/workers", -2, "render.workers: must be >= 0, got -2"),
+    ("render/gate_specular", "yes", 'render.gate_specular: must be true or false, got "yes"'),
+    (
+        "background/type",
+        "gradient",
+        'background.type: must be one of "solid", "sky", "documented", "none", got "gradient"',
+    ),
+    ("background/zenith", [0, 0, -1], "background.zenith[2]: must be >= 0, got -1"),
+    ("vane/parts", ["shaft", "propeller"], 'vane.parts[1]: must name an object of the scene, got "propeller"'),
+    ("vane/axis", [0, 0, 0], "vane.axis: must not be the zero vector, got [0, 0, 0]"),
+    ("vane/heading", None, "vane.heading: must be a number, got null"),
+    ("extra", 1, "extra: is not a known field"),
+]
+
+
+@pytest.mark.parametrize(("path", "value", "message"), MALFORMED, ids=[f"{m[0]}={m[1]!r}" for m in MALFORMED])
+def test_malformed_scene_names_the_field(path: str, value: Any, message: str) -> None:
+    document = copy.deepcopy(default_scene_dict())
+    _set(document, path, value)
+    with pytest.raises(SceneError) as caught:
+        scene_from_dict(document)
+    assert any(problem.startswith(message) for problem in caught.value.problems), caught.value.problems
+
+
+def test_every_problem_is_reported_at_once() -> None:
+    document = copy.deepcopy(default_scene_dict())
+    document["objects"][2]["radius"] = -1
+    document["render"]["width"] = 0
+    document["lights"][0]["type"] = "spot"
+    with pytest.raises(SceneError) as caught:
+        scene_from_dict(document)
+    assert len(caught.value.problems) == 3
+
+
+def test_file_problems(tmp_path: Path) -> None:
+    missing = tmp_path / "missing.json"
+    with pytest.raises(SceneError, match="cannot read the file"):
+        load_scene(missing)
+    broken = tmp_path / "broken.json"
+    broken.write_text('{"materials": {,}')
+    with pytest.raises(SceneError, match=r"line 1 column 16: invalid JSON"):
+        load_scene(broken)
+    nan = tmp_path / "nan.json"
+    nan.write_text('{"materials": {"m": {"color": [NaN, 0, 0]}}, "objects": []}')
+    with pytest.raises(SceneError, match="NaN is not a number JSON allows"):
+        load_scene(nan)
+    binary = tmp_path / "binary.json"
+    binary.write_bytes(b"\xff\xfe\x00")
+    with pytest.raises(SceneError, match="not UTF-8"):
+        load_scene(binary)
+    top = tmp_path / "list.json"
+    top.write_text("[1, 2]")
+    with pytest.raises(SceneError, match=r"\(top level\): must be an object, got a list of 2"):
+        load_scene(top)
