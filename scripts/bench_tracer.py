@@ -45,15 +45,23 @@ def main() -> None:
     parser.add_argument("--height", type=int, default=480)
     args = parser.parse_args()
     scene = default_scene().with_render(width=args.width, height=args.height, depth=3, samples=1)
-    report: dict = {"scene": "default", "width": args.width, "height": args.height, "depth": 3,
-                    "machine": f"{platform.machine()} {platform.python_version()}", "repeats": args.repeats}
+    report: dict = {
+        "scene": "default",
+        "width": args.width,
+        "height": args.height,
+        "depth": 3,
+        "machine": f"{platform.machine()} {platform.python_version()}",
+        "repeats": args.repeats,
+    }
     for dtype in ("float64", "float32"):
         for workers in (1, 2):
             figures = bench(scene.with_render(dtype=dtype), workers, args.repeats)
             report[f"{dtype}_w{workers}"] = figures
-            print(f"{dtype} {workers} worker(s): {figures['ms']:7.1f} ms/frame, {figures['rays']} rays "
-                  f"({figures['camera_rays']} camera, {figures['shadow_rays']} shadow, "
-                  f"{figures['reflection_rays']} reflection), {figures['mrays_per_s']:.2f} Mrays/s")
+            print(
+                f"{dtype} {workers} worker(s): {figures['ms']:7.1f} ms/frame, {figures['rays']} rays "
+                f"({figures['camera_rays']} camera, {figures['shadow_rays']} shadow, "
+                f"{figures['reflection_rays']} reflection), {figures['mrays_per_s']:.2f} Mrays/s"
+            )
         report[f"{dtype}_scaling_1_to_2"] = round(report[f"{dtype}_w1"]["ms"] / report[f"{dtype}_w2"]["ms"], 2)
     small = scene.with_render(width=64, height=48)
     started = time.perf_counter()
@@ -61,8 +69,9 @@ def main() -> None:
     reference_seconds = (time.perf_counter() - started) * (args.width * args.height) / (64 * 48)
     report["reference_ms_scaled"] = round(reference_seconds * 1000, 1)
     report["speedup_vs_reference_2_workers"] = round(reference_seconds * 1000 / report["float64_w2"]["ms"], 1)
-    print(f"per-pixel reference: {reference_seconds:.1f} s per frame (64x48 timed, scaled to "
-          f"{args.width}x{args.height})")
+    print(
+        f"per-pixel reference: {reference_seconds:.1f} s per frame (64x48 timed, scaled to {args.width}x{args.height})"
+    )
     print(json.dumps(report))
 
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels import Kernel, PlaneKernel
+from .kernels import Kernel, PlaneKernel, ray_count, take
 
 LEAF_SIZE = 2
 
@@ -72,8 +72,10 @@ class Hierarchy:
         return near, far
 
     def closest(self, O: np.ndarray, D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,)."""
-        count = D.shape[1]
+        """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,).
+
+        O or D may be a (3, 1) column shared by all rays (see kernels.take)."""
+        count = ray_count(O, D)
         best_t = np.full(count, np.inf, dtype=self.dtype)
         best_object = np.full(count, -1, dtype=np.int32)
         best_part = np.zeros(count, dtype=np.int32)
@@ -103,7 +105,7 @@ class Hierarchy:
                 keep = (near <= far) & (far > t_min) & (near <= best_t[rays])
                 if not keep.any():
                     continue
-                rays, O_n, D_n, inverse_n = rays[keep], O_n[:, keep], D_n[:, keep], inverse_n[:, keep]
+                rays, O_n, D_n, inverse_n = rays[keep], take(O_n, keep), take(D_n, keep), take(inverse_n, keep)
                 for index in node.objects:
                     test(index, rays, O_n, D_n)
                 stack.extend((child, rays, O_n, D_n, inverse_n) for child in node.children)
@@ -111,7 +113,7 @@ class Hierarchy:
 
     def occluded(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float) -> np.ndarray:
         """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first."""
-        count = L.shape[1]
+        count = ray_count(O, L)
         blocked = np.zeros(count, dtype=bool)
         for index in self.unbounded:
             t, _ = self.kernels[index].hit(O, L, t_min, t_max)
@@ -119,7 +121,7 @@ class Hierarchy:
         if self.root is None or blocked.all():
             return blocked
         live = np.flatnonzero(~blocked)
-        O_live, L_live = O[:, live], L[:, live]
+        O_live, L_live = take(O, live), take(L, live)
         with np.errstate(divide="ignore"):
             inverse = 1.0 / L_live
         stack = [(self.root, live, O_live, L_live, inverse)]
@@ -129,7 +131,7 @@ class Hierarchy:
             keep = (near <= far) & (far > t_min) & (near < t_max) & ~blocked[rays]
             if not keep.any():
                 continue
-            rays, O_n, L_n, inverse_n = rays[keep], O_n[:, keep], L_n[:, keep], inverse_n[:, keep]
+            rays, O_n, L_n, inverse_n = rays[keep], take(O_n, keep), take(L_n, keep), take(inverse_n, keep)
             for index in node.objects:
                 t, _ = self.kernels[index].hit(O_n, L_n, t_min, t_max)
                 blocked[rays[t < np.inf]] = True

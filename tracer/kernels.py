@@ -23,6 +23,17 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.stack((a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]))
 
 
+def take(rays: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """The kept columns of a (3, N) ray array; a (3, 1) array shared by every ray (the camera's origin, a
+    directional light's vector) stays as it is and keeps broadcasting."""
+    return rays if rays.shape[1] == 1 else rays[:, keep]
+
+
+def ray_count(O: np.ndarray, D: np.ndarray) -> int:
+    """How many rays (3, N) origins and directions describe when one of them may be a shared (3, 1) column."""
+    return D.shape[1] if O.shape[1] == 1 else O.shape[1]
+
+
 def column(v: tf.sc.Vec3, dtype: np.dtype) -> np.ndarray:
     """A 3-vector as a (3, 1) column that broadcasts against (3, N) rays."""
     return np.asarray(v, dtype=dtype).reshape(3, 1)
@@ -71,8 +82,8 @@ class SphereKernel(Kernel):
         discriminant = k2 * k2 - 4.0 * k1 * k3
         real = discriminant >= 0.0
         root = np.sqrt(np.where(real, discriminant, 0.0))
-        best_t = np.full(k1.shape, np.inf, dtype=self.dtype)
-        best_part = np.zeros(k1.shape, dtype=np.int8)
+        best_t = np.full(ray_count(O, D), np.inf, dtype=self.dtype)
+        best_part = np.zeros(best_t.shape, dtype=np.int8)
         for t in ((-k2 + root) / (2.0 * k1), (-k2 - root) / (2.0 * k1)):
             _nearest(best_t, best_part, t, real & (t > t_min) & (t < t_max), 0)
         return best_t, best_part
@@ -84,10 +95,9 @@ class SphereKernel(Kernel):
 def _plane_t(O: np.ndarray, D: np.ndarray, normal: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Seed 2.17 for every ray: (t, not parallel); t is junk where the ray is parallel to the plane."""
     denominator = dot(normal, D)
-    parallel = denominator == 0.0
     with np.errstate(divide="ignore", invalid="ignore"):
         t = dot(normal, point - O) / denominator
-    return t, ~parallel
+    return t, np.broadcast_to(denominator != 0.0, t.shape).copy()
 
 
 class PlaneKernel(Kernel):
@@ -123,7 +133,8 @@ class PlaneKernel(Kernel):
             ok &= (np.abs(dot(offset, self.u_axis)) <= self.half_size[0]) & (
                 np.abs(dot(offset, self.v_axis)) <= self.half_size[1]
             )
-        return np.where(ok, t, np.inf).astype(self.dtype, copy=False), np.zeros(t.shape, dtype=np.int8)
+        t = np.where(ok, t, np.inf).astype(self.dtype, copy=False)
+        return t, np.zeros(t.shape, dtype=np.int8)
 
     def normal(self, P, part):
         return np.broadcast_to(self.plane_normal, P.shape)
@@ -159,8 +170,8 @@ class CylinderKernel(Kernel):
         side = (a != 0.0) & (discriminant >= 0.0)
         root = np.sqrt(np.where(side, discriminant, 0.0))
         denominator = np.where(side, 2.0 * a, 1.0)
-        best_t = np.full(a.shape, np.inf, dtype=self.dtype)
-        best_part = np.zeros(a.shape, dtype=np.int8)
+        best_t = np.full(ray_count(O, D), np.inf, dtype=self.dtype)
+        best_part = np.zeros(best_t.shape, dtype=np.int8)
         in_range = lambda t: (t > t_min) & (t < t_max)  # noqa: E731
         for t in ((-b + root) / denominator, (-b - root) / denominator):
             h = COV + DV * t
@@ -211,6 +222,7 @@ class TrianglesKernel(Kernel):
             v = dot(Q, Dc) / determinant
             ok = solvable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < t_max)
         t = np.where(ok, t, np.inf)
+        t = np.broadcast_to(t, (ray_count(O, D), t.shape[1]))
         nearest = np.argmin(t, axis=1)  # first triangle on ties, as the reference's loop
         return t[np.arange(t.shape[0]), nearest], nearest
 

@@ -6,6 +6,7 @@ by the same code, so the image is bit-identical for any number of workers. Memor
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
 import pickle
@@ -18,7 +19,7 @@ import numpy as np
 from . import scene as sc
 from .wavefront import PreparedScene, RayCounts
 
-RAYS_PER_BAND = 16384  # camera samples per band: small enough for the cache-sized arrays, large for NumPy
+RAYS_PER_BAND = 65536  # camera samples per band: bounds memory (a few tens of MB) and amortises NumPy's call cost
 
 Progress = Callable[[int, int], None]
 
@@ -47,14 +48,38 @@ class RenderResult:
         return self.rays.total / self.seconds / 1e6 if self.seconds > 0 else 0.0
 
 
+_allocator_tuned = False
+
+
+def tune_allocator() -> None:
+    """Keep freed arrays' memory in the process (glibc only; elsewhere a no-op).
+
+    Each bounce allocates and frees arrays of about a megabyte. By default glibc returns such blocks to the system
+    and the next array of the same size page-faults its way back in, which cost about half of the frame time here
+    (a 3 x 65536 slab test: 5.3 ms with the defaults, 0.65 ms with these settings). The memory stays bounded by
+    the band size.
+    """
+    global _allocator_tuned
+    if _allocator_tuned:
+        return
+    _allocator_tuned = True
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+    except OSError:
+        return
+    m_trim_threshold, m_mmap_threshold = -1, -3
+    libc.mallopt(m_mmap_threshold, 32 * 1024 * 1024)  # glibc's largest allowed value
+    libc.mallopt(m_trim_threshold, 256 * 1024 * 1024)
+
+
 # ---- worker side -------------------------------------------------------------------------------------------------
 
 _worker_cache: dict[str, object] = {}
 
 
-def _prepared_for(key: int, scene_bytes: bytes | None) -> PreparedScene:
+def _prepared_for(key: int, scene_bytes: bytes) -> PreparedScene:
     if _worker_cache.get("key") != key:
-        assert scene_bytes is not None
+        tune_allocator()
         _worker_cache["key"] = key
         _worker_cache["prepared"] = PreparedScene(pickle.loads(scene_bytes))
     prepared = _worker_cache["prepared"]
@@ -96,6 +121,7 @@ class Renderer:
 
     def _results(self, scene: sc.Scene) -> Iterator[tuple[int, np.ndarray, RayCounts]]:
         if self._pool is None:
+            tune_allocator()
             prepared = PreparedScene(scene)
             for start, stop in bands(scene.render):
                 image, counts = prepared.render_rows(start, stop)

@@ -16,7 +16,7 @@ from . import camera as cam
 from . import scene as sc
 from . import transforms as tf
 from .bvh import Hierarchy
-from .kernels import Kernel, column, dot, make_kernel
+from .kernels import Kernel, column, dot, make_kernel, take
 
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0
 SHADOW_T_MIN = 0.001  # listing 3.2
@@ -84,9 +84,13 @@ class PreparedScene:
     def normals(self, P: np.ndarray, obj: np.ndarray, part: np.ndarray) -> np.ndarray:
         """Unit normals (3, N) at hit points P (3, N) on objects obj (N,)."""
         N = np.empty_like(P)
-        for index in np.unique(obj):
-            rows = np.flatnonzero(obj == index)
-            N[:, rows] = self.kernels[index].normal(P[:, rows], part[rows])
+        order = np.argsort(obj, kind="stable")
+        start = 0
+        for index, size in enumerate(np.bincount(obj, minlength=len(self.kernels)).tolist()):
+            if size:
+                rows = order[start : start + size]
+                N[:, rows] = self.kernels[index].normal(P[:, rows], part[rows])
+                start += size
         return N / np.sqrt(dot(N, N))
 
     # ---- shading -----------------------------------------------------------------------------------------------
@@ -105,15 +109,10 @@ class PreparedScene:
             if light.kind == "ambient":
                 intensity = intensity + light.intensity
                 continue
-            L = light.vector - P if light.kind == "point" else np.broadcast_to(light.vector, P.shape)
-            counts.shadow += P.shape[1]
-            lit = ~self.hierarchy.occluded(P, L, SHADOW_T_MIN, light.t_max)
+            L = light.vector - P if light.kind == "point" else light.vector  # a directional L broadcasts
             NL = dot(N, L)
             length_l = np.sqrt(dot(L, L))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                diffuse = light.intensity * NL / (length_n * length_l)
-            intensity = np.where(lit & (NL > 0.0), intensity + diffuse, intensity)
-            gate = lit & shiny
+            gate = shiny.copy()
             if settings.gate_specular:
                 gate &= NL > 0.0
             if settings.model == "phong":
@@ -127,6 +126,19 @@ class PreparedScene:
                 HN = dot(H, N)
                 gate &= HN > 0.0
                 cosine = HN / (np.sqrt(dot(H, H)) * length_n)
+            # a shadow ray only where this light could add something: the result is the listing's, with fewer rays
+            diffuse_gate = NL > 0.0
+            needed = np.flatnonzero(diffuse_gate | gate)
+            counts.shadow += needed.size
+            if needed.size == P.shape[1]:
+                lit = ~self.hierarchy.occluded(P, L, SHADOW_T_MIN, light.t_max)
+            else:
+                lit = np.zeros(P.shape[1], dtype=bool)
+                lit[needed] = ~self.hierarchy.occluded(P[:, needed], take(L, needed), SHADOW_T_MIN, light.t_max)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                diffuse = light.intensity * NL / (length_n * length_l)
+            intensity = np.where(lit & diffuse_gate, intensity + diffuse, intensity)
+            gate &= lit
             with np.errstate(divide="ignore", invalid="ignore"):
                 highlight = light.intensity * np.power(np.where(gate, cosine, 1.0), exponent)
             intensity = np.where(gate, intensity + highlight, intensity)
@@ -149,24 +161,24 @@ class PreparedScene:
     # ---- TraceRay as a wavefront -------------------------------------------------------------------------------
 
     def trace(self, D: np.ndarray, counts: RayCounts) -> np.ndarray:
-        """Camera rays (3, N) from the camera -> linear colors (3, N), unclamped."""
+        """Camera rays (3, N) from the camera -> linear colors (N, 3), unclamped."""
         depth = self.scene.render.depth
         total = D.shape[1]
         counts.camera += total
-        color = np.zeros((3, total), dtype=self.dtype)
+        color = np.zeros((total, 3), dtype=self.dtype)  # rows: scattering 3 values per ray is cheap
         weight = np.ones(total, dtype=self.dtype)
         pixel = np.arange(total)
-        O = np.broadcast_to(self.origin, D.shape)
+        O = self.origin  # (3, 1): every camera ray starts at the camera
         t_min = CAMERA_T_MIN
         for bounce in range(depth + 1):
             t, obj, part = self.hierarchy.closest(O, D, t_min)
             miss = obj < 0
             if miss.any():
-                color[:, pixel[miss]] += weight[miss] * self.background(D[:, miss])
+                color[pixel[miss]] += (weight[miss] * self.background(D[:, miss])).T
             hit = ~miss
             if not hit.any():
                 break
-            O, D, t, obj, part = O[:, hit], D[:, hit], t[hit], obj[hit], part[hit]
+            O, D, t, obj, part = take(O, hit), D[:, hit], t[hit], obj[hit], part[hit]
             weight, pixel = weight[hit], pixel[hit]
             P = O + D * t
             N = self.normals(P, obj, part)
@@ -174,7 +186,7 @@ class PreparedScene:
             intensity = self.find_intensity(P, N, V, self.specular[obj], counts)
             reflective = self.reflective[obj]
             local = (intensity * (1.0 - reflective)) * self.colors[:, obj]
-            color[:, pixel] += weight * local
+            color[pixel] += (weight * local).T
             go_on = reflective > 0.0
             if bounce == depth or not go_on.any():
                 break
@@ -193,9 +205,9 @@ class PreparedScene:
         D = cam.band_directions(self.scene.camera, settings, row_start, row_stop).astype(self.dtype, copy=False)
         color = self.trace(D, counts)
         rows = row_stop - row_start
-        samples = color.reshape(3, rows, settings.width, settings.samples)
-        image = samples.sum(axis=3) / settings.samples if settings.samples > 1 else samples[..., 0]
-        return np.ascontiguousarray(image.transpose(1, 2, 0)), counts
+        samples = color.reshape(rows, settings.width, settings.samples, 3)
+        image = samples.sum(axis=2) / settings.samples if settings.samples > 1 else samples[:, :, 0]
+        return np.ascontiguousarray(image), counts
 
 
 def _sky(background: sc.Background, elevation: float) -> sc.Color:
