@@ -17,12 +17,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tracer.loader import default_scene  # noqa: E402
-from tracer.parallel import Renderer  # noqa: E402
-from tracer.reference import render_reference  # noqa: E402
+from tracer.loader import default_scene
+from tracer.parallel import Renderer
+from tracer.reference import render_reference
 
 
-def bench(scene, workers: int, repeats: int) -> dict:  # noqa: ANN001
+def bench(scene, workers: int, repeats: int) -> dict:
     with Renderer(workers) as renderer:
         renderer.render(scene)  # warm-up: pool start, imports, caches
         results = [renderer.render(scene) for _ in range(repeats)]

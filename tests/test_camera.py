@@ -112,7 +112,7 @@ def test_sensor_fit_auto_uses_the_wider_side() -> None:
 def test_stratified_samples_stay_in_their_strata_and_band_rays_match_scalar_rays() -> None:
     camera = CAMERAS[0][0]
     settings = sc.RenderSettings(width=8, height=6, samples=9, seed=3)
-    directions = cam.band_directions(camera, settings, 2, 4)
+    directions = cam.band_directions(camera, settings, np.arange(2, 4))
     k = 0
     for j in range(2, 4):
         for i in range(8):

@@ -12,9 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels import Kernel, PlaneKernel, ray_count, take
-
-LEAF_SIZE = 2
+from .kernels import Kernel, PlaneKernel, padded_box, ray_count, slab, take
 
 
 @dataclass
@@ -25,24 +23,36 @@ class Node:
     children: list[Node]
 
 
-def _padded(lower: np.ndarray, upper: np.ndarray, dtype: np.dtype) -> tuple[np.ndarray, np.ndarray]:
-    # rounding in the slab test is far below this margin, so a ray that touches an object is never culled
-    relative = 1e-6 if dtype == np.float64 else 1e-4
-    pad = relative * (np.max(np.abs(np.concatenate((lower, upper)))) + np.max(upper - lower)) + 1e-9
-    return (lower - pad).astype(dtype).reshape(3, 1), (upper + pad).astype(dtype).reshape(3, 1)
+def _area(lower: np.ndarray, upper: np.ndarray) -> float:
+    d = np.maximum(upper - lower, 1e-12)
+    return float(2.0 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0]))
 
 
-def _build(indices: list[int], boxes: dict[int, tuple[np.ndarray, np.ndarray]], dtype: np.dtype) -> Node:
+def _build(
+    indices: list[int], boxes: dict[int, tuple[np.ndarray, np.ndarray]], costs: dict[int, float], dtype: np.dtype
+) -> Node:
+    """Split by the surface area heuristic: a ray that meets a box meets a child with probability area ratio, and
+    each object's test costs about costs[i] box tests."""
     lower = np.min([boxes[i][0] for i in indices], axis=0)
     upper = np.max([boxes[i][1] for i in indices], axis=0)
-    padded = _padded(lower, upper, dtype)
-    if len(indices) <= LEAF_SIZE:
+    padded = padded_box(lower, upper, dtype)
+    area = _area(lower, upper)
+    best_cost, best_split = sum(costs[i] for i in indices), None
+    for axis in range(3):
+        order = sorted(indices, key=lambda i: (boxes[i][0][axis] + boxes[i][1][axis], i))
+        for k in range(1, len(order)):
+            sides = (order[:k], order[k:])
+            cost = 2.0 + sum(
+                _area(np.min([boxes[i][0] for i in side], axis=0), np.max([boxes[i][1] for i in side], axis=0))
+                / area
+                * sum(costs[i] for i in side)
+                for side in sides
+            )
+            if cost < best_cost:
+                best_cost, best_split = cost, sides
+    if best_split is None:
         return Node(*padded, objects=sorted(indices), children=[])
-    centres = np.asarray([(boxes[i][0] + boxes[i][1]) / 2.0 for i in indices])
-    axis = int(np.argmax(centres.max(axis=0) - centres.min(axis=0)))
-    order = [indices[k] for k in np.argsort(centres[:, axis], kind="stable")]
-    half = len(order) // 2
-    return Node(*padded, objects=[], children=[_build(order[:half], boxes, dtype), _build(order[half:], boxes, dtype)])
+    return Node(*padded, objects=[], children=[_build(side, boxes, costs, dtype) for side in best_split])
 
 
 class Hierarchy:
@@ -59,17 +69,8 @@ class Hierarchy:
                 self.unbounded.append(index)
             else:
                 boxes[index] = box
-        self.root = _build(sorted(boxes), boxes, dtype) if boxes else None
-
-    @staticmethod
-    def _slab(O: np.ndarray, inverse: np.ndarray, node: Node) -> tuple[np.ndarray, np.ndarray]:
-        """Entry and exit t of each ray (3, n) through the node's box; NaN axes (0 * inf) are ignored."""
-        with np.errstate(invalid="ignore"):
-            a = (node.lower - O) * inverse
-            b = (node.upper - O) * inverse
-        near = np.fmax(np.fmax(np.fmin(a[0], b[0]), np.fmin(a[1], b[1])), np.fmin(a[2], b[2]))
-        far = np.fmin(np.fmin(np.fmax(a[0], b[0]), np.fmax(a[1], b[1])), np.fmax(a[2], b[2]))
-        return near, far
+        costs = {index: kernels[index].cost for index in boxes}
+        self.root = _build(sorted(boxes), boxes, costs, dtype) if boxes else None
 
     def closest(self, O: np.ndarray, D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,).
@@ -101,7 +102,7 @@ class Hierarchy:
             stack = [(self.root, np.arange(count), O, D, inverse)]
             while stack:
                 node, rays, O_n, D_n, inverse_n = stack.pop()
-                near, far = self._slab(O_n, inverse_n, node)
+                near, far = slab(O_n, inverse_n, node.lower, node.upper)
                 keep = (near <= far) & (far > t_min) & (near <= best_t[rays])
                 if not keep.any():
                     continue
@@ -127,7 +128,7 @@ class Hierarchy:
         stack = [(self.root, live, O_live, L_live, inverse)]
         while stack:
             node, rays, O_n, L_n, inverse_n = stack.pop()
-            near, far = self._slab(O_n, inverse_n, node)
+            near, far = slab(O_n, inverse_n, node.lower, node.upper)
             keep = (near <= far) & (far > t_min) & (near < t_max) & ~blocked[rays]
             if not keep.any():
                 continue

@@ -89,14 +89,14 @@ def primary_direction(camera: sc.Camera, settings: sc.RenderSettings, x: float, 
     return wx / size, wy / size, wz / size
 
 
-def band_directions(camera: sc.Camera, settings: sc.RenderSettings, row_start: int, row_stop: int) -> np.ndarray:
-    """Unit directions (3, N) float64 of every sample of rows [row_start, row_stop), ordered row, column, sample.
+def band_directions(camera: sc.Camera, settings: sc.RenderSettings, rows: np.ndarray) -> np.ndarray:
+    """Unit directions (3, N) float64 of every sample of the given image rows, ordered row, column, sample.
 
     The same operations in the same order as primary_direction, so each ray is bit-identical to the scalar one.
     """
     width, samples = settings.width, settings.samples
     n = math.isqrt(samples)
-    rows = np.arange(row_start, row_stop, dtype=np.int64)
+    rows = np.asarray(rows, dtype=np.int64)
     columns = np.arange(width, dtype=np.int64)
     sample = np.arange(samples, dtype=np.int64)
     j = np.broadcast_to(rows[:, None, None], (rows.size, width, samples)).ravel()

@@ -39,6 +39,28 @@ def column(v: tf.sc.Vec3, dtype: np.dtype) -> np.ndarray:
     return np.asarray(v, dtype=dtype).reshape(3, 1)
 
 
+def padded_box(
+    lower: np.ndarray, upper: np.ndarray, dtype: np.dtype, reach: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """A box grown by a margin far above the rounding of the slab test, as (3, 1) columns in dtype.
+
+    reach: the largest coordinate magnitude the test subtracts (the box's own, or its frame's origin's)."""
+    relative = 1e-6 if dtype == np.float64 else 1e-4
+    size = float(np.max(np.abs(np.concatenate((lower, upper)))) + np.max(upper - lower)) + reach
+    pad = relative * size + 1e-9
+    return (lower - pad).astype(dtype).reshape(3, 1), (upper + pad).astype(dtype).reshape(3, 1)
+
+
+def slab(O: np.ndarray, inverse: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Entry and exit t of rays (3, n) through a box; an axis giving NaN (0 * inf) is ignored, so nothing is lost."""
+    with np.errstate(invalid="ignore"):
+        a = (lower - O) * inverse
+        b = (upper - O) * inverse
+    near = np.fmax(np.fmax(np.fmin(a[0], b[0]), np.fmin(a[1], b[1])), np.fmin(a[2], b[2]))
+    far = np.fmin(np.fmin(np.fmax(a[0], b[0]), np.fmax(a[1], b[1])), np.fmax(a[2], b[2]))
+    return near, far
+
+
 def _nearest(best_t: np.ndarray, best_part: np.ndarray, t: np.ndarray, ok: np.ndarray, part: int) -> None:
     """Keep t where it is valid and strictly nearer (the reference's `t < closest_t`, first candidate on ties)."""
     closer = ok & (t < best_t)
@@ -47,11 +69,38 @@ def _nearest(best_t: np.ndarray, best_part: np.ndarray, t: np.ndarray, ok: np.nd
 
 
 class Kernel:
-    """A primitive ready for tracing. hit() returns (t, part) with t = inf where the ray misses in (t_min, t_max)."""
+    """A primitive ready for tracing. hit() returns (t, part) with t = inf where the ray misses in (t_min, t_max).
 
-    material_index: int
+    A kernel with a frame first drops the rays that miss its oriented box (the object's own axes, tighter than the
+    world box of a rotated object) and runs its exact test on the rest only.
+    """
 
-    def hit(self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: np.ndarray | float) -> tuple[np.ndarray, ...]:
+    dtype: np.dtype
+    cost = 8.0  # a hit test's cost in box tests, for the hierarchy's surface area heuristic
+    frame: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None  # world->local, origin, lower, upper
+
+    def set_frame(self, rotation: np.ndarray, origin: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+        """rotation (3, 3) has the local axes as columns; lower, upper (3,) bound the object in that frame."""
+        padded = padded_box(lower, upper, self.dtype, float(np.max(np.abs(origin))))
+        self.frame = (rotation.T.astype(self.dtype), origin.astype(self.dtype).reshape(3, 1), *padded)
+
+    def hit(self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
+        if self.frame is None:
+            return self._hit(O, D, t_min, t_max)
+        to_local, origin, lower, upper = self.frame
+        with np.errstate(divide="ignore"):
+            near, far = slab(to_local @ (O - origin), 1.0 / (to_local @ D), lower, upper)
+        count = ray_count(O, D)
+        rays = np.flatnonzero(np.broadcast_to((near <= far) & (far > t_min) & (near < t_max), (count,)))
+        if rays.size == count:
+            return self._hit(O, D, t_min, t_max)
+        t = np.full(count, np.inf, dtype=self.dtype)
+        part = np.zeros(count, dtype=np.int32)
+        if rays.size:
+            t[rays], part[rays] = self._hit(take(O, rays), take(D, rays), t_min, t_max)
+        return t, part
+
+    def _hit(self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
         raise NotImplementedError
 
     def normal(self, P: np.ndarray, part: np.ndarray) -> np.ndarray:
@@ -64,6 +113,8 @@ class Kernel:
 
 
 class SphereKernel(Kernel):
+    cost = 6.0
+
     def __init__(self, sphere: tf.WorldSphere, dtype: np.dtype) -> None:
         self.center = column(sphere.center, dtype)
         self.radius_squared = dtype.type(sphere.radius) * dtype.type(sphere.radius)
@@ -74,7 +125,7 @@ class SphereKernel(Kernel):
     def bounds(self):
         return self.lower, self.upper
 
-    def hit(self, O, D, t_min, t_max):
+    def _hit(self, O, D, t_min, t_max):
         CO = O - self.center
         k1 = dot(D, D)
         k2 = 2.0 * dot(CO, D)
@@ -125,7 +176,7 @@ class PlaneKernel(Kernel):
     def bounds(self):
         return self.box
 
-    def hit(self, O, D, t_min, t_max):
+    def _hit(self, O, D, t_min, t_max):
         t, ok = _plane_t(O, D, self.plane_normal, self.point)
         ok &= (t > t_min) & (t < t_max)
         if self.half_size is not None:
@@ -143,6 +194,8 @@ class PlaneKernel(Kernel):
 class CylinderKernel(Kernel):
     """Parts: 0 side, 1 bottom cap (normal -V), 2 top cap (normal +V)."""
 
+    cost = 10.0
+
     def __init__(self, cylinder: tf.WorldCylinder, dtype: np.dtype) -> None:
         self.base = column(cylinder.base, dtype)
         self.axis = column(cylinder.axis, dtype)
@@ -155,11 +208,22 @@ class CylinderKernel(Kernel):
         # a disc of radius r about unit axis a reaches r * sqrt(1 - a_i^2) along world axis i
         reach = cylinder.radius * np.sqrt(np.maximum(0.0, 1.0 - np.asarray(cylinder.axis) ** 2))
         self.lower, self.upper = ends.min(axis=0) - reach, ends.max(axis=0) + reach
+        axis = np.asarray(cylinder.axis)
+        helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
+        u = np.cross(axis, helper)
+        u /= np.linalg.norm(u)
+        r = cylinder.radius
+        self.set_frame(
+            np.column_stack((u, np.cross(axis, u), axis)),
+            np.asarray(cylinder.base),
+            np.array([-r, -r, 0.0]),
+            np.array([r, r, cylinder.height]),
+        )
 
     def bounds(self):
         return self.lower, self.upper
 
-    def hit(self, O, D, t_min, t_max):
+    def _hit(self, O, D, t_min, t_max):
         CO = O - self.base
         DV = dot(D, self.axis)
         COV = dot(CO, self.axis)
@@ -202,14 +266,18 @@ class TrianglesKernel(Kernel):
         self.e1 = np.asarray(e1, dtype=dtype).T[:, None, :]
         self.e2 = np.asarray(e2, dtype=dtype).T[:, None, :]
         self.normals = np.asarray(mesh.normals, dtype=dtype).T  # (3, T)
+        self.cost = 3.0 + len(mesh.triangles)
         self.lower = triangles.reshape(-1, 3).min(axis=0)
         self.upper = triangles.reshape(-1, 3).max(axis=0)
         self.dtype = dtype
+        rotation, location = np.asarray(mesh.rotation), np.asarray(mesh.location)
+        local = (triangles.reshape(-1, 3) - location) @ rotation  # rows: R^T (v - location)
+        self.set_frame(rotation, location, local.min(axis=0), local.max(axis=0))
 
     def bounds(self):
         return self.lower, self.upper
 
-    def hit(self, O, D, t_min, t_max):
+    def _hit(self, O, D, t_min, t_max):
         Dc = D[:, :, None]
         T = O[:, :, None] - self.v0
         P = cross(Dc, self.e2)

@@ -1,12 +1,15 @@
 """A scene -> a linear float image, in bands of rows over a persistent pool of worker processes.
 
-Bands have a fixed height that depends only on the image (never on the number of workers), and each band is traced
-by the same code, so the image is bit-identical for any number of workers. Memory stays bounded by the band.
+A band is every B-th block of rows of the image, so that every band holds a like share of sky, ground and object
+and the workers finish together. The bands depend only on the image (never on the number of
+workers) and each is traced by the same code, so the image is bit-identical for any number of workers. Memory stays
+bounded by the band.
 """
 
 from __future__ import annotations
 
 import ctypes
+import math
 import multiprocessing
 import os
 import pickle
@@ -19,7 +22,8 @@ import numpy as np
 from . import scene as sc
 from .wavefront import PreparedScene, RayCounts
 
-RAYS_PER_BAND = 65536  # camera samples per band: bounds memory (a few tens of MB) and amortises NumPy's call cost
+RAYS_PER_BAND = 65536  # camera samples per band: bounds memory (tens of MB) and amortises NumPy's call cost
+BLOCK_ROWS = 16
 
 Progress = Callable[[int, int], None]
 
@@ -31,10 +35,20 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
-def bands(settings: sc.RenderSettings) -> list[tuple[int, int]]:
-    """Row ranges [start, stop) covering the image; their height depends only on width and samples."""
-    rows = max(1, RAYS_PER_BAND // (settings.width * settings.samples))
-    return [(start, min(start + rows, settings.height)) for start in range(0, settings.height, rows)]
+def bands(settings: sc.RenderSettings) -> list[np.ndarray]:
+    """The image's rows (arrays of row indices) dealt into bands of at most about RAYS_PER_BAND camera samples.
+
+    Rows go in blocks of BLOCK_ROWS, dealt round-robin, so each band holds a like share of sky, ground and object
+    (the workers finish together) while its rays stay coherent enough for the hierarchy (a fully interleaved deal
+    was about 35% slower here). The number of bands is a multiple of four so that 1, 2 or 4 workers get equal
+    shares; it depends only on the image.
+    """
+    samples = settings.height * settings.width * settings.samples
+    blocks = [
+        np.arange(start, min(start + BLOCK_ROWS, settings.height)) for start in range(0, settings.height, BLOCK_ROWS)
+    ]
+    count = min(len(blocks), 4 * math.ceil(samples / RAYS_PER_BAND / 4))
+    return [np.concatenate(blocks[first::count]) for first in range(count)]
 
 
 @dataclass
@@ -87,10 +101,10 @@ def _prepared_for(key: int, scene_bytes: bytes) -> PreparedScene:
     return prepared
 
 
-def _render_band(task: tuple[int, bytes, int, int]) -> tuple[int, np.ndarray, RayCounts]:
-    key, scene_bytes, start, stop = task
-    image, counts = _prepared_for(key, scene_bytes).render_rows(start, stop)
-    return start, image, counts
+def _render_band(task: tuple[int, bytes, np.ndarray]) -> tuple[np.ndarray, np.ndarray, RayCounts]:
+    key, scene_bytes, rows = task
+    image, counts = _prepared_for(key, scene_bytes).render_rows(rows)
+    return rows, image, counts
 
 
 # ---- parent side -------------------------------------------------------------------------------------------------
@@ -119,17 +133,17 @@ class Renderer:
             self._pool.join()
             self._pool = None
 
-    def _results(self, scene: sc.Scene) -> Iterator[tuple[int, np.ndarray, RayCounts]]:
+    def _results(self, scene: sc.Scene) -> Iterator[tuple[np.ndarray, np.ndarray, RayCounts]]:
         if self._pool is None:
             tune_allocator()
             prepared = PreparedScene(scene)
-            for start, stop in bands(scene.render):
-                image, counts = prepared.render_rows(start, stop)
-                yield start, image, counts
+            for rows in bands(scene.render):
+                image, counts = prepared.render_rows(rows)
+                yield rows, image, counts
             return
         self._key += 1
         scene_bytes = pickle.dumps(scene)
-        tasks = [(self._key, scene_bytes, start, stop) for start, stop in bands(scene.render)]
+        tasks = [(self._key, scene_bytes, rows) for rows in bands(scene.render)]
         yield from self._pool.imap_unordered(_render_band, tasks)
 
     def render(self, scene: sc.Scene, progress: Progress | None = None) -> RenderResult:
@@ -139,8 +153,8 @@ class Renderer:
         image = np.empty((settings.height, settings.width, 3), dtype=np.dtype(settings.dtype))
         counts = RayCounts()
         total = len(bands(settings))
-        for done, (start, band, band_counts) in enumerate(self._results(scene), start=1):
-            image[start : start + band.shape[0]] = band
+        for done, (rows, band, band_counts) in enumerate(self._results(scene), start=1):
+            image[rows] = band
             counts.add(band_counts)
             if progress is not None:
                 progress(done, total)

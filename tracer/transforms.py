@@ -123,6 +123,8 @@ class WorldTriangles:
     material: str
     triangles: tuple[tuple[sc.Vec3, sc.Vec3, sc.Vec3], ...]
     normals: tuple[sc.Vec3, ...]
+    rotation: Matrix3 = IDENTITY  # the object's frame: world = rotation @ local + location
+    location: sc.Vec3 = (0.0, 0.0, 0.0)
 
 
 WorldPrimitive = WorldSphere | WorldPlane | WorldCylinder | WorldTriangles
@@ -179,7 +181,7 @@ def _triangles(
         n = cross(sub(v1, v0), sub(v2, v0))
         size = length(n)
         normals.append((n[0] / size, n[1] / size, n[2] / size) if size > 0.0 else (0.0, 0.0, 0.0))
-    return WorldTriangles(material, triangles, tuple(normals))
+    return WorldTriangles(material, triangles, tuple(normals), rotation, location)
 
 
 def world_primitive(obj: sc.SceneObject, vane: sc.Vane | None) -> WorldPrimitive:

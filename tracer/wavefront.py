@@ -198,14 +198,13 @@ class PreparedScene:
             t_min = REFLECTION_T_MIN
         return color
 
-    def render_rows(self, row_start: int, row_stop: int) -> tuple[np.ndarray, RayCounts]:
-        """Rows [row_start, row_stop) -> (rows, width, 3) linear image in the scene's dtype, and the ray counts."""
+    def render_rows(self, rows: np.ndarray) -> tuple[np.ndarray, RayCounts]:
+        """Image rows (R,) -> (R, width, 3) linear image in the scene's dtype, and the ray counts."""
         settings = self.scene.render
         counts = RayCounts()
-        D = cam.band_directions(self.scene.camera, settings, row_start, row_stop).astype(self.dtype, copy=False)
+        D = cam.band_directions(self.scene.camera, settings, rows).astype(self.dtype, copy=False)
         color = self.trace(D, counts)
-        rows = row_stop - row_start
-        samples = color.reshape(rows, settings.width, settings.samples, 3)
+        samples = color.reshape(len(rows), settings.width, settings.samples, 3)
         image = samples.sum(axis=2) / settings.samples if settings.samples > 1 else samples[:, :, 0]
         return np.ascontiguousarray(image), counts
 
