@@ -86,12 +86,12 @@ class Hierarchy:
             if rays is None:
                 current_t, current_object = best_t, best_object
             else:
-                current_t, current_object = best_t[rays], best_object[rays]
-            better = (t < current_t) | ((t == current_t) & (t < np.inf) & (index < current_object))
-            chosen = np.flatnonzero(better) if rays is None else rays[better]
-            best_t[chosen] = t[better]
-            best_object[chosen] = index
-            best_part[chosen] = part[better]
+                current_t, current_object = np.take(best_t, rays), np.take(best_object, rays)
+            better = np.flatnonzero((t < current_t) | ((t == current_t) & (t < np.inf) & (index < current_object)))
+            chosen = better if rays is None else np.take(rays, better)
+            np.put(best_t, chosen, np.take(t, better))
+            np.put(best_object, chosen, index)
+            np.put(best_part, chosen, np.take(part, better))
 
         for index in self.unbounded:
             test(index, None, O, D)
@@ -103,10 +103,16 @@ class Hierarchy:
             while stack:
                 node, rays, O_n, D_n, inverse_n = stack.pop()
                 near, far = slab(O_n, inverse_n, node.lower, node.upper)
-                keep = (near <= far) & (far > t_min) & (near <= best_t[rays])
-                if not keep.any():
+                keep = np.flatnonzero((near <= far) & (far > t_min) & (near <= np.take(best_t, rays)))
+                if keep.size == 0:
                     continue
-                rays, O_n, D_n, inverse_n = rays[keep], take(O_n, keep), take(D_n, keep), take(inverse_n, keep)
+                if keep.size < rays.size:
+                    rays, O_n, D_n, inverse_n = (
+                        np.take(rays, keep),
+                        take(O_n, keep),
+                        take(D_n, keep),
+                        take(inverse_n, keep),
+                    )
                 for index in node.objects:
                     test(index, rays, O_n, D_n)
                 stack.extend((child, rays, O_n, D_n, inverse_n) for child in node.children)
@@ -129,12 +135,13 @@ class Hierarchy:
         while stack:
             node, rays, O_n, L_n, inverse_n = stack.pop()
             near, far = slab(O_n, inverse_n, node.lower, node.upper)
-            keep = (near <= far) & (far > t_min) & (near < t_max) & ~blocked[rays]
-            if not keep.any():
+            keep = np.flatnonzero((near <= far) & (far > t_min) & (near < t_max) & ~np.take(blocked, rays))
+            if keep.size == 0:
                 continue
-            rays, O_n, L_n, inverse_n = rays[keep], take(O_n, keep), take(L_n, keep), take(inverse_n, keep)
+            if keep.size < rays.size:
+                rays, O_n, L_n, inverse_n = np.take(rays, keep), take(O_n, keep), take(L_n, keep), take(inverse_n, keep)
             for index in node.objects:
                 t, _ = self.kernels[index].hit(O_n, L_n, t_min, t_max)
-                blocked[rays[t < np.inf]] = True
+                np.put(blocked, np.take(rays, np.flatnonzero(t < np.inf)), True)
             stack.extend((child, rays, O_n, L_n, inverse_n) for child in node.children)
         return blocked

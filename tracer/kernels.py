@@ -24,9 +24,11 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def take(rays: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    """The kept columns of a (3, N) ray array; a (3, 1) array shared by every ray (the camera's origin, a
-    directional light's vector) stays as it is and keeps broadcasting."""
-    return rays if rays.shape[1] == 1 else rays[:, keep]
+    """The columns keep (an index array) of a (3, N) ray array; a (3, 1) array shared by every ray (the camera's
+    origin, a directional light's vector) stays as it is and keeps broadcasting.
+
+    Index arrays and np.take throughout: here NumPy gathers by a boolean mask about ten times slower."""
+    return rays if rays.shape[1] == 1 else np.take(rays, keep, axis=1)
 
 
 def ray_count(O: np.ndarray, D: np.ndarray) -> int:
@@ -64,8 +66,8 @@ def slab(O: np.ndarray, inverse: np.ndarray, lower: np.ndarray, upper: np.ndarra
 def _nearest(best_t: np.ndarray, best_part: np.ndarray, t: np.ndarray, ok: np.ndarray, part: int) -> None:
     """Keep t where it is valid and strictly nearer (the reference's `t < closest_t`, first candidate on ties)."""
     closer = ok & (t < best_t)
-    best_t[closer] = t[closer]
-    best_part[closer] = part
+    np.copyto(best_t, t, where=closer)
+    np.copyto(best_part, part, where=closer)
 
 
 class Kernel:
@@ -97,7 +99,9 @@ class Kernel:
         t = np.full(count, np.inf, dtype=self.dtype)
         part = np.zeros(count, dtype=np.int32)
         if rays.size:
-            t[rays], part[rays] = self._hit(take(O, rays), take(D, rays), t_min, t_max)
+            found_t, found_part = self._hit(take(O, rays), take(D, rays), t_min, t_max)
+            np.put(t, rays, found_t)
+            np.put(part, rays, found_part)
         return t, part
 
     def _hit(self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
@@ -292,7 +296,7 @@ class TrianglesKernel(Kernel):
         t = np.where(ok, t, np.inf)
         t = np.broadcast_to(t, (ray_count(O, D), t.shape[1]))
         nearest = np.argmin(t, axis=1)  # first triangle on ties, as the reference's loop
-        return t[np.arange(t.shape[0]), nearest], nearest
+        return t.min(axis=1), nearest
 
     def normal(self, P, part):
         return self.normals[:, part]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import mmap
 import multiprocessing
 import os
 import pickle
@@ -101,25 +102,36 @@ def _prepared_for(key: int, scene_bytes: bytes) -> PreparedScene:
     return prepared
 
 
-def _render_band(task: tuple[int, bytes, np.ndarray]) -> tuple[np.ndarray, np.ndarray, RayCounts]:
-    key, scene_bytes, rows = task
-    image, counts = _prepared_for(key, scene_bytes).render_rows(rows)
-    return rows, image, counts
+_shared_output: mmap.mmap | None = None  # set before the pool forks: workers write their bands straight into it
+
+
+def _render_band(
+    task: tuple[int, bytes, np.ndarray, tuple[int, int, int], str],
+) -> tuple[np.ndarray, np.ndarray | None, RayCounts]:
+    key, scene_bytes, rows, shape, dtype = task
+    band, counts = _prepared_for(key, scene_bytes).render_rows(rows)
+    if _shared_output is None:  # a spawned worker shares no memory: the band travels back pickled
+        return rows, band, counts
+    np.ndarray(shape, dtype=dtype, buffer=_shared_output)[rows] = band
+    return rows, None, counts
 
 
 # ---- parent side -------------------------------------------------------------------------------------------------
 
 
 class Renderer:
-    """Renders scenes with a pool of worker processes kept alive between frames (use as a context manager)."""
+    """Renders scenes with a pool of worker processes kept alive between frames (use as a context manager).
+
+    Where processes fork, the image lives in an anonymous shared mapping made before the pool starts, so bands
+    come back without being copied through pipes; a larger image than the mapping holds restarts the pool once.
+    """
 
     def __init__(self, workers: int = 0) -> None:
         self.workers = workers if workers > 0 else default_workers()
         self._pool = None
+        self._buffer: mmap.mmap | None = None
         self._key = 0
-        if self.workers > 1:
-            method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-            self._pool = multiprocessing.get_context(method).Pool(self.workers)
+        self._forking = "fork" in multiprocessing.get_all_start_methods()
 
     def __enter__(self) -> Renderer:
         return self
@@ -128,36 +140,64 @@ class Renderer:
         self.close()
 
     def close(self) -> None:
+        global _shared_output
         if self._pool is not None:
             self._pool.terminate()
             self._pool.join()
             self._pool = None
+        if self._buffer is not None:
+            if _shared_output is self._buffer:
+                _shared_output = None
+            self._buffer.close()
+            self._buffer = None
 
-    def _results(self, scene: sc.Scene) -> Iterator[tuple[np.ndarray, np.ndarray, RayCounts]]:
-        if self._pool is None:
+    def _start_pool(self, image_bytes: int) -> None:
+        global _shared_output
+        if self._pool is not None and (self._buffer is None or len(self._buffer) >= image_bytes):
+            return
+        self.close()
+        if self._forking:
+            self._buffer = mmap.mmap(-1, max(image_bytes, 1))
+            _shared_output = self._buffer
+            self._pool = multiprocessing.get_context("fork").Pool(self.workers)
+            _shared_output = None  # only the forked workers write through it
+        else:
+            self._pool = multiprocessing.get_context("spawn").Pool(self.workers)
+
+    def _results(
+        self, scene: sc.Scene, shape: tuple[int, int, int]
+    ) -> Iterator[tuple[np.ndarray, np.ndarray | None, RayCounts]]:
+        if self.workers <= 1:
             tune_allocator()
             prepared = PreparedScene(scene)
             for rows in bands(scene.render):
                 image, counts = prepared.render_rows(rows)
                 yield rows, image, counts
             return
+        dtype = np.dtype(scene.render.dtype)
+        self._start_pool(math.prod(shape) * dtype.itemsize)
         self._key += 1
         scene_bytes = pickle.dumps(scene)
-        tasks = [(self._key, scene_bytes, rows) for rows in bands(scene.render)]
+        tasks = [(self._key, scene_bytes, rows, shape, dtype.str) for rows in bands(scene.render)]
         yield from self._pool.imap_unordered(_render_band, tasks)
 
     def render(self, scene: sc.Scene, progress: Progress | None = None) -> RenderResult:
         """Trace the whole image; progress(bands_done, bands_total) is called as bands finish."""
         settings = scene.render
         started = time.perf_counter()
-        image = np.empty((settings.height, settings.width, 3), dtype=np.dtype(settings.dtype))
+        shape = (settings.height, settings.width, 3)
+        dtype = np.dtype(settings.dtype)
+        image = np.empty(shape, dtype=dtype)
         counts = RayCounts()
         total = len(bands(settings))
-        for done, (rows, band, band_counts) in enumerate(self._results(scene), start=1):
-            image[rows] = band
+        for done, (rows, band, band_counts) in enumerate(self._results(scene, shape), start=1):
+            if band is not None:
+                image[rows] = band
             counts.add(band_counts)
             if progress is not None:
                 progress(done, total)
+        if self._buffer is not None and self.workers > 1:
+            image = np.ndarray(shape, dtype=dtype, buffer=self._buffer).copy()
         return RenderResult(image, counts, time.perf_counter() - started)
 
 
