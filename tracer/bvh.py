@@ -23,36 +23,40 @@ class Node:
     children: list[Node]
 
 
-def _area(lower: np.ndarray, upper: np.ndarray) -> float:
+def _areas(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Surface areas of boxes (k, 3) -> (k,)."""
     d = np.maximum(upper - lower, 1e-12)
-    return float(2.0 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0]))
+    return 2.0 * (d[:, 0] * d[:, 1] + d[:, 1] * d[:, 2] + d[:, 2] * d[:, 0])
 
 
-def _build(
-    indices: list[int], boxes: dict[int, tuple[np.ndarray, np.ndarray]], costs: dict[int, float], dtype: np.dtype
-) -> Node:
-    """Split by the surface area heuristic: a ray that meets a box meets a child with probability area ratio, and
-    each object's test costs about costs[i] box tests."""
-    lower = np.min([boxes[i][0] for i in indices], axis=0)
-    upper = np.max([boxes[i][1] for i in indices], axis=0)
-    padded = padded_box(lower, upper, dtype)
-    area = _area(lower, upper)
-    best_cost, best_split = sum(costs[i] for i in indices), None
+def _build(indices: np.ndarray, lower: np.ndarray, upper: np.ndarray, costs: np.ndarray, dtype: np.dtype) -> Node:
+    """Split by the surface area heuristic, sweeping every axis: a ray that meets a box meets a child with
+    probability (child area / box area), and each object's test costs about costs[i] box tests.
+
+    indices (n,) name the objects; lower, upper (n, 3) are their boxes and costs (n,) their test costs."""
+    box_lower, box_upper = lower.min(axis=0), upper.max(axis=0)
+    padded = padded_box(box_lower, box_upper, dtype)
+    area = _areas(box_lower[None], box_upper[None])[0]
+    best_cost, best_split = float(costs.sum()), None
     for axis in range(3):
-        order = sorted(indices, key=lambda i: (boxes[i][0][axis] + boxes[i][1][axis], i))
-        for k in range(1, len(order)):
-            sides = (order[:k], order[k:])
-            cost = 2.0 + sum(
-                _area(np.min([boxes[i][0] for i in side], axis=0), np.max([boxes[i][1] for i in side], axis=0))
-                / area
-                * sum(costs[i] for i in side)
-                for side in sides
-            )
-            if cost < best_cost:
-                best_cost, best_split = cost, sides
+        order = np.lexsort((indices, lower[:, axis] + upper[:, axis]))
+        lo, hi, cost = lower[order], upper[order], costs[order]
+        # left side: the first k objects; right side: the rest, for k = 1 .. n - 1
+        left = _areas(np.minimum.accumulate(lo)[:-1], np.maximum.accumulate(hi)[:-1]) * np.cumsum(cost)[:-1]
+        right_lower = np.minimum.accumulate(lo[::-1])[::-1][1:]
+        right_upper = np.maximum.accumulate(hi[::-1])[::-1][1:]
+        right = _areas(right_lower, right_upper) * np.cumsum(cost[::-1])[::-1][1:]
+        split_costs = 2.0 + (left + right) / area
+        if split_costs.size and split_costs.min() < best_cost:
+            k = int(np.argmin(split_costs)) + 1
+            best_cost, best_split = float(split_costs.min()), (order[:k], order[k:])
     if best_split is None:
-        return Node(*padded, objects=sorted(indices), children=[])
-    return Node(*padded, objects=[], children=[_build(side, boxes, costs, dtype) for side in best_split])
+        return Node(*padded, objects=sorted(indices.tolist()), children=[])
+    return Node(
+        *padded,
+        objects=[],
+        children=[_build(indices[side], lower[side], upper[side], costs[side], dtype) for side in best_split],
+    )
 
 
 class Hierarchy:
@@ -69,8 +73,13 @@ class Hierarchy:
                 self.unbounded.append(index)
             else:
                 boxes[index] = box
-        costs = {index: kernels[index].cost for index in boxes}
-        self.root = _build(sorted(boxes), boxes, costs, dtype) if boxes else None
+        bounded = np.array(sorted(boxes), dtype=np.int64)
+        self.root = None
+        if bounded.size:
+            lower = np.array([boxes[i][0] for i in bounded.tolist()], dtype=np.float64)
+            upper = np.array([boxes[i][1] for i in bounded.tolist()], dtype=np.float64)
+            costs = np.array([kernels[i].cost for i in bounded.tolist()], dtype=np.float64)
+            self.root = _build(bounded, lower, upper, costs, dtype)
 
     def closest(self, O: np.ndarray, D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,).

@@ -82,7 +82,19 @@ class Kernel:
     frame: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None  # world->local, origin, lower, upper
 
     def set_frame(self, rotation: np.ndarray, origin: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
-        """rotation (3, 3) has the local axes as columns; lower, upper (3,) bound the object in that frame."""
+        """rotation (3, 3) has the local axes as columns; lower, upper (3,) bound the object in that frame.
+
+        No frame where the oriented box is about as large as the world box: the hierarchy's leaf already tests that.
+        """
+        corners = (
+            np.array(
+                [[x, y, z] for x in (lower[0], upper[0]) for y in (lower[1], upper[1]) for z in (lower[2], upper[2])]
+            )
+            @ rotation.T
+        )
+        world_volume = np.prod(np.maximum(corners.max(axis=0) - corners.min(axis=0), 1e-12))
+        if np.prod(np.maximum(upper - lower, 1e-12)) > 0.7 * world_volume:
+            return
         padded = padded_box(lower, upper, self.dtype, float(np.max(np.abs(origin))))
         self.frame = (rotation.T.astype(self.dtype), origin.astype(self.dtype).reshape(3, 1), *padded)
 
@@ -183,12 +195,14 @@ class PlaneKernel(Kernel):
     def _hit(self, O, D, t_min, t_max):
         t, ok = _plane_t(O, D, self.plane_normal, self.point)
         ok &= (t > t_min) & (t < t_max)
-        if self.half_size is not None:
-            offset = O + D * np.where(ok, t, 0.0) - self.point
-            ok &= (np.abs(dot(offset, self.u_axis)) <= self.half_size[0]) & (
-                np.abs(dot(offset, self.v_axis)) <= self.half_size[1]
-            )
         t = np.where(ok, t, np.inf).astype(self.dtype, copy=False)
+        if self.half_size is not None:
+            rays = np.flatnonzero(ok)
+            offset = take(O, rays) + take(D, rays) * np.take(t, rays) - self.point
+            outside = (np.abs(dot(offset, self.u_axis)) > self.half_size[0]) | (
+                np.abs(dot(offset, self.v_axis)) > self.half_size[1]
+            )
+            np.put(t, np.take(rays, np.flatnonzero(outside)), np.inf)
         return t, np.zeros(t.shape, dtype=np.int8)
 
     def normal(self, P, part):

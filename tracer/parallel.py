@@ -23,7 +23,7 @@ import numpy as np
 from . import scene as sc
 from .wavefront import PreparedScene, RayCounts
 
-RAYS_PER_BAND = 65536  # camera samples per band: bounds memory (tens of MB) and amortises NumPy's call cost
+RAYS_PER_BAND = 131072  # camera samples per band: bounds memory (tens of MB) and amortises NumPy's call cost
 BLOCK_ROWS = 16
 
 Progress = Callable[[int, int], None]
@@ -92,10 +92,11 @@ def tune_allocator() -> None:
 _worker_cache: dict[str, object] = {}
 
 
-def _prepared_for(key: int, scene_bytes: bytes) -> PreparedScene:
-    if _worker_cache.get("key") != key:
+def _prepared_for(scene_bytes: bytes) -> PreparedScene:
+    """The prepared scene, rebuilt only when the scene changed since the last band (a few ms per build)."""
+    if _worker_cache.get("scene") != scene_bytes:
         tune_allocator()
-        _worker_cache["key"] = key
+        _worker_cache["scene"] = scene_bytes
         _worker_cache["prepared"] = PreparedScene(pickle.loads(scene_bytes))
     prepared = _worker_cache["prepared"]
     assert isinstance(prepared, PreparedScene)
@@ -106,10 +107,10 @@ _shared_output: mmap.mmap | None = None  # set before the pool forks: workers wr
 
 
 def _render_band(
-    task: tuple[int, bytes, np.ndarray, tuple[int, int, int], str],
+    task: tuple[bytes, np.ndarray, tuple[int, int, int], str],
 ) -> tuple[np.ndarray, np.ndarray | None, RayCounts]:
-    key, scene_bytes, rows, shape, dtype = task
-    band, counts = _prepared_for(key, scene_bytes).render_rows(rows)
+    scene_bytes, rows, shape, dtype = task
+    band, counts = _prepared_for(scene_bytes).render_rows(rows)
     if _shared_output is None:  # a spawned worker shares no memory: the band travels back pickled
         return rows, band, counts
     np.ndarray(shape, dtype=dtype, buffer=_shared_output)[rows] = band
@@ -130,7 +131,7 @@ class Renderer:
         self.workers = workers if workers > 0 else default_workers()
         self._pool = None
         self._buffer: mmap.mmap | None = None
-        self._key = 0
+        self._prepared: tuple[bytes, PreparedScene] | None = None
         self._forking = "fork" in multiprocessing.get_all_start_methods()
 
     def __enter__(self) -> Renderer:
@@ -169,16 +170,18 @@ class Renderer:
     ) -> Iterator[tuple[np.ndarray, np.ndarray | None, RayCounts]]:
         if self.workers <= 1:
             tune_allocator()
-            prepared = PreparedScene(scene)
+            scene_bytes = pickle.dumps(scene)
+            if self._prepared is None or self._prepared[0] != scene_bytes:
+                self._prepared = (scene_bytes, PreparedScene(scene))
+            prepared = self._prepared[1]
             for rows in bands(scene.render):
                 image, counts = prepared.render_rows(rows)
                 yield rows, image, counts
             return
         dtype = np.dtype(scene.render.dtype)
         self._start_pool(math.prod(shape) * dtype.itemsize)
-        self._key += 1
         scene_bytes = pickle.dumps(scene)
-        tasks = [(self._key, scene_bytes, rows, shape, dtype.str) for rows in bands(scene.render)]
+        tasks = [(scene_bytes, rows, shape, dtype.str) for rows in bands(scene.render)]
         yield from self._pool.imap_unordered(_render_band, tasks)
 
     def render(self, scene: sc.Scene, progress: Progress | None = None) -> RenderResult:
