@@ -65,3 +65,11 @@ def test_float32_stays_close_to_reference() -> None:
     assert image.dtype == np.float32
     close = np.abs(image - expected).max(axis=2) < 1e-3
     assert close.mean() > 0.99  # a few pixels on silhouettes may flip in float32
+
+
+@pytest.mark.parametrize(("width", "height"), [(1, 1), (1, 5), (4, 1)])
+@pytest.mark.parametrize("seed", [3, 10, 21])
+def test_single_ray_bands_match_reference(seed: int, width: int, height: int) -> None:
+    # one-ray arrays look like the (3, 1) columns shared by all rays: they must still trace as single rays
+    scene = scene_from_dict(random_scene_document(seed, width=width, height=height))
+    np.testing.assert_allclose(render(scene, workers=1).image, np.asarray(render_reference(scene)), rtol=0, atol=1e-9)

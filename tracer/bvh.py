@@ -127,8 +127,10 @@ class Hierarchy:
                 stack.extend((child, rays, O_n, D_n, inverse_n) for child in node.children)
         return best_t, best_object, best_part
 
-    def occluded(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float) -> np.ndarray:
-        """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first."""
+    def occluded(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
+        """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first.
+
+        t_max is one number or one per ray (N,)."""
         count = ray_count(O, L)
         blocked = np.zeros(count, dtype=bool)
         for index in self.unbounded:
@@ -140,17 +142,20 @@ class Hierarchy:
         O_live, L_live = take(O, live), take(L, live)
         with np.errstate(divide="ignore"):
             inverse = 1.0 / L_live
-        stack = [(self.root, live, O_live, L_live, inverse)]
+        limits = np.take(t_max, live) if isinstance(t_max, np.ndarray) else t_max
+        stack = [(self.root, live, O_live, L_live, inverse, limits)]
         while stack:
-            node, rays, O_n, L_n, inverse_n = stack.pop()
+            node, rays, O_n, L_n, inverse_n, limit = stack.pop()
             near, far = slab(O_n, inverse_n, node.lower, node.upper)
-            keep = np.flatnonzero((near <= far) & (far > t_min) & (near < t_max) & ~np.take(blocked, rays))
+            keep = np.flatnonzero((near <= far) & (far > t_min) & (near < limit) & ~np.take(blocked, rays))
             if keep.size == 0:
                 continue
             if keep.size < rays.size:
                 rays, O_n, L_n, inverse_n = np.take(rays, keep), take(O_n, keep), take(L_n, keep), take(inverse_n, keep)
+                if isinstance(limit, np.ndarray):
+                    limit = np.take(limit, keep)
             for index in node.objects:
-                t, _ = self.kernels[index].hit(O_n, L_n, t_min, t_max)
+                t, _ = self.kernels[index].hit(O_n, L_n, t_min, limit)
                 np.put(blocked, np.take(rays, np.flatnonzero(t < np.inf)), True)
-            stack.extend((child, rays, O_n, L_n, inverse_n) for child in node.children)
+            stack.extend((child, rays, O_n, L_n, inverse_n, limit) for child in node.children)
         return blocked

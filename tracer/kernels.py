@@ -24,11 +24,15 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def take(rays: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    """The columns keep (an index array) of a (3, N) ray array; a (3, 1) array shared by every ray (the camera's
-    origin, a directional light's vector) stays as it is and keeps broadcasting.
+    """The columns keep (an index array) of a (3, N) ray array.
 
-    Index arrays and np.take throughout: here NumPy gathers by a boolean mask about ten times slower."""
-    return rays if rays.shape[1] == 1 else np.take(rays, keep, axis=1)
+    A (3, 1) array stands for a vector shared by every ray (the camera's origin, a directional light's vector) and
+    is returned as it is, to keep broadcasting; for a real single ray that is the same answer, and an empty keep
+    gives (3, 0) either way. Index arrays and np.take throughout: here NumPy gathers by a boolean mask about ten
+    times slower."""
+    if rays.shape[1] == 1 and keep.size:
+        return rays
+    return np.take(rays, keep, axis=1)
 
 
 def ray_count(O: np.ndarray, D: np.ndarray) -> int:
@@ -98,7 +102,10 @@ class Kernel:
         padded = padded_box(lower, upper, self.dtype, float(np.max(np.abs(origin))))
         self.frame = (rotation.T.astype(self.dtype), origin.astype(self.dtype).reshape(3, 1), *padded)
 
-    def hit(self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
+    def hit(
+        self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float | np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Rays (3, N) -> (t (N,), part (N,)); t_max is one number or one per ray."""
         if self.frame is None:
             return self._hit(O, D, t_min, t_max)
         to_local, origin, lower, upper = self.frame
@@ -111,7 +118,8 @@ class Kernel:
         t = np.full(count, np.inf, dtype=self.dtype)
         part = np.zeros(count, dtype=np.int32)
         if rays.size:
-            found_t, found_part = self._hit(take(O, rays), take(D, rays), t_min, t_max)
+            limit = np.take(t_max, rays) if isinstance(t_max, np.ndarray) else t_max
+            found_t, found_part = self._hit(take(O, rays), take(D, rays), t_min, limit)
             np.put(t, rays, found_t)
             np.put(part, rays, found_part)
         return t, part
@@ -298,6 +306,7 @@ class TrianglesKernel(Kernel):
     def _hit(self, O, D, t_min, t_max):
         Dc = D[:, :, None]
         T = O[:, :, None] - self.v0
+        limit = t_max[:, None] if isinstance(t_max, np.ndarray) else t_max
         P = cross(Dc, self.e2)
         Q = cross(T, self.e1)
         determinant = dot(P, self.e1)
@@ -306,7 +315,7 @@ class TrianglesKernel(Kernel):
             t = dot(Q, self.e2) / determinant
             u = dot(P, T) / determinant
             v = dot(Q, Dc) / determinant
-            ok = solvable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < t_max)
+            ok = solvable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < limit)
         t = np.where(ok, t, np.inf)
         t = np.broadcast_to(t, (ray_count(O, D), t.shape[1]))
         nearest = np.argmin(t, axis=1)  # first triangle on ties, as the reference's loop

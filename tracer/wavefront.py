@@ -98,16 +98,20 @@ class PreparedScene:
     def find_intensity(
         self, P: np.ndarray, N: np.ndarray, V: np.ndarray, specular: np.ndarray, counts: RayCounts
     ) -> np.ndarray:
-        """Listing 3.2 for every hit point at once: P, N, V (3, n), specular (n,) -> intensity (n,)."""
+        """Listing 3.2 for every hit point at once: P, N, V (3, n), specular (n,) -> intensity (n,).
+
+        The shadow rays of all lights go through the hierarchy in one batch; the terms are then added light by
+        light in the listing's order."""
         settings = self.scene.render
-        intensity = np.zeros(P.shape[1], dtype=self.dtype)
+        count = P.shape[1]
         length_n = np.sqrt(dot(N, N))
         length_v = np.sqrt(dot(V, V))
         shiny = specular > 0.0
         exponent = specular * settings.coef if settings.model == "blinn-phong" else specular
+        terms = []
         for light in self.lights:
             if light.kind == "ambient":
-                intensity = intensity + light.intensity
+                terms.append(None)
                 continue
             L = light.vector - P if light.kind == "point" else light.vector  # a directional L broadcasts
             NL = dot(N, L)
@@ -129,21 +133,47 @@ class PreparedScene:
             # a shadow ray only where this light could add something: the result is the listing's, with fewer rays
             diffuse_gate = NL > 0.0
             needed = np.flatnonzero(diffuse_gate | gate)
-            counts.shadow += needed.size
-            if needed.size == P.shape[1]:
-                lit = ~self.hierarchy.occluded(P, L, SHADOW_T_MIN, light.t_max)
-            else:
-                lit = np.zeros(P.shape[1], dtype=bool)
-                shadowed = self.hierarchy.occluded(take(P, needed), take(L, needed), SHADOW_T_MIN, light.t_max)
-                np.put(lit, needed, ~shadowed)
+            terms.append((L, NL, length_l, diffuse_gate, gate, cosine, needed))
+        lit = self._lit([term for term in terms if term is not None], P, counts)
+        intensity = np.zeros(count, dtype=self.dtype)
+        shadow_rays = iter(lit)
+        for light, term in zip(self.lights, terms, strict=True):
+            if term is None:
+                intensity = intensity + light.intensity
+                continue
+            L, NL, length_l, diffuse_gate, gate, cosine, needed = term
+            light_lit = next(shadow_rays)
             with np.errstate(divide="ignore", invalid="ignore"):
                 diffuse = light.intensity * NL / (length_n * length_l)
-            intensity = np.where(lit & diffuse_gate, intensity + diffuse, intensity)
-            gate &= lit
+            intensity = np.where(light_lit & diffuse_gate, intensity + diffuse, intensity)
+            gate &= light_lit
             with np.errstate(divide="ignore", invalid="ignore"):
                 highlight = light.intensity * np.power(np.where(gate, cosine, 1.0), exponent)
             intensity = np.where(gate, intensity + highlight, intensity)
         return intensity
+
+    def _lit(self, terms: list[tuple], P: np.ndarray, counts: RayCounts) -> list[np.ndarray]:
+        """One any-hit query for the shadow rays of every light: which points (n,) each light reaches."""
+        lights = [light for light in self.lights if light.kind != "ambient"]
+        origins, vectors, limits = [], [], []
+        for light, (L, *_, needed) in zip(lights, terms, strict=True):
+            origins.append(take(P, needed))
+            vectors.append(np.broadcast_to(L, (3, P.shape[1])) if L.shape[1] == 1 else L)
+            vectors[-1] = take(vectors[-1], needed)
+            limits.append(np.full(needed.size, light.t_max, dtype=self.dtype))
+            counts.shadow += needed.size
+        if not origins:
+            return []
+        blocked = self.hierarchy.occluded(
+            np.concatenate(origins, axis=1), np.concatenate(vectors, axis=1), SHADOW_T_MIN, np.concatenate(limits)
+        )
+        lit, start = [], 0
+        for *_, needed in terms:
+            reached = np.zeros(P.shape[1], dtype=bool)
+            np.put(reached, needed, ~blocked[start : start + needed.size])
+            lit.append(reached)
+            start += needed.size
+        return lit
 
     def background(self, D: np.ndarray) -> np.ndarray:
         """Colors (3, n) for rays (3, n) that hit nothing."""
