@@ -62,8 +62,12 @@ def slab(O: np.ndarray, inverse: np.ndarray, lower: np.ndarray, upper: np.ndarra
     with np.errstate(invalid="ignore"):
         a = (lower - O) * inverse
         b = (upper - O) * inverse
-    near = np.fmax(np.fmax(np.fmin(a[0], b[0]), np.fmin(a[1], b[1])), np.fmin(a[2], b[2]))
-    far = np.fmin(np.fmin(np.fmax(a[0], b[0]), np.fmax(a[1], b[1])), np.fmax(a[2], b[2]))
+    low = np.fmin(a, b)
+    high = np.fmax(a, b, out=a)
+    near = np.fmax(low[0], low[1])
+    np.fmax(near, low[2], out=near)
+    far = np.fmin(high[0], high[1])
+    np.fmin(far, high[2], out=far)
     return near, far
 
 
