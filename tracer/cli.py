@@ -8,6 +8,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from . import scene as sc
+from .animate import DEFAULT_TOLERANCE, animate, write_gif
 from .images import SUFFIXES, write_image
 from .loader import SceneError, check_samples, default_scene, load_scene
 from .parallel import Renderer
@@ -59,13 +60,14 @@ def build_parser() -> argparse.ArgumentParser:
         description="The documented Whitted-style Phong / Blinn-Phong ray tracer, vectorized with NumPy.",
     )
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    settings = _settings_parser()
     render = commands.add_parser(
         "render",
+        parents=[settings],
         help="render a scene file (or the built-in weathervane) to an image",
         description="Render SCENE (a JSON scene file; the built-in weathervane when omitted) to OUT. Flags override "
         "the scene's render settings. Exit codes: 0 done, 2 bad input (scene or flags), 1 failure, 130 interrupted.",
     )
-    render.add_argument("scene", nargs="?", type=Path, help="JSON scene file (docs/scene-format.md)")
     render.add_argument(
         "-o",
         "--output",
@@ -75,30 +77,77 @@ def build_parser() -> argparse.ArgumentParser:
         help=".png: 8-bit, clamped to [0, 1] as the seed's canvas (linear values unless --srgb); "
         ".npy: float32 linear H x W x 3",
     )
-    render.add_argument("--width", type=_integer(1, 16384), help="image width in pixels")
-    render.add_argument("--height", type=_integer(1, 16384), help="image height in pixels")
-    render.add_argument("--depth", type=_integer(0, 64), help="recursion depth: reflections per camera ray")
-    render.add_argument("--model", choices=sc.MODELS, help="specular model of FindIntensity")
-    render.add_argument(
+    animate = commands.add_parser(
+        "animate",
+        parents=[settings],
+        help="render the vane turning in the wind as a numbered PNG sequence (and a GIF)",
+        description="Render frames A-B of SCENE's vane turning by its motion (docs/motion.md) into DIR as "
+        "frame_0001.png, ... Frame 1 is time 0. Frames already in DIR are kept unless --overwrite, so a stopped run "
+        "resumes. Exit codes: 0 done, 2 bad input, 1 failure, 130 interrupted (finished frames stay).",
+    )
+    animate.add_argument("-o", "--output", required=True, type=_folder, metavar="DIR", help="folder for the frames")
+    animate.add_argument(
+        "--frames", required=True, type=_frames, metavar="A-B", help="first and last frame, e.g. 1-120"
+    )
+    animate.add_argument("--fps", type=_positive_number, help="frames per second (default: the scene's motion.fps)")
+    animate.add_argument("--overwrite", action="store_true", help="render frames again even where files exist")
+    animate.add_argument("--gif", type=_gif, metavar="OUT.gif", help="also assemble the frames into a looping GIF")
+    return parser
+
+
+def _settings_parser() -> argparse.ArgumentParser:
+    """The render-setting flags shared by every command."""
+    settings = argparse.ArgumentParser(add_help=False)
+    settings.add_argument("scene", nargs="?", type=Path, help="JSON scene file (docs/scene-format.md)")
+    settings.add_argument("--width", type=_integer(1, 16384), help="image width in pixels")
+    settings.add_argument("--height", type=_integer(1, 16384), help="image height in pixels")
+    settings.add_argument("--depth", type=_integer(0, 64), help="recursion depth: reflections per camera ray")
+    settings.add_argument("--model", choices=sc.MODELS, help="specular model of FindIntensity")
+    settings.add_argument(
         "--coef",
         type=_positive_number,
         help="Blinn-Phong exponent factor: the exponent is specular * coef (2-4 is typical)",
     )
-    render.add_argument(
+    settings.add_argument(
         "--samples",
         type=_integer(1, 1024, check_samples),
         help="samples per pixel, a perfect square: stratified n x n grid, box filter",
     )
-    render.add_argument("--workers", type=_integer(0, 256), help="worker processes over bands of rows; 0: all cores")
-    render.add_argument("--dtype", choices=sc.DTYPES, help="floating-point precision of the tracing")
-    render.add_argument(
+    settings.add_argument("--workers", type=_integer(0, 256), help="worker processes over bands of rows; 0: all cores")
+    settings.add_argument("--dtype", choices=sc.DTYPES, help="floating-point precision of the tracing")
+    settings.add_argument(
         "--background",
         choices=sc.BACKGROUNDS,
         help="solid color, sky gradient, the seed's single-color mode (documented), or none (black)",
     )
-    render.add_argument("--srgb", action="store_true", help="encode the PNG as sRGB instead of linear values")
-    render.add_argument("--quiet", action="store_true", help="no progress bar and no summary line")
-    return parser
+    settings.add_argument("--srgb", action="store_true", help="encode PNGs as sRGB instead of linear values")
+    settings.add_argument("--quiet", action="store_true", help="no progress bar and no summary line")
+    return settings
+
+
+def _folder(text: str) -> Path:
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"must be a folder, got the file {text!r}")
+    return path
+
+
+def _gif(text: str) -> Path:
+    path = Path(text)
+    if path.suffix.lower() != ".gif":
+        raise argparse.ArgumentTypeError(f"must end in .gif, got {text!r}")
+    return path
+
+
+def _frames(text: str) -> tuple[int, int]:
+    first, dash, last = text.partition("-")
+    try:
+        start, stop = int(first), int(last if dash else first)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be A-B with whole frame numbers, e.g. 1-120, got {text!r}") from None
+    if not 1 <= start <= stop <= 100000:
+        raise argparse.ArgumentTypeError(f"must be A-B with 1 <= A <= B <= 100000, got {text!r}")
+    return start, stop
 
 
 def _apply_flags(scene: sc.Scene, args: argparse.Namespace) -> sc.Scene:
@@ -123,14 +172,21 @@ def _summary(output: Path, scene: sc.Scene, workers: int, result) -> str:
     )
 
 
-def run_render(args: argparse.Namespace) -> int:
+def _load(args: argparse.Namespace) -> sc.Scene | None:
+    """The scene with the flags applied, or None after printing every problem."""
     try:
         scene = default_scene() if args.scene is None else load_scene(args.scene)
     except SceneError as error:
         for problem in error.problems:
             print(f"error: {error.source}: {problem}", file=sys.stderr)
+        return None
+    return _apply_flags(scene, args)
+
+
+def run_render(args: argparse.Namespace) -> int:
+    scene = _load(args)
+    if scene is None:
         return EXIT_BAD_INPUT
-    scene = _apply_flags(scene, args)
     progress = ProgressBar("render", enabled=None if not args.quiet else False)
     with Renderer(scene.render.workers) as renderer:
         result = renderer.render(scene, progress)
@@ -146,10 +202,47 @@ def run_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_animate(args: argparse.Namespace) -> int:
+    scene = _load(args)
+    if scene is None:
+        return EXIT_BAD_INPUT
+    if scene.vane is None:
+        print(
+            f"error: {args.scene or 'default scene'}: vane: is required to animate (name the turning parts)",
+            file=sys.stderr,
+        )
+        return EXIT_BAD_INPUT
+    first, last = args.frames
+    fps = args.fps or (scene.motion.fps if scene.motion else 24.0)
+    progress = ProgressBar("frames", enabled=None if not args.quiet else False)
+    try:
+        result = animate(
+            scene, args.output, first, last, fps=fps, overwrite=args.overwrite, srgb=args.srgb, progress=progress
+        )
+        progress.close()
+        if args.gif is not None:
+            write_gif(args.output, first, last, fps, args.gif)
+    except OSError as error:
+        progress.close()
+        print(f"error: cannot write into {args.output}: {error.strerror or error}", file=sys.stderr)
+        return EXIT_FAILED
+    if not args.quiet:
+        rendered = len(result.rendered)
+        per_frame = result.seconds / rendered * 1000 if rendered else 0.0
+        mrays = result.rays.total / result.seconds / 1e6 if result.seconds > 0 else 0.0
+        print(
+            f"{args.output}: frames {first}-{last} at {fps:g} fps: {rendered} rendered, {len(result.skipped)} "
+            f"already there; {result.seconds:.2f} s, {per_frame:.1f} ms per rendered frame, {mrays:.2f} Mrays/s; "
+            f"the motion needs {result.keys} keyframes of {result.frames} frames at {DEFAULT_TOLERANCE} degrees"
+            + (f"; preview {args.gif}" if args.gif else "")
+        )
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        return run_render(args)
+        return run_animate(args) if args.command == "animate" else run_render(args)
     except KeyboardInterrupt:
         print("interrupted: no image written", file=sys.stderr)
         return EXIT_INTERRUPTED

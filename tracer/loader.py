@@ -8,7 +8,9 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from . import motion as mo
 from . import scene as sc
+from . import wind as wi
 
 DEFAULT_SCENE_RESOURCE = "default_scene.json"
 
@@ -389,6 +391,99 @@ def _vane(reader: _Reader | None, object_names: set[str]) -> sc.Vane | None:
     return vane
 
 
+def _wind(reader: _Reader | None) -> wi.Wind:
+    if reader is None:
+        return wi.Wind()
+    keys: list[wi.WindKey] = []
+    raw_keys = reader.raw("keys", None)
+    constant = "direction" in reader.data or "speed" in reader.data
+    if raw_keys is not None and constant:
+        reader.fail("keys", "give either keys or a constant direction and speed, not both")
+    elif raw_keys is not None:
+        if not isinstance(raw_keys, list) or not raw_keys:
+            reader.fail("keys", f"must be a non-empty list of {{time, direction, speed}}, got {_show_shape(raw_keys)}")
+        else:
+            for i, body in enumerate(raw_keys):
+                key_reader = _Reader(body, reader.at(f"keys[{i}]"), reader.problems)
+                key = wi.WindKey(
+                    time=key_reader.number("time", low=0.0),
+                    direction=key_reader.number("direction", low=0.0, high=360.0),
+                    speed=key_reader.number("speed", low=0.0, high=60.0),
+                )
+                key_reader.finish()
+                if keys and key.time <= keys[-1].time and "time" in key_reader.data:
+                    key_reader.fail(
+                        "time", f"must be after the previous key's time ({_show(keys[-1].time)}), got {_show(key.time)}"
+                    )
+                keys.append(key)
+    else:
+        base = wi.Wind().keys[0]
+        keys.append(
+            wi.WindKey(
+                0.0,
+                reader.number("direction", base.direction, low=0.0, high=360.0),
+                reader.number("speed", base.speed, low=0.0, high=60.0),
+            )
+        )
+    gusts = None
+    gust_reader = reader.reader("gusts")
+    if gust_reader is not None:
+        gusts = wi.Gusts(
+            intensity=gust_reader.number("intensity", 0.2, low=0.0, high=1.0),
+            time_scale=gust_reader.number("time_scale", 2.0, low=0.0, low_open=True),
+            seed=gust_reader.number("seed", 0, low=0, high=2**32 - 1, integer=True),
+        )
+        gust_reader.finish()
+    start = reader.number("start", 0.0, low=0.0)
+    stop = reader.number("stop", None, low=0.0)
+    if stop is not None and isinstance(start, float) and isinstance(stop, float) and stop <= start:
+        reader.fail("stop", f"must be after start ({_show(start)}), got {_show(stop)}")
+    wind = wi.Wind(keys=tuple(keys) or wi.Wind().keys, gusts=gusts, start=start, stop=stop)
+    reader.finish()
+    return wind
+
+
+def _spin(reader: _Reader | None) -> mo.Spin:
+    if reader is None:
+        return mo.Spin()
+    base = mo.Spin()
+    start = reader.number("start", base.start, low=0.0)
+    stop = reader.number("stop", None, low=0.0)
+    if stop is not None and isinstance(start, float) and isinstance(stop, float) and stop < start:
+        reader.fail("stop", f"must not be before start ({_show(start)}), got {_show(stop)}")
+    spin = mo.Spin(
+        direction=reader.choice("direction", ("clockwise", "counterclockwise"), base.direction),
+        speed=reader.number("speed", base.speed, low=0.0, high=3600.0),
+        smoothness=reader.number("smoothness", base.smoothness, low=0.0),
+        start=start,
+        stop=stop,
+    )
+    reader.finish()
+    return spin
+
+
+def _motion(reader: _Reader | None, wind_reader: _Reader | None) -> mo.Motion | None:
+    if reader is None and wind_reader is None:
+        return None
+    wind = _wind(wind_reader)
+    if reader is None:
+        return mo.Motion(wind=wind)
+    base = mo.Motion()
+    motion = mo.Motion(
+        mode=reader.choice("mode", ("wind", "spin"), base.mode),
+        damping=reader.number("damping", base.damping, low=0.0, low_open=True, high=5.0),
+        wavelength=reader.number("wavelength", base.wavelength, low=0.0, low_open=True),
+        threshold=reader.number("threshold", base.threshold, low=0.0),
+        friction_time=reader.number("friction_time", base.friction_time, low=0.0, low_open=True),
+        initial_heading=reader.number("initial_heading", None),
+        fps=reader.number("fps", base.fps, low=0.0, low_open=True, high=1000.0),
+        wind=wind,
+        spin=_spin(reader.reader("spin")),
+    )
+    reader.finish()
+    return motion
+
+
 # ---- entry points ------------------------------------------------------------------------------------------------
 
 
@@ -439,6 +534,7 @@ def scene_from_dict(data: Any, source: str = "scene") -> sc.Scene:
     background = _background(top.reader("background"))
     render = _render(top.reader("render"))
     vane = _vane(top.reader("vane"), set(names))
+    motion = _motion(top.reader("motion"), top.reader("wind"))
     top.finish()
     if problems:
         raise SceneError(problems, source)
@@ -450,6 +546,7 @@ def scene_from_dict(data: Any, source: str = "scene") -> sc.Scene:
         background=background,
         render=render,
         vane=vane,
+        motion=motion,
     )
 
 

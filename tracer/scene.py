@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
+from .motion import Motion
+
 Vec3 = tuple[float, float, float]
 Color = tuple[float, float, float]
 
@@ -165,6 +167,7 @@ class Scene:
     background: Background = field(default_factory=Background)
     render: RenderSettings = field(default_factory=RenderSettings)
     vane: Vane | None = None
+    motion: Motion | None = None  # how the vane turns over time (wind or spin); None: it stands still
 
     def with_render(self, **changes: object) -> Scene:
         """The same scene with some render settings changed (CLI flags, benchmarks)."""
