@@ -115,6 +115,24 @@ MALFORMED = [
     ("vane/axis", [0, 0, 0], "vane.axis: must not be the zero vector, got [0, 0, 0]"),
     ("vane/heading", None, "vane.heading: must be a number, got null"),
     ("extra", 1, "extra: is not a known field"),
+    ("wind/keys/1/time", 0, "wind.keys[1].time: must be after the previous key's time (0), got 0"),
+    ("wind/keys/0/speed", 70, "wind.keys[0].speed: must be <= 60, got 70"),
+    ("wind/keys/0/direction", -5, "wind.keys[0].direction: must be >= 0, got -5"),
+    ("wind/keys", [], "wind.keys: must be a non-empty list of {time, direction, speed}, got a list of 0"),
+    ("wind/direction", 90, "wind.keys: give either keys or a constant direction and speed, not both"),
+    ("wind/gusts/intensity", 2, "wind.gusts.intensity: must be <= 1, got 2"),
+    ("wind/gusts/time_scale", 0, "wind.gusts.time_scale: must be > 0, got 0"),
+    ("wind/stop", 0.1, "wind.stop: must be after start (0.25), got 0.1"),
+    ("motion/damping", 0, "motion.damping: must be > 0, got 0"),
+    ("motion/wavelength", -7, "motion.wavelength: must be > 0, got -7"),
+    ("motion/mode", "gust", 'motion.mode: must be one of "wind", "spin", got "gust"'),
+    ("motion/fps", 0, "motion.fps: must be > 0, got 0"),
+    (
+        "motion/spin/direction",
+        "left",
+        'motion.spin.direction: must be one of "clockwise", "counterclockwise", got "left"',
+    ),
+    ("motion/spin/smoothness", -1, "motion.spin.smoothness: must be >= 0, got -1"),
 ]
 
 

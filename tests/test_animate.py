@@ -1,0 +1,67 @@
+"""`python -m tracer animate`: frames turned by the motion code, resumable, with a GIF preview."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from tracer.animate import headings
+from tracer.images import to_8bit
+from tracer.loader import default_scene, default_scene_dict
+from tracer.parallel import render
+
+ROOT = Path(__file__).resolve().parents[1]
+SMALL = ["--width", "32", "--height", "24", "--quiet"]
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "tracer", "animate", *args], capture_output=True, text=True, cwd=ROOT, timeout=300
+    )
+
+
+def test_frames_show_the_vane_at_the_simulated_headings(tmp_path: Path) -> None:
+    out = tmp_path / "frames"
+    gif = tmp_path / "preview.gif"
+    # frames 20-25: the wind has started and the vane swings (still frames would merge in the GIF)
+    result = run("-o", str(out), "--frames", "20-25", "--gif", str(gif), *SMALL[:-1])
+    assert result.returncode == 0, result.stderr
+    assert sorted(p.name for p in out.iterdir()) == [f"frame_{k:04d}.png" for k in range(20, 26)]
+    assert "6 rendered, 0 already there" in result.stdout and "keyframes" in result.stdout
+    with Image.open(gif) as preview:
+        assert preview.n_frames == 6
+    scene = default_scene().with_render(width=32, height=24)
+    angle = headings(scene, 25)[22]  # frame 23
+    expected = to_8bit(render(scene.with_heading(float(angle)), workers=1).image)
+    assert np.array_equal(np.asarray(Image.open(out / "frame_0023.png")), expected)
+
+
+def test_resumes_and_overwrites_on_request(tmp_path: Path) -> None:
+    out = tmp_path / "frames"
+    assert run("-o", str(out), "--frames", "2-4", *SMALL).returncode == 0
+    (out / "frame_0003.png").unlink()
+    (out / "frame_0004.png").write_bytes(b"kept")
+    result = run("-o", str(out), "--frames", "2-4", "--width", "32", "--height", "24")
+    assert "1 rendered, 2 already there" in result.stdout
+    assert (out / "frame_0004.png").read_bytes() == b"kept" and (out / "frame_0003.png").exists()
+    assert run("-o", str(out), "--frames", "2-4", "--overwrite", *SMALL).returncode == 0
+    assert (out / "frame_0004.png").read_bytes() != b"kept"
+
+
+def test_bad_frames_and_scenes_without_a_vane(tmp_path: Path) -> None:
+    result = run("-o", str(tmp_path / "x"), "--frames", "5-2")
+    assert result.returncode == 2 and "argument --frames: must be A-B with 1 <= A <= B" in result.stderr
+    result = run("-o", str(tmp_path / "x"), "--frames", "a-b")
+    assert result.returncode == 2 and "whole frame numbers" in result.stderr
+    document = default_scene_dict()
+    del document["vane"]
+    scene = tmp_path / "still.json"
+    scene.write_text(json.dumps(document))
+    result = run(str(scene), "-o", str(tmp_path / "x"), "--frames", "1-2")
+    assert result.returncode == 2 and "vane: is required to animate" in result.stderr
+    assert "Traceback" not in result.stderr and not (tmp_path / "x").exists()
