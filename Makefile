@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-slow lint bench clean
+.PHONY: demo test test-slow lint bench docs clean
 
 $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found; install Python 3.11" >&2; exit 1; }
@@ -30,6 +30,15 @@ test-slow: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_tracer.py
+
+REPORT_STAMP := $(VENV)/.installed-report
+
+$(REPORT_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[dev,report]'
+	@touch $@
+
+docs: $(REPORT_STAMP)
+	$(BIN)/python scripts/plot_step_response.py
 
 clean:
 	rm -rf $(VENV) out dist
