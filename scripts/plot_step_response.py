@@ -15,14 +15,14 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tracer.images import atomic_path  # noqa: E402
-from tracer.motion import Motion, frame_times, heading_into_wind, simulate  # noqa: E402
-from tracer.wind import Wind, WindKey  # noqa: E402
+from tracer.images import atomic_path
+from tracer.motion import Motion, frame_times, heading_into_wind, simulate
+from tracer.wind import Wind, WindKey
 
 WAVELENGTH = 7.0
 STEP_FROM = 30.0  # the wind comes from 30 degrees: the vane at heading 0 is pulled to 60
