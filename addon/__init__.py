@@ -1,0 +1,28 @@
+"""Weathervane for Blender: builds the vane, bakes its wind-driven motion, maps materials, lights and camera.
+
+Only registration lives here; each module registers its own classes, and unregistration runs in reverse.
+"""
+
+bl_info = {
+    "name": "Weathervane",
+    "author": "Weathervane developers",
+    "version": (0, 1, 0),
+    "blender": (3, 4, 0),
+    "location": "View3D > Sidebar > Weathervane",
+    "description": "A wind-driven weathervane and the documented Whitted tracer's scene settings",
+    "category": "Add Mesh",
+}
+
+from . import operators, panels, properties  # noqa: E402
+
+MODULES = (properties, operators, panels)
+
+
+def register() -> None:
+    for module in MODULES:
+        module.register()
+
+
+def unregister() -> None:
+    for module in reversed(MODULES):
+        module.unregister()

@@ -1,0 +1,98 @@
+"""The panel's wind and vane settings (keyframed or not) -> the motion code -> the fewest keys on the vane.
+
+The wind properties are sampled at every frame from their F-curves (so an artist may key them on the timeline),
+turned into a tracer Motion, simulated by tracer.motion exactly as the tracer's own animations are, reduced by
+tracer.keyframes to the fewest LINEAR keys within the tolerance, and written on the turning empty's Z rotation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import bpy
+import numpy as np
+
+from . import build, compat
+from ._tracer import module
+
+
+def _sampled(blender_scene, name: str, frames: np.ndarray) -> np.ndarray:
+    """A settings property at every frame: its F-curve where keyed, else its value."""
+    fcurve = compat.find_fcurve(blender_scene, f"weathervane.{name}", 0)
+    if fcurve is None:
+        return np.full(frames.size, getattr(blender_scene.weathervane, name), dtype=np.float64)
+    return np.array([fcurve.evaluate(float(frame)) for frame in frames])
+
+
+def motion_for(blender_scene, last_frame: int):
+    """The tracer Motion that the settings describe, frame 1 at time 0, over frames 1..last_frame."""
+    wind_module, motion_module = module("wind"), module("motion")
+    settings = blender_scene.weathervane
+    fps = blender_scene.render.fps / blender_scene.render.fps_base
+    frames = np.arange(1, last_frame + 1, dtype=np.float64)
+    directions = np.degrees(_sampled(blender_scene, "wind_direction", frames))
+    speeds = np.clip(_sampled(blender_scene, "wind_speed", frames), 0.0, 60.0)
+    keys = tuple(
+        wind_module.WindKey(float((frame - 1) / fps), float(direction % 360.0), float(speed))
+        for frame, direction, speed in zip(frames, directions, speeds, strict=True)
+    )
+    gusts = None
+    if settings.gust_intensity > 0.0:
+        gusts = wind_module.Gusts(settings.gust_intensity, settings.gust_time_scale, settings.gust_seed)
+    wind = wind_module.Wind(
+        keys=keys,
+        gusts=gusts,
+        start=max(0.0, (settings.start_frame - 1) / fps),
+        stop=(settings.stop_frame - 1) / fps if settings.use_stop else None,
+    )
+    spin = motion_module.Spin(
+        direction=settings.spin_direction,
+        speed=settings.spin_speed,
+        smoothness=settings.spin_smoothness,
+        start=max(0.0, (settings.start_frame - 1) / fps),
+        stop=(settings.stop_frame - 1) / fps if settings.use_stop else None,
+    )
+    return motion_module.Motion(
+        mode=settings.mode.lower(),
+        damping=settings.damping,
+        wavelength=settings.wavelength,
+        threshold=settings.threshold,
+        friction_time=settings.friction_time,
+        fps=fps,
+        wind=wind,
+        spin=spin,
+    )
+
+
+def headings(blender_scene, last_frame: int, initial_heading: float) -> np.ndarray:
+    """Degrees (last_frame,) at frames 1..last_frame."""
+    return module("motion").simulate(motion_for(blender_scene, last_frame), last_frame, initial_heading)
+
+
+def bake(context, progress=None) -> tuple[int, int]:
+    """Write the vane's motion over the scene's frame range as keys; returns (keys written, frames)."""
+    blender_scene = context.scene
+    turn = bpy.data.objects.get(build.TURN)
+    if turn is None:
+        raise LookupError("build the weathervane first: there is no turning part to animate")
+    first, last = blender_scene.frame_start, blender_scene.frame_end
+    if last < first:
+        raise ValueError(f"the frame range is empty: end {last} is before start {first}")
+    if progress:
+        progress(0.1)
+    initial = turn.get("weathervane_initial_heading")
+    if initial is None:
+        initial = math.degrees(turn.rotation_euler[2])
+        turn["weathervane_initial_heading"] = initial
+    angles = headings(blender_scene, last, float(initial))
+    if progress:
+        progress(0.7)
+    span = angles[max(first, 1) - 1 : last]
+    frames = np.arange(max(first, 1), last + 1)
+    keys = module("keyframes").reduce_keys(span, blender_scene.weathervane.tolerance)
+    compat.replace_fcurve(
+        turn, "rotation_euler", 2, [float(frames[k]) for k in keys], [math.radians(float(span[k])) for k in keys]
+    )
+    if progress:
+        progress(1.0)
+    return int(keys.size), int(span.size)

@@ -1,0 +1,270 @@
+"""A tracer scene -> Blender objects inside the add-on's own collection; nothing outside it is touched.
+
+Analytic primitives become meshes with the fewest segments that keep the silhouette within half a pixel at the
+scene's render resolution and camera distance: an n-gon of radius r misses the circle by r (1 - cos(pi / n)),
+which the camera shows as f_px r (1 - cos(pi / n)) / d pixels at distance d. Boxes and pyramids use exactly the
+tracer's triangles. The vane's parts hang under a pivot (aligned with the vane's axis) and a turning empty whose
+local Z rotation is the heading.
+"""
+
+from __future__ import annotations
+
+import math
+
+import bmesh
+import bpy
+from mathutils import Matrix, Vector
+
+from . import camera as camera_module
+from . import lights, materials
+from ._tracer import module
+
+COLLECTION = "Weathervane"
+PIVOT = "WV Pivot"
+TURN = "WV Turn"
+MIN_SEGMENTS, MAX_SEGMENTS = 8, 256
+INFINITE_PLANE_SIZE = 2000.0  # metres: a plane without size reaches the horizon in any reasonable view
+
+
+def segments_for(radius: float, distance: float, focal_pixels: float, max_error_pixels: float = 0.5) -> int:
+    """The fewest segments of a circle of radius at distance whose silhouette error stays under max_error_pixels."""
+    if radius <= 0.0 or focal_pixels <= 0.0:
+        return MIN_SEGMENTS
+    allowed = max_error_pixels * max(distance, radius * 1e-3) / (focal_pixels * radius)
+    if allowed >= 1.0:
+        return MIN_SEGMENTS
+    needed = math.ceil(math.pi / math.acos(1.0 - allowed))
+    return int(min(MAX_SEGMENTS, max(MIN_SEGMENTS, needed + needed % 2)))
+
+
+def focal_pixels(scene) -> float:
+    """The camera's focal length in pixels of the scene's render width (tracer's sensor fit)."""
+    width, height = scene.render.width, scene.render.height
+    sensor_x, _ = module("camera").sensor_size(scene.camera, width, height)
+    return scene.camera.lens / sensor_x * width
+
+
+def _distance(scene, centre) -> float:
+    return (Vector(centre) - Vector(scene.camera.location)).length
+
+
+def _mesh_from(name: str, vertices, faces):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([tuple(v) for v in vertices], [], [tuple(f) for f in faces])
+    mesh.validate()
+    mesh.update()
+    return mesh
+
+
+def _bmesh_to_mesh(name: str, bm, smooth_faces) -> bpy.types.Mesh:
+    mesh = bpy.data.meshes.new(name)
+    for face in bm.faces:
+        face.smooth = smooth_faces(face)
+    bm.to_mesh(mesh)
+    bm.free()
+    return mesh
+
+
+def sphere_mesh(name: str, radius: float, segments: int):
+    bm = bmesh.new()
+    bmesh.ops.create_uvsphere(bm, u_segments=segments, v_segments=max(4, segments // 2), radius=radius)
+    return _bmesh_to_mesh(name, bm, lambda face: True)
+
+
+def cylinder_mesh(name: str, radius: float, height: float, segments: int):
+    bm = bmesh.new()
+    bmesh.ops.create_cone(
+        bm, cap_ends=True, cap_tris=False, segments=segments, radius1=radius, radius2=radius, depth=height
+    )
+    # separate the caps from the side so that smooth sides do not bend the flat caps' shading
+    rims = [
+        edge
+        for edge in bm.edges
+        if len(edge.link_faces) == 2 and any(len(face.verts) == segments for face in edge.link_faces)
+    ]
+    bmesh.ops.split_edges(bm, edges=rims)
+    return _bmesh_to_mesh(name, bm, lambda face: len(face.verts) == 4)
+
+
+def primitive_mesh(scene, obj, world):
+    """The mesh of one tracer object, in its local frame."""
+    transforms = module("transforms")
+    sc = module("scene")
+    name = f"WV {obj.name}"
+    if isinstance(obj, sc.Sphere):
+        segments = segments_for(obj.radius, _distance(scene, world.center) - obj.radius, focal_pixels(scene))
+        return sphere_mesh(name, obj.radius, segments)
+    if isinstance(obj, sc.Cylinder):
+        centre = Vector(world.base) + Vector(world.axis) * (obj.height / 2.0)
+        distance = _distance(scene, centre) - max(obj.radius, obj.height / 2.0)
+        return cylinder_mesh(name, obj.radius, obj.height, segments_for(obj.radius, distance, focal_pixels(scene)))
+    if isinstance(obj, sc.Plane):
+        hx, hy = (s / 2.0 for s in obj.size) if obj.size else (INFINITE_PLANE_SIZE / 2.0,) * 2
+        return _mesh_from(name, [(-hx, -hy, 0.0), (hx, -hy, 0.0), (hx, hy, 0.0), (-hx, hy, 0.0)], [(0, 1, 2, 3)])
+    if isinstance(obj, sc.Box):
+        return _mesh_from(name, transforms.box_vertices(obj.size), transforms.BOX_TRIANGLES)
+    if isinstance(obj, sc.Pyramid):
+        return _mesh_from(name, transforms.pyramid_vertices(obj.size), transforms.PYRAMID_TRIANGLES)
+    return _mesh_from(name, obj.vertices, obj.triangles)
+
+
+def _record(blender_object, obj) -> None:
+    """Keep the tracer description on the object, so that export maps it back exactly."""
+    import dataclasses
+    import json
+
+    fields = {key: value for key, value in dataclasses.asdict(obj).items() if key not in ("location", "rotation")}
+    fields["type"] = {
+        "Sphere": "sphere",
+        "Plane": "plane",
+        "Cylinder": "cylinder",
+        "Box": "box",
+        "Pyramid": "pyramid",
+        "TriangleMesh": "mesh",
+    }[type(obj).__name__]
+    blender_object["weathervane_object"] = json.dumps(fields)
+
+
+def own_collection(context, create: bool = True):
+    collection = bpy.data.collections.get(COLLECTION)
+    if collection is None and create:
+        collection = bpy.data.collections.new(COLLECTION)
+        collection["weathervane"] = True
+    if collection is not None and create and collection.name not in context.scene.collection.children:
+        context.scene.collection.children.link(collection)
+    return collection
+
+
+def clear(context) -> None:
+    """Remove the add-on's collection with its objects and their data; nothing else."""
+    collection = own_collection(context, create=False)
+    if collection is None:
+        return
+    for obj in list(collection.all_objects):
+        data = obj.data
+        bpy.data.objects.remove(obj, do_unlink=True)
+        if data is not None and data.users == 0:
+            if isinstance(data, bpy.types.Mesh):
+                bpy.data.meshes.remove(data)
+            elif isinstance(data, bpy.types.Light):
+                bpy.data.lights.remove(data)
+            elif isinstance(data, bpy.types.Camera):
+                bpy.data.cameras.remove(data)
+    for child in list(collection.children):
+        bpy.data.collections.remove(child)
+    bpy.data.collections.remove(collection)
+
+
+def build(context, scene) -> bpy.types.Collection:
+    """Build a tracer Scene into the add-on's collection (replacing only it) and fill the panel's settings."""
+    clear(context)
+    collection = own_collection(context)
+    transforms = module("transforms")
+    settings = context.scene.weathervane
+    for name, material in scene.materials.items():
+        materials.ensure_material(name, material.color, material.specular, material.reflective)
+    pivot = turn = None
+    if scene.vane is not None:
+        pivot = bpy.data.objects.new(PIVOT, None)
+        axis = Vector(scene.vane.axis).normalized()
+        pivot.matrix_world = Matrix.Translation(scene.vane.pivot) @ axis.to_track_quat("Z", "Y").to_matrix().to_4x4()
+        pivot.empty_display_type = "SINGLE_ARROW"
+        turn = bpy.data.objects.new(TURN, None)
+        turn.empty_display_type = "CIRCLE"
+        turn.empty_display_size = 0.3
+        collection.objects.link(pivot)
+        collection.objects.link(turn)
+        turn.parent = pivot
+        turn.rotation_euler = (0.0, 0.0, math.radians(scene.vane.heading))
+        turn["weathervane_initial_heading"] = scene.vane.heading
+    still = scene.with_heading(0.0)
+    context.view_layer.update()
+    for obj in scene.objects:
+        world = transforms.world_primitive(obj, None)
+        mesh = primitive_mesh(scene, obj, world)
+        blender_object = bpy.data.objects.new(f"WV {obj.name}", mesh)
+        blender_object.data.materials.append(bpy.data.materials[materials.material_name(obj.material)])
+        collection.objects.link(blender_object)
+        rotation, location = transforms.object_frame(obj, still.vane)
+        blender_object.matrix_world = Matrix.Translation(location) @ Matrix(rotation).to_4x4()
+        _record(blender_object, obj)
+        blender_object["weathervane_material"] = obj.material
+        blender_object["weathervane_name"] = obj.name
+        if turn is not None and obj.name in scene.vane.parts:
+            world_matrix = blender_object.matrix_world.copy()
+            blender_object.parent = turn
+            context.view_layer.update()
+            blender_object.matrix_parent_inverse = turn.matrix_world.inverted()
+            blender_object.matrix_world = world_matrix
+    camera = camera_module.create(scene.camera, collection)
+    context.scene.camera = camera
+    settings.lights.clear()
+    for index, light in enumerate(scene.lights):
+        entry = settings.lights.add()
+        kind = type(light).__name__
+        if kind == "AmbientLight":
+            entry.kind, entry.intensity = "AMBIENT", light.intensity
+        elif kind == "PointLight":
+            obj = lights.create("POINT", light.intensity, f"WV Point {index}", collection, light.location)
+            entry.kind, entry.intensity, entry.object_name = "POINT", light.intensity, obj.name
+        else:
+            obj = lights.create("DIRECTIONAL", light.intensity, f"WV Sun {index}", collection, light.direction)
+            entry.kind, entry.intensity, entry.object_name = "DIRECTIONAL", light.intensity, obj.name
+    _fill_settings(context, scene)
+    return collection
+
+
+def _fill_settings(context, scene) -> None:
+    settings = context.scene.weathervane
+    render = context.scene.render
+    render.resolution_x, render.resolution_y = scene.render.width, scene.render.height
+    render.resolution_percentage = 100
+    settings.depth, settings.model, settings.coef = scene.render.depth, scene.render.model, scene.render.coef
+    settings.background, settings.workers = scene.background.type, scene.render.workers
+    settings.samples = str(scene.render.samples) if str(scene.render.samples) in {"1", "4", "9", "16", "64"} else "1"
+    settings.materials.clear()
+    for name, material in scene.materials.items():
+        entry = settings.materials.add()
+        entry.name = name
+        entry.color, entry.specular, entry.reflective = material.color, material.specular, material.reflective
+        entry.parts = ", ".join(obj.name for obj in scene.objects if obj.material == name)
+    motion = scene.motion
+    if motion is not None:
+        wind = motion.wind
+        first = sorted(wind.keys, key=lambda key: key.time)[0]
+        fps = motion.fps
+        settings.mode = motion.mode.upper()
+        settings.damping, settings.wavelength = motion.damping, motion.wavelength
+        settings.threshold, settings.friction_time = motion.threshold, motion.friction_time
+        settings.wind_direction, settings.wind_speed = math.radians(first.direction % 360.0), first.speed
+        if wind.gusts is not None:
+            settings.gust_intensity = wind.gusts.intensity
+            settings.gust_time_scale = wind.gusts.time_scale
+            settings.gust_seed = wind.gusts.seed
+        settings.start_frame = 1 + round(wind.start * fps)
+        settings.use_stop = wind.stop is not None
+        if wind.stop is not None:
+            settings.stop_frame = 1 + round(wind.stop * fps)
+        settings.spin_direction, settings.spin_speed = motion.spin.direction, motion.spin.speed
+        settings.spin_smoothness = motion.spin.smoothness
+        context.scene.render.fps = max(1, round(fps))
+        context.scene.render.fps_base = context.scene.render.fps / fps
+        if len(wind.keys) > 1:
+            _key_wind(context.scene, wind, fps)
+
+
+def _key_wind(blender_scene, wind, fps: float) -> None:
+    """Keyed winds from a file become keyframes on the wind properties, as an artist would set them."""
+    from . import compat
+
+    keys = sorted(wind.keys, key=lambda key: key.time)
+    frames = [1.0 + key.time * fps for key in keys]
+    unwrapped = [keys[0].direction]
+    for key in keys[1:]:
+        step = (key.direction - unwrapped[-1] + 180.0) % 360.0 - 180.0
+        unwrapped.append(unwrapped[-1] + step)
+    settings_path = "weathervane."
+    compat.replace_fcurve(
+        blender_scene, settings_path + "wind_direction", 0, frames, [math.radians(direction) for direction in unwrapped]
+    )
+    compat.replace_fcurve(blender_scene, settings_path + "wind_speed", 0, frames, [key.speed for key in keys])

@@ -1,0 +1,75 @@
+"""The Blender API points that differ between 3.4 and 5.0, in one place.
+
+F-curves: 5.0 keeps them in layered actions (channelbags through action slots), 3.4 only in action.fcurves.
+Principled BSDF sockets were renamed in 4.0. EEVEE's engine id is BLENDER_EEVEE in 3.4 and 5.0 and
+BLENDER_EEVEE_NEXT in 4.2-4.5. The default view transform is Filmic in 3.4 and AgX from 4.0.
+"""
+
+from __future__ import annotations
+
+import bpy
+
+VERSION = bpy.app.version
+
+
+def fcurves_of(owner: bpy.types.ID) -> list:
+    """The F-curves animating owner (an object or a scene), empty when it has no action."""
+    animation = owner.animation_data
+    if animation is None or animation.action is None:
+        return []
+    action = animation.action
+    if VERSION >= (4, 4, 0):
+        from bpy_extras import anim_utils
+
+        channelbag = anim_utils.action_get_channelbag_for_slot(action, animation.action_slot)
+        return list(channelbag.fcurves) if channelbag is not None else []
+    return list(action.fcurves)
+
+
+def find_fcurve(owner: bpy.types.ID, data_path: str, index: int = 0):
+    """owner's F-curve for data_path[index], or None."""
+    for fcurve in fcurves_of(owner):
+        if fcurve.data_path == data_path and fcurve.array_index == index:
+            return fcurve
+    return None
+
+
+def replace_fcurve(owner: bpy.types.ID, data_path: str, index: int, frames: list[float], values: list[float]):
+    """Key data_path[index] of owner at frames with values, LINEAR, replacing any keys it had; returns the F-curve."""
+    old = find_fcurve(owner, data_path, index)
+    if old is not None:
+        if VERSION >= (4, 4, 0):
+            from bpy_extras import anim_utils
+
+            animation = owner.animation_data
+            anim_utils.action_get_channelbag_for_slot(animation.action, animation.action_slot).fcurves.remove(old)
+        else:
+            owner.animation_data.action.fcurves.remove(old)
+    # keyframe_insert makes the action (and in 5.0 its slot and channelbag) the way Blender's UI does
+    is_array = hasattr(owner.path_resolve(data_path), "__len__")
+    owner.keyframe_insert(data_path, index=index if is_array else -1, frame=frames[0])
+    fcurve = find_fcurve(owner, data_path, index)
+    points = fcurve.keyframe_points
+    points.add(len(frames) - 1)
+    coordinates = [value for pair in zip(frames, values, strict=True) for value in pair]
+    points.foreach_set("co", coordinates)
+    for point in points:
+        point.interpolation = "LINEAR"
+    fcurve.update()
+    return fcurve
+
+
+def principled_socket(node: bpy.types.Node, role: str) -> bpy.types.NodeSocket:
+    """A Principled BSDF input by role: 'specular' and 'emission' were renamed in 4.0."""
+    names = {
+        "specular": ("Specular IOR Level", "Specular"),
+        "emission": ("Emission Color", "Emission"),
+    }.get(role, (role,))
+    for name in names:
+        if name in node.inputs:
+            return node.inputs[name]
+    raise KeyError(f"Principled BSDF has no {role!r} input in Blender {bpy.app.version_string}")
+
+
+def eevee_engine() -> str:
+    return "BLENDER_EEVEE_NEXT" if (4, 2, 0) <= VERSION < (5, 0, 0) else "BLENDER_EEVEE"

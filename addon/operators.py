@@ -1,0 +1,170 @@
+"""The add-on's operators: build the vane, bake its motion, export the tracer scene, add and remove lights."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import bpy
+from bpy.props import EnumProperty, StringProperty
+from bpy_extras.io_utils import ExportHelper
+
+from . import animation, build, lights
+from ._tracer import module
+
+
+def _load_scene(path: str):
+    loader = module("loader")
+    if not path:
+        return loader.default_scene()
+    return loader.load_scene(bpy.path.abspath(path))
+
+
+class WEATHERVANE_OT_build(bpy.types.Operator):
+    """Build the weathervane (the default one, or the scene file) in its own collection, replacing only that"""
+
+    bl_idname = "weathervane.build"
+    bl_label = "Build Weathervane"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filepath: StringProperty(
+        name="Scene File",
+        subtype="FILE_PATH",
+        description="Tracer scene (.json); empty uses the panel's scene file or the default",
+    )
+
+    def execute(self, context):
+        path = self.filepath or context.scene.weathervane.scene_file
+        try:
+            scene = _load_scene(path)
+        except module("loader").SceneError as error:
+            for problem in error.problems[:8]:
+                self.report({"ERROR"}, f"{error.source}: {problem}")
+            return {"CANCELLED"}
+        build.build(context, scene)
+        self.report({"INFO"}, f"Built {len(scene.objects)} parts in the '{build.COLLECTION}' collection")
+        return {"FINISHED"}
+
+
+class WEATHERVANE_OT_bake(bpy.types.Operator):
+    """Simulate the vane in the wind over the frame range and key its rotation with the fewest keys"""
+
+    bl_idname = "weathervane.bake"
+    bl_label = "Bake Motion"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        window_manager = context.window_manager
+        window_manager.progress_begin(0, 100)
+        try:
+            keys, frames = animation.bake(context, lambda share: window_manager.progress_update(int(share * 100)))
+        except (LookupError, ValueError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        finally:
+            window_manager.progress_end()
+        self.report(
+            {"INFO"}, f"Baked {frames} frames into {keys} keys (within {context.scene.weathervane.tolerance:g} degrees)"
+        )
+        return {"FINISHED"}
+
+
+class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
+    """Write the scene as a tracer scene file (.json)"""
+
+    bl_idname = "weathervane.export"
+    bl_label = "Export Tracer Scene"
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+    def execute(self, context):
+        from .export import scene_document
+
+        document = scene_document(context)
+        try:
+            module("loader").scene_from_dict(json.loads(json.dumps(document)), "export")
+        except module("loader").SceneError as error:
+            for problem in error.problems[:8]:
+                self.report({"ERROR"}, f"cannot export: {problem}")
+            return {"CANCELLED"}
+        target = Path(self.filepath)
+        with module("images").atomic_path(target) as temporary:
+            temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
+        self.report({"INFO"}, f"Wrote {target}")
+        return {"FINISHED"}
+
+
+class WEATHERVANE_OT_light_add(bpy.types.Operator):
+    """Add a light of the documented model"""
+
+    bl_idname = "weathervane.light_add"
+    bl_label = "Add Light"
+    bl_options = {"REGISTER", "UNDO"}
+
+    kind: EnumProperty(
+        name="Type",
+        items=[
+            ("POINT", "Point", "A light at a position"),
+            ("DIRECTIONAL", "Directional", "A light at infinity"),
+            ("AMBIENT", "Ambient", "Light everywhere"),
+        ],
+        default="POINT",
+    )
+
+    def execute(self, context):
+        settings = context.scene.weathervane
+        entry = settings.lights.add()
+        entry.kind, entry.intensity = self.kind, 0.3
+        if self.kind != "AMBIENT":
+            collection = build.own_collection(context)
+            vector = (3.0, -3.0, 5.0) if self.kind == "POINT" else (1.0, -1.0, 2.0)
+            obj = lights.create(self.kind, entry.intensity, f"WV {self.kind.title()}", collection, vector)
+            entry.object_name = obj.name
+        settings.light_index = len(settings.lights) - 1
+        return {"FINISHED"}
+
+
+class WEATHERVANE_OT_light_remove(bpy.types.Operator):
+    """Remove the selected light (and its Blender light object)"""
+
+    bl_idname = "weathervane.light_remove"
+    bl_label = "Remove Light"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        settings = context.scene.weathervane
+        return 0 <= settings.light_index < len(settings.lights)
+
+    def execute(self, context):
+        settings = context.scene.weathervane
+        entry = settings.lights[settings.light_index]
+        obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
+        collection = build.own_collection(context, create=False)
+        if obj is not None and collection is not None and obj.name in collection.objects:
+            data = obj.data
+            bpy.data.objects.remove(obj, do_unlink=True)
+            if data is not None and data.users == 0:
+                bpy.data.lights.remove(data)
+        settings.lights.remove(settings.light_index)
+        settings.light_index = min(settings.light_index, len(settings.lights) - 1)
+        return {"FINISHED"}
+
+
+CLASSES = (
+    WEATHERVANE_OT_build,
+    WEATHERVANE_OT_bake,
+    WEATHERVANE_OT_export,
+    WEATHERVANE_OT_light_add,
+    WEATHERVANE_OT_light_remove,
+)
+
+
+def register() -> None:
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister() -> None:
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,183 @@
+"""The "Weathervane" tab of the 3D View's sidebar: Vane & Wind, Materials, Lights, Camera, Render."""
+
+from __future__ import annotations
+
+import bpy
+
+from . import build
+
+
+class WeathervanePanel:
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Weathervane"
+
+
+class WEATHERVANE_PT_main(WeathervanePanel, bpy.types.Panel):
+    bl_label = "Weathervane"
+
+    def draw(self, context):
+        layout = self.layout
+        settings = context.scene.weathervane
+        layout.prop(settings, "scene_file")
+        row = layout.row(align=True)
+        row.operator("weathervane.build", icon="MOD_BUILD")
+        row.operator("weathervane.export", icon="EXPORT", text="Export")
+
+
+class WEATHERVANE_PT_vane(WeathervanePanel, bpy.types.Panel):
+    bl_label = "Vane & Wind"
+    bl_parent_id = "WEATHERVANE_PT_main"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.weathervane
+        layout.prop(settings, "mode", expand=True)
+        if settings.mode == "WIND":
+            column = layout.column(heading="Wind")
+            column.prop(settings, "wind_direction")
+            column.prop(settings, "wind_speed")
+            column.prop(settings, "gust_intensity")
+            sub = column.column()
+            sub.active = settings.gust_intensity > 0.0
+            sub.prop(settings, "gust_time_scale")
+            sub.prop(settings, "gust_seed")
+            column = layout.column(heading="Vane")
+            column.prop(settings, "damping")
+            column.prop(settings, "wavelength")
+            column.prop(settings, "threshold")
+            column.prop(settings, "friction_time")
+        else:
+            column = layout.column(heading="Spin")
+            column.prop(settings, "spin_direction")
+            column.prop(settings, "spin_speed")
+            column.prop(settings, "spin_smoothness")
+        column = layout.column(heading="Frames")
+        column.prop(settings, "start_frame")
+        row = column.row(heading="Stop")
+        row.prop(settings, "use_stop", text="")
+        sub = row.row()
+        sub.active = settings.use_stop
+        sub.prop(settings, "stop_frame", text="")
+        layout.prop(settings, "tolerance")
+        layout.operator("weathervane.bake", icon="KEY_HLT")
+        if bpy.data.objects.get(build.TURN) is None:
+            layout.label(text="Build the weathervane to bake its motion", icon="INFO")
+
+
+class WEATHERVANE_UL_materials(bpy.types.UIList):
+    def draw_item(self, _context, layout, _data, item, _icon, _active_data, _active_property, _index):
+        row = layout.row(align=True)
+        row.prop(item, "color", text="")
+        row.label(text=item.name)
+
+
+class WEATHERVANE_PT_materials(WeathervanePanel, bpy.types.Panel):
+    bl_label = "Materials"
+    bl_parent_id = "WEATHERVANE_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        settings = context.scene.weathervane
+        layout.template_list("WEATHERVANE_UL_materials", "", settings, "materials", settings, "material_index", rows=3)
+        if 0 <= settings.material_index < len(settings.materials):
+            entry = settings.materials[settings.material_index]
+            column = layout.column()
+            column.use_property_split = True
+            column.prop(entry, "color")
+            column.prop(entry, "specular")
+            column.prop(entry, "reflective")
+            column.label(text=f"Parts: {entry.parts}")
+
+
+class WEATHERVANE_UL_lights(bpy.types.UIList):
+    def draw_item(self, _context, layout, _data, item, _icon, _active_data, _active_property, _index):
+        icons = {"AMBIENT": "WORLD", "POINT": "LIGHT_POINT", "DIRECTIONAL": "LIGHT_SUN"}
+        row = layout.row(align=True)
+        row.label(text=item.kind.title(), icon=icons[item.kind])
+        row.prop(item, "intensity", text="")
+
+
+class WEATHERVANE_PT_lights(WeathervanePanel, bpy.types.Panel):
+    bl_label = "Lights"
+    bl_parent_id = "WEATHERVANE_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        settings = context.scene.weathervane
+        row = layout.row()
+        row.template_list("WEATHERVANE_UL_lights", "", settings, "lights", settings, "light_index", rows=3)
+        column = row.column(align=True)
+        column.operator_menu_enum("weathervane.light_add", "kind", icon="ADD", text="")
+        column.operator("weathervane.light_remove", icon="REMOVE", text="")
+        if 0 <= settings.light_index < len(settings.lights):
+            entry = settings.lights[settings.light_index]
+            column = layout.column()
+            column.use_property_split = True
+            column.prop(entry, "kind")
+            column.prop(entry, "intensity")
+            obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
+            if obj is not None:
+                column.prop(obj, "location" if entry.kind == "POINT" else "rotation_euler")
+
+
+class WEATHERVANE_PT_camera(WeathervanePanel, bpy.types.Panel):
+    bl_label = "Camera"
+    bl_parent_id = "WEATHERVANE_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        camera = context.scene.camera
+        if camera is None:
+            layout.label(text="The scene has no camera", icon="INFO")
+            return
+        layout.prop(camera, "location")
+        layout.prop(camera, "rotation_euler", text="Rotation")
+        if camera.type == "CAMERA":
+            layout.prop(camera.data, "lens")
+
+
+class WEATHERVANE_PT_render(WeathervanePanel, bpy.types.Panel):
+    bl_label = "Render"
+    bl_parent_id = "WEATHERVANE_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.weathervane
+        layout.prop(settings, "depth")
+        layout.prop(settings, "model")
+        row = layout.row()
+        row.active = settings.model == "blinn-phong"
+        row.prop(settings, "coef")
+        layout.prop(settings, "background")
+        layout.prop(settings, "samples")
+        layout.prop(settings, "workers")
+
+
+CLASSES = (
+    WEATHERVANE_PT_main,
+    WEATHERVANE_PT_vane,
+    WEATHERVANE_UL_materials,
+    WEATHERVANE_PT_materials,
+    WEATHERVANE_UL_lights,
+    WEATHERVANE_PT_lights,
+    WEATHERVANE_PT_camera,
+    WEATHERVANE_PT_render,
+)
+
+
+def register() -> None:
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister() -> None:
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,258 @@
+"""The add-on's settings on the scene (`scene.weathervane`): wind, vane, spin, materials, lights, render."""
+
+from __future__ import annotations
+
+import math
+
+import bpy
+from bpy.props import (
+    BoolProperty,
+    CollectionProperty,
+    EnumProperty,
+    FloatProperty,
+    FloatVectorProperty,
+    IntProperty,
+    PointerProperty,
+    StringProperty,
+)
+
+from . import lights, materials
+
+
+def _material_changed(part, context) -> None:
+    material = bpy.data.materials.get(materials.material_name(part.name))
+    if material is not None:
+        materials.apply(material, tuple(part.color), part.specular, part.reflective)
+
+
+def _light_changed(light, context) -> None:
+    lights.apply(light)
+
+
+class WEATHERVANE_PG_material(bpy.types.PropertyGroup):
+    """One tracer material: the documented model's color, specular exponent and reflectivity."""
+
+    color: FloatVectorProperty(
+        name="Color",
+        subtype="COLOR",
+        size=3,
+        min=0.0,
+        max=1.0,
+        default=(0.8, 0.8, 0.8),
+        description="Linear RGB color",
+        update=_material_changed,
+    )
+    specular: FloatProperty(
+        name="Specular Exponent",
+        min=0.0,
+        max=10000.0,
+        soft_max=1000.0,
+        default=0.0,
+        description="Phong exponent s (Blinn-Phong uses s * coef); 0 is matte",
+        update=_material_changed,
+    )
+    reflective: FloatProperty(
+        name="Reflectivity",
+        subtype="FACTOR",
+        min=0.0,
+        max=1.0,
+        default=0.0,
+        description="Share of the mirrored ray in the color",
+        update=_material_changed,
+    )
+    parts: StringProperty(name="Parts", description="Objects that use this material")
+
+
+class WEATHERVANE_PG_light(bpy.types.PropertyGroup):
+    """One light of the documented model; point and directional lights drive a Blender light object."""
+
+    kind: EnumProperty(
+        name="Type",
+        items=[
+            ("AMBIENT", "Ambient", "Adds its intensity everywhere"),
+            ("POINT", "Point", "A light at a position; no falloff, as documented"),
+            ("DIRECTIONAL", "Directional", "A light at infinity, shining along a direction"),
+        ],
+        default="POINT",
+        update=_light_changed,
+    )
+    intensity: FloatProperty(
+        name="Intensity",
+        min=0.0,
+        soft_max=2.0,
+        max=100.0,
+        default=0.5,
+        description="Scalar intensity of the white light",
+        update=_light_changed,
+    )
+    object_name: StringProperty(name="Object", description="The Blender light object this entry drives")
+
+
+class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
+    scene_file: StringProperty(
+        name="Scene File",
+        subtype="FILE_PATH",
+        description="A tracer scene (.json) to build; empty builds the default weathervane",
+    )
+    # ---- wind (animatable: key them on the timeline) ----
+    wind_direction: FloatProperty(
+        name="Wind From",
+        subtype="ANGLE",
+        unit="ROTATION",
+        min=-2 * math.pi,
+        max=4 * math.pi,
+        soft_min=0.0,
+        soft_max=2 * math.pi,
+        default=math.radians(270.0),
+        description="Compass direction the wind comes from, clockwise from north (+Y)",
+    )
+    wind_speed: FloatProperty(
+        name="Wind Speed", unit="VELOCITY", min=0.0, max=60.0, default=5.0, description="Wind speed in m/s"
+    )
+    gust_intensity: FloatProperty(
+        name="Gusts",
+        subtype="FACTOR",
+        min=0.0,
+        max=1.0,
+        default=0.0,
+        description="Turbulence intensity (sigma_u / U); 0.1-0.2 over open country",
+    )
+    gust_time_scale: FloatProperty(
+        name="Gust Time",
+        unit="TIME_ABSOLUTE",
+        min=0.05,
+        max=60.0,
+        default=2.0,
+        description="Correlation time of the gusts in seconds",
+    )
+    gust_seed: IntProperty(name="Seed", min=0, max=1_000_000, default=0, description="Seed of the gusts")
+    start_frame: IntProperty(name="Start", min=0, default=1, description="The wind starts blowing at this frame")
+    use_stop: BoolProperty(name="Stop", default=False, description="Calm the wind at a frame")
+    stop_frame: IntProperty(name="Stop Frame", min=0, default=250, description="The wind stops at this frame")
+    # ---- the vane ----
+    mode: EnumProperty(
+        name="Motion",
+        items=[
+            ("WIND", "Wind", "A real vane's damped response to the wind"),
+            ("SPIN", "Spin", "Turn at a set speed (the seed's mode)"),
+        ],
+        default="WIND",
+    )
+    damping: FloatProperty(
+        name="Damping",
+        min=0.02,
+        max=5.0,
+        soft_max=1.5,
+        default=0.4,
+        description="Damping ratio zeta: the smoothness of the swing (0.3-0.7 in real vanes)",
+    )
+    wavelength: FloatProperty(
+        name="Wavelength",
+        unit="LENGTH",
+        min=0.5,
+        max=100.0,
+        default=8.0,
+        description="Natural wavelength: metres of wind per undamped swing (6-10 m)",
+    )
+    threshold: FloatProperty(
+        name="Threshold",
+        unit="VELOCITY",
+        min=0.0,
+        max=20.0,
+        default=0.5,
+        description="Below this wind speed the vane does not turn",
+    )
+    friction_time: FloatProperty(
+        name="Friction Time",
+        unit="TIME_ABSOLUTE",
+        min=0.05,
+        max=30.0,
+        default=0.6,
+        description="Seconds for bearing friction to stop a becalmed vane",
+    )
+    spin_direction: EnumProperty(
+        name="Direction",
+        items=[
+            ("clockwise", "Clockwise", "Seen from above"),
+            ("counterclockwise", "Counter-Clockwise", "Seen from above"),
+        ],
+        default="clockwise",
+    )
+    spin_speed: FloatProperty(
+        name="Speed", min=0.0, max=3600.0, soft_max=720.0, default=90.0, description="Spin speed in degrees per second"
+    )
+    spin_smoothness: FloatProperty(
+        name="Smoothness",
+        unit="TIME_ABSOLUTE",
+        min=0.0,
+        max=60.0,
+        default=1.0,
+        description="Seconds to spin up after start and down after stop",
+    )
+    tolerance: FloatProperty(
+        name="Tolerance",
+        min=0.001,
+        max=5.0,
+        default=0.05,
+        precision=3,
+        description="Largest angle in degrees by which the baked keys may miss the motion",
+    )
+    # ---- materials and lights ----
+    materials: CollectionProperty(type=WEATHERVANE_PG_material)
+    material_index: IntProperty(name="Material", default=0)
+    lights: CollectionProperty(type=WEATHERVANE_PG_light)
+    light_index: IntProperty(name="Light", default=0)
+    # ---- the documented tracer ----
+    depth: IntProperty(name="Depth", min=0, max=16, default=3, description="Recursion depth of the reflections")
+    model: EnumProperty(
+        name="Model",
+        items=[
+            ("blinn-phong", "Blinn-Phong", "Half-vector highlight (the seed's main model)"),
+            ("phong", "Phong", "Reflected-vector highlight"),
+        ],
+        default="blinn-phong",
+    )
+    coef: FloatProperty(
+        name="Coef",
+        min=0.1,
+        max=16.0,
+        default=3.0,
+        description="Blinn-Phong exponent factor: exponent = specular * coef (2-4 is typical)",
+    )
+    background: EnumProperty(
+        name="Background",
+        items=[
+            ("sky", "Sky", "Vertical gradient by the ray's elevation"),
+            ("solid", "Solid", "One color"),
+            ("documented", "Documented", "The seed's mode: the sky's color at the canvas centre for every miss"),
+            ("none", "None", "Black"),
+        ],
+        default="sky",
+    )
+    workers: IntProperty(name="Workers", min=0, max=64, default=0, description="Worker processes; 0: all cores")
+    samples: EnumProperty(
+        name="Samples",
+        items=[
+            ("1", "1", "One ray through each pixel centre"),
+            ("4", "4", "Stratified 2 x 2"),
+            ("9", "9", "Stratified 3 x 3"),
+            ("16", "16", "Stratified 4 x 4"),
+            ("64", "64", "Stratified 8 x 8"),
+        ],
+        default="1",
+    )
+
+
+CLASSES = (WEATHERVANE_PG_material, WEATHERVANE_PG_light, WEATHERVANE_PG_settings)
+
+
+def register() -> None:
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.weathervane = PointerProperty(type=WEATHERVANE_PG_settings)
+
+
+def unregister() -> None:
+    del bpy.types.Scene.weathervane
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)
