@@ -191,11 +191,11 @@ def build(context, scene) -> bpy.types.Collection:
         blender_object["weathervane_material"] = obj.material
         blender_object["weathervane_name"] = obj.name
         if turn is not None and obj.name in scene.vane.parts:
-            world_matrix = blender_object.matrix_world.copy()
+            # modelled at heading 0 relative to the turning empty, so its Z rotation is the heading
+            heading_zero = blender_object.matrix_world.copy()
             blender_object.parent = turn
-            context.view_layer.update()
-            blender_object.matrix_parent_inverse = turn.matrix_world.inverted()
-            blender_object.matrix_world = world_matrix
+            blender_object.matrix_parent_inverse = pivot.matrix_world.inverted()
+            blender_object.matrix_basis = heading_zero
     camera = camera_module.create(scene.camera, collection)
     context.scene.camera = camera
     settings.lights.clear()

@@ -71,5 +71,11 @@ def principled_socket(node: bpy.types.Node, role: str) -> bpy.types.NodeSocket:
     raise KeyError(f"Principled BSDF has no {role!r} input in Blender {bpy.app.version_string}")
 
 
+def enable_nodes(material: bpy.types.Material) -> None:
+    """Give a material its node tree (always there from 5.0, where use_nodes is deprecated)."""
+    if VERSION < (5, 0, 0):
+        material.use_nodes = True
+
+
 def eevee_engine() -> str:
     return "BLENDER_EEVEE_NEXT" if (4, 2, 0) <= VERSION < (5, 0, 0) else "BLENDER_EEVEE"

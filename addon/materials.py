@@ -30,7 +30,7 @@ def material_name(name: str) -> str:
 def ensure_material(name: str, color: tuple[float, float, float], specular: float, reflective: float):
     """The add-on's material for a tracer material name, created or updated in place."""
     material = bpy.data.materials.get(material_name(name)) or bpy.data.materials.new(material_name(name))
-    material.use_nodes = True
+    compat.enable_nodes(material)
     material["weathervane_material"] = name
     tree = material.node_tree
     nodes = tree.nodes

@@ -78,7 +78,10 @@ class _Reader:
         if key not in self.data:
             value = self.raw(key, default)
             return _fallback_number(low) if value is ... else value
-        return self.check_number(key, self.raw(key), low=low, high=high, low_open=low_open, integer=integer)
+        value = self.raw(key)
+        if value is None and default is None:  # an optional number written as null
+            return None
+        return self.check_number(key, value, low=low, high=high, low_open=low_open, integer=integer)
 
     def check_number(
         self,

@@ -1,0 +1,234 @@
+"""The add-on in Blender: building, geometry, the baked motion, materials, lights, export."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import bpy
+import numpy as np
+import pytest
+from mathutils import Vector
+
+from addon import build, compat
+from addon.animation import motion_for
+from tracer import motion as motion_module
+from tracer import transforms
+from tracer.keyframes import DEFAULT_TOLERANCE
+from tracer.loader import default_scene, default_scene_dict, scene_from_dict
+from tracer.wind import Wind, WindKey
+
+
+def built() -> bpy.types.Collection:
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    bpy.context.view_layer.update()
+    return bpy.data.collections[build.COLLECTION]
+
+
+def test_build_makes_every_part_in_its_own_collection() -> None:
+    collection = built()
+    scene = default_scene()
+    names = {obj.name for obj in collection.objects}
+    assert {f"WV {obj.name}" for obj in scene.objects} <= names
+    assert {build.PIVOT, build.TURN, "WV Camera"} <= names
+    assert sum(obj.type == "LIGHT" for obj in collection.objects) == 2  # point and sun; ambient has no object
+    assert bpy.context.scene.camera.name == "WV Camera"
+    vane_parts = {obj.name for obj in bpy.data.objects[build.TURN].children}
+    assert vane_parts == {f"WV {name}" for name in scene.vane.parts}
+
+
+def test_building_again_replaces_only_its_own_collection() -> None:
+    user_mesh = bpy.data.meshes.new("mine")
+    user_mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    mine = bpy.data.objects.new("mine", user_mesh)
+    bpy.context.scene.collection.objects.link(mine)
+    mine.location = (5, 6, 7)
+    first = len(built().objects)
+    second = len(built().objects)
+    assert first == second
+    assert [c.name for c in bpy.data.collections] == [build.COLLECTION]
+    assert bpy.data.objects["mine"].location[:] == pytest.approx((5, 6, 7))
+    assert bpy.data.meshes.get("mine") is not None
+    assert len([m for m in bpy.data.meshes if m.name.startswith("WV ")]) == len(default_scene().objects)
+
+
+def test_a_bad_scene_file_is_refused_and_builds_nothing(tmp_path: Path) -> None:
+    document = default_scene_dict()
+    document["objects"][2]["radius"] = -1
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(document))
+    with pytest.raises(RuntimeError, match=r"objects\[2\].radius: must be > 0, got -1"):
+        bpy.ops.weathervane.build(filepath=str(path))
+    assert bpy.data.collections.get(build.COLLECTION) is None
+
+
+def _world_vertices(obj: bpy.types.Object) -> np.ndarray:
+    return np.array([tuple(obj.matrix_world @ vertex.co) for vertex in obj.data.vertices])
+
+
+def test_boxes_and_pyramids_are_the_tracers_triangles() -> None:
+    built()
+    scene = default_scene()
+    for obj in scene.objects:
+        if type(obj).__name__ not in ("Box", "Pyramid"):
+            continue
+        world = transforms.world_primitive(obj, scene.vane)
+        blender_object = bpy.data.objects[f"WV {obj.name}"]
+        faces = [tuple(_world_vertices(blender_object)[list(polygon.vertices)].ravel())
+                 for polygon in blender_object.data.polygons]
+        expected = [tuple(np.ravel(triangle)) for triangle in world.triangles]
+        np.testing.assert_allclose(np.array(faces), np.array(expected), atol=1e-5)
+
+
+def test_curved_parts_lie_on_the_analytic_surfaces_with_half_pixel_silhouettes() -> None:
+    built()
+    scene = default_scene()
+    focal = build.focal_pixels(scene)
+    for obj in scene.objects:
+        kind = type(obj).__name__
+        if kind not in ("Sphere", "Cylinder"):
+            continue
+        world = transforms.world_primitive(obj, scene.vane)
+        vertices = _world_vertices(bpy.data.objects[f"WV {obj.name}"])
+        if kind == "Sphere":
+            distances = np.linalg.norm(vertices - np.array(world.center), axis=1)
+            np.testing.assert_allclose(distances, obj.radius, rtol=1e-5)
+            centre, reach = np.array(world.center), obj.radius
+        else:
+            offsets = vertices - np.array(world.base)
+            along = offsets @ np.array(world.axis)
+            radial = np.linalg.norm(offsets - np.outer(along, world.axis), axis=1)
+            np.testing.assert_allclose(radial[radial > 1e-6], obj.radius, rtol=1e-5)
+            assert along.min() == pytest.approx(0.0, abs=1e-5) and along.max() == pytest.approx(obj.height, abs=1e-5)
+            centre = np.array(world.base) + np.array(world.axis) * obj.height / 2
+            reach = max(obj.radius, obj.height / 2)
+        segments = build.segments_for(obj.radius, np.linalg.norm(centre - scene.camera.location) - reach, focal)
+        error = focal * obj.radius * (1 - math.cos(math.pi / segments)) / (
+            np.linalg.norm(centre - scene.camera.location) - reach)
+        assert error <= 0.5
+        if segments > build.MIN_SEGMENTS:  # the fewest: two fewer segments would show
+            coarser = segments - 2
+            assert focal * obj.radius * (1 - math.cos(math.pi / coarser)) / (
+                np.linalg.norm(centre - scene.camera.location) - reach) > 0.5
+
+
+def _baked_degrees(frames: range) -> np.ndarray:
+    turn = bpy.data.objects[build.TURN]
+    fcurve = compat.find_fcurve(turn, "rotation_euler", 2)
+    assert fcurve is not None and all(point.interpolation == "LINEAR" for point in fcurve.keyframe_points)
+    return np.degrees([fcurve.evaluate(frame) for frame in frames])
+
+
+def test_bake_matches_the_motion_code_on_every_frame() -> None:
+    built()
+    blender_scene = bpy.context.scene
+    blender_scene.frame_start, blender_scene.frame_end = 1, 150
+    assert bpy.ops.weathervane.bake() == {"FINISHED"}
+    expected = motion_module.simulate(motion_for(blender_scene, 150), 150, default_scene().vane.heading)
+    baked = _baked_degrees(range(1, 151))
+    assert np.max(np.abs(baked - expected)) <= DEFAULT_TOLERANCE + 1e-4
+    keys = len(compat.find_fcurve(bpy.data.objects[build.TURN], "rotation_euler", 2).keyframe_points)
+    assert keys < 150
+
+
+def test_bake_follows_wind_keyed_on_the_timeline() -> None:
+    built()
+    blender_scene = bpy.context.scene
+    blender_scene.animation_data_clear()  # the default scene's own wind keys
+    settings = blender_scene.weathervane
+    settings.gust_intensity = 0.0
+    settings.start_frame, settings.use_stop = 1, False
+    blender_scene.render.fps, blender_scene.render.fps_base = 24, 1.0
+    blender_scene.frame_start, blender_scene.frame_end = 1, 120
+    # the artist keys the wind: from 300 to 20 degrees (through north) and 4 to 9 m/s
+    for frame, direction, speed in ((1, 300.0, 4.0), (40, 340.0, 6.0), (80, 380.0, 9.0)):
+        settings.wind_direction, settings.wind_speed = math.radians(direction), speed
+        blender_scene.keyframe_insert("weathervane.wind_direction", frame=frame)
+        blender_scene.keyframe_insert("weathervane.wind_speed", frame=frame)
+    for owner_curve in compat.fcurves_of(blender_scene):
+        for point in owner_curve.keyframe_points:
+            point.interpolation = "LINEAR"
+    assert bpy.ops.weathervane.bake() == {"FINISHED"}
+    wind = Wind(keys=(WindKey(0.0, 300.0, 4.0), WindKey(39 / 24, 340.0, 6.0), WindKey(79 / 24, 20.0, 9.0)))
+    motion = motion_module.Motion(damping=settings.damping, wavelength=settings.wavelength,
+                                  threshold=settings.threshold, friction_time=settings.friction_time, fps=24.0,
+                                  wind=wind)
+    expected = motion_module.simulate(motion, 120, default_scene().vane.heading)
+    assert np.max(np.abs(_baked_degrees(range(1, 121)) - expected)) <= DEFAULT_TOLERANCE + 1e-3
+
+
+def test_spin_mode_bakes_the_seed_spin() -> None:
+    built()
+    blender_scene = bpy.context.scene
+    settings = blender_scene.weathervane
+    settings.mode, settings.spin_direction, settings.spin_speed, settings.spin_smoothness = "SPIN", "clockwise", 60, 1
+    settings.start_frame, settings.use_stop, settings.stop_frame = 1, True, 97
+    blender_scene.render.fps, blender_scene.render.fps_base = 24, 1.0
+    blender_scene.frame_start, blender_scene.frame_end = 1, 200
+    assert bpy.ops.weathervane.bake() == {"FINISHED"}
+    baked = _baked_degrees(range(1, 201))
+    heading = default_scene().vane.heading
+    # 0.5 s ramp-up 30 deg... total: 60 * 4 s of spin = 240 degrees clockwise, ramps included
+    assert baked[-1] == pytest.approx(heading - 240.0, abs=DEFAULT_TOLERANCE)
+
+
+def test_material_edits_reach_the_node_graph_live() -> None:
+    built()
+    entry = next(entry for entry in bpy.context.scene.weathervane.materials if entry.name == "brass")
+    entry.color = (0.1, 0.2, 0.3)
+    entry.reflective = 0.6
+    entry.specular = 0.0
+    nodes = bpy.data.materials["WV brass"].node_tree.nodes
+    assert tuple(nodes["WV Surface"].inputs["Base Color"].default_value)[:3] == pytest.approx((0.1, 0.2, 0.3))
+    assert nodes["WV Mix"].inputs["Fac"].default_value == pytest.approx(0.6)
+    assert nodes["WV Surface"].inputs["Roughness"].default_value == pytest.approx(1.0)
+
+
+def test_lights_can_be_added_and_removed() -> None:
+    collection = built()
+    settings = bpy.context.scene.weathervane
+    before = len(settings.lights)
+    assert bpy.ops.weathervane.light_add(kind="POINT") == {"FINISHED"}
+    entry = settings.lights[-1]
+    assert entry.object_name in collection.objects
+    entry.intensity = 0.25
+    assert bpy.data.objects[entry.object_name].data.energy == pytest.approx(0.25 * 4 * math.pi)
+    name = entry.object_name
+    assert bpy.ops.weathervane.light_remove() == {"FINISHED"}
+    assert len(settings.lights) == before and bpy.data.objects.get(name) is None
+
+
+def test_export_maps_the_built_scene_back_exactly(tmp_path: Path) -> None:
+    built()
+    path = tmp_path / "scene.json"
+    assert bpy.ops.weathervane.export(filepath=str(path)) == {"FINISHED"}
+    exported = scene_from_dict(json.loads(path.read_text()))
+    original = default_scene()
+    assert [obj.name for obj in exported.objects] == [obj.name for obj in original.objects]
+    for mine, theirs in zip(exported.objects, original.objects, strict=True):
+        a, b = transforms.world_primitive(mine, exported.vane), transforms.world_primitive(theirs, original.vane)
+        for field in ("center", "radius", "base", "axis", "height", "point", "normal", "half_size", "triangles"):
+            if hasattr(b, field) and getattr(b, field) is not None:
+                np.testing.assert_allclose(np.array(getattr(a, field), dtype=float),
+                                           np.array(getattr(b, field), dtype=float), atol=2e-5)
+    assert exported.vane.heading == pytest.approx(original.vane.heading, abs=1e-4)
+    assert [type(light).__name__ for light in exported.lights] == [type(light).__name__ for light in original.lights]
+    np.testing.assert_allclose(exported.lights[2].direction, original.lights[2].direction, atol=1e-5)
+    assert exported.camera.lens == pytest.approx(original.camera.lens)
+    np.testing.assert_allclose(exported.camera.rotation, original.camera.rotation, atol=1e-4)
+
+
+def test_export_turns_other_meshes_into_triangles(tmp_path: Path) -> None:
+    built()
+    mesh = bpy.data.meshes.new("quad")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [], [(0, 1, 2, 3)])
+    quad = bpy.data.objects.new("quad", mesh)
+    quad.location = (2, 0, 0)
+    bpy.context.scene.collection.objects.link(quad)
+    path = tmp_path / "scene.json"
+    assert bpy.ops.weathervane.export(filepath=str(path)) == {"FINISHED"}
+    document = json.loads(path.read_text())
+    exported = next(obj for obj in document["objects"] if obj["name"] == "quad")
+    assert exported["type"] == "mesh" and len(exported["triangles"]) == 2
+    assert Vector(exported["vertices"][0]) == Vector((2, 0, 0))
