@@ -1,17 +1,40 @@
-# The two commands a newcomer needs are `make demo` and `make test`; each sets up .venv itself.
+# The two commands a newcomer needs are `make demo` and `make test`; each sets up .venv (and, for the tests, the
+# Debian packages of Blender 3.4) itself.
 PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+REPORT_STAMP := $(VENV)/.installed-report
+# Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
+SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
-.PHONY: demo test test-slow lint bench docs clean
+.PHONY: demo test test-slow lint bench docs addon system-deps clean
 
 $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found; install Python 3.11" >&2; exit 1; }
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,blender]'
 	@touch $@
+
+$(REPORT_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[dev,blender,report]'
+	@touch $@
+
+system-deps:
+	@missing=""; \
+	command -v blender >/dev/null || missing="$$missing blender"; \
+	command -v xvfb-run >/dev/null || missing="$$missing xvfb"; \
+	/usr/bin/python3 -c "import numpy" 2>/dev/null || missing="$$missing python3-numpy"; \
+	/usr/bin/python3 -c "import pytest" 2>/dev/null || missing="$$missing python3-pytest"; \
+	if [ -n "$$missing" ]; then \
+		if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+			echo "installing$$missing with apt-get (Blender 3.4 for the add-on tests)"; \
+			apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(SYSTEM_PACKAGES) >/dev/null; \
+		else \
+			echo "warning: cannot install$$missing (needs root and apt-get): the Blender 3.4 and GUI tests will be skipped" >&2; \
+		fi; \
+	fi
 
 demo: $(STAMP)
 	@mkdir -p out
@@ -22,7 +45,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 
-test: lint
+test: lint system-deps
 	$(BIN)/python -m pytest -q
 
 test-slow: $(STAMP)
@@ -31,14 +54,11 @@ test-slow: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_tracer.py
 
-REPORT_STAMP := $(VENV)/.installed-report
-
-$(REPORT_STAMP): $(STAMP)
-	$(BIN)/python -m pip install --quiet -e '.[dev,report]'
-	@touch $@
-
 docs: $(REPORT_STAMP)
 	$(BIN)/python scripts/plot_step_response.py
+
+addon: $(STAMP)
+	$(BIN)/python scripts/build_addon.py
 
 clean:
 	rm -rf $(VENV) out dist

@@ -577,7 +577,7 @@ def _reject_constant(name: str) -> float:
 
 def default_scene_dict() -> dict[str, Any]:
     """The embedded default weathervane as a JSON document."""
-    text = resources.files("tracer").joinpath(DEFAULT_SCENE_RESOURCE).read_text(encoding="utf-8")
+    text = resources.files(__package__).joinpath(DEFAULT_SCENE_RESOURCE).read_text(encoding="utf-8")
     return json.loads(text)
 
 

@@ -18,7 +18,7 @@ bpy = pytest.importorskip("bpy", reason="Blender's Python module: make test inst
 
 
 @pytest.fixture(autouse=True)
-def blender():  # noqa: ANN201
+def blender():
     """A clean Blender with the add-on registered."""
     import addon
 

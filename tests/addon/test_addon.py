@@ -75,8 +75,10 @@ def test_boxes_and_pyramids_are_the_tracers_triangles() -> None:
             continue
         world = transforms.world_primitive(obj, scene.vane)
         blender_object = bpy.data.objects[f"WV {obj.name}"]
-        faces = [tuple(_world_vertices(blender_object)[list(polygon.vertices)].ravel())
-                 for polygon in blender_object.data.polygons]
+        faces = [
+            tuple(_world_vertices(blender_object)[list(polygon.vertices)].ravel())
+            for polygon in blender_object.data.polygons
+        ]
         expected = [tuple(np.ravel(triangle)) for triangle in world.triangles]
         np.testing.assert_allclose(np.array(faces), np.array(expected), atol=1e-5)
 
@@ -104,13 +106,22 @@ def test_curved_parts_lie_on_the_analytic_surfaces_with_half_pixel_silhouettes()
             centre = np.array(world.base) + np.array(world.axis) * obj.height / 2
             reach = max(obj.radius, obj.height / 2)
         segments = build.segments_for(obj.radius, np.linalg.norm(centre - scene.camera.location) - reach, focal)
-        error = focal * obj.radius * (1 - math.cos(math.pi / segments)) / (
-            np.linalg.norm(centre - scene.camera.location) - reach)
+        error = (
+            focal
+            * obj.radius
+            * (1 - math.cos(math.pi / segments))
+            / (np.linalg.norm(centre - scene.camera.location) - reach)
+        )
         assert error <= 0.5
         if segments > build.MIN_SEGMENTS:  # the fewest: two fewer segments would show
             coarser = segments - 2
-            assert focal * obj.radius * (1 - math.cos(math.pi / coarser)) / (
-                np.linalg.norm(centre - scene.camera.location) - reach) > 0.5
+            assert (
+                focal
+                * obj.radius
+                * (1 - math.cos(math.pi / coarser))
+                / (np.linalg.norm(centre - scene.camera.location) - reach)
+                > 0.5
+            )
 
 
 def _baked_degrees(frames: range) -> np.ndarray:
@@ -151,9 +162,14 @@ def test_bake_follows_wind_keyed_on_the_timeline() -> None:
             point.interpolation = "LINEAR"
     assert bpy.ops.weathervane.bake() == {"FINISHED"}
     wind = Wind(keys=(WindKey(0.0, 300.0, 4.0), WindKey(39 / 24, 340.0, 6.0), WindKey(79 / 24, 20.0, 9.0)))
-    motion = motion_module.Motion(damping=settings.damping, wavelength=settings.wavelength,
-                                  threshold=settings.threshold, friction_time=settings.friction_time, fps=24.0,
-                                  wind=wind)
+    motion = motion_module.Motion(
+        damping=settings.damping,
+        wavelength=settings.wavelength,
+        threshold=settings.threshold,
+        friction_time=settings.friction_time,
+        fps=24.0,
+        wind=wind,
+    )
     expected = motion_module.simulate(motion, 120, default_scene().vane.heading)
     assert np.max(np.abs(_baked_degrees(range(1, 121)) - expected)) <= DEFAULT_TOLERANCE + 1e-3
 
@@ -210,8 +226,9 @@ def test_export_maps_the_built_scene_back_exactly(tmp_path: Path) -> None:
         a, b = transforms.world_primitive(mine, exported.vane), transforms.world_primitive(theirs, original.vane)
         for field in ("center", "radius", "base", "axis", "height", "point", "normal", "half_size", "triangles"):
             if hasattr(b, field) and getattr(b, field) is not None:
-                np.testing.assert_allclose(np.array(getattr(a, field), dtype=float),
-                                           np.array(getattr(b, field), dtype=float), atol=2e-5)
+                np.testing.assert_allclose(
+                    np.array(getattr(a, field), dtype=float), np.array(getattr(b, field), dtype=float), atol=2e-5
+                )
     assert exported.vane.heading == pytest.approx(original.vane.heading, abs=1e-4)
     assert [type(light).__name__ for light in exported.lights] == [type(light).__name__ for light in original.lights]
     np.testing.assert_allclose(exported.lights[2].direction, original.lights[2].direction, atol=1e-5)
