@@ -53,13 +53,12 @@ class WEATHERVANE_PT_vane(WeathervanePanel, bpy.types.Panel):
             column.prop(settings, "spin_direction")
             column.prop(settings, "spin_speed")
             column.prop(settings, "spin_smoothness")
-        column = layout.column(heading="Frames")
+        column = layout.column()
         column.prop(settings, "start_frame")
-        row = column.row(heading="Stop")
-        row.prop(settings, "use_stop", text="")
-        sub = row.row()
+        column.prop(settings, "use_stop")
+        sub = column.column()
         sub.active = settings.use_stop
-        sub.prop(settings, "stop_frame", text="")
+        sub.prop(settings, "stop_frame")
         layout.prop(settings, "tolerance")
         layout.operator("weathervane.bake", icon="KEY_HLT")
         if bpy.data.objects.get(build.TURN) is None:

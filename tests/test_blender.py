@@ -19,20 +19,6 @@ needs_blender_34 = pytest.mark.skipif(
 )
 
 
-@pytest.fixture(scope="module")
-def dist(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    pytest.importorskip("bpy", reason="the bpy wheel carries Blender's extension builder")
-    folder = tmp_path_factory.mktemp("dist")
-    result = subprocess.run(
-        [sys.executable, str(ROOT / "scripts" / "build_addon.py"), "--dist", str(folder)],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert result.returncode == 0, result.stdout + result.stderr
-    return folder
-
-
 def test_extension_zip_installs_and_builds_in_blender_5(dist: Path, tmp_path: Path) -> None:
     (extension,) = [path for path in dist.glob("weathervane-*.zip") if "3.4" not in path.name]
     script = textwrap.dedent(f"""

@@ -1,0 +1,92 @@
+"""A real Blender window (run under Xvfb by tests/test_blender_gui.py): install and enable the add-on, open the
+sidebar on the Weathervane tab, build the vane, take a screenshot, quit.
+
+    blender --factory-startup --python tests/addon/gui_session.py -- ADDON_ZIP SCREENSHOT.png
+
+Blender 3.4 has no API to choose a sidebar tab (Region.active_panel_category came later); the sidebar opens on
+its first category. The built-in panels of "Item" are written in C and registered first, but they only show with
+an active object, and the Python ones can be registered again after the add-on's; so, as a user would before
+looking at the vane, the session deletes the startup cube and leaves no object active.
+"""
+
+import sys
+
+import bpy
+
+ADDON_ZIP, SCREENSHOT = sys.argv[sys.argv.index("--") + 1 :][:2]
+
+
+def view3d():
+    window = bpy.context.window_manager.windows[0]
+    area = max((a for a in window.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width * a.height)
+    region = next(r for r in area.regions if r.type == "WINDOW")
+    return window, area, region
+
+
+def bring_tab_forward() -> None:
+    panels = {cls.__name__: cls for cls in bpy.types.Panel.__subclasses__() if cls.is_registered}
+
+    def depth(cls) -> int:
+        parent = panels.get(getattr(cls, "bl_parent_id", ""))
+        return 0 if parent is None else 1 + depth(parent)
+
+    def root(cls):
+        parent = panels.get(getattr(cls, "bl_parent_id", ""))
+        return cls if parent is None else root(parent)
+
+    sidebar = {
+        cls
+        for cls in panels.values()
+        if getattr(root(cls), "bl_space_type", "") == "VIEW_3D"
+        and getattr(root(cls), "bl_region_type", "") == "UI"
+        and getattr(root(cls), "bl_category", "") != "Weathervane"
+    }
+    ordered = sorted(sidebar, key=depth)
+    for cls in reversed(ordered):
+        bpy.utils.unregister_class(cls)
+    for cls in ordered:
+        bpy.utils.register_class(cls)
+
+
+def prepare() -> float | None:
+    try:
+        setup()
+    except Exception:
+        import traceback
+
+        traceback.print_exc()
+        bpy.ops.wm.quit_blender()
+    return None
+
+
+def setup() -> None:
+    assert bpy.ops.preferences.addon_install(filepath=ADDON_ZIP, overwrite=True) == {"FINISHED"}
+    assert bpy.ops.preferences.addon_enable(module="weathervane") == {"FINISHED"}
+    bring_tab_forward()
+    cube = bpy.data.objects.get("Cube")
+    if cube is not None:
+        bpy.data.objects.remove(cube)
+    window, area, region = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        assert bpy.ops.weathervane.build() == {"FINISHED"}
+        bpy.context.view_layer.objects.active = None
+        for obj in bpy.context.view_layer.objects:
+            obj.select_set(False)
+        area.spaces.active.show_region_ui = True
+        area.spaces.active.shading.color_type = "MATERIAL"
+        bpy.ops.view3d.view_camera()
+        bpy.ops.view3d.view_center_camera()
+    print("WEATHERVANE-GUI built")
+    bpy.app.timers.register(capture, first_interval=2.0)
+
+
+def capture() -> float | None:
+    window, area, region = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        bpy.ops.screen.screenshot(filepath=SCREENSHOT)
+    print("WEATHERVANE-GUI screenshot", SCREENSHOT)
+    bpy.app.timers.register(lambda: bpy.ops.wm.quit_blender() and None, first_interval=0.5)
+    return None
+
+
+bpy.app.timers.register(prepare, first_interval=1.0)
