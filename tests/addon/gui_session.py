@@ -68,7 +68,18 @@ def setup() -> None:
         bpy.data.objects.remove(cube)
     window, area, region = view3d()
     with bpy.context.temp_override(window=window, area=area, region=region):
-        assert bpy.ops.weathervane.build() == {"FINISHED"}
+        bpy.ops.ed.undo_push(message="before the weathervane")
+        # as the button calls it: the positional True asks for the operator's undo step
+        assert bpy.ops.weathervane.build("EXEC_DEFAULT", True) == {"FINISHED"}
+        # undo takes the whole build back, and redo brings it again
+        bpy.ops.ed.undo()
+        assert bpy.data.collections.get("Weathervane") is None, "undo left the weathervane"
+        assert "Camera" in bpy.data.objects and "Light" in bpy.data.objects
+        bpy.ops.ed.redo()
+        assert len(bpy.data.collections["Weathervane"].objects) == 19, "redo did not rebuild the weathervane"
+        print("WEATHERVANE-GUI undo and redo")
+        window, area, region = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.context.view_layer.objects.active = None
         for obj in bpy.context.view_layer.objects:
             obj.select_set(False)
