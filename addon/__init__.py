@@ -13,9 +13,9 @@ bl_info = {
     "category": "Add Mesh",
 }
 
-from . import operators, panels, properties  # noqa: E402
+from . import engine, operators, panels, properties  # noqa: E402
 
-MODULES = (properties, operators, panels)
+MODULES = (properties, operators, panels, engine)
 
 
 def register() -> None:

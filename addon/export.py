@@ -18,9 +18,19 @@ from . import camera as camera_module
 from .animation import motion_for
 
 
-def _transform(obj) -> dict:
-    location, rotation, _ = obj.matrix_world.decompose()
+def _transform(matrix) -> dict:
+    location, rotation, _ = matrix.decompose()
     return {"location": list(location), "rotation": [math.degrees(angle) for angle in rotation.to_euler("XYZ")]}
+
+
+def _unturned(obj, turn):
+    """obj's world matrix with the vane at heading 0: the turn's parent (the pivot) in place of the turn itself.
+
+    Computed from the stored matrices, so export never writes to Blender data (it runs inside renders too)."""
+    if turn is None or obj.parent != turn:
+        return obj.matrix_world
+    base = turn.parent.matrix_world if turn.parent is not None else turn.matrix_world @ turn.matrix_basis.inverted()
+    return base @ obj.matrix_parent_inverse @ obj.matrix_basis
 
 
 def _foreign_mesh(obj, depsgraph, materials: dict) -> dict | None:
@@ -48,7 +58,7 @@ def _collect(blender_scene, depsgraph, turn, materials: dict, objects: list, par
             continue
         if "weathervane_object" in obj:
             body = json.loads(obj["weathervane_object"])
-            body.update(_transform(obj))
+            body.update(_transform(_unturned(obj, turn)))
             objects.append(body)
             if turn is not None and obj.parent == turn:
                 parts.append(body["name"])
@@ -58,29 +68,20 @@ def _collect(blender_scene, depsgraph, turn, materials: dict, objects: list, par
                 objects.append(body)
 
 
-def scene_document(context) -> dict:
-    """The current Blender scene as a tracer scene document."""
-    blender_scene = context.scene
+def scene_document(context, depsgraph=None, blender_scene=None) -> dict:
+    """The current Blender scene (or the depsgraph's, inside a render) as a tracer scene document."""
+    blender_scene = blender_scene or context.scene
     settings = blender_scene.weathervane
-    depsgraph = context.evaluated_depsgraph_get()
+    depsgraph = depsgraph or context.evaluated_depsgraph_get()
     materials = {
         entry.name: {"color": list(entry.color), "specular": entry.specular, "reflective": entry.reflective}
         for entry in settings.materials
     }
     objects, parts = [], []
     turn = bpy.data.objects.get(build.TURN)
-    heading = 0.0
-    if turn is not None:
-        # the parts go out as modelled (heading 0) and the current turn becomes the vane's heading
-        heading = math.degrees(turn.rotation_euler[2])
-        turn.rotation_euler[2] = 0.0
-        context.view_layer.update()
-    try:
-        _collect(blender_scene, depsgraph, turn, materials, objects, parts)
-    finally:
-        if turn is not None:
-            turn.rotation_euler[2] = math.radians(heading)
-            context.view_layer.update()
+    # the parts go out as modelled (heading 0) and the current turn becomes the vane's heading
+    heading = math.degrees(turn.evaluated_get(depsgraph).matrix_basis.to_euler("XYZ")[2]) if turn is not None else 0.0
+    _collect(blender_scene, depsgraph, turn, materials, objects, parts)
     light_list = []
     driven = set()
     for entry in settings.lights:
@@ -121,7 +122,12 @@ def scene_document(context) -> dict:
         "materials": materials,
         "objects": objects,
         "lights": light_list,
-        "background": {"type": settings.background},
+        "background": {
+            "type": settings.background,
+            "color": list(settings.background_color),
+            "horizon": list(settings.horizon),
+            "zenith": list(settings.zenith),
+        },
         "render": {
             "width": max(1, round(render.resolution_x * scale)),
             "height": max(1, round(render.resolution_y * scale)),

@@ -156,6 +156,11 @@ class WEATHERVANE_PT_render(WeathervanePanel, bpy.types.Panel):
         row.active = settings.model == "blinn-phong"
         row.prop(settings, "coef")
         layout.prop(settings, "background")
+        if settings.background == "solid":
+            layout.prop(settings, "background_color")
+        elif settings.background in ("sky", "documented"):
+            layout.prop(settings, "horizon")
+            layout.prop(settings, "zenith")
         layout.prop(settings, "samples")
         layout.prop(settings, "workers")
 

@@ -229,6 +229,33 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         ],
         default="sky",
     )
+    background_color: FloatVectorProperty(
+        name="Color",
+        subtype="COLOR",
+        size=3,
+        min=0.0,
+        max=1.0,
+        default=(0.05, 0.05, 0.05),
+        description="The solid background's color",
+    )
+    horizon: FloatVectorProperty(
+        name="Horizon",
+        subtype="COLOR",
+        size=3,
+        min=0.0,
+        max=1.0,
+        default=(0.75, 0.82, 0.9),
+        description="The sky's color at the horizon and below",
+    )
+    zenith: FloatVectorProperty(
+        name="Zenith",
+        subtype="COLOR",
+        size=3,
+        min=0.0,
+        max=1.0,
+        default=(0.25, 0.45, 0.8),
+        description="The sky's color straight up",
+    )
     workers: IntProperty(name="Workers", min=0, max=64, default=0, description="Worker processes; 0: all cores")
     samples: EnumProperty(
         name="Samples",

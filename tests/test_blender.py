@@ -90,3 +90,63 @@ def test_addon_suite_passes_inside_blender_34() -> None:
     assert "Blender 3.4" in result.stdout
     assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
     assert " passed" in result.stdout and " failed" not in result.stdout
+
+
+@needs_blender_34
+def test_command_line_render_with_the_tracer_engine_in_blender_34(dist: Path, tmp_path: Path) -> None:
+    """`blender -b file.blend -E WEATHERVANE_TRACER -f 1`: the frame Blender writes is the tracer's image."""
+    import numpy as np
+    from PIL import Image
+
+    from tracer.images import to_8bit
+    from tracer.loader import default_scene
+    from tracer.parallel import render
+
+    (legacy,) = dist.glob("weathervane-*-blender-3.4.zip")
+    blend = tmp_path / "vane.blend"
+    environment = {**os.environ, "BLENDER_USER_SCRIPTS": str(tmp_path / "scripts")}
+    make_file = textwrap.dedent(f"""
+        import bpy
+        assert bpy.ops.preferences.addon_install(filepath={str(legacy)!r}, overwrite=True) == {{"FINISHED"}}
+        assert bpy.ops.preferences.addon_enable(module="weathervane") == {{"FINISHED"}}
+        bpy.ops.wm.read_homefile(use_empty=True)
+        assert bpy.ops.weathervane.build() == {{"FINISHED"}}
+        scene = bpy.context.scene
+        scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+        scene.view_settings.view_transform = "Standard"  # 3.4 defaults to Filmic
+        scene.render.dither_intensity = 0.0
+        bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
+    """)
+    result = subprocess.run(
+        [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python-expr", make_file],
+        capture_output=True,
+        text=True,
+        env=environment,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    result = subprocess.run(
+        [
+            BLENDER,
+            "-b",
+            str(blend),
+            "--addons",
+            "weathervane",
+            "-E",
+            "WEATHERVANE_TRACER",
+            "-o",
+            str(tmp_path / "frame_####"),
+            "-F",
+            "PNG",
+            "-f",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+        env=environment,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    frame = np.asarray(Image.open(tmp_path / "frame_0001.png").convert("RGB")).astype(int)
+    expected = to_8bit(render(default_scene().with_render(width=64, height=48), workers=1).image, srgb=True)
+    assert np.abs(frame - expected.astype(int)).max() <= 1

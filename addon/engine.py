@@ -1,0 +1,72 @@
+"""The documented tracer as a Blender render engine: F12, animation renders and `blender -b -E WEATHERVANE_TRACER`.
+
+Each frame exports the evaluated scene to a tracer scene (addon/export.py), renders it on the tracer's worker
+pool band by band with progress and cancel, and hands the linear float image to Blender's render result.
+"""
+
+from __future__ import annotations
+
+import json
+
+import bpy
+import numpy as np
+
+from ._tracer import module
+
+
+class RenderCancelledError(Exception):
+    pass
+
+
+class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
+    bl_idname = "WEATHERVANE_TRACER"
+    bl_label = "Weathervane Tracer"
+    bl_use_preview = False
+
+    def render(self, depsgraph) -> None:
+        from .export import scene_document
+
+        blender_scene = depsgraph.scene
+        loader = module("loader")
+        try:
+            document = scene_document(bpy.context, depsgraph, blender_scene)
+            scene = loader.scene_from_dict(json.loads(json.dumps(document)), "scene")
+        except loader.SceneError as error:
+            self.report({"ERROR"}, "; ".join(error.problems[:4]))
+            return
+        width, height = scene.render.width, scene.render.height
+
+        def progress(done: int, total: int) -> None:
+            self.update_progress(done / total)
+            self.update_stats("Weathervane Tracer", f"band {done}/{total}")
+            if self.test_break():
+                raise RenderCancelledError
+
+        try:
+            with module("parallel").Renderer(scene.render.workers) as renderer:
+                result = renderer.render(scene, progress)
+        except RenderCancelledError:
+            return
+        image = np.flipud(result.image).astype(np.float32)  # Blender's rows go bottom-up
+        rgba = np.concatenate((image, np.ones((height, width, 1), dtype=np.float32)), axis=2).reshape(-1, 4)
+        render_result = self.begin_result(0, 0, width, height)
+        combined = render_result.layers[0].passes["Combined"]
+        try:
+            combined.rect.foreach_set(rgba.ravel())
+        except (AttributeError, TypeError):
+            combined.rect = rgba.tolist()
+        self.end_result(render_result)
+        self.update_stats("Weathervane Tracer", f"{result.seconds * 1000:.0f} ms, {result.rays.total} rays")
+
+
+CLASSES = (WEATHERVANE_RE_tracer,)
+
+
+def register() -> None:
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister() -> None:
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,51 @@
+"""The documented tracer as a Blender render engine: what Blender's render result holds is the tracer's image."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from tracer.loader import default_scene
+from tracer.parallel import render
+
+
+def test_render_result_is_the_tracers_image(tmp_path: Path) -> None:
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    scene = bpy.context.scene
+    scene.render.engine = "WEATHERVANE_TRACER"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.filepath = str(tmp_path / "engine.exr")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    image = bpy.data.images.load(str(tmp_path / "engine.exr"))
+    pixels = np.empty(64 * 48 * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    rendered = np.flipud(pixels.reshape(48, 64, 4))[..., :3]
+    expected = render(default_scene().with_render(width=64, height=48), workers=1).image
+    # the scene went through Blender's float32 properties and back: rounding only
+    assert np.abs(rendered - expected).max() < 1e-4
+    assert rendered.std() > 0.05  # a real picture, not a flat fill
+
+
+def test_engine_follows_the_baked_motion(tmp_path: Path) -> None:
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 40
+    assert bpy.ops.weathervane.bake() == {"FINISHED"}
+    scene.render.engine = "WEATHERVANE_TRACER"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 48, 36, 100
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    images = []
+    for frame in (1, 30):
+        scene.frame_set(frame)
+        scene.render.filepath = str(tmp_path / f"frame{frame}.exr")
+        assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+        image = bpy.data.images.load(str(tmp_path / f"frame{frame}.exr"))
+        pixels = np.empty(48 * 36 * 4, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        images.append(pixels)
+    assert np.abs(images[0] - images[1]).max() > 0.1  # the vane turned between the frames
