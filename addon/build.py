@@ -161,8 +161,17 @@ def build(context, scene) -> bpy.types.Collection:
     collection = own_collection(context)
     transforms = module("transforms")
     settings = context.scene.weathervane
+    ambient = sum(light.intensity for light in scene.lights if type(light).__name__ == "AmbientLight")
     for name, material in scene.materials.items():
-        materials.ensure_material(name, material.color, material.specular, material.reflective)
+        materials.ensure_material(
+            name,
+            material.color,
+            material.specular,
+            material.reflective,
+            ambient=ambient,
+            model=scene.render.model,
+            coef=scene.render.coef,
+        )
     pivot = turn = None
     if scene.vane is not None:
         pivot = bpy.data.objects.new(PIVOT, None)

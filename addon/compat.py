@@ -77,5 +77,23 @@ def enable_nodes(material: bpy.types.Material) -> None:
         material.use_nodes = True
 
 
+def no_emission_sampling(material: bpy.types.Material) -> None:
+    """Cycles must not treat the ambient emission as a light (3.x: sample_as_light, 4.0+: emission_sampling)."""
+    settings = material.cycles
+    if hasattr(settings, "emission_sampling"):
+        settings.emission_sampling = "NONE"
+    elif hasattr(settings, "sample_as_light"):
+        settings.sample_as_light = False
+
+
+def no_world_sampling(world: bpy.types.World) -> None:
+    """Cycles must not light the scene from the world (3.x: sample_as_light, 4.0+: sampling_method)."""
+    settings = world.cycles
+    if hasattr(settings, "sampling_method"):
+        settings.sampling_method = "NONE"
+    elif hasattr(settings, "sample_as_light"):
+        settings.sample_as_light = False
+
+
 def eevee_engine() -> str:
     return "BLENDER_EEVEE_NEXT" if (4, 2, 0) <= VERSION < (5, 0, 0) else "BLENDER_EEVEE"

@@ -105,7 +105,7 @@ def scene_document(context, depsgraph=None, blender_scene=None) -> dict:
                     {
                         "type": "directional",
                         "direction": list(lights.direction_toward(obj)),
-                        "intensity": obj.data.energy,
+                        "intensity": obj.data.energy / lights.SUN_STRENGTH_PER_UNIT,
                     }
                 )
             else:

@@ -1,9 +1,16 @@
 """Tracer lights -> Blender light objects, and the panel's light entries -> their energies.
 
-The documented lights are white scalars without falloff. A point light becomes a POINT light of radius 0 whose
-power is the intensity times 4 pi (W, so its radiant intensity is the scalar); a directional light becomes a SUN of
-angle 0 and strength equal to the intensity, turned so that its local +Z (toward the light) is the documented
-direction. Ambient light has no Blender object; the comparison issue renders it as emission.
+The documented lights are white scalars that add i cos(theta) to a surface's intensity, with no falloff. A white
+diffuse surface in Cycles returns E / pi of the irradiance E, so:
+
+- a directional light becomes a SUN of angle 0 (hard shadows) and strength pi * i, turned so that its local +Z
+  (toward the light) is the documented direction;
+- a point light becomes a POINT light of radius 0 with a Light Falloff node's Constant output as its strength (no
+  inverse square), which makes E = P / (4 pi), so P = 4 pi^2 * i. (Both measured on a white plane in Cycles 5.0:
+  sun strength 1 gives 0.3183 = 1 / pi; a point of 1 W with constant falloff 0.02533 = 1 / (4 pi^2) at 1.5 m and
+  at 3 m.)
+
+Ambient light has no Blender object: it is the materials' emission (materials.py).
 """
 
 from __future__ import annotations
@@ -13,11 +20,26 @@ import math
 import bpy
 from mathutils import Vector
 
-POINT_WATTS_PER_UNIT = 4.0 * math.pi
+POINT_WATTS_PER_UNIT = 4.0 * math.pi**2
+SUN_STRENGTH_PER_UNIT = math.pi
 
 
 def point_power(intensity: float) -> float:
     return intensity * POINT_WATTS_PER_UNIT
+
+
+def sun_strength(intensity: float) -> float:
+    return intensity * SUN_STRENGTH_PER_UNIT
+
+
+def _constant_falloff(light_data) -> None:
+    """Cycles: drive the light's emission by a Light Falloff node's Constant output (no inverse square)."""
+    light_data.use_nodes = True
+    tree = light_data.node_tree
+    emission = next(node for node in tree.nodes if node.type == "EMISSION")
+    falloff = tree.nodes.new("ShaderNodeLightFalloff")
+    falloff.inputs["Strength"].default_value = 1.0
+    tree.links.new(falloff.outputs["Constant"], emission.inputs["Strength"])
 
 
 def create(kind: str, intensity: float, name: str, collection, vector=(0.0, 0.0, 1.0)):
@@ -26,12 +48,13 @@ def create(kind: str, intensity: float, name: str, collection, vector=(0.0, 0.0,
         data = bpy.data.lights.new(name, type="POINT")
         data.shadow_soft_size = 0.0
         data.energy = point_power(intensity)
+        _constant_falloff(data)
         obj = bpy.data.objects.new(name, data)
         obj.location = vector
     else:
         data = bpy.data.lights.new(name, type="SUN")
         data.angle = 0.0
-        data.energy = intensity
+        data.energy = sun_strength(intensity)
         obj = bpy.data.objects.new(name, data)
         obj.rotation_euler = Vector(vector).to_track_quat("Z", "Y").to_euler("XYZ")
         obj["weathervane_direction_length"] = Vector(vector).length  # the documented L keeps its length
@@ -47,7 +70,7 @@ def apply(entry) -> None:
     if entry.kind == "POINT" and obj.data.type == "POINT":
         obj.data.energy = point_power(entry.intensity)
     elif entry.kind == "DIRECTIONAL" and obj.data.type == "SUN":
-        obj.data.energy = entry.intensity
+        obj.data.energy = sun_strength(entry.intensity)
 
 
 def direction_toward(obj) -> tuple[float, float, float]:

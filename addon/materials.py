@@ -1,8 +1,18 @@
 """Tracer materials (color, specular exponent, reflectivity) -> Blender node materials named "WV <name>".
 
-The graph follows the documented model as far as a physically based renderer allows: a Principled BSDF with the
-color and a roughness from the Phong exponent (Walter et al. 2007: Beckmann alpha = sqrt(2 / (n + 2)), Blender
-roughness = sqrt(alpha)), mixed with a sharp mirror by the reflectivity. The comparison issue tunes it further.
+The graph is the documented model written as closely as Cycles allows (the "Cycles twin"), all in this module:
+
+    surface = (1 - r) * local + r * mirror           Mix Shader, factor = reflectivity r
+    local   = diffuse(color) + highlight + ambient    the listing's intensity times color
+    ambient = emission of ambient x color, seen by camera and mirror rays only (Light Path), so it neither lights
+              other surfaces nor is shadowed, as the documented ambient term
+    highlight = glossy (Beckmann) of color x HIGHLIGHT_GAIN, roughness from the exponent n (Walter et al. 2007:
+              Beckmann alpha = sqrt(2 / (n + 2)), Blender roughness = sqrt(alpha)); n is specular x coef for
+              Blinn-Phong and 4 x specular for Phong (a Phong lobe is about four times narrower in its exponent)
+    mirror  = sharp glossy, white
+
+Diffuse and highlight take their strength from the lights (see lights.py for the conversions). Where the documented
+lobe and a microfacet lobe differ (the highlight's shape and its energy), the comparison report shows it.
 """
 
 from __future__ import annotations
@@ -14,56 +24,126 @@ import bpy
 from . import compat
 
 PREFIX = "WV "
+HIGHLIGHT_GAIN = 1.0  # the glossy lobe's color relative to the diffuse color; see docs/comparison.md
+
+
+def exponent_for(specular: float, model: str = "blinn-phong", coef: float = 3.0) -> float:
+    """The Blinn-Phong exponent that the documented model raises the half-vector cosine to."""
+    return specular * coef if model == "blinn-phong" else 4.0 * specular
 
 
 def roughness_from_exponent(exponent: float) -> float:
-    """Blender roughness for a Phong exponent n; matte (n = 0) is fully rough."""
+    """Blender roughness for a Blinn-Phong exponent n; matte (n = 0) is fully rough."""
     if exponent <= 0.0:
         return 1.0
     return math.sqrt(math.sqrt(2.0 / (exponent + 2.0)))
+
+
+def ambient_of(blender_scene) -> float:
+    """The summed intensity of the panel's ambient lights."""
+    return sum(entry.intensity for entry in blender_scene.weathervane.lights if entry.kind == "AMBIENT")
+
+
+def refresh_all(blender_scene) -> None:
+    """Re-apply every panel material (after a change of ambient light, model or coef)."""
+    settings = blender_scene.weathervane
+    for entry in settings.materials:
+        material = bpy.data.materials.get(material_name(entry.name))
+        if material is not None:
+            apply(
+                material,
+                tuple(entry.color),
+                entry.specular,
+                entry.reflective,
+                ambient=ambient_of(blender_scene),
+                model=settings.model,
+                coef=settings.coef,
+            )
 
 
 def material_name(name: str) -> str:
     return f"{PREFIX}{name}"
 
 
-def ensure_material(name: str, color: tuple[float, float, float], specular: float, reflective: float):
-    """The add-on's material for a tracer material name, created or updated in place."""
+def _node(tree, kind: str, name: str, location: tuple[int, int]):
+    node = tree.nodes.new(kind)
+    node.name = node.label = name
+    node.location = location
+    return node
+
+
+def ensure_material(
+    name: str,
+    color,
+    specular: float,
+    reflective: float,
+    *,
+    ambient: float = 0.0,
+    model: str = "blinn-phong",
+    coef: float = 3.0,
+):
+    """The add-on's material for a tracer material name, created or rebuilt in place."""
     material = bpy.data.materials.get(material_name(name)) or bpy.data.materials.new(material_name(name))
     compat.enable_nodes(material)
     material["weathervane_material"] = name
     tree = material.node_tree
-    nodes = tree.nodes
-    nodes.clear()
-    output = nodes.new("ShaderNodeOutputMaterial")
-    output.location = (600, 0)
-    surface = nodes.new("ShaderNodeBsdfPrincipled")
-    surface.name = "WV Surface"
-    surface.location = (0, 100)
-    mirror = nodes.new("ShaderNodeBsdfGlossy")
-    mirror.name = "WV Mirror"
-    mirror.location = (0, -300)
-    mix = nodes.new("ShaderNodeMixShader")
-    mix.name = "WV Mix"
-    mix.location = (350, 0)
-    tree.links.new(surface.outputs[0], mix.inputs[1])
-    tree.links.new(mirror.outputs[0], mix.inputs[2])
-    tree.links.new(mix.outputs[0], output.inputs["Surface"])
-    apply(material, color, specular, reflective)
+    tree.nodes.clear()
+    links = tree.links
+    output = _node(tree, "ShaderNodeOutputMaterial", "WV Output", (1000, 0))
+    diffuse = _node(tree, "ShaderNodeBsdfDiffuse", "WV Diffuse", (0, 300))
+    highlight = _node(tree, "ShaderNodeBsdfGlossy", "WV Highlight", (0, 100))
+    emission = _node(tree, "ShaderNodeEmission", "WV Ambient", (0, -100))
+    light_path = _node(tree, "ShaderNodeLightPath", "WV Light Path", (-400, -200))
+    hidden = _node(tree, "ShaderNodeMath", "WV Not Diffuse", (-200, -200))
+    hidden.operation = "SUBTRACT"
+    hidden.inputs[0].default_value = 1.0
+    links.new(light_path.outputs["Is Diffuse Ray"], hidden.inputs[1])
+    links.new(hidden.outputs[0], emission.inputs["Strength"])
+    first_sum = _node(tree, "ShaderNodeAddShader", "WV Direct", (250, 200))
+    local = _node(tree, "ShaderNodeAddShader", "WV Local", (450, 100))
+    links.new(diffuse.outputs[0], first_sum.inputs[0])
+    links.new(highlight.outputs[0], first_sum.inputs[1])
+    links.new(first_sum.outputs[0], local.inputs[0])
+    links.new(emission.outputs[0], local.inputs[1])
+    mirror = _node(tree, "ShaderNodeBsdfGlossy", "WV Mirror", (450, -200))
+    mix = _node(tree, "ShaderNodeMixShader", "WV Mix", (750, 0))
+    links.new(local.outputs[0], mix.inputs[1])
+    links.new(mirror.outputs[0], mix.inputs[2])
+    links.new(mix.outputs[0], output.inputs["Surface"])
+    apply(material, color, specular, reflective, ambient=ambient, model=model, coef=coef)
     return material
 
 
-def apply(material, color, specular: float, reflective: float) -> None:
+def apply(
+    material,
+    color,
+    specular: float,
+    reflective: float,
+    *,
+    ambient: float = 0.0,
+    model: str = "blinn-phong",
+    coef: float = 3.0,
+) -> None:
     """Set an add-on material's parameters (live edits from the panel)."""
     nodes = material.node_tree.nodes
-    surface, mirror, mix = nodes.get("WV Surface"), nodes.get("WV Mirror"), nodes.get("WV Mix")
-    if surface is None or mirror is None or mix is None:
+    needed = ("WV Diffuse", "WV Highlight", "WV Ambient", "WV Mirror", "WV Mix")
+    if any(nodes.get(name) is None for name in needed):
         return
     rgba = (*color, 1.0)
-    surface.inputs["Base Color"].default_value = rgba
-    surface.inputs["Roughness"].default_value = roughness_from_exponent(specular)
-    compat.principled_socket(surface, "specular").default_value = 0.5 if specular > 0.0 else 0.0
+    nodes["WV Diffuse"].inputs["Color"].default_value = rgba
+    highlight = nodes["WV Highlight"]
+    highlight.distribution = "BECKMANN"
+    exponent = exponent_for(specular, model, coef)
+    highlight.inputs["Color"].default_value = (
+        (*(channel * HIGHLIGHT_GAIN for channel in color), 1.0) if specular > 0.0 else (0.0, 0.0, 0.0, 1.0)
+    )
+    highlight.inputs["Roughness"].default_value = roughness_from_exponent(exponent)
+    nodes["WV Ambient"].inputs["Color"].default_value = (*(channel * ambient for channel in color), 1.0)
+    mirror = nodes["WV Mirror"]
+    mirror.distribution = "SHARP" if compat.VERSION < (4, 0, 0) else "GGX"
     mirror.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
     mirror.inputs["Roughness"].default_value = 0.0
-    mix.inputs["Fac"].default_value = reflective
+    nodes["WV Mix"].inputs["Fac"].default_value = reflective
     material.diffuse_color = rgba  # the viewport's solid mode
+    if hasattr(material, "cycles"):
+        compat.no_emission_sampling(material)

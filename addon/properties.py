@@ -20,13 +20,17 @@ from . import lights, materials
 
 
 def _material_changed(part, context) -> None:
-    material = bpy.data.materials.get(materials.material_name(part.name))
-    if material is not None:
-        materials.apply(material, tuple(part.color), part.specular, part.reflective)
+    materials.refresh_all(context.scene)
 
 
 def _light_changed(light, context) -> None:
     lights.apply(light)
+    if light.kind == "AMBIENT":
+        materials.refresh_all(context.scene)
+
+
+def _model_changed(settings, context) -> None:
+    materials.refresh_all(context.scene)
 
 
 class WEATHERVANE_PG_material(bpy.types.PropertyGroup):
@@ -211,6 +215,7 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
             ("phong", "Phong", "Reflected-vector highlight"),
         ],
         default="blinn-phong",
+        update=_model_changed,
     )
     coef: FloatProperty(
         name="Coef",
@@ -218,6 +223,7 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         max=16.0,
         default=3.0,
         description="Blinn-Phong exponent factor: exponent = specular * coef (2-4 is typical)",
+        update=_model_changed,
     )
     background: EnumProperty(
         name="Background",

@@ -196,9 +196,11 @@ def test_material_edits_reach_the_node_graph_live() -> None:
     entry.reflective = 0.6
     entry.specular = 0.0
     nodes = bpy.data.materials["WV brass"].node_tree.nodes
-    assert tuple(nodes["WV Surface"].inputs["Base Color"].default_value)[:3] == pytest.approx((0.1, 0.2, 0.3))
+    assert tuple(nodes["WV Diffuse"].inputs["Color"].default_value)[:3] == pytest.approx((0.1, 0.2, 0.3))
     assert nodes["WV Mix"].inputs["Fac"].default_value == pytest.approx(0.6)
-    assert nodes["WV Surface"].inputs["Roughness"].default_value == pytest.approx(1.0)
+    assert tuple(nodes["WV Highlight"].inputs["Color"].default_value)[:3] == pytest.approx((0, 0, 0))  # matte
+    # the ambient light's intensity times the color, as emission
+    assert tuple(nodes["WV Ambient"].inputs["Color"].default_value)[:3] == pytest.approx((0.02, 0.04, 0.06))
 
 
 def test_lights_can_be_added_and_removed() -> None:
@@ -209,7 +211,7 @@ def test_lights_can_be_added_and_removed() -> None:
     entry = settings.lights[-1]
     assert entry.object_name in collection.objects
     entry.intensity = 0.25
-    assert bpy.data.objects[entry.object_name].data.energy == pytest.approx(0.25 * 4 * math.pi)
+    assert bpy.data.objects[entry.object_name].data.energy == pytest.approx(0.25 * 4 * math.pi**2)
     name = entry.object_name
     assert bpy.ops.weathervane.light_remove() == {"FINISHED"}
     assert len(settings.lights) == before and bpy.data.objects.get(name) is None
