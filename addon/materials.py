@@ -6,12 +6,13 @@ The graph is the documented model written as closely as Cycles allows (the "Cycl
     local   = diffuse(color) + highlight + ambient    the listing's intensity times color
     ambient = emission of ambient x color, seen by camera and mirror rays only (Light Path), so it neither lights
               other surfaces nor is shadowed, as the documented ambient term
-    highlight = glossy (Beckmann) of color x HIGHLIGHT_GAIN, roughness from the exponent n (Walter et al. 2007:
+    highlight = glossy (Beckmann) of color x highlight_gain(n), roughness from the exponent n (Walter et al. 2007:
               Beckmann alpha = sqrt(2 / (n + 2)), Blender roughness = sqrt(alpha)); n is specular x coef for
               Blinn-Phong and 4 x specular for Phong (a Phong lobe is about four times narrower in its exponent)
     mirror  = sharp glossy, white
 
-Diffuse and highlight take their strength from the lights (see lights.py for the conversions). Where the documented
+Only camera rays and mirror (singular) rays see a surface or the background, so the rough highlight reflects the
+lights and nothing else, as documented. Diffuse and highlight take their strength from the lights (see lights.py for the conversions). Where the documented
 lobe and a microfacet lobe differ (the highlight's shape and its energy), the comparison report shows it.
 """
 
@@ -24,7 +25,15 @@ import bpy
 from . import compat
 
 PREFIX = "WV "
-HIGHLIGHT_GAIN = 1.0  # the glossy lobe's color relative to the diffuse color; see docs/comparison.md
+
+
+def highlight_gain(exponent: float) -> float:
+    """The glossy color's factor that makes a Beckmann lobe's peak the documented highlight's.
+
+    Beckmann with Walter's alpha^2 = 2 / (n + 2) is about the normalised Blinn-Phong lobe (n + 2) / (2 pi) cos^n;
+    lit by a sun of strength pi * i it returns about i (n + 2) / 8 cos^n(theta_h) / cos(theta_o), while the
+    documented model adds i cos^n(theta_h): so the factor is 8 / (n + 2), taking cos(theta_o) as 1."""
+    return 8.0 / (exponent + 2.0) if exponent > 0.0 else 0.0
 
 
 def exponent_for(specular: float, model: str = "blinn-phong", coef: float = 3.0) -> float:
@@ -109,7 +118,16 @@ def ensure_material(
     mix = _node(tree, "ShaderNodeMixShader", "WV Mix", (750, 0))
     links.new(local.outputs[0], mix.inputs[1])
     links.new(mirror.outputs[0], mix.inputs[2])
-    links.new(mix.outputs[0], output.inputs["Surface"])
+    # only camera and mirror rays see a surface: the documented highlight reflects lights, not the scene
+    visible = _node(tree, "ShaderNodeMath", "WV Visible", (750, -250))
+    visible.operation = "MAXIMUM"
+    links.new(light_path.outputs["Is Camera Ray"], visible.inputs[0])
+    links.new(light_path.outputs["Is Singular Ray"], visible.inputs[1])
+    seen = _node(tree, "ShaderNodeMixShader", "WV Seen", (900, 0))
+    links.new(visible.outputs[0], seen.inputs["Fac"])
+    links.new(mix.outputs[0], seen.inputs[2])
+    output.location = (1100, 0)
+    links.new(seen.outputs[0], output.inputs["Surface"])
     apply(material, color, specular, reflective, ambient=ambient, model=model, coef=coef)
     return material
 
@@ -134,8 +152,9 @@ def apply(
     highlight = nodes["WV Highlight"]
     highlight.distribution = "BECKMANN"
     exponent = exponent_for(specular, model, coef)
+    gain = highlight_gain(exponent)
     highlight.inputs["Color"].default_value = (
-        (*(channel * HIGHLIGHT_GAIN for channel in color), 1.0) if specular > 0.0 else (0.0, 0.0, 0.0, 1.0)
+        (*(channel * gain for channel in color), 1.0) if specular > 0.0 else (0.0, 0.0, 0.0, 1.0)
     )
     highlight.inputs["Roughness"].default_value = roughness_from_exponent(exponent)
     nodes["WV Ambient"].inputs["Color"].default_value = (*(channel * ambient for channel in color), 1.0)

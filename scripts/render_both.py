@@ -1,0 +1,185 @@
+"""A scene (the default, a scene file or a .blend) -> the documented tracer's and Blender's images of it, compared.
+
+    python scripts/render_both.py [SCENE.json|SCENE.blend] --out out/compare [--engines tracer,cycles,eevee,workbench]
+    blender -b [SCENE.blend] --python scripts/render_both.py -- [SCENE.json] --out out/compare
+
+Both paths render the same Blender scene: the add-on builds it (or the .blend is opened), the tracer renders what
+the add-on exports from it, and Cycles renders its twin set-up (addon/twin.py). Writes <engine>.npy (linear) and
+.png, a FLIP heat map per pair, metrics.json, timings.json and report.html into the output folder (one folder per
+frame with --frames A-B), and prints the headline numbers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "scripts"))
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+ENGINES = ("tracer", "cycles", "eevee", "workbench")
+
+
+def parse(argv: list[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="render_both.py", description=__doc__.splitlines()[0])
+    parser.add_argument("scene", nargs="?", type=Path, help="a tracer scene (.json) or a .blend; default: built-in")
+    parser.add_argument("--out", type=Path, default=ROOT / "out" / "compare", help="output folder")
+    parser.add_argument("--width", type=int, default=640)
+    parser.add_argument("--height", type=int, default=480)
+    parser.add_argument("--engines", default="tracer,cycles", help=f"comma-separated, from {', '.join(ENGINES)}")
+    parser.add_argument("--cycles-samples", type=int, default=256)
+    parser.add_argument("--eevee-samples", type=int, default=64)
+    parser.add_argument("--tracer-samples", type=int, default=16, help="a perfect square: 16 is 4 x 4")
+    parser.add_argument("--frames", help="A-B: render every frame of the baked motion")
+    args = parser.parse_args(argv)
+    engines = [name.strip() for name in args.engines.split(",") if name.strip()]
+    unknown = [name for name in engines if name not in ENGINES]
+    if unknown or not engines:
+        parser.error(f"--engines: must name engines from {', '.join(ENGINES)}, got {args.engines!r}")
+    if args.width < 1 or args.height < 1:
+        parser.error("--width and --height must be >= 1")
+    args.engines = engines
+    return args
+
+
+def prepare(args: argparse.Namespace) -> None:
+    """Register the add-on and build or open the scene."""
+    import addon
+
+    if not hasattr(bpy.types, "WEATHERVANE_OT_build"):
+        addon.register()
+    if args.scene is not None and args.scene.suffix == ".blend":
+        bpy.ops.wm.open_mainfile(filepath=str(args.scene.resolve()))
+        if not hasattr(bpy.types, "WEATHERVANE_OT_build"):
+            addon.register()
+    elif not (bpy.data.filepath and bpy.data.collections.get("Weathervane")):
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        if not hasattr(bpy.types, "WEATHERVANE_OT_build"):
+            addon.register()
+        result = bpy.ops.weathervane.build(filepath=str(args.scene.resolve()) if args.scene else "")
+        if result != {"FINISHED"}:
+            sys.exit("error: the scene could not be built")
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = args.width, args.height
+    scene.render.resolution_percentage = 100
+
+
+def render_tracer(samples: int) -> np.ndarray:
+    from addon.export import scene_document
+    from tracer.loader import scene_from_dict
+    from tracer.parallel import render
+
+    document = scene_document(bpy.context)
+    document["render"]["samples"] = samples
+    scene = scene_from_dict(json.loads(json.dumps(document)), "export")
+    return render(scene).image
+
+
+def render_blender(folder: Path, name: str) -> np.ndarray:
+    scene = bpy.context.scene
+    path = folder / f".{name}.exr"
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(str(path), check_existing=False)
+    width, height = image.size
+    pixels = np.empty(width * height * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    bpy.data.images.remove(image)
+    path.unlink()
+    return np.flipud(pixels.reshape(height, width, 4))[..., :3].copy()
+
+
+def render_frame(args: argparse.Namespace, folder: Path) -> dict:
+    from addon import twin
+
+    folder.mkdir(parents=True, exist_ok=True)
+    scene = bpy.context.scene
+    engine_before = scene.render.engine
+    timings = {}
+    for name in args.engines:
+        started = time.perf_counter()
+        if name == "tracer":
+            image = render_tracer(args.tracer_samples)
+        else:
+            if name == "cycles":
+                twin.cycles(scene, args.cycles_samples)
+            elif name == "eevee":
+                twin.eevee(scene, args.eevee_samples)
+            else:
+                twin.workbench(scene)
+            image = render_blender(folder, name)
+        timings[name] = round(time.perf_counter() - started, 3)
+        np.save(folder / f"{name}.npy", image.astype(np.float32))
+        print(f"{name}: {timings[name]:.2f} s", flush=True)
+    scene.render.engine = engine_before
+    (folder / "timings.json").write_text(json.dumps(timings, indent=2))
+    return timings
+
+
+def compare(folder: Path) -> dict | None:
+    """metrics.json and report.html: in this Python when it has the report libraries, else the project's."""
+    try:
+        import compare_images
+
+        return compare_images.write_report(folder)
+    except ImportError:
+        python = ROOT / ".venv" / "bin" / "python"
+        if not python.exists():
+            print("warning: metrics skipped: no Python with the report extra (make demo installs it)", file=sys.stderr)
+            return None
+        environment = {key: value for key, value in os.environ.items() if not key.startswith("PYTHON")}
+        subprocess.run(
+            [str(python), str(ROOT / "scripts" / "compare_images.py"), str(folder)],
+            check=True,
+            env=environment,
+            stdout=subprocess.DEVNULL,
+        )
+        return json.loads((folder / "metrics.json").read_text())
+
+
+def main() -> None:
+    argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else sys.argv[1:]
+    args = parse(argv)
+    prepare(args)
+    scene = bpy.context.scene
+    if args.frames:
+        first, _, last = args.frames.partition("-")
+        frames = range(int(first), int(last or first) + 1)
+        if scene.weathervane and bpy.data.objects.get("WV Turn") is not None:
+            scene.frame_start, scene.frame_end = frames.start, frames.stop - 1
+            bpy.ops.weathervane.bake()
+        results = {}
+        for frame in frames:
+            scene.frame_set(frame)
+            folder = args.out / f"frame_{frame:04d}"
+            render_frame(args, folder)
+            results[frame] = compare(folder)
+        summary = {str(frame): (result or {}).get("pairs") for frame, result in results.items()}
+        (args.out / "metrics.json").write_text(json.dumps(summary, indent=2))
+        print(f"report: {args.out}/frame_*/report.html")
+        return
+    timings = render_frame(args, args.out)
+    result = compare(args.out)
+    print(f"report: {(args.out / 'report.html').resolve()}")
+    if result:
+        for key, metrics in result["pairs"].items():
+            print(
+                f"{key}: PSNR {metrics['psnr_db']:.2f} dB, SSIM {metrics['ssim']:.4f}, mean FLIP "
+                f"{metrics['mean_flip']:.4f}, pixels over 0.016: {100 * metrics['share_over_0.016']:.1f}%"
+            )
+    print("timings: " + ", ".join(f"{name} {seconds:.2f} s" for name, seconds in timings.items()))
+
+
+if __name__ == "__main__":
+    main()
