@@ -4,7 +4,6 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
-REPORT_STAMP := $(VENV)/.installed-report
 # Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
 SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
@@ -14,10 +13,6 @@ $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found; install Python 3.11" >&2; exit 1; }
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,blender]'
-	@touch $@
-
-$(REPORT_STAMP): $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[dev,blender,report]'
 	@touch $@
 
@@ -37,9 +32,7 @@ system-deps:
 	fi
 
 demo: $(STAMP)
-	@mkdir -p out
-	$(BIN)/python -m tracer render -o out/default.png
-	@echo "image: $(CURDIR)/out/default.png"
+	$(BIN)/python scripts/render_both.py --out out --width 640 --height 480
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
@@ -54,7 +47,7 @@ test-slow: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_tracer.py
 
-docs: $(REPORT_STAMP)
+docs: $(STAMP)
 	$(BIN)/python scripts/plot_step_response.py
 
 addon: $(STAMP)

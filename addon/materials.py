@@ -12,8 +12,9 @@ The graph is the documented model written as closely as Cycles allows (the "Cycl
     mirror  = sharp glossy, white
 
 Only camera rays and mirror (singular) rays see a surface or the background, so the rough highlight reflects the
-lights and nothing else, as documented. Diffuse and highlight take their strength from the lights (see lights.py for the conversions). Where the documented
-lobe and a microfacet lobe differ (the highlight's shape and its energy), the comparison report shows it.
+lights and nothing else, as documented. Diffuse and highlight take their strength from the lights (see lights.py
+for the conversions). Where the documented lobe and a microfacet lobe differ (the highlight's shape and its
+energy), the comparison report shows it.
 """
 
 from __future__ import annotations
