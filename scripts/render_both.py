@@ -151,8 +151,9 @@ def compare(folder: Path) -> dict | None:
 
 
 def main() -> None:
-    argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else sys.argv[1:]
-    args = parse(argv)
+    from script_args import script_arguments
+
+    args = parse(script_arguments())
     prepare(args)
     scene = bpy.context.scene
     if args.frames:
