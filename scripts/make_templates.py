@@ -71,7 +71,7 @@ def mirror_studio() -> dict:
             "type": "plane",
             "material": "mirror",
             "location": [-3.0, 0, 2.5],
-            "rotation": [90, 0, -90],
+            "rotation": [90, 0, 90],
             "size": [8, 5],
         },
     ]
