@@ -62,11 +62,4 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
 CLASSES = (WEATHERVANE_RE_tracer,)
 
 
-def register() -> None:
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister() -> None:
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

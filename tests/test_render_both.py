@@ -3,18 +3,15 @@
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
+from tests.scripts_run import BLENDER, in_blender, in_python
 from tracer.loader import default_scene_dict
 
 ROOT = Path(__file__).resolve().parents[1]
-BLENDER = shutil.which("blender")
 SMALL = ["--width", "96", "--height", "72", "--cycles-samples", "64"]
 
 pytest.importorskip("bpy", reason="render_both.py runs on the bpy wheel")
@@ -22,13 +19,7 @@ pytest.importorskip("flip_evaluator", reason="the report extra (flip-evaluator, 
 
 
 def run_python(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, str(ROOT / "scripts" / "render_both.py"), *args],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        cwd=ROOT,
-    )
+    return in_python("render_both.py", *args)
 
 
 def test_default_scene_twin_agrees_and_the_report_is_written(tmp_path: Path) -> None:
@@ -64,27 +55,7 @@ def test_bad_engine_name_is_refused(tmp_path: Path) -> None:
 
 @pytest.mark.skipif(BLENDER is None, reason="Debian's blender (3.4.1) is not installed: `make test` installs it")
 def test_runs_inside_blender_34_too(tmp_path: Path) -> None:
-    environment = {key: value for key, value in os.environ.items() if not key.startswith("PYTHON")}
-    result = subprocess.run(
-        [
-            BLENDER,
-            "-b",
-            "--factory-startup",
-            "--python-exit-code",
-            "1",
-            "--python",
-            str(ROOT / "scripts" / "render_both.py"),
-            "--",
-            "--out",
-            str(tmp_path),
-            *SMALL,
-        ],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        cwd=ROOT,
-        env=environment,
-    )
+    result = in_blender("render_both.py", "--out", str(tmp_path), *SMALL)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     assert "Blender 3.4" in result.stdout
     metrics = json.loads((tmp_path / "metrics.json").read_text())["pairs"]["cycles_vs_tracer"]

@@ -4,17 +4,15 @@ a small frame through both paths."""
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
+from tests.scripts_run import BLENDER, in_blender, in_python
+
 ROOT = Path(__file__).resolve().parents[1]
 TEMPLATES = sorted((ROOT / "blend_templates").glob("*.blend"))
-BLENDER = shutil.which("blender")
 SMALL = ["--width", "64", "--height", "48", "--cycles-samples", "16"]
 
 pytest.importorskip("bpy", reason="render_both.py runs on the bpy wheel")
@@ -35,39 +33,12 @@ def _check(folder: Path, result: subprocess.CompletedProcess) -> None:
 
 @pytest.mark.parametrize("template", TEMPLATES, ids=[path.stem for path in TEMPLATES])
 def test_template_renders_both_paths_in_blender_5(template: Path, tmp_path: Path) -> None:
-    result = subprocess.run(
-        [sys.executable, str(ROOT / "scripts" / "render_both.py"), str(template), "--out", str(tmp_path), *SMALL],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        cwd=ROOT,
-    )
-    _check(tmp_path, result)
+    _check(tmp_path, in_python("render_both.py", str(template), "--out", str(tmp_path), *SMALL))
 
 
 @pytest.mark.skipif(BLENDER is None, reason="Debian's blender (3.4.1) is not installed: `make test` installs it")
 @pytest.mark.parametrize("template", TEMPLATES, ids=[path.stem for path in TEMPLATES])
 def test_template_renders_both_paths_in_blender_34(template: Path, tmp_path: Path) -> None:
-    environment = {key: value for key, value in os.environ.items() if not key.startswith("PYTHON")}
-    result = subprocess.run(
-        [
-            BLENDER,
-            "-b",
-            str(template),
-            "--python-exit-code",
-            "1",
-            "--python",
-            str(ROOT / "scripts" / "render_both.py"),
-            "--",
-            "--out",
-            str(tmp_path),
-            *SMALL,
-        ],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        cwd=ROOT,
-        env=environment,
-    )
+    result = in_blender("render_both.py", "--out", str(tmp_path), *SMALL, blend=template)
     assert "Blender 3.4" in result.stdout
     _check(tmp_path, result)
