@@ -18,6 +18,21 @@ class RenderCancelledError(Exception):
     pass
 
 
+_renderers: dict[int, object] = {}  # one worker pool per worker count, kept across frames of an animation
+
+
+def _renderer(workers: int):
+    if workers not in _renderers:
+        _renderers[workers] = module("parallel").Renderer(workers)
+    return _renderers[workers]
+
+
+def close_renderers() -> None:
+    for renderer in _renderers.values():
+        renderer.close()
+    _renderers.clear()
+
+
 class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
     bl_idname = "WEATHERVANE_TRACER"
     bl_label = "Weathervane Tracer"
@@ -43,8 +58,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
                 raise RenderCancelledError
 
         try:
-            with module("parallel").Renderer(scene.render.workers) as renderer:
-                result = renderer.render(scene, progress)
+            result = _renderer(scene.render.workers).render(scene, progress)
         except RenderCancelledError:
             return
         image = np.flipud(result.image).astype(np.float32)  # Blender's rows go bottom-up
@@ -62,4 +76,13 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
 CLASSES = (WEATHERVANE_RE_tracer,)
 
 
-register, unregister = bpy.utils.register_classes_factory(CLASSES)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
+
+
+def register() -> None:
+    _register_classes()
+
+
+def unregister() -> None:
+    close_renderers()
+    _unregister_classes()
