@@ -116,6 +116,12 @@ def _settings_parser() -> argparse.ArgumentParser:
     settings.add_argument("--workers", type=_integer(0, 256), help="worker processes over bands of rows; 0: all cores")
     settings.add_argument("--dtype", choices=sc.DTYPES, help="floating-point precision of the tracing")
     settings.add_argument(
+        "--numerics",
+        choices=sc.NUMERICS,
+        help="documented: the seed's epsilons and formulas; robust: stable quadratics, watertight triangles, "
+        "normal-offset ray origins (docs/stability.md)",
+    )
+    settings.add_argument(
         "--background",
         choices=sc.BACKGROUNDS,
         help="solid color, sky gradient, the seed's single-color mode (documented), or none (black)",
@@ -151,7 +157,7 @@ def _frames(text: str) -> tuple[int, int]:
 
 
 def _apply_flags(scene: sc.Scene, args: argparse.Namespace) -> sc.Scene:
-    names = ("width", "height", "depth", "model", "coef", "samples", "workers", "dtype")
+    names = ("width", "height", "depth", "model", "coef", "samples", "workers", "dtype", "numerics")
     changes = {name: getattr(args, name) for name in names if getattr(args, name) is not None}
     if changes:
         scene = scene.with_render(**changes)

@@ -354,6 +354,7 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         dtype=reader.choice("dtype", sc.DTYPES, base.dtype),
         seed=reader.number("seed", base.seed, low=0, high=2**32 - 1, integer=True),
         gate_specular=reader.boolean("gate_specular", base.gate_specular),
+        numerics=reader.choice("numerics", sc.NUMERICS, base.numerics),
     )
     samples_problem = check_samples(settings.samples)
     if samples_problem and "samples" in reader.data and isinstance(reader.data["samples"], int):

@@ -18,6 +18,7 @@ MODELS = ("phong", "blinn-phong")
 BACKGROUNDS = ("solid", "sky", "documented", "none")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 DTYPES = ("float32", "float64")
+NUMERICS = ("documented", "robust")
 
 
 @dataclass(frozen=True)
@@ -156,6 +157,7 @@ class RenderSettings:
     dtype: Literal["float32", "float64"] = "float64"
     seed: int = 0
     gate_specular: bool = False
+    numerics: Literal["documented", "robust"] = "documented"  # tracer/robust.py
 
 
 @dataclass(frozen=True)

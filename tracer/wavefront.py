@@ -17,6 +17,7 @@ from . import scene as sc
 from . import transforms as tf
 from .bvh import Hierarchy
 from .kernels import Kernel, column, dot, make_kernel, take
+from .robust import make_robust_kernel, offset_origins
 
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0
 SHADOW_T_MIN = 0.001  # listing 3.2
@@ -58,7 +59,9 @@ class PreparedScene:
     def __post_init__(self) -> None:
         settings = self.scene.render
         self.dtype = np.dtype(settings.dtype)
-        self.kernels = [make_kernel(primitive, self.dtype) for primitive in tf.world_primitives(self.scene)]
+        self.robust = settings.numerics == "robust"
+        build = make_robust_kernel if self.robust else make_kernel
+        self.kernels = [build(primitive, self.dtype) for primitive in tf.world_primitives(self.scene)]
         self.hierarchy = Hierarchy(self.kernels, self.dtype)
         materials = [self.scene.materials[obj.material] for obj in self.scene.objects]
         self.colors = np.asarray([m.color for m in materials], dtype=self.dtype).T.reshape(3, -1)  # (3, objects)
@@ -134,7 +137,7 @@ class PreparedScene:
             diffuse_gate = NL > 0.0
             needed = np.flatnonzero(diffuse_gate | gate)
             terms.append((L, NL, length_l, diffuse_gate, gate, cosine, needed))
-        lit = self._lit([term for term in terms if term is not None], P, counts)
+        lit = self._lit([term for term in terms if term is not None], P, N, counts)
         intensity = np.zeros(count, dtype=self.dtype)
         shadow_rays = iter(lit)
         for light, term in zip(self.lights, terms, strict=True):
@@ -152,20 +155,31 @@ class PreparedScene:
             intensity = np.where(gate, intensity + highlight, intensity)
         return intensity
 
-    def _lit(self, terms: list[tuple], P: np.ndarray, counts: RayCounts) -> list[np.ndarray]:
-        """One any-hit query for the shadow rays of every light: which points (n,) each light reaches."""
+    def _lit(self, terms: list[tuple], P: np.ndarray, N: np.ndarray, counts: RayCounts) -> list[np.ndarray]:
+        """One any-hit query for the shadow rays of every light: which points (n,) each light reaches.
+
+        Robust numerics start each shadow ray just off the surface, on the light's side, and search t from 0; the
+        documented ones start on the surface and search t from 0.001 (listing 3.2)."""
         lights = [light for light in self.lights if light.kind != "ambient"]
         origins, vectors, limits = [], [], []
         for light, (L, *_, needed) in zip(lights, terms, strict=True):
-            origins.append(take(P, needed))
-            vectors.append(np.broadcast_to(L, (3, P.shape[1])) if L.shape[1] == 1 else L)
-            vectors[-1] = take(vectors[-1], needed)
+            vector = take(np.broadcast_to(L, (3, P.shape[1])) if L.shape[1] == 1 else L, needed)
+            origin = take(P, needed)
+            if self.robust:
+                origin = offset_origins(origin, take(N, needed), vector)
+                if light.kind == "point":
+                    vector = light.vector - origin  # t = 1 is still exactly the light
+            origins.append(origin)
+            vectors.append(vector)
             limits.append(np.full(needed.size, light.t_max, dtype=self.dtype))
             counts.shadow += needed.size
         if not origins:
             return []
         blocked = self.hierarchy.occluded(
-            np.concatenate(origins, axis=1), np.concatenate(vectors, axis=1), SHADOW_T_MIN, np.concatenate(limits)
+            np.concatenate(origins, axis=1),
+            np.concatenate(vectors, axis=1),
+            0.0 if self.robust else SHADOW_T_MIN,
+            np.concatenate(limits),
         )
         lit, start = [], 0
         for *_, needed in terms:
@@ -225,9 +239,11 @@ class PreparedScene:
             P, N, V = take(P, go_on), take(N, go_on), take(V, go_on)
             k = 2.0 * dot(N, V)
             O, D = P, N * k - V
+            if self.robust:
+                O = offset_origins(P, N, D)
             weight, pixel = np.take(weight, go_on) * np.take(reflective, go_on), np.take(pixel, go_on)
             counts.reflection += D.shape[1]
-            t_min = REFLECTION_T_MIN
+            t_min = 0.0 if self.robust else REFLECTION_T_MIN
         return color
 
     def render_rows(self, rows: np.ndarray) -> tuple[np.ndarray, RayCounts]:

@@ -1,0 +1,168 @@
+"""Where the documented numerics fail and the robust ones hold: counted against exact answers.
+
+The large sweeps (1M rays, every scale) run under the `slow` marker (`make test-slow`); these are their fast cases.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+from tests.primitive_cases import CASES
+from tests.random_scenes import random_scene_document
+from tracer import scene as sc
+from tracer.loader import scene_from_dict
+from tracer.parallel import render
+from tracer.wavefront import PreparedScene
+
+INF = math.inf
+
+
+def hits(scene: sc.Scene, O: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Closest t and object (N,) for rays O, D (3, N) under the scene's numerics."""
+    t, obj, _ = PreparedScene(scene).hierarchy.closest(O, D, 0.0)
+    return t, obj
+
+
+def one(obj: sc.SceneObject, numerics: str) -> sc.Scene:
+    return sc.Scene(
+        materials={"m": sc.Material()}, objects=(obj,), lights=(), render=sc.RenderSettings(numerics=numerics)
+    )
+
+
+@pytest.mark.parametrize(("label", "obj", "origin", "direction", "expected"), CASES, ids=[c[0] for c in CASES])
+def test_robust_kernels_give_the_analytic_answers(label, obj, origin, direction, expected) -> None:
+    t, found = hits(
+        one(obj, "robust"), np.reshape(origin, (3, 1)).astype(float), np.reshape(direction, (3, 1)).astype(float)
+    )
+    if expected == INF:
+        assert found[0] == -1
+    else:
+        assert t[0] == pytest.approx(expected, abs=1e-12)
+
+
+def exact_sphere_hit(origin: np.ndarray, direction: np.ndarray, centre: tuple, radius: float) -> bool:
+    """Whether the ray's line passes within radius of the centre, in exact rational arithmetic on the inputs."""
+    f = [Fraction(float(c)) - Fraction(float(o)) for c, o in zip(centre, origin, strict=True)]
+    d = [Fraction(float(x)) for x in direction]
+    along = sum(a * b for a, b in zip(f, d, strict=True))
+    dd = sum(x * x for x in d)
+    perpendicular = sum(x * x for x in f) - along * along / dd
+    return perpendicular <= Fraction(radius) ** 2 and along > 0
+
+
+@pytest.mark.parametrize("ratio", [1e2, 1e4, 1e6, 1e7])
+def test_small_sphere_far_away(ratio: float) -> None:
+    distance = 1e4
+    radius = distance / ratio
+    rng = np.random.default_rng(int(math.log10(ratio)))
+    # rays from the origin toward points scattered around the sphere's silhouette
+    angle = rng.uniform(0, 2 * np.pi, 400)
+    spread = radius * rng.uniform(0.5, 1.5, 400)
+    targets = np.stack((spread * np.cos(angle), np.full(400, distance), spread * np.sin(angle)))
+    D = targets / np.linalg.norm(targets, axis=0)
+    O = np.zeros((3, 400))
+    truth = np.array([exact_sphere_hit(O[:, k], D[:, k], (0.0, distance, 0.0), radius) for k in range(400)])
+    wrong = {}
+    for numerics in ("documented", "robust"):
+        _, found = hits(
+            one(sc.Sphere(name="s", material="m", location=(0, distance, 0), radius=radius), numerics), O, D
+        )
+        wrong[numerics] = int(((found >= 0) != truth).sum())
+    assert wrong["robust"] == 0, wrong
+    if ratio >= 1e7:
+        assert wrong["documented"] > 0, wrong  # the textbook discriminant has cancelled away
+
+
+@pytest.mark.parametrize("count", [100_000, pytest.param(1_000_000, marks=pytest.mark.slow)])
+def test_rays_through_the_shared_diagonal_of_a_box_face(count: int) -> None:
+    rng = np.random.default_rng(7)
+    # the top face of a unit cube is two triangles sharing the diagonal from (-0.5, -0.5) to (0.5, 0.5)
+    s = rng.uniform(-0.5, 0.5, count)
+    O = np.stack((s + rng.uniform(-3, 3, count), s + rng.uniform(-3, 3, count), np.full(count, 5.0)))
+    target = np.stack((s, s, np.full(count, 0.5)))
+    D = target - O
+    missed = {}
+    for numerics in ("documented", "robust"):
+        _, found = hits(one(sc.Box(name="b", material="m", size=(1, 1, 1)), numerics), O, D)
+        missed[numerics] = int((found < 0).sum())
+    assert missed["robust"] == 0, missed
+
+
+def acne_and_leaks(scale: float, numerics: str, dtype: str) -> tuple[float, float]:
+    """A ball resting on a floor under a sun, scaled: the share of pixels wrongly dark (acne: surfaces that face
+    the sun with nothing between) and wrongly lit (leaks: floor inside the ball's shadow), decided analytically
+    with a 5% margin around the shadow's edge."""
+    light = np.array([0.3, -0.4, 1.0])
+    scene = sc.Scene(
+        materials={"m": sc.Material(color=(1, 1, 1))},
+        objects=(
+            sc.Plane(name="floor", material="m"),
+            sc.Sphere(name="ball", material="m", location=(0, 0, scale), radius=scale),
+        ),
+        lights=(sc.DirectionalLight(direction=tuple(light), intensity=1.0),),
+        camera=sc.Camera(location=(0, -6 * scale, 2.5 * scale), rotation=(75, 0, 0), lens=30),
+        background=sc.Background(type="none"),
+        render=sc.RenderSettings(width=128, height=96, depth=0, numerics=numerics, dtype=dtype),
+    )
+    lit = render(scene, workers=1).image[..., 0].reshape(-1) > 0.0
+    from tracer.camera import band_directions
+
+    exact = PreparedScene(scene.with_render(dtype="float64", numerics="robust"))
+    D = band_directions(scene.camera, scene.render, np.arange(96))
+    t, obj, _ = exact.hierarchy.closest(exact.origin, D, 0.0)
+    P = exact.origin + D * np.where(obj >= 0, t, 0.0)
+    unit = light / np.linalg.norm(light)
+    centre = np.array([[0.0], [0.0], [scale]])
+    facing_ball = (obj == 1) & (((P - centre) / scale * unit[:, None]).sum(axis=0) > 0.05)
+    # a floor point's shadow line passes the ball's centre at this distance (in radii); the ball is above the floor
+    offset = centre - P
+    along = (offset * unit[:, None]).sum(axis=0)
+    distance = np.sqrt(np.maximum((offset * offset).sum(axis=0) - along**2, 0.0)) / scale
+    floor = obj == 0
+    clear = facing_ball | (floor & ((distance > 1.05) | (along < 0)))
+    shadowed = floor & (distance < 0.95) & (along > 0)
+    return float((~lit[clear]).mean()), float(lit[shadowed].mean())
+
+
+@pytest.mark.parametrize(
+    "scale", [1e-3, 1.0, 1e4, *(pytest.param(scale, marks=pytest.mark.slow) for scale in (1e-2, 1e-1, 1e1, 1e2, 1e3))]
+)
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_robust_mode_has_no_acne_and_no_leaks_at_any_scale(scale: float, dtype: str) -> None:
+    acne, leaks = acne_and_leaks(scale, "robust", dtype)
+    assert acne == 0.0 and leaks == 0.0
+
+
+def test_documented_epsilons_fail_at_the_ends_of_the_scale() -> None:
+    # too large at 1e-3: the first 0.001 of every shadow ray is skipped, so the contact shadow leaks light
+    assert acne_and_leaks(1e-3, "documented", "float64")[1] > 0.05
+    # too small at 1e4 in float32: coordinates round by more than 0.001, so surfaces shadow themselves
+    assert acne_and_leaks(1e4, "documented", "float32")[0] > 0.05
+    assert acne_and_leaks(1.0, "documented", "float64") == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("seed", range(0, 60, 6))
+def test_robust_mode_agrees_with_documented_where_that_is_right(seed: int) -> None:
+    document = random_scene_document(seed, width=24, height=18)
+    documented = render(scene_from_dict(document), workers=1).image
+    document["render"]["numerics"] = "robust"
+    robust = render(scene_from_dict(document), workers=1).image
+    assert np.all(np.isfinite(robust))
+    same = np.abs(documented - robust).max(axis=2) < 1e-6
+    assert same.mean() > 0.97  # differences are shadow and mirror epsilons at grazing angles
+
+
+def test_parallel_and_axial_rays_give_no_nan() -> None:
+    for numerics in ("documented", "robust"):
+        plane = one(sc.Plane(name="p", material="m"), numerics)
+        t, found = hits(plane, np.array([[0.0], [0.0], [0.0]]), np.array([[1.0], [0.0], [0.0]]))
+        assert found[0] == -1 and np.isinf(t[0])
+        cylinder = one(sc.Cylinder(name="c", material="m", radius=1, height=2), numerics)
+        t, found = hits(cylinder, np.array([[0.2], [0.0], [-5.0]]), np.array([[0.0], [0.0], [1.0]]))
+        assert found[0] == 0 and t[0] == pytest.approx(4.0)  # the bottom cap, not the side
+        t, found = hits(cylinder, np.array([[0.0], [0.0], [0.0]]), np.array([[0.0], [0.0], [1.0]]))
+        assert found[0] == 0 and t[0] == pytest.approx(1.0)  # from inside, along the axis: the top cap
