@@ -162,6 +162,7 @@ def test_help_documents_every_render_flag() -> None:
         "--dtype",
         "--background",
         "--srgb",
+        "--numerics",
     ):
         assert flag in text
 

@@ -133,6 +133,7 @@ MALFORMED = [
         'motion.spin.direction: must be one of "clockwise", "counterclockwise", got "left"',
     ),
     ("motion/spin/smoothness", -1, "motion.spin.smoothness: must be >= 0, got -1"),
+    ("render/numerics", "exact", 'render.numerics: must be one of "documented", "robust", got "exact"'),
 ]
 
 
@@ -175,3 +176,21 @@ def test_file_problems(tmp_path: Path) -> None:
     top.write_text("[1, 2]")
     with pytest.raises(SceneError, match=r"\(top level\): must be an object, got a list of 2"):
         load_scene(top)
+
+
+def test_degenerate_triangles_are_refused() -> None:
+    document = default_scene_dict()
+    document["objects"].append(
+        {
+            "name": "sliver",
+            "type": "mesh",
+            "material": "stone",
+            "vertices": [[0, 0, 0], [1, 1, 1], [2, 2, 2], [0, 1, 0]],
+            "triangles": [[0, 1, 3], [0, 1, 2]],
+        }
+    )
+    with pytest.raises(SceneError) as caught:
+        scene_from_dict(document)
+    assert caught.value.problems == [
+        "objects[14].triangles[1]: must span an area (its vertices 0, 1, 2 are on one line)"
+    ]

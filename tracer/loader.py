@@ -279,6 +279,16 @@ def _mesh(reader: _Reader, common: dict[str, Any]) -> sc.TriangleMesh:
                         if valid
                         else f"must be a list of 3 vertex indices, got {_show_shape(triangle)}",
                     )
+    for i, (a, b, c) in enumerate(triangles):
+        edge1 = [vertices[b][k] - vertices[a][k] for k in range(3)]
+        edge2 = [vertices[c][k] - vertices[a][k] for k in range(3)]
+        normal = (
+            edge1[1] * edge2[2] - edge1[2] * edge2[1],
+            edge1[2] * edge2[0] - edge1[0] * edge2[2],
+            edge1[0] * edge2[1] - edge1[1] * edge2[0],
+        )
+        if normal == (0.0, 0.0, 0.0):
+            reader.fail(f"triangles[{i}]", f"must span an area (its vertices {a}, {b}, {c} are on one line)")
     return sc.TriangleMesh(vertices=tuple(vertices), triangles=tuple(triangles), **common)
 
 
