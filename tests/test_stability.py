@@ -166,3 +166,25 @@ def test_parallel_and_axial_rays_give_no_nan() -> None:
         assert found[0] == 0 and t[0] == pytest.approx(4.0)  # the bottom cap, not the side
         t, found = hits(cylinder, np.array([[0.0], [0.0], [0.0]]), np.array([[0.0], [0.0], [1.0]]))
         assert found[0] == 0 and t[0] == pytest.approx(1.0)  # from inside, along the axis: the top cap
+
+
+@pytest.mark.parametrize("numerics", ["documented", "robust"])
+def test_two_facing_mirrors_sum_the_geometric_series_to_depth_20(numerics: str) -> None:
+    r, ambient, color = 0.8, 0.5, (0.2, 0.6, 1.0)
+    mirrors = (
+        sc.Plane(name="floor", material="mirror"),
+        sc.Plane(name="ceiling", material="mirror", location=(0, 0, 2), rotation=(180, 0, 0)),
+    )
+    for depth in range(21):
+        scene = sc.Scene(
+            materials={"mirror": sc.Material(color=color, reflective=r)},
+            objects=mirrors,
+            lights=(sc.AmbientLight(ambient),),
+            camera=sc.Camera(location=(0, 0, 1), rotation=(180, 0, 0)),
+            background=sc.Background(type="none"),
+            render=sc.RenderSettings(width=3, height=3, depth=depth, numerics=numerics),
+        )
+        pixel = render(scene, workers=1).image[1, 1]
+        # TraceRay(d) = local + r TraceRay(d - 1), TraceRay(0) = local: local (1 - r^(d+1)) / (1 - r)
+        local = np.array(color) * ambient * (1 - r)
+        np.testing.assert_allclose(pixel, local * (1 - r ** (depth + 1)) / (1 - r), rtol=1e-12)
