@@ -188,3 +188,21 @@ def test_two_facing_mirrors_sum_the_geometric_series_to_depth_20(numerics: str) 
         # TraceRay(d) = local + r TraceRay(d - 1), TraceRay(0) = local: local (1 - r^(d+1)) / (1 - r)
         local = np.array(color) * ambient * (1 - r)
         np.testing.assert_allclose(pixel, local * (1 - r ** (depth + 1)) / (1 - r), rtol=1e-12)
+
+
+def test_rays_grazing_a_box_edge() -> None:
+    # rays along +Y just above or below the top front edge of a unit box (z = 0.5 +- 1e-16 .. 1e-9): exactly those
+    # below the edge hit the front face
+    rng = np.random.default_rng(3)
+    count = 20_000
+    x = rng.uniform(-0.49, 0.49, count)
+    z = 0.5 + 10.0 ** rng.uniform(-16, -9, count) * rng.choice([-1.0, 1.0], count)
+    O = np.stack((x, np.full(count, -5.0), z))
+    D = np.tile([[0.0], [1.0], [0.0]], (1, count))
+    truth = z <= 0.5
+    wrong = {}
+    for numerics in ("documented", "robust"):
+        _, found = hits(one(sc.Box(name="b", material="m", size=(1, 1, 1)), numerics), O, D)
+        wrong[numerics] = int(((found >= 0) != truth).sum())
+    assert wrong["robust"] == 0, wrong
+    assert wrong["documented"] > 0, wrong  # Moller-Trumbore's u, v tests round the wrong way at the edge
