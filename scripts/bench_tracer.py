@@ -38,6 +38,47 @@ def bench(scene, workers: int, repeats: int) -> dict:
     }
 
 
+HD_SCRIPT = """
+import json, resource, sys, time
+sys.path.insert(0, {root!r})
+from tracer.loader import default_scene
+from tracer.parallel import Renderer
+scene = default_scene().with_render(width=1920, height=1080, depth=3, samples=1, dtype="float64")
+with Renderer(2) as renderer:
+    renderer.render(scene)
+    times = sorted(renderer.render(scene).seconds for _ in range(3))
+print(json.dumps({{"ms": round(times[1] * 1000, 1),
+                  "peak_mb_parent": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                  "peak_mb_worker": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024}}))
+"""
+
+
+def full_hd() -> dict:
+    """1920x1080 in a fresh process, so that its peak resident memory is this render's alone."""
+    import subprocess
+
+    script = HD_SCRIPT.format(root=str(Path(__file__).resolve().parents[1]))
+    output = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True).stdout
+    figures = json.loads(output.strip().splitlines()[-1])
+    return {key: round(value, 1) for key, value in figures.items()}
+
+
+def animation() -> dict:
+    """`animate` on the default scene: 120 frames at 640x480 with one persistent pool, PNG files written."""
+    import tempfile
+
+    from tracer.animate import animate
+
+    scene = default_scene().with_render(width=640, height=480, workers=2)
+    with tempfile.TemporaryDirectory() as folder:
+        result = animate(scene, Path(folder), 1, 120)
+    return {
+        "seconds": round(result.seconds, 2),
+        "ms_per_frame": round(result.seconds / 120 * 1000, 1),
+        "mrays_per_s": round(result.rays.total / result.seconds / 1e6, 2),
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
@@ -63,6 +104,17 @@ def main() -> None:
                 f"{figures['reflection_rays']} reflection), {figures['mrays_per_s']:.2f} Mrays/s"
             )
         report[f"{dtype}_scaling_1_to_2"] = round(report[f"{dtype}_w1"]["ms"] / report[f"{dtype}_w2"]["ms"], 2)
+    report["hd_1920x1080_float64_w2"] = full_hd()
+    print(
+        f"1920x1080 float64 2 workers: {report['hd_1920x1080_float64_w2']['ms']:.1f} ms, peak memory "
+        f"{report['hd_1920x1080_float64_w2']['peak_mb_parent']:.0f} MB (parent) + "
+        f"{report['hd_1920x1080_float64_w2']['peak_mb_worker']:.0f} MB (largest worker)"
+    )
+    report["animation_120_frames_640x480"] = animation()
+    print(
+        f"animation, 120 frames at 640x480 (PNG files included): "
+        f"{report['animation_120_frames_640x480']['seconds']:.2f} s"
+    )
     small = scene.with_render(width=64, height=48)
     started = time.perf_counter()
     render_reference(small)
