@@ -73,3 +73,47 @@ def test_single_ray_bands_match_reference(seed: int, width: int, height: int) ->
     # one-ray arrays look like the (3, 1) columns shared by all rays: they must still trace as single rays
     scene = scene_from_dict(random_scene_document(seed, width=width, height=height))
     np.testing.assert_allclose(render(scene, workers=1).image, np.asarray(render_reference(scene)), rtol=0, atol=1e-9)
+
+
+def test_large_mesh_split_into_clusters_matches_reference() -> None:
+    import math
+
+    from tracer import scene as sc
+
+    # a UV sphere of 8 x 12 quads (192 triangles): its triangles go into the hierarchy in clusters
+    rings, segments = 8, 12
+    vertices = (
+        [(0.0, 0.0, 1.0)]
+        + [
+            (
+                math.sin(math.pi * i / rings) * math.cos(2 * math.pi * j / segments),
+                math.sin(math.pi * i / rings) * math.sin(2 * math.pi * j / segments),
+                math.cos(math.pi * i / rings),
+            )
+            for i in range(1, rings)
+            for j in range(segments)
+        ]
+        + [(0.0, 0.0, -1.0)]
+    )
+    faces = []
+    last = 1 + (rings - 2) * segments
+    for j in range(segments):
+        faces += [(0, 1 + j, 1 + (j + 1) % segments), (len(vertices) - 1, last + (j + 1) % segments, last + j)]
+    for i in range(rings - 2):
+        for j in range(segments):
+            a, b = 1 + i * segments + j, 1 + i * segments + (j + 1) % segments
+            faces += [(a, a + segments, b), (b, a + segments, b + segments)]
+    base = default_scene()
+    mesh = sc.TriangleMesh(
+        name="mesh",
+        material="copper",
+        location=(0, 0, 2),
+        rotation=(10, 20, 30),
+        vertices=tuple(vertices),
+        triangles=tuple(faces),
+    )
+    from dataclasses import replace
+
+    scene = replace(base, objects=(base.objects[0], mesh), vane=None).with_render(width=40, height=30)
+    assert len(faces) > 16 * 4
+    np.testing.assert_allclose(render(scene, workers=1).image, np.asarray(render_reference(scene)), rtol=0, atol=1e-9)

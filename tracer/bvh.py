@@ -62,8 +62,10 @@ def _build(indices: np.ndarray, lower: np.ndarray, upper: np.ndarray, costs: np.
 class Hierarchy:
     """Closest-hit and any-hit queries over all kernels of a scene."""
 
-    def __init__(self, kernels: list[Kernel], dtype: np.dtype) -> None:
+    def __init__(self, kernels: list[Kernel], dtype: np.dtype, owners: list[int] | None = None) -> None:
+        """kernels are the hierarchy's leaves; owners[i] is the scene object kernel i belongs to (default: i)."""
         self.kernels = kernels
+        self.owners = owners if owners is not None else list(range(len(kernels)))
         self.dtype = dtype
         boxes = {}
         self.unbounded: list[int] = []
@@ -92,14 +94,19 @@ class Hierarchy:
 
         def test(index: int, rays: np.ndarray | None, O: np.ndarray, D: np.ndarray) -> None:
             t, part = self.kernels[index].hit(O, D, t_min, math.inf)
+            owner = self.owners[index]
             if rays is None:
-                current_t, current_object = best_t, best_object
+                current_t, current_object, current_part = best_t, best_object, best_part
             else:
                 current_t, current_object = np.take(best_t, rays), np.take(best_object, rays)
-            better = np.flatnonzero((t < current_t) | ((t == current_t) & (t < np.inf) & (index < current_object)))
+                current_part = np.take(best_part, rays)
+            # ties go to the lower object, then the lower part: the reference's loop order
+            tie = (t == current_t) & (t < np.inf)
+            earlier = (owner < current_object) | ((owner == current_object) & (part < current_part))
+            better = np.flatnonzero((t < current_t) | (tie & earlier))
             chosen = better if rays is None else np.take(rays, better)
             np.put(best_t, chosen, np.take(t, better))
-            np.put(best_object, chosen, index)
+            np.put(best_object, chosen, owner)
             np.put(best_part, chosen, np.take(part, better))
 
         for index in self.unbounded:

@@ -329,6 +329,59 @@ class TrianglesKernel(Kernel):
         return self.normals[:, part]
 
 
+CLUSTER_SIZE = 16  # triangles per hierarchy leaf: a mesh larger than this is split into spatial clusters
+
+
+class ClusterKernel(Kernel):
+    """Some triangles of a mesh, as one leaf of the hierarchy; parts are the mesh's own triangle indices."""
+
+    def __init__(self, inner: Kernel, triangle_indices: np.ndarray) -> None:
+        self.inner = inner
+        self.indices = triangle_indices
+        self.dtype = inner.dtype
+        self.cost = inner.cost
+
+    def hit(self, O, D, t_min, t_max):
+        t, part = self.inner.hit(O, D, t_min, t_max)
+        return t, np.take(self.indices, part)
+
+    def bounds(self):
+        return self.inner.bounds()
+
+
+def clusters(mesh: tf.WorldTriangles, size: int = CLUSTER_SIZE) -> list[np.ndarray]:
+    """Triangle indices of a mesh split by median cuts of their centroids into groups of at most size."""
+    centroids = np.asarray(mesh.triangles, dtype=np.float64).mean(axis=1)
+
+    def split(indices: np.ndarray) -> list[np.ndarray]:
+        if indices.size <= size:
+            return [indices]
+        points = centroids[indices]
+        axis = int(np.argmax(points.max(axis=0) - points.min(axis=0)))
+        order = indices[np.argsort(points[:, axis], kind="stable")]
+        half = order.size // 2
+        return split(order[:half]) + split(order[half:])
+
+    return split(np.arange(len(mesh.triangles)))
+
+
+def leaves(primitive: tf.WorldPrimitive, build, dtype: np.dtype) -> list[Kernel]:
+    """The hierarchy's leaves for one object: its kernel, or for a large mesh one kernel per cluster."""
+    if not isinstance(primitive, tf.WorldTriangles) or len(primitive.triangles) <= CLUSTER_SIZE:
+        return [build(primitive, dtype)]
+    result: list[Kernel] = []
+    for indices in clusters(primitive):
+        part = tf.WorldTriangles(
+            primitive.material,
+            tuple(primitive.triangles[k] for k in indices),
+            tuple(primitive.normals[k] for k in indices),
+            primitive.rotation,
+            primitive.location,
+        )
+        result.append(ClusterKernel(build(part, dtype), indices))
+    return result
+
+
 def make_kernel(primitive: tf.WorldPrimitive, dtype: np.dtype) -> Kernel:
     if isinstance(primitive, tf.WorldSphere):
         return SphereKernel(primitive, dtype)

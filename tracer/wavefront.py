@@ -16,7 +16,7 @@ from . import camera as cam
 from . import scene as sc
 from . import transforms as tf
 from .bvh import Hierarchy
-from .kernels import Kernel, column, dot, make_kernel, take
+from .kernels import Kernel, column, dot, leaves, make_kernel, take
 from .robust import make_robust_kernel, offset_origins
 
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0
@@ -61,8 +61,14 @@ class PreparedScene:
         self.dtype = np.dtype(settings.dtype)
         self.robust = settings.numerics == "robust"
         build = make_robust_kernel if self.robust else make_kernel
-        self.kernels = [build(primitive, self.dtype) for primitive in tf.world_primitives(self.scene)]
-        self.hierarchy = Hierarchy(self.kernels, self.dtype)
+        primitives = tf.world_primitives(self.scene)
+        self.kernels = [build(primitive, self.dtype) for primitive in primitives]  # per object: normals
+        leaf_kernels, owners = [], []
+        for index, primitive in enumerate(primitives):
+            for leaf in leaves(primitive, build, self.dtype):
+                leaf_kernels.append(leaf)
+                owners.append(index)
+        self.hierarchy = Hierarchy(leaf_kernels, self.dtype, owners)
         materials = [self.scene.materials[obj.material] for obj in self.scene.objects]
         self.colors = np.asarray([m.color for m in materials], dtype=self.dtype).T.reshape(3, -1)  # (3, objects)
         self.specular = np.asarray([m.specular for m in materials], dtype=self.dtype)
