@@ -72,15 +72,20 @@ def _flat_color(blender_scene) -> tuple[float, float, float]:
     if settings.background == "none":
         return (0.0, 0.0, 0.0)
     # documented: the sky at the canvas centre, as the tracer computes it
-    import json
-
+    from . import camera as camera_module
     from ._tracer import module
-    from .export import scene_document
 
-    scene = module("loader").scene_from_dict(json.loads(json.dumps(scene_document(bpy.context))))
-    direction = module("camera").documented_background_direction(scene.camera, scene.render)
-    k = min(max(direction[2], 0.0), 1.0)
-    return tuple(h + (z - h) * k for h, z in zip(settings.horizon, settings.zenith, strict=True))
+    sc = module("scene")
+    render = blender_scene.render
+    scale = render.resolution_percentage / 100.0
+    size = sc.RenderSettings(
+        width=max(1, round(render.resolution_x * scale)), height=max(1, round(render.resolution_y * scale))
+    )
+    direction = module("camera").documented_background_direction(
+        sc.Camera(**camera_module.to_tracer(blender_scene.camera)), size
+    )
+    background = sc.Background(horizon=tuple(settings.horizon), zenith=tuple(settings.zenith))
+    return background.sky(direction[2])
 
 
 def cycles(blender_scene, samples: int = 256, seed: int = 0) -> None:

@@ -142,6 +142,12 @@ class Background:
     horizon: Color = (0.75, 0.82, 0.9)
     zenith: Color = (0.25, 0.45, 0.8)
 
+    def sky(self, elevation: float) -> Color:
+        """The sky gradient for a ray whose direction has this z component (horizon below 0, zenith at 1)."""
+        k = min(max(elevation, 0.0), 1.0)
+        h, z = self.horizon, self.zenith
+        return (h[0] + (z[0] - h[0]) * k, h[1] + (z[1] - h[1]) * k, h[2] + (z[2] - h[2]) * k)
+
 
 @dataclass(frozen=True)
 class RenderSettings:

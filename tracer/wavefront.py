@@ -85,7 +85,7 @@ class PreparedScene:
         self.documented_color = None
         if background.type == "documented":
             direction = cam.documented_background_direction(self.scene.camera, settings)
-            self.documented_color = column(_sky(background, direction[2]), self.dtype)
+            self.documented_color = column(background.sky(direction[2]), self.dtype)
         self.origin = column(self.scene.camera.location, self.dtype)
 
     # ---- intersection ------------------------------------------------------------------------------------------
@@ -267,9 +267,3 @@ def _accumulate(color: np.ndarray, pixel: np.ndarray, value: np.ndarray) -> None
     """color[:, pixel] += value for unique pixel indices, a row at a time (several times faster than fancy `+=`)."""
     for row, add in zip(color, value, strict=True):
         np.put(row, pixel, np.take(row, pixel) + add)
-
-
-def _sky(background: sc.Background, elevation: float) -> sc.Color:
-    k = min(max(elevation, 0.0), 1.0)
-    h, z = background.horizon, background.zenith
-    return (h[0] + (z[0] - h[0]) * k, h[1] + (z[1] - h[1]) * k, h[2] + (z[2] - h[2]) * k)
