@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels import Kernel, PlaneKernel, padded_box, ray_count, slab, take
+from .kernels import Kernel, PlaneKernel, indices, padded_box, quiet, ray_count, slab, take
 
 
 @dataclass
@@ -87,6 +87,10 @@ class Hierarchy:
         """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,).
 
         O or D may be a (3, 1) column shared by all rays (see kernels.take)."""
+        with quiet():
+            return self._closest(O, D, t_min)
+
+    def _closest(self, O: np.ndarray, D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         count = ray_count(O, D)
         best_t = np.full(count, np.inf, dtype=self.dtype)
         best_object = np.full(count, -1, dtype=np.int32)
@@ -98,33 +102,32 @@ class Hierarchy:
             if rays is None:
                 current_t, current_object, current_part = best_t, best_object, best_part
             else:
-                current_t, current_object = np.take(best_t, rays), np.take(best_object, rays)
-                current_part = np.take(best_part, rays)
+                current_t, current_object = best_t.take(rays), best_object.take(rays)
+                current_part = best_part.take(rays)
             # ties go to the lower object, then the lower part: the reference's loop order
             tie = (t == current_t) & (t < np.inf)
             earlier = (owner < current_object) | ((owner == current_object) & (part < current_part))
-            better = np.flatnonzero((t < current_t) | (tie & earlier))
-            chosen = better if rays is None else np.take(rays, better)
-            np.put(best_t, chosen, np.take(t, better))
-            np.put(best_object, chosen, owner)
-            np.put(best_part, chosen, np.take(part, better))
+            better = indices((t < current_t) | (tie & earlier))
+            chosen = better if rays is None else rays.take(better)
+            best_t.put(chosen, t.take(better))
+            best_object.put(chosen, owner)
+            best_part.put(chosen, part.take(better))
 
         for index in self.unbounded:
             test(index, None, O, D)
         if self.root is not None:
-            with np.errstate(divide="ignore"):
-                inverse = 1.0 / D
+            inverse = 1.0 / D
             # each entry carries its rays compacted, so deeper nodes gather from ever smaller arrays
             stack = [(self.root, np.arange(count), O, D, inverse)]
             while stack:
                 node, rays, O_n, D_n, inverse_n = stack.pop()
                 near, far = slab(O_n, inverse_n, node.lower, node.upper)
-                keep = np.flatnonzero((near <= far) & (far > t_min) & (near <= np.take(best_t, rays)))
+                keep = indices((near <= far) & (far > t_min) & (near <= best_t.take(rays)))
                 if keep.size == 0:
                     continue
                 if keep.size < rays.size:
                     rays, O_n, D_n, inverse_n = (
-                        np.take(rays, keep),
+                        rays.take(keep),
                         take(O_n, keep),
                         take(D_n, keep),
                         take(inverse_n, keep),
@@ -138,6 +141,10 @@ class Hierarchy:
         """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first.
 
         t_max is one number or one per ray (N,)."""
+        with quiet():
+            return self._occluded(O, L, t_min, t_max)
+
+    def _occluded(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
         count = ray_count(O, L)
         blocked = np.zeros(count, dtype=bool)
         for index in self.unbounded:
@@ -145,24 +152,23 @@ class Hierarchy:
             blocked |= t < np.inf
         if self.root is None or blocked.all():
             return blocked
-        live = np.flatnonzero(~blocked)
+        live = indices(~blocked)
         O_live, L_live = take(O, live), take(L, live)
-        with np.errstate(divide="ignore"):
-            inverse = 1.0 / L_live
-        limits = np.take(t_max, live) if isinstance(t_max, np.ndarray) else t_max
+        inverse = 1.0 / L_live
+        limits = t_max.take(live) if isinstance(t_max, np.ndarray) else t_max
         stack = [(self.root, live, O_live, L_live, inverse, limits)]
         while stack:
             node, rays, O_n, L_n, inverse_n, limit = stack.pop()
             near, far = slab(O_n, inverse_n, node.lower, node.upper)
-            keep = np.flatnonzero((near <= far) & (far > t_min) & (near < limit) & ~np.take(blocked, rays))
+            keep = indices((near <= far) & (far > t_min) & (near < limit) & ~blocked.take(rays))
             if keep.size == 0:
                 continue
             if keep.size < rays.size:
-                rays, O_n, L_n, inverse_n = np.take(rays, keep), take(O_n, keep), take(L_n, keep), take(inverse_n, keep)
+                rays, O_n, L_n, inverse_n = rays.take(keep), take(O_n, keep), take(L_n, keep), take(inverse_n, keep)
                 if isinstance(limit, np.ndarray):
-                    limit = np.take(limit, keep)
+                    limit = limit.take(keep)
             for index in node.objects:
                 t, _ = self.kernels[index].hit(O_n, L_n, t_min, limit)
-                np.put(blocked, np.take(rays, np.flatnonzero(t < np.inf)), True)
+                blocked.put(rays.take(indices(t < np.inf)), True)
             stack.extend((child, rays, O_n, L_n, inverse_n, limit) for child in node.children)
         return blocked

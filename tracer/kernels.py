@@ -32,7 +32,18 @@ def take(rays: np.ndarray, keep: np.ndarray) -> np.ndarray:
     times slower."""
     if rays.shape[1] == 1 and keep.size:
         return rays
-    return np.take(rays, keep, axis=1)
+    return rays.take(keep, axis=1)
+
+
+def indices(mask: np.ndarray) -> np.ndarray:
+    """The positions (n,) where a 1-D mask is true (np.flatnonzero without its wrapper's overhead)."""
+    return mask.nonzero()[0]
+
+
+# Rays that are parallel to a slab or a plane divide by zero and compare NaNs by design: the kernels run inside
+# quiet() (entered once per query by the hierarchy, not around each NumPy call: it costs microseconds each time).
+def quiet() -> np.errstate:
+    return np.errstate(divide="ignore", invalid="ignore", over="ignore")
 
 
 def ray_count(O: np.ndarray, D: np.ndarray) -> int:
@@ -59,9 +70,8 @@ def padded_box(
 
 def slab(O: np.ndarray, inverse: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Entry and exit t of rays (3, n) through a box; an axis giving NaN (0 * inf) is ignored, so nothing is lost."""
-    with np.errstate(invalid="ignore"):
-        a = (lower - O) * inverse
-        b = (upper - O) * inverse
+    a = (lower - O) * inverse
+    b = (upper - O) * inverse
     low = np.fmin(a, b)
     high = np.fmax(a, b, out=a)
     near = np.fmax(low[0], low[1])
@@ -109,23 +119,22 @@ class Kernel:
     def hit(
         self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float | np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Rays (3, N) -> (t (N,), part (N,)); t_max is one number or one per ray."""
+        """Rays (3, N) -> (t (N,), part (N,)); t_max is one number or one per ray. Call inside quiet()."""
         if self.frame is None:
             return self._hit(O, D, t_min, t_max)
         to_local, origin, lower, upper = self.frame
-        with np.errstate(divide="ignore"):
-            near, far = slab(to_local @ (O - origin), 1.0 / (to_local @ D), lower, upper)
+        near, far = slab(to_local @ (O - origin), 1.0 / (to_local @ D), lower, upper)
         count = ray_count(O, D)
-        rays = np.flatnonzero(np.broadcast_to((near <= far) & (far > t_min) & (near < t_max), (count,)))
+        rays = indices(np.broadcast_to((near <= far) & (far > t_min) & (near < t_max), (count,)))
         if rays.size == count:
             return self._hit(O, D, t_min, t_max)
         t = np.full(count, np.inf, dtype=self.dtype)
         part = np.zeros(count, dtype=np.int32)
         if rays.size:
-            limit = np.take(t_max, rays) if isinstance(t_max, np.ndarray) else t_max
+            limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
             found_t, found_part = self._hit(take(O, rays), take(D, rays), t_min, limit)
-            np.put(t, rays, found_t)
-            np.put(part, rays, found_part)
+            t.put(rays, found_t)
+            part.put(rays, found_part)
         return t, part
 
     def _hit(self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
@@ -174,8 +183,7 @@ class SphereKernel(Kernel):
 def _plane_t(O: np.ndarray, D: np.ndarray, normal: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Seed 2.17 for every ray: (t, not parallel); t is junk where the ray is parallel to the plane."""
     denominator = dot(normal, D)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = dot(normal, point - O) / denominator
+    t = dot(normal, point - O) / denominator
     return t, np.broadcast_to(denominator != 0.0, t.shape).copy()
 
 
@@ -209,12 +217,12 @@ class PlaneKernel(Kernel):
         ok &= (t > t_min) & (t < t_max)
         t = np.where(ok, t, np.inf).astype(self.dtype, copy=False)
         if self.half_size is not None:
-            rays = np.flatnonzero(ok)
-            offset = take(O, rays) + take(D, rays) * np.take(t, rays) - self.point
+            rays = indices(ok)
+            offset = take(O, rays) + take(D, rays) * t.take(rays) - self.point
             outside = (np.abs(dot(offset, self.u_axis)) > self.half_size[0]) | (
                 np.abs(dot(offset, self.v_axis)) > self.half_size[1]
             )
-            np.put(t, np.take(rays, np.flatnonzero(outside)), np.inf)
+            t.put(rays.take(indices(outside)), np.inf)
         return t, np.zeros(t.shape, dtype=np.int8)
 
     def normal(self, P, part):
@@ -315,11 +323,10 @@ class TrianglesKernel(Kernel):
         Q = cross(T, self.e1)
         determinant = dot(P, self.e1)
         solvable = determinant != 0.0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = dot(Q, self.e2) / determinant
-            u = dot(P, T) / determinant
-            v = dot(Q, Dc) / determinant
-            ok = solvable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < limit)
+        t = dot(Q, self.e2) / determinant
+        u = dot(P, T) / determinant
+        v = dot(Q, Dc) / determinant
+        ok = solvable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < limit)
         t = np.where(ok, t, np.inf)
         t = np.broadcast_to(t, (ray_count(O, D), t.shape[1]))
         nearest = np.argmin(t, axis=1)  # first triangle on ties, as the reference's loop
@@ -343,7 +350,7 @@ class ClusterKernel(Kernel):
 
     def hit(self, O, D, t_min, t_max):
         t, part = self.inner.hit(O, D, t_min, t_max)
-        return t, np.take(self.indices, part)
+        return t, self.indices.take(part)
 
     def bounds(self):
         return self.inner.bounds()

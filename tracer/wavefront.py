@@ -16,7 +16,7 @@ from . import camera as cam
 from . import scene as sc
 from . import transforms as tf
 from .bvh import Hierarchy
-from .kernels import Kernel, column, dot, leaves, make_kernel, take
+from .kernels import Kernel, column, dot, indices, leaves, make_kernel, quiet, take
 from .robust import make_robust_kernel, offset_origins
 
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0
@@ -141,7 +141,7 @@ class PreparedScene:
                 cosine = HN / (np.sqrt(dot(H, H)) * length_n)
             # a shadow ray only where this light could add something: the result is the listing's, with fewer rays
             diffuse_gate = NL > 0.0
-            needed = np.flatnonzero(diffuse_gate | gate)
+            needed = indices(diffuse_gate | gate)
             terms.append((L, NL, length_l, diffuse_gate, gate, cosine, needed))
         lit = self._lit([term for term in terms if term is not None], P, N, counts)
         intensity = np.zeros(count, dtype=self.dtype)
@@ -152,12 +152,10 @@ class PreparedScene:
                 continue
             L, NL, length_l, diffuse_gate, gate, cosine, needed = term
             light_lit = next(shadow_rays)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                diffuse = light.intensity * NL / (length_n * length_l)
+            diffuse = light.intensity * NL / (length_n * length_l)
             intensity = np.where(light_lit & diffuse_gate, intensity + diffuse, intensity)
             gate &= light_lit
-            with np.errstate(divide="ignore", invalid="ignore"):
-                highlight = light.intensity * np.power(np.where(gate, cosine, 1.0), exponent)
+            highlight = light.intensity * np.power(np.where(gate, cosine, 1.0), exponent)
             intensity = np.where(gate, intensity + highlight, intensity)
         return intensity
 
@@ -190,7 +188,7 @@ class PreparedScene:
         lit, start = [], 0
         for *_, needed in terms:
             reached = np.zeros(P.shape[1], dtype=bool)
-            np.put(reached, needed, ~blocked[start : start + needed.size])
+            reached.put(needed, ~blocked[start : start + needed.size])
             lit.append(reached)
             start += needed.size
         return lit
@@ -223,23 +221,23 @@ class PreparedScene:
         t_min = CAMERA_T_MIN
         for bounce in range(depth + 1):
             t, obj, part = self.hierarchy.closest(O, D, t_min)
-            miss = np.flatnonzero(obj < 0)
+            miss = indices(obj < 0)
             if miss.size:
-                sky = np.take(weight, miss) * self.background(take(D, miss))
-                _accumulate(color, np.take(pixel, miss), sky)
+                sky = weight.take(miss) * self.background(take(D, miss))
+                _accumulate(color, pixel.take(miss), sky)
             if miss.size == obj.size:
                 break
-            hit = np.flatnonzero(obj >= 0)
-            O, D, t, obj, part = take(O, hit), take(D, hit), np.take(t, hit), np.take(obj, hit), np.take(part, hit)
-            weight, pixel = np.take(weight, hit), np.take(pixel, hit)
+            hit = indices(obj >= 0)
+            O, D, t, obj, part = take(O, hit), take(D, hit), t.take(hit), obj.take(hit), part.take(hit)
+            weight, pixel = weight.take(hit), pixel.take(hit)
             P = O + D * t
             N = self.normals(P, obj, part)
             V = -D
-            intensity = self.find_intensity(P, N, V, np.take(self.specular, obj), counts)
-            reflective = np.take(self.reflective, obj)
-            local = (intensity * (1.0 - reflective)) * np.take(self.colors, obj, axis=1)
+            intensity = self.find_intensity(P, N, V, self.specular.take(obj), counts)
+            reflective = self.reflective.take(obj)
+            local = (intensity * (1.0 - reflective)) * self.colors.take(obj, axis=1)
             _accumulate(color, pixel, weight * local)
-            go_on = np.flatnonzero(reflective > 0.0)
+            go_on = indices(reflective > 0.0)
             if bounce == depth or go_on.size == 0:
                 break
             P, N, V = take(P, go_on), take(N, go_on), take(V, go_on)
@@ -247,7 +245,7 @@ class PreparedScene:
             O, D = P, N * k - V
             if self.robust:
                 O = offset_origins(P, N, D)
-            weight, pixel = np.take(weight, go_on) * np.take(reflective, go_on), np.take(pixel, go_on)
+            weight, pixel = weight.take(go_on) * reflective.take(go_on), pixel.take(go_on)
             counts.reflection += D.shape[1]
             t_min = 0.0 if self.robust else REFLECTION_T_MIN
         return color
@@ -257,7 +255,8 @@ class PreparedScene:
         settings = self.scene.render
         counts = RayCounts()
         D = cam.band_directions(self.scene.camera, settings, rows).astype(self.dtype, copy=False)
-        color = self.trace(D, counts)
+        with quiet():
+            color = self.trace(D, counts)
         samples = color.reshape(3, len(rows), settings.width, settings.samples)
         image = samples.sum(axis=3) / settings.samples if settings.samples > 1 else samples[..., 0]
         return np.ascontiguousarray(image.transpose(1, 2, 0)), counts
@@ -266,4 +265,4 @@ class PreparedScene:
 def _accumulate(color: np.ndarray, pixel: np.ndarray, value: np.ndarray) -> None:
     """color[:, pixel] += value for unique pixel indices, a row at a time (several times faster than fancy `+=`)."""
     for row, add in zip(color, value, strict=True):
-        np.put(row, pixel, np.take(row, pixel) + add)
+        row.put(pixel, row.take(pixel) + add)
