@@ -77,20 +77,27 @@ class Hierarchy:
                 boxes[index] = box
         bounded = np.array(sorted(boxes), dtype=np.int64)
         self.root = None
+        self.boxes: tuple[np.ndarray, np.ndarray] | None = None  # lower, upper (k, 3) of the bounded kernels
         if bounded.size:
             lower = np.array([boxes[i][0] for i in bounded.tolist()], dtype=np.float64)
             upper = np.array([boxes[i][1] for i in bounded.tolist()], dtype=np.float64)
+            self.boxes = (lower, upper)
             costs = np.array([kernels[i].cost for i in bounded.tolist()], dtype=np.float64)
             self.root = _build(bounded, lower, upper, costs, dtype)
 
-    def closest(self, O: np.ndarray, D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def closest(
+        self, O: np.ndarray, D: np.ndarray, t_min: float, candidates: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,).
 
-        O or D may be a (3, 1) column shared by all rays (see kernels.take)."""
+        O or D may be a (3, 1) column shared by all rays (see kernels.take). candidates (n,), when given, are the
+        only rays that can meet a bounded object (see cull.py); the rest are tested against the planes only."""
         with quiet():
-            return self._closest(O, D, t_min)
+            return self._closest(O, D, t_min, candidates)
 
-    def _closest(self, O: np.ndarray, D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _closest(
+        self, O: np.ndarray, D: np.ndarray, t_min: float, candidates: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         count = ray_count(O, D)
         best_t = np.full(count, np.inf, dtype=self.dtype)
         best_object = np.full(count, -1, dtype=np.int32)
@@ -115,10 +122,11 @@ class Hierarchy:
 
         for index in self.unbounded:
             test(index, None, O, D)
-        if self.root is not None:
-            inverse = 1.0 / D
+        if self.root is not None and (candidates is None or candidates.size):
+            if candidates is not None:
+                O, D = take(O, candidates), take(D, candidates)
             # each entry carries its rays compacted, so deeper nodes gather from ever smaller arrays
-            stack = [(self.root, np.arange(count), O, D, inverse)]
+            stack = [(self.root, np.arange(count) if candidates is None else candidates, O, D, 1.0 / D)]
             while stack:
                 node, rays, O_n, D_n, inverse_n = stack.pop()
                 near, far = slab(O_n, inverse_n, node.lower, node.upper)
@@ -137,14 +145,23 @@ class Hierarchy:
                 stack.extend((child, rays, O_n, D_n, inverse_n) for child in node.children)
         return best_t, best_object, best_part
 
-    def occluded(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
+    def occluded(
+        self,
+        O: np.ndarray,
+        L: np.ndarray,
+        t_min: float,
+        t_max: float | np.ndarray,
+        candidates: np.ndarray | None = None,
+    ) -> np.ndarray:
         """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first.
 
-        t_max is one number or one per ray (N,)."""
+        t_max is one number or one per ray (N,); candidates as for closest()."""
         with quiet():
-            return self._occluded(O, L, t_min, t_max)
+            return self._occluded(O, L, t_min, t_max, candidates)
 
-    def _occluded(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
+    def _occluded(
+        self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray, candidates: np.ndarray | None
+    ) -> np.ndarray:
         count = ray_count(O, L)
         blocked = np.zeros(count, dtype=bool)
         for index in self.unbounded:
@@ -152,7 +169,9 @@ class Hierarchy:
             blocked |= t < np.inf
         if self.root is None or blocked.all():
             return blocked
-        live = indices(~blocked)
+        live = indices(~blocked) if candidates is None else candidates[~blocked.take(candidates)]
+        if live.size == 0:
+            return blocked
         O_live, L_live = take(O, live), take(L, live)
         inverse = 1.0 / L_live
         limits = t_max.take(live) if isinstance(t_max, np.ndarray) else t_max

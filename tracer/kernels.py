@@ -299,10 +299,10 @@ class TrianglesKernel(Kernel):
         v0 = [tuple(float(x) for x in tri[0]) for tri in triangles]
         e1 = [tf.sub(tuple(tri[1]), tuple(tri[0])) for tri in triangles]
         e2 = [tf.sub(tuple(tri[2]), tuple(tri[0])) for tri in triangles]
-        # (3, 1, T): broadcasts against rays as (3, N, 1)
-        self.v0 = np.asarray(v0, dtype=dtype).T[:, None, :]
-        self.e1 = np.asarray(e1, dtype=dtype).T[:, None, :]
-        self.e2 = np.asarray(e2, dtype=dtype).T[:, None, :]
+        # (3, T, 1): broadcasts against rays as (3, 1, N), so that NumPy's inner loops run along the rays
+        self.v0 = np.asarray(v0, dtype=dtype).T[:, :, None]
+        self.e1 = np.asarray(e1, dtype=dtype).T[:, :, None]
+        self.e2 = np.asarray(e2, dtype=dtype).T[:, :, None]
         self.normals = np.asarray(mesh.normals, dtype=dtype).T  # (3, T)
         self.cost = 3.0 + len(mesh.triangles)
         self.lower = triangles.reshape(-1, 3).min(axis=0)
@@ -316,9 +316,9 @@ class TrianglesKernel(Kernel):
         return self.lower, self.upper
 
     def _hit(self, O, D, t_min, t_max):
-        Dc = D[:, :, None]
-        T = O[:, :, None] - self.v0
-        limit = t_max[:, None] if isinstance(t_max, np.ndarray) else t_max
+        Dc = D[:, None, :]
+        T = O[:, None, :] - self.v0
+        limit = t_max[None, :] if isinstance(t_max, np.ndarray) else t_max
         P = cross(Dc, self.e2)
         Q = cross(T, self.e1)
         determinant = dot(P, self.e1)
@@ -328,9 +328,9 @@ class TrianglesKernel(Kernel):
         v = dot(Q, Dc) / determinant
         ok = solvable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < limit)
         t = np.where(ok, t, np.inf)
-        t = np.broadcast_to(t, (ray_count(O, D), t.shape[1]))
-        nearest = np.argmin(t, axis=1)  # first triangle on ties, as the reference's loop
-        return t.min(axis=1), nearest
+        t = np.broadcast_to(t, (t.shape[0], ray_count(O, D)))
+        nearest = np.argmin(t, axis=0)  # first triangle on ties, as the reference's loop
+        return t.min(axis=0), nearest
 
     def normal(self, P, part):
         return self.normals[:, part]

@@ -16,6 +16,7 @@ from . import camera as cam
 from . import scene as sc
 from . import transforms as tf
 from .bvh import Hierarchy
+from .cull import CoverageGrid
 from .kernels import Kernel, column, dot, indices, leaves, make_kernel, quiet, take
 from .robust import make_robust_kernel, offset_origins
 
@@ -46,6 +47,7 @@ class _Light:
     intensity: float
     vector: np.ndarray | None = None  # (3, 1): point location or direction toward the light
     t_max: float = math.inf
+    grid: CoverageGrid | None = None  # which shadow rays can meet a bounded object
 
 
 @dataclass
@@ -87,6 +89,15 @@ class PreparedScene:
             direction = cam.documented_background_direction(self.scene.camera, settings)
             self.documented_color = column(background.sky(direction[2]), self.dtype)
         self.origin = column(self.scene.camera.location, self.dtype)
+        self.camera_grid = None
+        if self.hierarchy.boxes is not None:
+            boxes = self.hierarchy.boxes
+            self.camera_grid = CoverageGrid.from_point(self.origin.ravel().astype(np.float64), *boxes)
+            for light in self.lights:
+                if light.kind == "point":
+                    light.grid = CoverageGrid.from_point(light.vector.ravel().astype(np.float64), *boxes)
+                elif light.kind == "directional":
+                    light.grid = CoverageGrid.from_direction(light.vector.ravel().astype(np.float64), *boxes)
 
     # ---- intersection ------------------------------------------------------------------------------------------
 
@@ -165,7 +176,8 @@ class PreparedScene:
         Robust numerics start each shadow ray just off the surface, on the light's side, and search t from 0; the
         documented ones start on the surface and search t from 0.001 (listing 3.2)."""
         lights = [light for light in self.lights if light.kind != "ambient"]
-        origins, vectors, limits = [], [], []
+        origins, vectors, limits, candidates = [], [], [], []
+        start = 0
         for light, (L, *_, needed) in zip(lights, terms, strict=True):
             vector = take(np.broadcast_to(L, (3, P.shape[1])) if L.shape[1] == 1 else L, needed)
             origin = take(P, needed)
@@ -176,6 +188,16 @@ class PreparedScene:
             origins.append(origin)
             vectors.append(vector)
             limits.append(np.full(needed.size, light.t_max, dtype=self.dtype))
+            if light.grid is not None:
+                reach = (
+                    light.grid.candidates(vector, reverse=True)
+                    if light.kind == "point"
+                    else light.grid.candidates(origin)
+                )
+                candidates.append(reach + start)
+            else:
+                candidates.append(np.arange(start, start + needed.size))
+            start += needed.size
             counts.shadow += needed.size
         if not origins:
             return []
@@ -184,6 +206,7 @@ class PreparedScene:
             np.concatenate(vectors, axis=1),
             0.0 if self.robust else SHADOW_T_MIN,
             np.concatenate(limits),
+            np.concatenate(candidates),
         )
         lit, start = [], 0
         for *_, needed in terms:
@@ -220,7 +243,8 @@ class PreparedScene:
         O = self.origin  # (3, 1): every camera ray starts at the camera
         t_min = CAMERA_T_MIN
         for bounce in range(depth + 1):
-            t, obj, part = self.hierarchy.closest(O, D, t_min)
+            grid = self.camera_grid if bounce == 0 else None  # camera rays share the camera's point
+            t, obj, part = self.hierarchy.closest(O, D, t_min, None if grid is None else grid.candidates(D))
             miss = indices(obj < 0)
             if miss.size:
                 sky = weight.take(miss) * self.background(take(D, miss))
