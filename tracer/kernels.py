@@ -180,10 +180,32 @@ class SphereKernel(Kernel):
         return P - self.center
 
 
-def _plane_t(O: np.ndarray, D: np.ndarray, normal: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Seed 2.17 for every ray: (t, not parallel); t is junk where the ray is parallel to the plane."""
-    denominator = dot(normal, D)
-    t = dot(normal, point - O) / denominator
+def sparse_terms(vector: np.ndarray) -> tuple[tuple[int, np.generic], ...]:
+    """The nonzero components of a (3, 1) column as (axis, value) pairs, for sparse_dot."""
+    return tuple((axis, vector[axis, 0]) for axis in range(3) if vector[axis, 0] != 0.0)
+
+
+def sparse_dot(terms: tuple[tuple[int, np.generic], ...], X: np.ndarray) -> np.ndarray:
+    """dot(vector, X) (3, N) -> (N,) over the vector's nonzero components only (an axis-aligned normal: one term).
+
+    The same value as dot(), since x + 0 = x and 1 * x = x exactly for finite x, except that a zero result may
+    differ in sign; where it is used that cannot show (t = -0 or +0 both fail t > t_min >= 0, and a zero
+    denominator is a parallel ray either way)."""
+    result = None
+    for axis, value in terms:
+        term = X[axis] if value == 1.0 else X[axis] * value
+        result = term if result is None else result + term
+    return result
+
+
+def _plane_t(
+    O: np.ndarray, D: np.ndarray, normal: tuple[tuple[int, np.generic], ...], point: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Seed 2.17 for every ray: (t, not parallel); t is junk where the ray is parallel to the plane.
+
+    normal: the plane normal's sparse_terms."""
+    denominator = sparse_dot(normal, D)
+    t = sparse_dot(normal, point - O) / denominator
     return t, np.broadcast_to(denominator != 0.0, t.shape).copy()
 
 
@@ -191,8 +213,10 @@ class PlaneKernel(Kernel):
     def __init__(self, plane: tf.WorldPlane, dtype: np.dtype) -> None:
         self.point = column(plane.point, dtype)
         self.plane_normal = column(plane.normal, dtype)
+        self.normal_terms = sparse_terms(self.plane_normal)
         self.u_axis = column(plane.u_axis, dtype)
         self.v_axis = column(plane.v_axis, dtype)
+        self.u_terms, self.v_terms = sparse_terms(self.u_axis), sparse_terms(self.v_axis)
         self.half_size = plane.half_size
         self.dtype = dtype
         self.box = None
@@ -213,17 +237,23 @@ class PlaneKernel(Kernel):
         return self.box
 
     def _hit(self, O, D, t_min, t_max):
-        t, ok = _plane_t(O, D, self.plane_normal, self.point)
-        ok &= (t > t_min) & (t < t_max)
-        t = np.where(ok, t, np.inf).astype(self.dtype, copy=False)
+        # as few passes over the rays as can be: every ray meets the ground plane's test
+        denominator = sparse_dot(self.normal_terms, D)
+        t = sparse_dot(self.normal_terms, self.point - O) / denominator
+        ok = (denominator != 0.0) & (t > t_min) & (t < t_max)
         if self.half_size is not None:
             rays = indices(ok)
-            offset = take(O, rays) + take(D, rays) * t.take(rays) - self.point
-            outside = (np.abs(dot(offset, self.u_axis)) > self.half_size[0]) | (
-                np.abs(dot(offset, self.v_axis)) > self.half_size[1]
+            t_rays = t.take(rays)
+            offset = {}  # (O + D t - point) along the axes that u and v use
+            for axis in {axis for axis, _ in self.u_terms + self.v_terms}:
+                origin = O[axis] if O.shape[1] == 1 else O[axis].take(rays)
+                direction = D[axis] if D.shape[1] == 1 else D[axis].take(rays)
+                offset[axis] = origin + direction * t_rays - self.point[axis]
+            outside = (np.abs(sparse_dot(self.u_terms, offset)) > self.half_size[0]) | (
+                np.abs(sparse_dot(self.v_terms, offset)) > self.half_size[1]
             )
-            t.put(rays.take(indices(outside)), np.inf)
-        return t, np.zeros(t.shape, dtype=np.int8)
+            ok.put(rays.take(indices(outside)), False)
+        return np.where(ok, t, self.dtype.type(np.inf)), np.zeros(ok.shape, dtype=np.int8)
 
     def normal(self, P, part):
         return np.broadcast_to(self.plane_normal, P.shape)
@@ -239,6 +269,7 @@ class CylinderKernel(Kernel):
         self.axis = column(cylinder.axis, dtype)
         self.down = column(tuple(-x for x in cylinder.axis), dtype)
         self.top = column(tf.add(cylinder.base, tf.scale(cylinder.axis, cylinder.height)), dtype)
+        self.caps = ((1, sparse_terms(self.down), self.base), (2, sparse_terms(self.axis), self.top))
         self.height = cylinder.height
         self.radius_squared = dtype.type(cylinder.radius) * dtype.type(cylinder.radius)
         self.dtype = dtype
@@ -278,7 +309,7 @@ class CylinderKernel(Kernel):
         for t in ((-b + root) / denominator, (-b - root) / denominator):
             h = COV + DV * t
             _nearest(best_t, best_part, t, side & (h >= 0.0) & (h <= self.height) & in_range(t), 0)
-        for part, normal, centre in ((1, self.down, self.base), (2, self.axis, self.top)):
+        for part, normal, centre in self.caps:
             t, ok = _plane_t(O, D, normal, centre)
             ok &= in_range(t)
             offset = O + D * np.where(ok, t, 0.0) - centre

@@ -86,7 +86,7 @@ class RobustCylinderKernel(CylinderKernel):
         for t in (t0, t1):
             h = fV + DV * t
             _nearest(best_t, best_part, t, real & (h >= 0.0) & (h <= self.height) & (t > t_min) & (t < t_max), 0)
-        for part, normal, centre in ((1, self.down, self.base), (2, self.axis, self.top)):
+        for part, normal, centre in self.caps:
             t, ok = _plane_t(O, D, normal, centre)
             ok &= (t > t_min) & (t < t_max)
             offset = O + D * np.where(ok, t, 0.0) - centre
