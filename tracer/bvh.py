@@ -152,21 +152,37 @@ class Hierarchy:
         t_min: float,
         t_max: float | np.ndarray,
         candidates: np.ndarray | None = None,
+        planes: bool = True,
     ) -> np.ndarray:
         """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first.
 
-        t_max is one number or one per ray (N,); candidates as for closest()."""
+        t_max is one number or one per ray (N,); candidates as for closest(); planes=False leaves out the
+        unbounded surfaces (for rays already tested with blocked_by_planes())."""
         with quiet():
-            return self._occluded(O, L, t_min, t_max, candidates)
+            blocked = self._blocked_by_planes(O, L, t_min, t_max) if planes else np.zeros(ray_count(O, L), bool)
+            return self._occluded(O, L, t_min, t_max, candidates, blocked)
 
-    def _occluded(
-        self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray, candidates: np.ndarray | None
-    ) -> np.ndarray:
-        count = ray_count(O, L)
-        blocked = np.zeros(count, dtype=bool)
+    def blocked_by_planes(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
+        """occluded() over the unbounded surfaces only: bool (N,)."""
+        with quiet():
+            return self._blocked_by_planes(O, L, t_min, t_max)
+
+    def _blocked_by_planes(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
+        blocked = np.zeros(ray_count(O, L), dtype=bool)
         for index in self.unbounded:
             t, _ = self.kernels[index].hit(O, L, t_min, t_max)
             blocked |= t < np.inf
+        return blocked
+
+    def _occluded(
+        self,
+        O: np.ndarray,
+        L: np.ndarray,
+        t_min: float,
+        t_max: float | np.ndarray,
+        candidates: np.ndarray | None,
+        blocked: np.ndarray,
+    ) -> np.ndarray:
         if self.root is None or blocked.all():
             return blocked
         live = indices(~blocked) if candidates is None else candidates[~blocked.take(candidates)]

@@ -176,44 +176,44 @@ class PreparedScene:
         Robust numerics start each shadow ray just off the surface, on the light's side, and search t from 0; the
         documented ones start on the surface and search t from 0.001 (listing 3.2)."""
         lights = [light for light in self.lights if light.kind != "ambient"]
-        origins, vectors, limits, candidates = [], [], [], []
-        start = 0
+        t_min = 0.0 if self.robust else SHADOW_T_MIN
+        shadows, origins, vectors, limits = [], [], [], []
         for light, (L, *_, needed) in zip(lights, terms, strict=True):
-            vector = take(np.broadcast_to(L, (3, P.shape[1])) if L.shape[1] == 1 else L, needed)
+            vector = take(L, needed)  # a directional light's vector stays a shared column
             origin = take(P, needed)
             if self.robust:
                 origin = offset_origins(origin, take(N, needed), vector)
                 if light.kind == "point":
                     vector = light.vector - origin  # t = 1 is still exactly the light
-            origins.append(origin)
-            vectors.append(vector)
-            limits.append(np.full(needed.size, light.t_max, dtype=self.dtype))
-            if light.grid is not None:
-                reach = (
-                    light.grid.candidates(vector, reverse=True)
-                    if light.kind == "point"
-                    else light.grid.candidates(origin)
-                )
-                candidates.append(reach + start)
-            else:
-                candidates.append(np.arange(start, start + needed.size))
-            start += needed.size
             counts.shadow += needed.size
-        if not origins:
+            # planes first, light by light (a shared direction keeps their test cheap); then only the rays that
+            # the light's coverage grid cannot rule out go on to the hierarchy, all lights in one batch
+            blocked = self.hierarchy.blocked_by_planes(origin, vector, t_min, light.t_max)
+            if light.grid is None:
+                rest = indices(~blocked)
+            else:
+                reach = light.grid.candidates(vector, True) if light.kind == "point" else light.grid.candidates(origin)
+                rest = reach[~blocked.take(reach)]
+            shadows.append((needed, blocked, rest))
+            origins.append(take(origin, rest))
+            vectors.append(np.broadcast_to(vector, (3, rest.size)) if vector.shape[1] == 1 else take(vector, rest))
+            limits.append(np.full(rest.size, light.t_max, dtype=self.dtype))
+        if not shadows:
             return []
-        blocked = self.hierarchy.occluded(
+        blocked_by_objects = self.hierarchy.occluded(
             np.concatenate(origins, axis=1),
             np.concatenate(vectors, axis=1),
-            0.0 if self.robust else SHADOW_T_MIN,
+            t_min,
             np.concatenate(limits),
-            np.concatenate(candidates),
+            planes=False,
         )
         lit, start = [], 0
-        for *_, needed in terms:
+        for needed, blocked, rest in shadows:
+            blocked.put(rest, blocked_by_objects[start : start + rest.size])
+            start += rest.size
             reached = np.zeros(P.shape[1], dtype=bool)
-            reached.put(needed, ~blocked[start : start + needed.size])
+            reached.put(needed, ~blocked)
             lit.append(reached)
-            start += needed.size
         return lit
 
     def background(self, D: np.ndarray) -> np.ndarray:
