@@ -104,7 +104,9 @@ class PreparedScene:
     def normals(self, P: np.ndarray, obj: np.ndarray, part: np.ndarray) -> np.ndarray:
         """Unit normals (3, N) at hit points P (3, N) on objects obj (N,)."""
         N = np.empty_like(P)
-        order = np.argsort(obj, kind="stable")
+        # a stable sort of 8- or 16-bit keys is NumPy's radix sort: about twice as fast as on int32 here
+        key = np.uint8 if len(self.kernels) <= 256 else np.uint16 if len(self.kernels) <= 65536 else obj.dtype
+        order = np.argsort(obj.astype(key), kind="stable")
         start = 0
         for index, size in enumerate(np.bincount(obj, minlength=len(self.kernels)).tolist()):
             if size:
@@ -248,7 +250,7 @@ class PreparedScene:
             miss = indices(obj < 0)
             if miss.size:
                 sky = weight.take(miss) * self.background(take(D, miss))
-                _accumulate(color, pixel.take(miss), sky)
+                _accumulate(color, pixel.take(miss), sky, bounce == 0)
             if miss.size == obj.size:
                 break
             hit = indices(obj >= 0)
@@ -260,7 +262,7 @@ class PreparedScene:
             intensity = self.find_intensity(P, N, V, self.specular.take(obj), counts)
             reflective = self.reflective.take(obj)
             local = (intensity * (1.0 - reflective)) * self.colors.take(obj, axis=1)
-            _accumulate(color, pixel, weight * local)
+            _accumulate(color, pixel, weight * local, bounce == 0)
             go_on = indices(reflective > 0.0)
             if bounce == depth or go_on.size == 0:
                 break
@@ -286,7 +288,9 @@ class PreparedScene:
         return np.ascontiguousarray(image.transpose(1, 2, 0)), counts
 
 
-def _accumulate(color: np.ndarray, pixel: np.ndarray, value: np.ndarray) -> None:
-    """color[:, pixel] += value for unique pixel indices, a row at a time (several times faster than fancy `+=`)."""
+def _accumulate(color: np.ndarray, pixel: np.ndarray, value: np.ndarray, fresh: bool) -> None:
+    """color[:, pixel] += value for unique pixel indices, a row at a time (several times faster than fancy `+=`).
+
+    fresh: the pixels still hold their initial zeros (the camera rays' bounce), so the value is stored as it is."""
     for row, add in zip(color, value, strict=True):
-        row.put(pixel, row.take(pixel) + add)
+        row.put(pixel, add if fresh else row.take(pixel) + add)
