@@ -77,26 +77,27 @@ class Hierarchy:
                 boxes[index] = box
         bounded = np.array(sorted(boxes), dtype=np.int64)
         self.root = None
-        self.boxes: tuple[np.ndarray, np.ndarray] | None = None  # lower, upper (k, 3) of the bounded kernels
+        self.boxes: tuple[list[int], np.ndarray, np.ndarray] | None = None  # bounded kernels, lower, upper (k, 3)
         if bounded.size:
             lower = np.array([boxes[i][0] for i in bounded.tolist()], dtype=np.float64)
             upper = np.array([boxes[i][1] for i in bounded.tolist()], dtype=np.float64)
-            self.boxes = (lower, upper)
+            self.boxes = (bounded.tolist(), lower, upper)
             costs = np.array([kernels[i].cost for i in bounded.tolist()], dtype=np.float64)
             self.root = _build(bounded, lower, upper, costs, dtype)
 
     def closest(
-        self, O: np.ndarray, D: np.ndarray, t_min: float, candidates: np.ndarray | None = None
+        self, O: np.ndarray, D: np.ndarray, t_min: float, sets: list[tuple[int, np.ndarray]] | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,).
 
-        O or D may be a (3, 1) column shared by all rays (see kernels.take). candidates (n,), when given, are the
-        only rays that can meet a bounded object (see cull.py); the rest are tested against the planes only."""
+        O or D may be a (3, 1) column shared by all rays (see kernels.take). sets, when given, name for every
+        bounded kernel that any ray can meet the rays (n,) that can (cull.ScreenRectangles); the hierarchy is then
+        not walked."""
         with quiet():
-            return self._closest(O, D, t_min, candidates)
+            return self._closest(O, D, t_min, sets)
 
     def _closest(
-        self, O: np.ndarray, D: np.ndarray, t_min: float, candidates: np.ndarray | None
+        self, O: np.ndarray, D: np.ndarray, t_min: float, sets: list[tuple[int, np.ndarray]] | None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         count = ray_count(O, D)
         best_t = np.full(count, np.inf, dtype=self.dtype)
@@ -122,11 +123,12 @@ class Hierarchy:
 
         for index in self.unbounded:
             test(index, None, O, D)
-        if self.root is not None and (candidates is None or candidates.size):
-            if candidates is not None:
-                O, D = take(O, candidates), take(D, candidates)
+        if sets is not None:
+            for index, rays in sets:
+                test(index, rays, take(O, rays), take(D, rays))
+        elif self.root is not None:
             # each entry carries its rays compacted, so deeper nodes gather from ever smaller arrays
-            stack = [(self.root, np.arange(count) if candidates is None else candidates, O, D, 1.0 / D)]
+            stack = [(self.root, np.arange(count), O, D, 1.0 / D)]
             while stack:
                 node, rays, O_n, D_n, inverse_n = stack.pop()
                 near, far = slab(O_n, inverse_n, node.lower, node.upper)

@@ -137,3 +137,78 @@ class CoverageGrid:
         if self.perspective:
             error *= self.picture_reach / self.depth  # a point moved by e at depth >= d moves by e (1 + |uv|) / d
         return error < 0.5 / self.scale
+
+
+class ScreenRectangles:
+    """Camera rays -> for each bounded kernel, the rays of a band whose pixels its box can cover.
+
+    Seen through the camera, a box wholly in front of it covers at most the rectangle of its corners' pixels, and
+    a camera ray's sample lies inside its own pixel; so a kernel need only see the rays of the pixels in that
+    rectangle, grown by two pixels (far more than rounding moves a ray: build() checks). The sets come from pixel
+    indices alone: no ray is projected, and the hierarchy is not walked for camera rays.
+    """
+
+    def __init__(self, kernels: list[int], rectangles: np.ndarray, width: int, samples: int) -> None:
+        """rectangles (k, 4) int: first column, first row, last column, last row of each kernel's pixels."""
+        self.kernels = kernels
+        self.rectangles = rectangles
+        self.width = width
+        self.samples = samples
+
+    @classmethod
+    def build(
+        cls,
+        camera_to_world: np.ndarray,
+        location: np.ndarray,
+        lens: float,
+        sensor: tuple[float, float],
+        size: tuple[int, int],
+        samples: int,
+        boxes: tuple[list[int], np.ndarray, np.ndarray],
+        dtype: np.dtype,
+    ) -> ScreenRectangles | None:
+        """camera_to_world (3, 3): the camera's axes as columns (it looks along -z); location (3,); lens and
+        sensor (x, y) in mm, the sensor as fitted to the image; size (width, height) in pixels; boxes: kernel
+        indices (k,) with their boxes lower, upper (k, 3).
+
+        None where a box reaches behind the camera, or where a pixel is too fine for the tracing dtype."""
+        kernels, lower, upper = boxes
+        local = (_corners(lower, upper) - location) @ camera_to_world  # (k, 8, 3) in the camera's axes
+        depth = -local[..., 2]
+        nearest = float(depth.min())
+        reach = float(max(np.abs(lower).max(), np.abs(upper).max(), np.abs(location).max()))
+        if nearest <= DEPTH_MARGIN * reach:
+            return None
+        width, height = size
+        pixel = nearest * min(sensor[0] / width, sensor[1] / height) / lens  # its footprint at the nearest corner
+        if pixel < 64.0 * float(np.finfo(dtype).eps) * reach:  # rounding could move a ray by a pixel
+            return None
+        x = (lens * local[..., 0] / depth / sensor[0] + 0.5) * width
+        y = (0.5 - lens * local[..., 1] / depth / sensor[1]) * height
+        rectangles = np.stack(
+            (
+                np.clip(np.floor(x.min(axis=1)) - 2, 0, width - 1),
+                np.clip(np.floor(y.min(axis=1)) - 2, 0, height - 1),
+                np.clip(np.floor(x.max(axis=1)) + 1, -1, width - 1),
+                np.clip(np.floor(y.max(axis=1)) + 1, -1, height - 1),
+            ),
+            axis=1,
+        ).astype(np.int64)
+        return cls(list(kernels), rectangles, width, samples)
+
+    def rays(self, rows: np.ndarray) -> list[tuple[int, np.ndarray]]:
+        """Image rows (R,) of a band, ascending -> (kernel index, ray indices ascending) for every kernel that
+        the band's camera rays can meet; rays are ordered row, column, sample as in camera.band_directions."""
+        sets = []
+        samples = np.arange(self.samples)
+        for kernel, (first_column, first_row, last_column, last_row) in zip(
+            self.kernels, self.rectangles.tolist(), strict=True
+        ):
+            if last_column < first_column:
+                continue
+            positions = ((rows >= first_row) & (rows <= last_row)).nonzero()[0]
+            if positions.size == 0:
+                continue
+            pixels = (positions[:, None] * self.width + np.arange(first_column, last_column + 1)[None, :]).ravel()
+            sets.append((kernel, (pixels[:, None] * self.samples + samples[None, :]).ravel()))
+        return sets

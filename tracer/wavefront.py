@@ -16,7 +16,7 @@ from . import camera as cam
 from . import scene as sc
 from . import transforms as tf
 from .bvh import Hierarchy
-from .cull import CoverageGrid
+from .cull import CoverageGrid, ScreenRectangles
 from .kernels import Kernel, column, dot, indices, leaves, make_kernel, quiet, take
 from .robust import make_robust_kernel, offset_origins
 
@@ -89,10 +89,20 @@ class PreparedScene:
             direction = cam.documented_background_direction(self.scene.camera, settings)
             self.documented_color = column(background.sky(direction[2]), self.dtype)
         self.origin = column(self.scene.camera.location, self.dtype)
-        self.camera_grid = None
+        self.screen = None  # which camera rays each bounded kernel can meet
         if self.hierarchy.boxes is not None:
-            boxes = self.hierarchy.boxes
-            self.camera_grid = CoverageGrid.from_point(self.origin.ravel().astype(np.float64), *boxes)
+            camera = self.scene.camera
+            self.screen = ScreenRectangles.build(
+                np.asarray(tf.euler_xyz_matrix(camera.rotation)),
+                self.origin.ravel().astype(np.float64),
+                camera.lens,
+                cam.sensor_size(camera, settings.width, settings.height),
+                (settings.width, settings.height),
+                settings.samples,
+                self.hierarchy.boxes,
+                self.dtype,
+            )
+            boxes = self.hierarchy.boxes[1:]
             for light in self.lights:
                 if light.kind == "point":
                     light.grid = CoverageGrid.from_point(light.vector.ravel().astype(np.float64), *boxes)
@@ -234,8 +244,10 @@ class PreparedScene:
 
     # ---- TraceRay as a wavefront -------------------------------------------------------------------------------
 
-    def trace(self, D: np.ndarray, counts: RayCounts) -> np.ndarray:
-        """Camera rays (3, N) from the camera -> linear colors (3, N), unclamped."""
+    def trace(self, D: np.ndarray, counts: RayCounts, rows: np.ndarray | None = None) -> np.ndarray:
+        """Camera rays (3, N) from the camera -> linear colors (3, N), unclamped.
+
+        rows: the image rows (R,) that the rays are, ordered as camera.band_directions gives them, if they are."""
         depth = self.scene.render.depth
         total = D.shape[1]
         counts.camera += total
@@ -245,8 +257,8 @@ class PreparedScene:
         O = self.origin  # (3, 1): every camera ray starts at the camera
         t_min = CAMERA_T_MIN
         for bounce in range(depth + 1):
-            grid = self.camera_grid if bounce == 0 else None  # camera rays share the camera's point
-            t, obj, part = self.hierarchy.closest(O, D, t_min, None if grid is None else grid.candidates(D))
+            sets = self.screen.rays(rows) if bounce == 0 and rows is not None and self.screen is not None else None
+            t, obj, part = self.hierarchy.closest(O, D, t_min, sets)
             miss = indices(obj < 0)
             if miss.size:
                 sky = weight.take(miss) * self.background(take(D, miss))
@@ -282,7 +294,7 @@ class PreparedScene:
         counts = RayCounts()
         D = cam.band_directions(self.scene.camera, settings, rows).astype(self.dtype, copy=False)
         with quiet():
-            color = self.trace(D, counts)
+            color = self.trace(D, counts, np.asarray(rows))
         samples = color.reshape(3, len(rows), settings.width, settings.samples)
         image = samples.sum(axis=3) / settings.samples if settings.samples > 1 else samples[..., 0]
         return np.ascontiguousarray(image.transpose(1, 2, 0)), counts

@@ -1,0 +1,106 @@
+"""The culls (screen rectangles for camera rays, coverage grids for shadow rays) drop rays, never change a pixel."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.random_scenes import random_scene_document
+from tracer.cull import CoverageGrid, ScreenRectangles
+from tracer.loader import default_scene, scene_from_dict
+from tracer.wavefront import PreparedScene
+
+SEEDS = range(30)
+MODES = [("float64", "documented"), ("float32", "documented"), ("float64", "robust"), ("float32", "robust")]
+
+
+def _render(scene, culled: bool) -> tuple[np.ndarray, object]:
+    prepared = PreparedScene(scene)
+    if not culled:
+        prepared.screen = None
+        for light in prepared.lights:
+            light.grid = None
+    return prepared.render_rows(np.arange(scene.render.height))
+
+
+@pytest.mark.parametrize("dtype, numerics", MODES)
+def test_culling_changes_no_pixel_of_random_scenes(dtype: str, numerics: str) -> None:
+    culled_somewhere = 0
+    for seed in SEEDS:
+        scene = scene_from_dict(random_scene_document(seed, 96, 72)).with_render(dtype=dtype, numerics=numerics)
+        image, counts = _render(scene, culled=True)
+        plain, plain_counts = _render(scene, culled=False)
+        assert np.array_equal(image, plain), f"seed {seed}"
+        assert counts == plain_counts
+        prepared = PreparedScene(scene)
+        if prepared.screen is not None and any(light.grid is not None for light in prepared.lights):
+            culled_somewhere += 1
+    assert culled_somewhere >= len(SEEDS) // 2  # the comparison above exercised the culls
+
+
+def test_culling_changes_no_pixel_of_the_default_scene() -> None:
+    scene = default_scene().with_render(width=320, height=240)
+    image, _ = _render(scene, culled=True)
+    plain, _ = _render(scene, culled=False)
+    assert np.array_equal(image, plain)
+    prepared = PreparedScene(scene)
+    assert prepared.screen is not None
+    assert all(light.grid is not None for light in prepared.lights if light.kind != "ambient")
+
+
+def test_screen_rectangles_hold_every_pixel_that_sees_a_sphere() -> None:
+    """Independent truth: a pixel centre's ray meets a sphere where its distance from the centre is <= radius."""
+    document = random_scene_document(0, 160, 120)
+    document["objects"] = [
+        {
+            "name": "ball",
+            "type": "sphere",
+            "material": "m0",
+            "location": [0.7, 1.0, 1.5],
+            "radius": 0.6,
+            "rotation": [0, 0, 0],
+        }
+    ]
+    document["render"]["samples"] = 1
+    scene = scene_from_dict(document)
+    prepared = PreparedScene(scene)
+    from tracer.camera import band_directions
+
+    rows = np.arange(120)
+    D = band_directions(scene.camera, scene.render, rows)
+    O = np.asarray(scene.camera.location)[:, None]
+    C = np.array([[0.7], [1.0], [1.5]])
+    along = ((C - O) * D).sum(axis=0)
+    distance = np.linalg.norm(O + D * along - C, axis=0)
+    seen = np.flatnonzero((distance <= 0.6) & (along > 0))
+    assert seen.size > 100
+    ((kernel, rays),) = prepared.screen.rays(rows)
+    assert kernel == 0
+    assert np.isin(seen, rays).all()
+    assert rays.size < 0.5 * D.shape[1]  # and it culls: the ball covers a small part of the picture
+
+
+def test_a_camera_among_the_objects_gets_no_screen_rectangles() -> None:
+    box = (np.array([[-1.0, -1.0, -1.0]]), np.array([[1.0, 1.0, 1.0]]))
+    axes = np.eye(3)
+    args = (1.0, 50.0, (36.0, 24.0), (64, 48), 1, ([0], *box), np.dtype(np.float64))
+    assert ScreenRectangles.build(axes, np.zeros(3), *args[1:]) is None
+    assert ScreenRectangles.build(axes, np.array([0.0, 0.0, 5.0]), *args[1:]) is not None
+
+
+def test_a_light_among_the_objects_gets_no_grid() -> None:
+    lower, upper = np.array([[-1.0, -1.0, -1.0]]), np.array([[1.0, 1.0, 1.0]])
+    assert CoverageGrid.from_point(np.zeros(3), lower, upper) is None
+    grid = CoverageGrid.from_point(np.array([0.0, 0.0, 5.0]), lower, upper)
+    assert grid is not None and 0.0 < grid.coverage <= 1.0
+
+
+def test_a_grid_keeps_rays_it_cannot_resolve() -> None:
+    """Shadow rays from absurdly far points: float32 cannot place them within a cell, so none is culled."""
+    lower, upper = np.array([[-1.0, -1.0, -1.0]]), np.array([[1.0, 1.0, 1.0]])
+    grid = CoverageGrid.from_direction(np.array([0.0, 0.0, 1.0]), lower, upper)
+    near = np.array([[5.0, 0.0], [5.0, 0.0], [0.0, -3.0]], dtype=np.float32)  # beside the box; under it
+    assert grid.candidates(near).tolist() == [1]
+    far = near.copy()
+    far[0, 0] = 3e7
+    assert grid.candidates(far).tolist() == [0, 1]
