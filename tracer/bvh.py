@@ -153,16 +153,15 @@ class Hierarchy:
         L: np.ndarray,
         t_min: float,
         t_max: float | np.ndarray,
-        candidates: np.ndarray | None = None,
         planes: bool = True,
     ) -> np.ndarray:
         """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first.
 
-        t_max is one number or one per ray (N,); candidates as for closest(); planes=False leaves out the
+        t_max is one number or one per ray (N,); planes=False leaves out the
         unbounded surfaces (for rays already tested with blocked_by_planes())."""
         with quiet():
             blocked = self._blocked_by_planes(O, L, t_min, t_max) if planes else np.zeros(ray_count(O, L), bool)
-            return self._occluded(O, L, t_min, t_max, candidates, blocked)
+            return self._occluded(O, L, t_min, t_max, blocked)
 
     def blocked_by_planes(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
         """occluded() over the unbounded surfaces only: bool (N,)."""
@@ -182,12 +181,11 @@ class Hierarchy:
         L: np.ndarray,
         t_min: float,
         t_max: float | np.ndarray,
-        candidates: np.ndarray | None,
         blocked: np.ndarray,
     ) -> np.ndarray:
         if self.root is None or blocked.all():
             return blocked
-        live = indices(~blocked) if candidates is None else candidates[~blocked.take(candidates)]
+        live = indices(~blocked)
         if live.size == 0:
             return blocked
         O_live, L_live = take(O, live), take(L, live)
