@@ -90,17 +90,19 @@ def test_a_camera_among_the_objects_gets_no_screen_rectangles() -> None:
 
 def test_a_light_among_the_objects_gets_no_grid() -> None:
     lower, upper = np.array([[-1.0, -1.0, -1.0]]), np.array([[1.0, 1.0, 1.0]])
-    assert CoverageGrid.from_point(np.zeros(3), lower, upper) is None
-    grid = CoverageGrid.from_point(np.array([0.0, 0.0, 5.0]), lower, upper)
+    assert CoverageGrid.from_point(np.zeros(3), [0], lower, upper) is None
+    grid = CoverageGrid.from_point(np.array([0.0, 0.0, 5.0]), [0], lower, upper)
     assert grid is not None and 0.0 < grid.coverage <= 1.0
 
 
 def test_a_grid_keeps_rays_it_cannot_resolve() -> None:
     """Shadow rays from absurdly far points: float32 cannot place them within a cell, so none is culled."""
     lower, upper = np.array([[-1.0, -1.0, -1.0]]), np.array([[1.0, 1.0, 1.0]])
-    grid = CoverageGrid.from_direction(np.array([0.0, 0.0, 1.0]), lower, upper)
+    grid = CoverageGrid.from_direction(np.array([0.0, 0.0, 1.0]), [0], lower, upper)
     near = np.array([[5.0, 0.0], [5.0, 0.0], [0.0, -3.0]], dtype=np.float32)  # beside the box; under it
-    assert grid.candidates(near).tolist() == [1]
+    rays, bits = grid.select(near)
+    assert rays.tolist() == [1] and bits.tolist() == [1]
     far = near.copy()
     far[0, 0] = 3e7
-    assert grid.candidates(far).tolist() == [0, 1]
+    rays, bits = grid.select(far)
+    assert rays.tolist() == [0, 1] and bits is None

@@ -154,13 +154,16 @@ class Hierarchy:
         t_min: float,
         t_max: float | np.ndarray,
         planes: bool = True,
+        sets: list[tuple[int, np.ndarray]] | None = None,
     ) -> np.ndarray:
         """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first.
 
-        t_max is one number or one per ray (N,); planes=False leaves out the
-        unbounded surfaces (for rays already tested with blocked_by_planes())."""
+        t_max is one number or one per ray (N,); planes=False leaves out the unbounded surfaces (for rays already
+        tested with blocked_by_planes()); sets as for closest()."""
         with quiet():
             blocked = self._blocked_by_planes(O, L, t_min, t_max) if planes else np.zeros(ray_count(O, L), bool)
+            if sets is not None:
+                return self._occluded_in_sets(O, L, t_min, t_max, blocked, sets)
             return self._occluded(O, L, t_min, t_max, blocked)
 
     def blocked_by_planes(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
@@ -173,6 +176,23 @@ class Hierarchy:
         for index in self.unbounded:
             t, _ = self.kernels[index].hit(O, L, t_min, t_max)
             blocked |= t < np.inf
+        return blocked
+
+    def _occluded_in_sets(
+        self,
+        O: np.ndarray,
+        L: np.ndarray,
+        t_min: float,
+        t_max: float | np.ndarray,
+        blocked: np.ndarray,
+        sets: list[tuple[int, np.ndarray]],
+    ) -> np.ndarray:
+        for index, rays in sets:
+            rays = rays[~blocked.take(rays)]  # a ray stops at its first blocker
+            if rays.size:
+                limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
+                t, _ = self.kernels[index].hit(take(O, rays), take(L, rays), t_min, limit)
+                blocked.put(rays.take(indices(t < np.inf)), True)
         return blocked
 
     def _occluded(

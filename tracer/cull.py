@@ -38,13 +38,16 @@ def _corners(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
 
 
 class CoverageGrid:
-    """Marked cells of a picture of the boxes; candidates() picks the rays that land in marked cells."""
+    """A picture of the boxes: each cell records which boxes cover it; select() picks the rays in covered cells."""
 
-    def __init__(self, axes: np.ndarray, rectangles: np.ndarray, reach: float, depth: float | None) -> None:
+    def __init__(
+        self, axes: np.ndarray, rectangles: np.ndarray, reach: float, depth: float | None, kernels: list[int]
+    ) -> None:
         """axes (3, 3): right, up, forward rows; rectangles (k, 4): u_min, v_min, u_max, v_max of each box; reach:
         the largest coordinate of the boxes and the shared point; depth: the nearest corner's depth in front of the
-        shared point (perspective), None for parallel rays."""
+        shared point (perspective), None for parallel rays; kernels (k,): the kernel each box bounds."""
         self.axes = axes
+        self.kernels = kernels
         self.perspective = depth is not None
         self.reach = reach
         self.depth = depth
@@ -56,17 +59,23 @@ class CoverageGrid:
         self.scale = 1.0 / cell
         # one ring of empty cells around the grid: rays outside it are clipped into the ring
         self.columns, self.rows = int(shape[0]) + 2, int(shape[1]) + 2
-        marked = np.zeros((self.rows, self.columns), dtype=bool)
+        # up to 64 boxes, one bit each per cell; beyond that only whether any box covers it
+        bits = np.zeros((self.rows, self.columns), dtype=np.uint64 if len(kernels) <= 64 else bool)
         first = np.floor((rectangles[:, :2] - low) * self.scale).astype(int)  # grow each area by one cell
         last = np.floor((rectangles[:, 2:] - low) * self.scale).astype(int) + 2
-        for (u0, v0), (u1, v1) in zip(first.tolist(), last.tolist(), strict=True):
-            marked[max(v0, 0) : min(v1, self.rows - 2) + 1, max(u0, 0) : min(u1, self.columns - 2) + 1] = True
-        self.marked = marked.ravel()
+        for box, ((u0, v0), (u1, v1)) in enumerate(zip(first.tolist(), last.tolist(), strict=True)):
+            area = bits[max(v0, 0) : min(v1, self.rows - 2) + 1, max(u0, 0) : min(u1, self.columns - 2) + 1]
+            area |= np.uint64(1 << box) if bits.dtype == np.uint64 else True
+        self.bits = bits.ravel() if bits.dtype == np.uint64 else None
+        self.marked = bits.ravel() != 0
         self.picture_reach = 1.0 + float(np.abs(np.concatenate((low, high))).max())
 
     @classmethod
-    def from_point(cls, point: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> CoverageGrid | None:
-        """Rays through a shared point (3,) toward boxes (k, 3); None where the boxes are not all in front of it."""
+    def from_point(
+        cls, point: np.ndarray, kernels: list[int], lower: np.ndarray, upper: np.ndarray
+    ) -> CoverageGrid | None:
+        """Rays through a shared point (3,) toward boxes (k, 3) of kernels (k,); None where the boxes are not all
+        in front of it."""
         center = (lower.min(axis=0) + upper.max(axis=0)) / 2.0
         forward = center - point
         distance = float(np.linalg.norm(forward))
@@ -81,11 +90,13 @@ class CoverageGrid:
         u, v = local[..., 0] / local[..., 2], local[..., 1] / local[..., 2]
         rectangles = np.stack((u.min(axis=1), v.min(axis=1), u.max(axis=1), v.max(axis=1)), axis=1)
         reach = float(max(np.abs(lower).max(), np.abs(upper).max(), np.abs(point).max()))
-        return cls(axes, rectangles, reach, float(local[..., 2].min()))
+        return cls(axes, rectangles, reach, float(local[..., 2].min()), kernels)
 
     @classmethod
-    def from_direction(cls, direction: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> CoverageGrid:
-        """Rays along a shared direction (3,) toward boxes (k, 3)."""
+    def from_direction(
+        cls, direction: np.ndarray, kernels: list[int], lower: np.ndarray, upper: np.ndarray
+    ) -> CoverageGrid:
+        """Rays along a shared direction (3,) toward boxes (k, 3) of kernels (k,)."""
         axes = np.stack(_frame(direction / np.linalg.norm(direction)))
         local = _corners(lower, upper) @ axes.T
         rectangles = np.stack(
@@ -97,21 +108,23 @@ class CoverageGrid:
             ),
             axis=1,
         )
-        return cls(axes, rectangles, float(max(np.abs(lower).max(), np.abs(upper).max())), None)
+        return cls(axes, rectangles, float(max(np.abs(lower).max(), np.abs(upper).max())), None, kernels)
 
     @property
     def coverage(self) -> float:
         """The share of the grid's cells that are marked (a measure of how much it can cull)."""
         return float(self.marked.mean())
 
-    def candidates(self, Q: np.ndarray, reverse: bool = False) -> np.ndarray:
-        """Rays (3, n) -> indices of those that may meet a box, in increasing order.
+    def select(self, Q: np.ndarray, reverse: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+        """Rays (3, n) -> (indices (m,) of those that may meet a box, ascending; for each of them the bits (m,)
+        uint64 of the boxes its cell records, bit j for box j), or (all rays, None) where the grid cannot tell
+        (more than 64 boxes, or rays too far away to place within a cell).
 
         Q is, for a perspective picture, each ray's vector from the shared point (a camera ray's direction), or
         with reverse its vector toward the point (a shadow ray's vector toward the light); for a parallel one, a
         point of each ray (its origin)."""
         if Q.shape[1] == 0 or not self._resolves(Q):
-            return np.arange(Q.shape[1])
+            return np.arange(Q.shape[1]), None
         Q = Q.astype(np.float64, copy=False)
         right, up, forward = self.axes
         u = right[0] * Q[0] + right[1] * Q[1] + right[2] * Q[2]
@@ -128,7 +141,10 @@ class CoverageGrid:
         column = np.clip((u - self.origin[0]) * self.scale + 1.0, 0.0, self.columns - 1.0)
         row = np.clip((v - self.origin[1]) * self.scale + 1.0, 0.0, self.rows - 1.0)
         cell = row.astype(np.intp) * self.columns + column.astype(np.intp)
-        return self.marked.take(cell, mode="clip").nonzero()[0]  # clip: a NaN ray lands anywhere, hits nothing
+        rays = self.marked.take(cell, mode="clip").nonzero()[0]  # clip: a NaN ray lands anywhere, hits nothing
+        if self.bits is None:
+            return rays, None
+        return rays, self.bits.take(cell.take(rays), mode="clip")
 
     def _resolves(self, Q: np.ndarray) -> bool:
         """Whether rounding in Q's dtype moves any ray's picture point by less than half a cell (a generous bound:
@@ -137,6 +153,17 @@ class CoverageGrid:
         if self.perspective:
             error *= self.picture_reach / self.depth  # a point moved by e at depth >= d moves by e (1 + |uv|) / d
         return error < 0.5 / self.scale
+
+
+def kernel_sets(kernels: list[int], bits: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    """Bits (m,) from select() of grids over the same boxes of kernels (k,) -> (kernel, positions (n,) among the
+    m rays) for every kernel that some ray may meet."""
+    sets = []
+    for box, kernel in enumerate(kernels):
+        positions = (bits & np.uint64(1 << box)).nonzero()[0]
+        if positions.size:
+            sets.append((kernel, positions))
+    return sets
 
 
 class ScreenRectangles:

@@ -16,7 +16,7 @@ from . import camera as cam
 from . import scene as sc
 from . import transforms as tf
 from .bvh import Hierarchy
-from .cull import CoverageGrid, ScreenRectangles
+from .cull import CoverageGrid, ScreenRectangles, kernel_sets
 from .kernels import Kernel, column, dot, indices, leaves, make_kernel, quiet, take
 from .robust import make_robust_kernel, offset_origins
 
@@ -102,7 +102,7 @@ class PreparedScene:
                 self.hierarchy.boxes,
                 self.dtype,
             )
-            boxes = self.hierarchy.boxes[1:]
+            boxes = self.hierarchy.boxes
             for light in self.lights:
                 if light.kind == "point":
                     light.grid = CoverageGrid.from_point(light.vector.ravel().astype(np.float64), *boxes)
@@ -189,7 +189,7 @@ class PreparedScene:
         documented ones start on the surface and search t from 0.001 (listing 3.2)."""
         lights = [light for light in self.lights if light.kind != "ambient"]
         t_min = 0.0 if self.robust else SHADOW_T_MIN
-        shadows, origins, vectors, limits = [], [], [], []
+        shadows, origins, vectors, limits, bits = [], [], [], [], []
         for light, (L, *_, needed) in zip(lights, terms, strict=True):
             vector = take(L, needed)  # a directional light's vector stays a shared column
             origin = take(P, needed)
@@ -202,22 +202,28 @@ class PreparedScene:
             # the light's coverage grid cannot rule out go on to the hierarchy, all lights in one batch
             blocked = self.hierarchy.blocked_by_planes(origin, vector, t_min, light.t_max)
             if light.grid is None:
-                rest = indices(~blocked)
+                rest, covering = indices(~blocked), None
             else:
-                reach = light.grid.candidates(vector, True) if light.kind == "point" else light.grid.candidates(origin)
-                rest = reach[~blocked.take(reach)]
+                rest, covering = light.grid.select(vector, True) if light.kind == "point" else light.grid.select(origin)
+                keep = indices(~blocked.take(rest))
+                rest = rest.take(keep)
+                covering = None if covering is None else covering.take(keep)
+            bits.append(covering)
             shadows.append((needed, blocked, rest))
             origins.append(take(origin, rest))
             vectors.append(np.broadcast_to(vector, (3, rest.size)) if vector.shape[1] == 1 else take(vector, rest))
             limits.append(np.full(rest.size, light.t_max, dtype=self.dtype))
         if not shadows:
             return []
+        # where every light's grid told which boxes each ray may meet, the hierarchy is not walked
+        sets = None if any(b is None for b in bits) else kernel_sets(self.hierarchy.boxes[0], np.concatenate(bits))
         blocked_by_objects = self.hierarchy.occluded(
             np.concatenate(origins, axis=1),
             np.concatenate(vectors, axis=1),
             t_min,
             np.concatenate(limits),
             planes=False,
+            sets=sets,
         )
         lit, start = [], 0
         for needed, blocked, rest in shadows:
