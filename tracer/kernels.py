@@ -102,17 +102,8 @@ class Kernel:
     def set_frame(self, rotation: np.ndarray, origin: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
         """rotation (3, 3) has the local axes as columns; lower, upper (3,) bound the object in that frame.
 
-        No frame where the oriented box is about as large as the world box: the hierarchy's leaf already tests that.
-        """
-        corners = (
-            np.array(
-                [[x, y, z] for x in (lower[0], upper[0]) for y in (lower[1], upper[1]) for z in (lower[2], upper[2])]
-            )
-            @ rotation.T
-        )
-        world_volume = np.prod(np.maximum(corners.max(axis=0) - corners.min(axis=0), 1e-12))
-        if np.prod(np.maximum(upper - lower, 1e-12)) > 0.7 * world_volume:
-            return
+        Every such kernel keeps its frame, even where the oriented box is no smaller than the world box: rays that
+        reach a kernel through the culls' sets (cull.py) have met no box test yet."""
         padded = padded_box(lower, upper, self.dtype, float(np.max(np.abs(origin))))
         self.frame = (rotation.T.astype(self.dtype), origin.astype(self.dtype).reshape(3, 1), *padded)
 
