@@ -105,7 +105,10 @@ class Hierarchy:
         best_part = np.zeros(count, dtype=np.int32)
 
         def test(index: int, rays: np.ndarray | None, O: np.ndarray, D: np.ndarray) -> None:
-            t, part = self.kernels[index].hit(O, D, t_min, math.inf)
+            offer(index, rays, *self.kernels[index].hit(O, D, t_min, math.inf))
+
+        def offer(index: int, rays: np.ndarray | None, t: np.ndarray, part: np.ndarray) -> None:
+            """Hits t, part (n,) of kernel index on rays (n,) (None: all) replace nearer-or-tied earlier ones."""
             owner = self.owners[index]
             if rays is None:
                 current_t, current_object, current_part = best_t, best_object, best_part
@@ -124,8 +127,8 @@ class Hierarchy:
         for index in self.unbounded:
             test(index, None, O, D)
         if sets is not None:
-            for index, rays in sets:
-                test(index, rays, take(O, rays), take(D, rays))
+            for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, sets):
+                offer(index, rays, t, part)
         elif self.root is not None:
             # each entry carries its rays compacted, so deeper nodes gather from ever smaller arrays
             stack = [(self.root, np.arange(count), O, D, 1.0 / D)]
@@ -187,13 +190,49 @@ class Hierarchy:
         blocked: np.ndarray,
         sets: list[tuple[int, np.ndarray]],
     ) -> np.ndarray:
-        for index, rays in sets:
-            rays = rays[~blocked.take(rays)]  # a ray stops at its first blocker
-            if rays.size:
-                limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
-                t, _ = self.kernels[index].hit(take(O, rays), take(L, rays), t_min, limit)
-                blocked.put(rays.take(indices(t < np.inf)), True)
+        for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, sets):
+            blocked.put(rays.take(indices(t < np.inf)), True)
         return blocked
+
+    def _evaluate(
+        self,
+        O: np.ndarray,
+        D: np.ndarray,
+        t_min: float,
+        t_max: float | np.ndarray,
+        sets: list[tuple[int, np.ndarray]],
+    ) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+        """(kernel index, rays (n,)) sets -> (kernel index, rays (m,), t (m,), part (m,)) for the rays that pass its
+        oriented box; kernels of one class that allow it are tested together in one batch (Kernel.batched), since
+        here each NumPy call costs more than the arithmetic on a few hundred rays."""
+        results, batches = [], {}
+        for index, rays in sets:
+            kernel = self.kernels[index]
+            O_r, D_r = take(O, rays), take(D, rays)
+            limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
+            if not kernel.batch_attributes:
+                results.append((index, rays, *kernel.hit(O_r, D_r, t_min, limit)))
+                continue
+            if kernel.frame is not None:
+                keep = kernel.in_box(O_r, D_r, t_min, limit)
+                if keep.size < rays.size:
+                    rays, O_r, D_r = rays.take(keep), take(O_r, keep), take(D_r, keep)
+                    limit = limit.take(keep) if isinstance(limit, np.ndarray) else limit
+            if rays.size:
+                batches.setdefault(type(kernel), []).append((index, rays, O_r, D_r, limit))
+        for members in batches.values():
+            sizes = [rays.size for _, rays, *_ in members]
+            kernels = [self.kernels[index] for index, *_ in members]
+            which = np.repeat(np.arange(len(members)), sizes)
+            O_b, D_b, limit_b = (_join([member[k] for member in members], sizes) for k in (2, 3, 4))
+            if O_b.shape[1] == 1 and D_b.shape[1] == 1 and which.size > 1:  # one ray, met by several kernels
+                D_b = np.repeat(D_b, which.size, axis=1)
+            t, part = kernels[0].batched(kernels, which)._hit(O_b, D_b, t_min, limit_b)
+            start = 0
+            for (index, rays, *_), size in zip(members, sizes, strict=True):
+                results.append((index, rays, t[start : start + size], part[start : start + size]))
+                start += size
+        return results
 
     def _occluded(
         self,
@@ -227,3 +266,15 @@ class Hierarchy:
                 blocked.put(rays.take(indices(t < np.inf)), True)
             stack.extend((child, rays, O_n, L_n, inverse_n, limit) for child in node.children)
         return blocked
+
+
+def _join(parts: list, sizes: list[int]):
+    """Per-member rays ((3, n) arrays or shared (3, 1) columns) or limits ((n,) arrays or numbers) -> one batch."""
+    first = parts[0]
+    if all(part is first for part in parts) and (np.ndim(first) == 0 or first.shape[-1] == 1):
+        return first  # one shared column or number for every member
+    if np.ndim(first) == 0 or (isinstance(first, np.ndarray) and first.ndim == 1):
+        return np.concatenate(
+            [np.broadcast_to(np.asarray(part), (size,)) for part, size in zip(parts, sizes, strict=True)]
+        )
+    return np.concatenate([np.broadcast_to(part, (3, size)) for part, size in zip(parts, sizes, strict=True)], axis=1)

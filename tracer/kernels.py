@@ -7,6 +7,8 @@ or to the last unit; the array code only adds culling that cannot change which s
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from . import transforms as tf
@@ -113,10 +115,8 @@ class Kernel:
         """Rays (3, N) -> (t (N,), part (N,)); t_max is one number or one per ray. Call inside quiet()."""
         if self.frame is None:
             return self._hit(O, D, t_min, t_max)
-        to_local, origin, lower, upper = self.frame
-        near, far = slab(to_local @ (O - origin), 1.0 / (to_local @ D), lower, upper)
         count = ray_count(O, D)
-        rays = indices(np.broadcast_to((near <= far) & (far > t_min) & (near < t_max), (count,)))
+        rays = self.in_box(O, D, t_min, t_max)
         if rays.size == count:
             return self._hit(O, D, t_min, t_max)
         t = np.full(count, np.inf, dtype=self.dtype)
@@ -127,6 +127,31 @@ class Kernel:
             t.put(rays, found_t)
             part.put(rays, found_part)
         return t, part
+
+    def in_box(self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
+        """Indices (n,) of the rays (3, N) that meet the oriented box within (t_min, t_max); needs a frame."""
+        to_local, origin, lower, upper = self.frame
+        near, far = slab(to_local @ (O - origin), 1.0 / (to_local @ D), lower, upper)
+        return indices(np.broadcast_to((near <= far) & (far > t_min) & (near < t_max), (ray_count(O, D),)))
+
+    # Per-object parameters of a kernel class whose _hit works unchanged when each is given per ray ((3, N) for a
+    # column, (N,) for a number): several objects of that class are then tested in one batch of NumPy calls.
+    batch_attributes: tuple[str, ...] = ()
+
+    def batched(self, members: list[Kernel], which: np.ndarray) -> Kernel:
+        """A stand-in for members (kernels of this class) whose ray i takes the parameters of members[which[i]].
+
+        Each ray then meets the same operations on the same numbers as in its own kernel, so the results are the
+        same; only the NumPy calls are shared."""
+        proxy = copy.copy(self)
+        proxy.frame = None
+        for name in self.batch_attributes:
+            values = [getattr(member, name) for member in members]
+            if np.ndim(values[0]) == 2:  # a (3, 1) column
+                setattr(proxy, name, np.concatenate(values, axis=1).take(which, axis=1))
+            else:
+                setattr(proxy, name, np.asarray(values, dtype=self.dtype).take(which))
+        return proxy
 
     def _hit(self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float) -> tuple[np.ndarray, np.ndarray]:
         raise NotImplementedError
@@ -142,6 +167,7 @@ class Kernel:
 
 class SphereKernel(Kernel):
     cost = 6.0
+    batch_attributes = ("center", "radius_squared")
 
     def __init__(self, sphere: tf.WorldSphere, dtype: np.dtype) -> None:
         self.center = column(sphere.center, dtype)
@@ -184,7 +210,7 @@ def sparse_dot(terms: tuple[tuple[int, np.generic], ...], X: np.ndarray) -> np.n
     denominator is a parallel ray either way)."""
     result = None
     for axis, value in terms:
-        term = X[axis] if value == 1.0 else X[axis] * value
+        term = X[axis] if np.ndim(value) == 0 and value == 1.0 else X[axis] * value
         result = term if result is None else result + term
     return result
 
@@ -254,6 +280,14 @@ class CylinderKernel(Kernel):
     """Parts: 0 side, 1 bottom cap (normal -V), 2 top cap (normal +V)."""
 
     cost = 10.0
+    batch_attributes = ("base", "axis", "down", "top", "radius_squared", "height")
+
+    def batched(self, members: list[Kernel], which: np.ndarray) -> Kernel:
+        proxy = super().batched(members, which)
+        # per-ray axes: every component is kept (for one kernel, zero components are skipped: the same values)
+        dense = lambda column: tuple(enumerate(column))  # noqa: E731
+        proxy.caps = ((1, dense(proxy.down), proxy.base), (2, dense(proxy.axis), proxy.top))
+        return proxy
 
     def __init__(self, cylinder: tf.WorldCylinder, dtype: np.dtype) -> None:
         self.base = column(cylinder.base, dtype)
