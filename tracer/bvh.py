@@ -130,6 +130,7 @@ class Hierarchy:
             for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, sets):
                 offer(index, rays, t, part)
         elif self.root is not None:
+            sets = []
             # each entry carries its rays compacted, so deeper nodes gather from ever smaller arrays
             stack = [(self.root, np.arange(count), O, D, 1.0 / D)]
             while stack:
@@ -145,9 +146,11 @@ class Hierarchy:
                         take(D_n, keep),
                         take(inverse_n, keep),
                     )
-                for index in node.objects:
-                    test(index, rays, O_n, D_n)
+                sets.extend((index, rays) for index in node.objects)
                 stack.extend((child, rays, O_n, D_n, inverse_n) for child in node.children)
+            # the leaves' tests after the walk, so that kernels of one class share a batch
+            for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, sets):
+                offer(index, rays, t, part)
         return best_t, best_object, best_part
 
     def occluded(
@@ -251,6 +254,7 @@ class Hierarchy:
         inverse = 1.0 / L_live
         limits = t_max.take(live) if isinstance(t_max, np.ndarray) else t_max
         stack = [(self.root, live, O_live, L_live, inverse, limits)]
+        sets = []
         while stack:
             node, rays, O_n, L_n, inverse_n, limit = stack.pop()
             near, far = slab(O_n, inverse_n, node.lower, node.upper)
@@ -261,11 +265,9 @@ class Hierarchy:
                 rays, O_n, L_n, inverse_n = rays.take(keep), take(O_n, keep), take(L_n, keep), take(inverse_n, keep)
                 if isinstance(limit, np.ndarray):
                     limit = limit.take(keep)
-            for index in node.objects:
-                t, _ = self.kernels[index].hit(O_n, L_n, t_min, limit)
-                blocked.put(rays.take(indices(t < np.inf)), True)
+            sets.extend((index, rays) for index in node.objects)
             stack.extend((child, rays, O_n, L_n, inverse_n, limit) for child in node.children)
-        return blocked
+        return self._occluded_in_sets(O, L, t_min, t_max, blocked, sets)
 
 
 def _join(parts: list, sizes: list[int]):
