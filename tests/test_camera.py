@@ -122,3 +122,23 @@ def test_stratified_samples_stay_in_their_strata_and_band_rays_match_scalar_rays
                 assert j + (s // 3) / 3 <= y < j + (s // 3 + 1) / 3
                 assert tuple(directions[:, k]) == cam.primary_direction(camera, settings, x, y)
                 k += 1
+
+
+def test_cached_band_directions_are_the_computed_ones_and_stay_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(cam, "_BAND_CACHE", type(cam._BAND_CACHE)())
+    settings = sc.RenderSettings(width=64, height=48, samples=4)
+    camera = sc.Camera()
+    rows = np.arange(16, 32)
+    first = cam.cached_band_directions(camera, settings, rows, np.dtype(np.float32))
+    np.testing.assert_array_equal(first, cam.band_directions(camera, settings, rows).astype(np.float32))
+    assert not first.flags.writeable  # shared between frames: nobody may change it
+    assert cam.cached_band_directions(camera, settings, rows, np.dtype(np.float32)) is first
+    moved = sc.Camera(location=(1.0, 2.0, 3.0))
+    np.testing.assert_array_equal(
+        cam.cached_band_directions(moved, settings, rows, np.dtype(np.float32)),
+        cam.band_directions(moved, settings, rows).astype(np.float32),
+    )
+    monkeypatch.setattr(cam, "BAND_CACHE_BYTES", 3 * first.nbytes)
+    for start in range(0, 48, 4):
+        cam.cached_band_directions(camera, settings, np.arange(start, start + 4), np.dtype(np.float64))
+    assert sum(kept.nbytes for kept in cam._BAND_CACHE.values()) <= 3 * first.nbytes

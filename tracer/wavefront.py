@@ -298,7 +298,7 @@ class PreparedScene:
         """Image rows (R,) -> (R, width, 3) linear image in the scene's dtype, and the ray counts."""
         settings = self.scene.render
         counts = RayCounts()
-        D = cam.band_directions(self.scene.camera, settings, rows).astype(self.dtype, copy=False)
+        D = cam.cached_band_directions(self.scene.camera, settings, rows, self.dtype)
         with quiet():
             color = self.trace(D, counts, np.asarray(rows))
         samples = color.reshape(3, len(rows), settings.width, settings.samples)
