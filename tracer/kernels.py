@@ -428,10 +428,11 @@ def clusters(mesh: tf.WorldTriangles, size: int = CLUSTER_SIZE) -> list[np.ndarr
     return split(np.arange(len(mesh.triangles)))
 
 
-def leaves(primitive: tf.WorldPrimitive, build, dtype: np.dtype) -> list[Kernel]:
-    """The hierarchy's leaves for one object: its kernel, or for a large mesh one kernel per cluster."""
+def leaves(primitive: tf.WorldPrimitive, dtype: np.dtype, build) -> list[Kernel | None]:
+    """The hierarchy's leaves for one object: [None] for its own whole kernel, or for a large mesh one kernel per
+    cluster."""
     if not isinstance(primitive, tf.WorldTriangles) or len(primitive.triangles) <= CLUSTER_SIZE:
-        return [build(primitive, dtype)]
+        return [None]
     result: list[Kernel] = []
     for indices in clusters(primitive):
         part = tf.WorldTriangles(

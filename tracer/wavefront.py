@@ -8,6 +8,7 @@ their weight multiplied by r. FindIntensity runs per light over all hit points, 
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -64,11 +65,11 @@ class PreparedScene:
         self.robust = settings.numerics == "robust"
         build = make_robust_kernel if self.robust else make_kernel
         primitives = tf.world_primitives(self.scene)
-        self.kernels = [build(primitive, self.dtype) for primitive in primitives]  # per object: normals
+        self.kernels = [_kernel(build, primitive, self.dtype) for primitive in primitives]  # per object: normals
         leaf_kernels, owners = [], []
         for index, primitive in enumerate(primitives):
-            for leaf in leaves(primitive, build, self.dtype):
-                leaf_kernels.append(leaf)
+            for leaf in _kernel(leaves, primitive, self.dtype, build):
+                leaf_kernels.append(self.kernels[index] if leaf is None else leaf)
                 owners.append(index)
         self.hierarchy = Hierarchy(leaf_kernels, self.dtype, owners)
         materials = [self.scene.materials[obj.material] for obj in self.scene.objects]
@@ -304,6 +305,24 @@ class PreparedScene:
         samples = color.reshape(3, len(rows), settings.width, settings.samples)
         image = samples.sum(axis=3) / settings.samples if settings.samples > 1 else samples[..., 0]
         return np.ascontiguousarray(image.transpose(1, 2, 0)), counts
+
+
+_KERNELS: OrderedDict[tuple, object] = OrderedDict()
+KERNEL_CACHE_SIZE = 512
+
+
+def _kernel(make, primitive: tf.WorldPrimitive, dtype: np.dtype, *more: object):
+    """make(primitive, dtype, *more), kept for primitives that stay put between frames (in an animation all but
+    the vane's parts); kernels never change once made."""
+    key = (make, primitive, dtype.str, *more)
+    made = _KERNELS.get(key)
+    if made is None:
+        made = _KERNELS[key] = make(primitive, dtype, *more)
+        if len(_KERNELS) > KERNEL_CACHE_SIZE:
+            _KERNELS.popitem(last=False)
+    else:
+        _KERNELS.move_to_end(key)
+    return made
 
 
 def _accumulate(color: np.ndarray, pixel: np.ndarray, value: np.ndarray, fresh: bool) -> None:
