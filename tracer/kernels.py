@@ -25,6 +25,11 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.stack((a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]))
 
 
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    """(3, N) -> the same divided by their lengths, as the reference normalises a normal."""
+    return vectors / np.sqrt(dot(vectors, vectors))
+
+
 def take(rays: np.ndarray, keep: np.ndarray) -> np.ndarray:
     """The columns keep (an index array) of a (3, N) ray array.
 
@@ -160,6 +165,10 @@ class Kernel:
         """Unnormalised normals (3, N) at hit points P (3, N) of the given parts."""
         raise NotImplementedError
 
+    def unit_normal(self, P: np.ndarray, part: np.ndarray) -> np.ndarray:
+        """Unit normals (3, N): normal() divided by its length (kernels with fixed normals divide them once)."""
+        return _unit(self.normal(P, part))
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
         """World axis-aligned box (lower (3,), upper (3,)) float64, or None for an unbounded surface."""
         return None
@@ -231,6 +240,7 @@ class PlaneKernel(Kernel):
         self.point = column(plane.point, dtype)
         self.plane_normal = column(plane.normal, dtype)
         self.normal_terms = sparse_terms(self.plane_normal)
+        self.unit = _unit(self.plane_normal)  # the same operations per ray would give the same numbers
         self.u_axis = column(plane.u_axis, dtype)
         self.v_axis = column(plane.v_axis, dtype)
         self.u_terms, self.v_terms = sparse_terms(self.u_axis), sparse_terms(self.v_axis)
@@ -274,6 +284,9 @@ class PlaneKernel(Kernel):
 
     def normal(self, P, part):
         return np.broadcast_to(self.plane_normal, P.shape)
+
+    def unit_normal(self, P, part):
+        return np.broadcast_to(self.unit, P.shape)
 
 
 class CylinderKernel(Kernel):
@@ -360,6 +373,7 @@ class TrianglesKernel(Kernel):
         self.e1 = np.asarray(e1, dtype=dtype).T[:, :, None]
         self.e2 = np.asarray(e2, dtype=dtype).T[:, :, None]
         self.normals = np.asarray(mesh.normals, dtype=dtype).T  # (3, T)
+        self.unit_normals = _unit(self.normals)
         self.cost = 3.0 + len(mesh.triangles)
         self.lower = triangles.reshape(-1, 3).min(axis=0)
         self.upper = triangles.reshape(-1, 3).max(axis=0)
@@ -390,6 +404,9 @@ class TrianglesKernel(Kernel):
 
     def normal(self, P, part):
         return self.normals[:, part]
+
+    def unit_normal(self, P, part):
+        return self.unit_normals.take(part, axis=1)
 
 
 CLUSTER_SIZE = 16  # triangles per hierarchy leaf: a mesh larger than this is split into spatial clusters

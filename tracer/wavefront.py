@@ -18,7 +18,7 @@ from . import scene as sc
 from . import transforms as tf
 from .bvh import Hierarchy
 from .cull import CoverageGrid, ScreenRectangles, kernel_sets
-from .kernels import Kernel, column, dot, indices, leaves, make_kernel, quiet, take
+from .kernels import Kernel, PlaneKernel, column, dot, indices, leaves, make_kernel, quiet, take
 from .robust import make_robust_kernel, offset_origins
 
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0
@@ -122,9 +122,15 @@ class PreparedScene:
         for index, size in enumerate(np.bincount(obj, minlength=len(self.kernels)).tolist()):
             if size:
                 rows = order[start : start + size]
-                N[:, rows] = self.kernels[index].normal(P[:, rows], part[rows])
+                kernel = self.kernels[index]
+                if isinstance(kernel, PlaneKernel):  # one normal for every point: no need to gather them
+                    unit = kernel.unit
+                else:
+                    unit = kernel.unit_normal(take(P, rows), part.take(rows))
+                for axis in range(3):
+                    N[axis].put(rows, unit[axis])
                 start += size
-        return N / np.sqrt(dot(N, N))
+        return N
 
     # ---- shading -----------------------------------------------------------------------------------------------
 
