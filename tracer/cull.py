@@ -125,8 +125,8 @@ class CoverageGrid:
         point of each ray (its origin)."""
         if Q.shape[1] == 0 or not self._resolves(Q):
             return np.arange(Q.shape[1]), None
-        Q = Q.astype(np.float64, copy=False)
-        right, up, forward = self.axes
+        # in the rays' own dtype: _resolves() bounds this rounding too
+        right, up, forward = self.axes.astype(Q.dtype)
         u = right[0] * Q[0] + right[1] * Q[1] + right[2] * Q[2]
         v = up[0] * Q[0] + up[1] * Q[1] + up[2] * Q[2]
         if self.perspective:
@@ -138,8 +138,9 @@ class CoverageGrid:
             u /= depth
             v /= depth
             u[behind] = -math.inf
-        column = np.clip((u - self.origin[0]) * self.scale + 1.0, 0.0, self.columns - 1.0)
-        row = np.clip((v - self.origin[1]) * self.scale + 1.0, 0.0, self.rows - 1.0)
+        origin, scale = self.origin.astype(Q.dtype), Q.dtype.type(self.scale)
+        column = np.clip((u - origin[0]) * scale + 1.0, 0.0, self.columns - 1.0)
+        row = np.clip((v - origin[1]) * scale + 1.0, 0.0, self.rows - 1.0)
         cell = row.astype(np.intp) * self.columns + column.astype(np.intp)
         rays = self.marked.take(cell, mode="clip").nonzero()[0]  # clip: a NaN ray lands anywhere, hits nothing
         if self.bits is None:
@@ -148,10 +149,13 @@ class CoverageGrid:
 
     def _resolves(self, Q: np.ndarray) -> bool:
         """Whether rounding in Q's dtype moves any ray's picture point by less than half a cell (a generous bound:
-        64 units in the last place of the largest coordinate involved)."""
-        error = 64.0 * float(np.finfo(Q.dtype).eps) * (float(np.abs(Q).max()) + 2.0 * self.reach)
+        64 units in the last place of the largest coordinate involved), both the rays' own rounding and that of
+        projecting them in that dtype."""
+        eps = float(np.finfo(Q.dtype).eps)
+        error = 64.0 * eps * (float(np.abs(Q).max()) + 2.0 * self.reach)
         if self.perspective:
             error *= self.picture_reach / self.depth  # a point moved by e at depth >= d moves by e (1 + |uv|) / d
+            error += 16.0 * eps * self.picture_reach**2  # u = (r . Q) / (f . Q): 3 eps (1 + |u|) |Q| / depth
         return error < 0.5 / self.scale
 
 
