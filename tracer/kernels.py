@@ -21,10 +21,6 @@ def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.stack((a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]))
-
-
 def _unit(vectors: np.ndarray) -> np.ndarray:
     """(3, N) -> the same divided by their lengths, as the reference normalises a normal."""
     return vectors / np.sqrt(dot(vectors, vectors))
@@ -386,17 +382,24 @@ class TrianglesKernel(Kernel):
         return self.lower, self.upper
 
     def _hit(self, O, D, t_min, t_max):
-        Dc = D[:, None, :]
-        T = O[:, None, :] - self.v0
+        # cross() and dot() written out per component: the same operations in the same order, without stacking
+        # (T, N) temporaries into (3, T, N) ones
+        dx, dy, dz = D[0][None], D[1][None], D[2][None]  # (1, N)
+        (ax, ay, az), (bx, by, bz), (cx, cy, cz) = self.v0, self.e1, self.e2  # (T, 1) each
+        tx, ty, tz = O[0][None] - ax, O[1][None] - ay, O[2][None] - az  # T = O - v0
+        px, py, pz = dy * cz - dz * cy, dz * cx - dx * cz, dx * cy - dy * cx  # P = D x e2
+        qx, qy, qz = ty * bz - tz * by, tz * bx - tx * bz, tx * by - ty * bx  # Q = T x e1
+        determinant = px * bx + py * by + pz * bz
+        t = (qx * cx + qy * cy + qz * cz) / determinant
+        u = (px * tx + py * ty + pz * tz) / determinant
+        v = (qx * dx + qy * dy + qz * dz) / determinant
         limit = t_max[None, :] if isinstance(t_max, np.ndarray) else t_max
-        P = cross(Dc, self.e2)
-        Q = cross(T, self.e1)
-        determinant = dot(P, self.e1)
-        solvable = determinant != 0.0
-        t = dot(Q, self.e2) / determinant
-        u = dot(P, T) / determinant
-        v = dot(Q, Dc) / determinant
-        ok = solvable & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < limit)
+        ok = determinant != 0.0
+        ok &= u >= 0.0
+        ok &= v >= 0.0
+        ok &= u + v <= 1.0
+        ok &= t > t_min
+        ok &= t < limit
         t = np.where(ok, t, np.inf)
         t = np.broadcast_to(t, (t.shape[0], ray_count(O, D)))
         nearest = np.argmin(t, axis=0)  # first triangle on ties, as the reference's loop
