@@ -138,7 +138,12 @@ def test_cached_band_directions_are_the_computed_ones_and_stay_bounded(monkeypat
         cam.cached_band_directions(moved, settings, rows, np.dtype(np.float32)),
         cam.band_directions(moved, settings, rows).astype(np.float32),
     )
-    monkeypatch.setattr(cam, "BAND_CACHE_BYTES", 3 * first.nbytes)
+    whole = 64 * 48 * 4 * 3 * 8  # every ray of the image in float64
+    monkeypatch.setattr(cam, "BAND_CACHE_BYTES", whole)
     for start in range(0, 48, 4):
         cam.cached_band_directions(camera, settings, np.arange(start, start + 4), np.dtype(np.float64))
-    assert sum(kept.nbytes for kept in cam._BAND_CACHE.values()) <= 3 * first.nbytes
+    assert sum(kept.nbytes for kept in cam._BAND_CACHE.values()) <= whole
+    monkeypatch.setattr(cam, "_BAND_CACHE", type(cam._BAND_CACHE)())
+    monkeypatch.setattr(cam, "BAND_CACHE_BYTES", whole - 1)  # the image no longer fits: nothing is kept
+    cam.cached_band_directions(camera, settings, rows, np.dtype(np.float64))
+    assert not cam._BAND_CACHE

@@ -187,3 +187,24 @@ def test_cli_output_is_identical_for_one_and_two_workers(tmp_path: Path) -> None
         )
         outputs.append(out.read_bytes())
     assert outputs[0] == outputs[1]
+
+
+def test_shared_images_outlive_later_frames_and_leave_no_files() -> None:
+    """Workers write into a shared-memory file that the returned image maps: the name goes, the image stays."""
+    import glob
+    import tempfile
+
+    from tracer.parallel import Renderer
+
+    pattern = "weathervane-image-*"
+    before = set(glob.glob(f"/dev/shm/{pattern}")) | set(glob.glob(f"{tempfile.gettempdir()}/{pattern}"))
+    scene = default_scene().with_render(width=64, height=48)
+    with Renderer(2) as renderer:
+        first = renderer.render(scene).image
+        kept = first.copy()
+        second = renderer.render(scene.with_heading(90.0)).image
+    assert np.array_equal(first, kept)  # the second frame went into a file of its own
+    assert not np.array_equal(first, second)
+    assert np.array_equal(first, render(scene, workers=1).image)
+    after = set(glob.glob(f"/dev/shm/{pattern}")) | set(glob.glob(f"{tempfile.gettempdir()}/{pattern}"))
+    assert after == before

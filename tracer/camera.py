@@ -132,7 +132,8 @@ def cached_band_directions(
     """band_directions() in dtype, kept (read-only) while the camera and the image settings stay the same.
 
     A still camera is the common case (an animation turns the vane, not the camera), and the rays of a band cost
-    about 3 ms at 640x480 here; memory stays bounded by BAND_CACHE_BYTES, least recently used bands first out."""
+    about 3 ms at 640x480 here. Only an image whose rays all fit in BAND_CACHE_BYTES is kept (a larger one would
+    only churn the cache); least recently used bands go first."""
     rows = np.asarray(rows, dtype=np.int64)
     key = (
         camera,
@@ -149,7 +150,7 @@ def cached_band_directions(
         return directions
     directions = band_directions(camera, settings, rows).astype(dtype, copy=False)
     directions.flags.writeable = False
-    if directions.nbytes <= BAND_CACHE_BYTES:
+    if settings.width * settings.height * settings.samples * 3 * np.dtype(dtype).itemsize <= BAND_CACHE_BYTES:
         _BAND_CACHE[key] = directions
         while sum(kept.nbytes for kept in _BAND_CACHE.values()) > BAND_CACHE_BYTES:
             _BAND_CACHE.popitem(last=False)

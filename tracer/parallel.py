@@ -8,12 +8,14 @@ bounded by the band.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import math
 import mmap
 import multiprocessing
 import os
 import pickle
+import tempfile
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -104,17 +106,17 @@ def _prepared_for(scene_bytes: bytes) -> PreparedScene:
     return prepared
 
 
-_shared_output: mmap.mmap | None = None  # set before the pool forks: workers write their bands straight into it
-
-
 def _render_band(
-    task: tuple[bytes, np.ndarray, tuple[int, int, int], str],
+    task: tuple[bytes, np.ndarray, tuple[int, int, int], str, str | None],
 ) -> tuple[np.ndarray, np.ndarray | None, RayCounts]:
-    scene_bytes, rows, shape, dtype = task
+    scene_bytes, rows, shape, dtype, image_file = task
     band, counts = _prepared_for(scene_bytes).render_rows(rows)
-    if _shared_output is None:  # a spawned worker shares no memory: the band travels back pickled
+    if image_file is None:  # a spawned worker: the band travels back pickled
         return rows, band, counts
-    np.ndarray(shape, dtype=dtype, buffer=_shared_output)[rows] = band
+    with open(image_file, "r+b") as handle, mmap.mmap(handle.fileno(), 0) as mapping:
+        image = np.ndarray(shape, dtype=dtype, buffer=mapping)
+        image[rows] = band
+        del image  # the mapping closes only when no array uses it
     return rows, None, counts
 
 
@@ -124,14 +126,15 @@ def _render_band(
 class Renderer:
     """Renders scenes with a pool of worker processes kept alive between frames (use as a context manager).
 
-    Where processes fork, the image lives in an anonymous shared mapping made before the pool starts, so bands
-    come back without being copied through pipes; a larger image than the mapping holds restarts the pool once.
+    Where processes fork, each frame's image is a file in shared memory (/dev/shm) that the workers map and write
+    their bands into and that the returned array maps in turn: bands are not copied through pipes, and the image
+    is never copied at all (at 1920x1080 in float64 that is 50 MB less at the peak). Elsewhere bands come back
+    pickled.
     """
 
     def __init__(self, workers: int = 0) -> None:
         self.workers = workers if workers > 0 else default_workers()
         self._pool = None
-        self._buffer: mmap.mmap | None = None
         self._prepared: tuple[bytes, PreparedScene] | None = None
         self._forking = "fork" in multiprocessing.get_all_start_methods()
 
@@ -142,32 +145,17 @@ class Renderer:
         self.close()
 
     def close(self) -> None:
-        global _shared_output
         if self._pool is not None:
             self._pool.terminate()
             self._pool.join()
             self._pool = None
-        if self._buffer is not None:
-            if _shared_output is self._buffer:
-                _shared_output = None
-            self._buffer.close()
-            self._buffer = None
 
-    def _start_pool(self, image_bytes: int) -> None:
-        global _shared_output
-        if self._pool is not None and (self._buffer is None or len(self._buffer) >= image_bytes):
-            return
-        self.close()
-        if self._forking:
-            self._buffer = mmap.mmap(-1, max(image_bytes, 1))
-            _shared_output = self._buffer
-            self._pool = multiprocessing.get_context("fork").Pool(self.workers)
-            _shared_output = None  # only the forked workers write through it
-        else:
-            self._pool = multiprocessing.get_context("spawn").Pool(self.workers)
+    def _start_pool(self) -> None:
+        if self._pool is None:
+            self._pool = multiprocessing.get_context("fork" if self._forking else "spawn").Pool(self.workers)
 
     def _results(
-        self, scene: sc.Scene, shape: tuple[int, int, int]
+        self, scene: sc.Scene, shape: tuple[int, int, int], image_file: str | None
     ) -> Iterator[tuple[np.ndarray, np.ndarray | None, RayCounts]]:
         if self.workers <= 1:
             tune_allocator()
@@ -179,10 +167,10 @@ class Renderer:
                 image, counts = prepared.render_rows(rows)
                 yield rows, image, counts
             return
-        dtype = np.dtype(scene.render.dtype)
-        self._start_pool(math.prod(shape) * dtype.itemsize)
+        self._start_pool()
         scene_bytes = pickle.dumps(scene)
-        tasks = [(scene_bytes, rows, shape, dtype.str) for rows in bands(scene.render)]
+        dtype = np.dtype(scene.render.dtype).str
+        tasks = [(scene_bytes, rows, shape, dtype, image_file) for rows in bands(scene.render)]
         yield from self._pool.imap_unordered(_render_band, tasks)
 
     def render(self, scene: sc.Scene, progress: Progress | None = None) -> RenderResult:
@@ -191,18 +179,39 @@ class Renderer:
         started = time.perf_counter()
         shape = (settings.height, settings.width, 3)
         dtype = np.dtype(settings.dtype)
-        image = np.empty(shape, dtype=dtype)
         counts = RayCounts()
         total = len(bands(settings))
-        for done, (rows, band, band_counts) in enumerate(self._results(scene, shape), start=1):
-            if band is not None:
-                image[rows] = band
-            counts.add(band_counts)
-            if progress is not None:
-                progress(done, total)
-        if self._buffer is not None and self.workers > 1:
-            image = np.ndarray(shape, dtype=dtype, buffer=self._buffer).copy()
+        shared = self.workers > 1 and self._forking
+        with _image_file(math.prod(shape) * dtype.itemsize) if shared else contextlib.nullcontext() as mapped:
+            image = np.empty(shape, dtype=dtype) if mapped is None else np.ndarray(shape, dtype, buffer=mapped[1])
+            for done, (rows, band, band_counts) in enumerate(self._results(scene, shape, mapped and mapped[0]), 1):
+                if band is not None:
+                    image[rows] = band
+                counts.add(band_counts)
+                if progress is not None:
+                    progress(done, total)
         return RenderResult(image, counts, time.perf_counter() - started)
+
+
+@contextlib.contextmanager
+def _image_file(size: int) -> Iterator[tuple[str, mmap.mmap]]:
+    """A file of size bytes in shared memory and the parent's mapping of it; the name is gone after the block (the
+    mapping lives on with the array made from it)."""
+    try:  # shared memory where it has room (a container's is often 64 MB); else the temporary folder
+        roomy = os.statvfs("/dev/shm").f_bavail * os.statvfs("/dev/shm").f_frsize > 2 * size
+    except OSError:
+        roomy = False
+    handle, name = tempfile.mkstemp(prefix="weathervane-image-", dir="/dev/shm" if roomy else None)
+    try:
+        if hasattr(os, "posix_fallocate"):
+            os.posix_fallocate(handle, 0, size)  # no room fails here, not as a crash when a worker writes
+        else:
+            os.ftruncate(handle, size)
+        mapping = mmap.mmap(handle, size)
+        yield name, mapping
+    finally:
+        os.close(handle)
+        os.unlink(name)
 
 
 def render(scene: sc.Scene, workers: int | None = None, progress: Progress | None = None) -> RenderResult:
