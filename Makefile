@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
 SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
-.PHONY: demo test test-slow lint bench docs addon system-deps clean
+.PHONY: demo test test-slow lint bench docs study addon system-deps clean
 
 $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found; install Python 3.11" >&2; exit 1; }
@@ -49,6 +49,9 @@ bench: $(STAMP)
 
 docs: $(STAMP)
 	$(BIN)/python scripts/plot_step_response.py
+
+study: $(STAMP)
+	$(BIN)/python scripts/study.py --repeats 5
 
 addon: $(STAMP)
 	$(BIN)/python scripts/build_addon.py

@@ -39,25 +39,31 @@ def bench(scene, workers: int, repeats: int) -> dict:
 
 
 HD_SCRIPT = """
-import json, os, resource, sys, threading, time
+import json, os, sys, threading, time
 sys.path.insert(0, {root!r})
 from tracer.loader import default_scene
 from tracer.parallel import Renderer
 
-def pss_mb(pid):
+def field_mb(path, name):
     try:
-        with open(f"/proc/{{pid}}/smaps_rollup") as rollup:
-            return next(int(line.split()[1]) for line in rollup if line.startswith("Pss:")) / 1024
+        with open(path) as lines:
+            return next(int(line.split()[1]) for line in lines if line.startswith(name)) / 1024
     except (OSError, StopIteration):
         return 0.0
 
-peak, sampling = [0.0], [True]
-def sample(pids):  # proportional set size of the parent and its workers together, every 2 ms
+# proportional set size of the parent and its workers together, and each one's resident set, every 2 ms
+# (not getrusage: a child's ru_maxrss keeps the peak of the process it was forked from, across exec)
+peak, sampling = {{"total": 0.0, "parent": 0.0, "worker": 0.0}}, [True]
+def sample(pids):
     while sampling[0]:
-        peak[0] = max(peak[0], sum(pss_mb(pid) for pid in pids()))
+        parent, *workers = pids()
+        total = sum(field_mb(f"/proc/{{pid}}/smaps_rollup", "Pss:") for pid in [parent, *workers])
+        peak["total"] = max(peak["total"], total)
+        peak["parent"] = max(peak["parent"], field_mb(f"/proc/{{parent}}/status", "VmRSS:"))
+        peak["worker"] = max([peak["worker"]] + [field_mb(f"/proc/{{pid}}/status", "VmRSS:") for pid in workers])
         time.sleep(0.002)
 
-scene = default_scene().with_render(width=1920, height=1080, depth=3, samples=1, dtype="float64")
+scene = default_scene().with_render(width=1920, height=1080, depth=3, samples=1, dtype={dtype!r})
 with Renderer(2) as renderer:
     renderer.render(scene)
     pids = lambda: [os.getpid()] + [worker.pid for worker in renderer._pool._pool]
@@ -72,17 +78,16 @@ with Renderer(2) as renderer:
     sampling[0] = False
     sampler.join()
 times.sort()
-print(json.dumps({{"ms": round(times[1] * 1000, 1), "peak_mb_total_pss": peak[0],
-                  "peak_mb_parent": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-                  "peak_mb_worker": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024}}))
+print(json.dumps({{"ms": round(times[1] * 1000, 1), "peak_mb_total_pss": peak["total"],
+                  "peak_mb_parent": peak["parent"], "peak_mb_worker": peak["worker"]}}))
 """
 
 
-def full_hd() -> dict:
+def full_hd(dtype: str) -> dict:
     """1920x1080 in a fresh process, so that its peak resident memory is this render's alone."""
     import subprocess
 
-    script = HD_SCRIPT.format(root=str(Path(__file__).resolve().parents[1]))
+    script = HD_SCRIPT.format(root=str(Path(__file__).resolve().parents[1]), dtype=dtype)
     output = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True).stdout
     figures = json.loads(output.strip().splitlines()[-1])
     return {key: round(value, 1) for key, value in figures.items()}
@@ -129,13 +134,13 @@ def main() -> None:
                 f"{figures['reflection_rays']} reflection), {figures['mrays_per_s']:.2f} Mrays/s"
             )
         report[f"{dtype}_scaling_1_to_2"] = round(report[f"{dtype}_w1"]["ms"] / report[f"{dtype}_w2"]["ms"], 2)
-    report["hd_1920x1080_float64_w2"] = full_hd()
-    hd = report["hd_1920x1080_float64_w2"]
-    print(
-        f"1920x1080 float64 2 workers: {hd['ms']:.1f} ms, peak memory {hd['peak_mb_total_pss']:.0f} MB for the "
-        f"parent and its workers together (proportional set size); largest resident sets "
-        f"{hd['peak_mb_parent']:.0f} MB (parent), {hd['peak_mb_worker']:.0f} MB (a worker)"
-    )
+    for dtype in ("float64", "float32"):
+        hd = report[f"hd_1920x1080_{dtype}_w2"] = full_hd(dtype)
+        print(
+            f"1920x1080 {dtype} 2 workers: {hd['ms']:.1f} ms, peak memory {hd['peak_mb_total_pss']:.0f} MB for the "
+            f"parent and its workers together (proportional set size); largest resident sets "
+            f"{hd['peak_mb_parent']:.0f} MB (parent), {hd['peak_mb_worker']:.0f} MB (a worker)"
+        )
     report["animation_120_frames_640x480"] = animation()
     print(
         f"animation, 120 frames at 640x480 (PNG files included): "

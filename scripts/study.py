@@ -118,7 +118,44 @@ def run(repeats: int) -> dict:
     render_reference(small)
     data["reference_seconds_640x480"] = (time.perf_counter() - started) * 100
     data["vectorized_seconds_640x480"] = dict(data["workers"])[1]
+    data["cycles"] = cycles(repeats)  # last: bpy is not imported while the pools above fork
     return data
+
+
+CYCLES_SIZE = (320, 240)
+CYCLES_SAMPLES = (1, 4, 16, 64, 256)
+
+
+def cycles(repeats: int) -> dict | None:
+    """Cycles (CPU) on the default scene's twin at a few sample counts, and the tracer at the same size for scale:
+    {"samples": [(n, seconds)], "tracer": seconds}; None without the bpy wheel."""
+    try:
+        import bpy
+    except ImportError:
+        return None
+    import argparse
+    import tempfile
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    import render_both
+
+    from addon import twin
+
+    width, height = CYCLES_SIZE
+    render_both.prepare(argparse.Namespace(scene=None, width=width, height=height))
+    runs = []
+    with tempfile.TemporaryDirectory() as folder:
+        for samples in CYCLES_SAMPLES:
+            twin.cycles(bpy.context.scene, samples)
+            seconds = []
+            for _ in range(max(1, repeats // 2)):
+                started = time.perf_counter()
+                render_both.render_blender(Path(folder), "study")
+                seconds.append(time.perf_counter() - started)
+            runs.append((samples, statistics.median(seconds)))
+    with Renderer(2) as renderer:
+        tracer_seconds = timed(renderer, default_scene().with_render(width=width, height=height), repeats)[0]
+    return {"samples": runs, "tracer": tracer_seconds}
 
 
 def chart(data: dict, target: Path) -> None:
@@ -129,7 +166,7 @@ def chart(data: dict, target: Path) -> None:
 
     from tracer.images import atomic_path
 
-    figure, axes = plt.subplots(2, 3, figsize=(14, 8), dpi=100)
+    figure, axes = plt.subplots(2, 4, figsize=(18, 8), dpi=100)
     panels = [
         ("workers", "worker processes", "ms per frame (640x480)", False),
         ("depth", "recursion depth", "ms per frame (640x480)", False),
@@ -159,6 +196,17 @@ def chart(data: dict, target: Path) -> None:
     ]
     bars.bar(labels, [1000 * value for value in values], color=["tab:blue", "tab:blue", "tab:orange", "tab:orange"])
     bars.set(ylabel="ms per frame (640x480, 2 workers)", title="models and precision")
+    scale = axes.ravel()[6]
+    if data.get("cycles"):
+        samples, seconds = zip(*data["cycles"]["samples"], strict=True)
+        scale.plot(samples, [1000 * value for value in seconds], "o-", color="tab:orange", label="Cycles (CPU)")
+        scale.axhline(1000 * data["cycles"]["tracer"], color="tab:blue", label="tracer, 2 workers")
+        scale.set_xscale("log")
+        scale.set_yscale("log")
+        scale.legend()
+    scale.set(xlabel="Cycles samples per pixel", ylabel="ms per frame (320x240)", title="Cycles for scale")
+    scale.grid(True, which="both", alpha=0.3)
+    axes.ravel()[7].axis("off")
     figure.tight_layout()
     with atomic_path(target) as temporary:
         figure.savefig(temporary, format="png")
@@ -184,6 +232,12 @@ def table(data: dict) -> str:
         *(f"| {count} spheres (320x240) | {1000 * seconds:.1f} ms |" for count, seconds in data["spheres"]),
         *(f"| {count} triangles (320x240) | {1000 * seconds:.1f} ms |" for count, seconds in data["triangles"]),
     ]
+    if data.get("cycles"):
+        rows.append(f"| tracer, default scene (320x240, 2 workers) | {1000 * data['cycles']['tracer']:.1f} ms |")
+        rows.extend(
+            f"| Cycles CPU, {samples} samples (320x240) | {1000 * seconds:.0f} ms |"
+            for samples, seconds in data["cycles"]["samples"]
+        )
     return "\n".join(rows)
 
 
