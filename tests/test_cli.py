@@ -208,3 +208,26 @@ def test_shared_images_outlive_later_frames_and_leave_no_files() -> None:
     assert np.array_equal(first, render(scene, workers=1).image)
     after = set(glob.glob(f"/dev/shm/{pattern}")) | set(glob.glob(f"{tempfile.gettempdir()}/{pattern}"))
     assert after == before
+
+
+def test_render_frames_gives_each_frame_in_order_and_cleans_up_when_stopped_early() -> None:
+    import glob
+    import tempfile
+
+    from tracer.parallel import Renderer
+
+    def leftovers() -> set[str]:
+        pattern = "weathervane-image-*"
+        return set(glob.glob(f"/dev/shm/{pattern}")) | set(glob.glob(f"{tempfile.gettempdir()}/{pattern}"))
+
+    before = leftovers()
+    scenes = [default_scene().with_render(width=48, height=36).with_heading(angle) for angle in (0.0, 60.0, 120.0)]
+    expected = [render(scene, workers=1).image for scene in scenes]
+    with Renderer(2) as renderer:
+        images = [result.image for result in renderer.render_frames(iter(scenes))]
+        frames = renderer.render_frames(iter(scenes))
+        first = next(frames)  # the second frame is queued by now
+        frames.close()
+    assert all(np.array_equal(image, want) for image, want in zip(images, expected, strict=True))
+    assert np.array_equal(first.image, expected[0])
+    assert leftovers() == before

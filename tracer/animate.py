@@ -6,6 +6,7 @@ renamed into place), so a stopped run resumes where it left off unless overwrite
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -72,19 +73,25 @@ def animate(
     total = last - first + 1
     # a frame is encoded and written on a thread while the pool traces the next one (about a fifth of a frame's
     # time at 640x480, which the pool would otherwise wait for); one write at a time keeps memory to two images
-    with Renderer(scene.render.workers) as renderer, ThreadPoolExecutor(1, "weathervane-writer") as writer:
+    for frame in range(first, last + 1):
+        (rendered if overwrite or not frame_path(folder, frame).exists() else skipped).append(frame)
+    done = len(skipped)
+    if progress is not None and done:
+        progress(done, total)
+    scenes = (scene.with_heading(float(angles[frame - 1])) for frame in rendered)
+    with (
+        Renderer(scene.render.workers) as renderer,
+        ThreadPoolExecutor(1, "weathervane-writer") as writer,
+        contextlib.closing(renderer.render_frames(scenes)) as results,  # closed before the pool stops
+    ):
         pending: Future | None = None
-        for done, frame in enumerate(range(first, last + 1), start=1):
+        for frame, result in zip(rendered, results, strict=True):
+            if pending is not None:
+                pending.result()  # raises here if that write failed
             target = frame_path(folder, frame)
-            if target.exists() and not overwrite:
-                skipped.append(frame)
-            else:
-                result = renderer.render(scene.with_heading(float(angles[frame - 1])))
-                if pending is not None:
-                    pending.result()  # raises here if that write failed
-                pending = writer.submit(write_image, result.image, target, srgb=srgb, compress_level=FRAME_COMPRESSION)
-                rays.add(result.rays)
-                rendered.append(frame)
+            pending = writer.submit(write_image, result.image, target, srgb=srgb, compress_level=FRAME_COMPRESSION)
+            rays.add(result.rays)
+            done += 1
             if progress is not None:
                 progress(done, total)
         if pending is not None:

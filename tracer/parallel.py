@@ -17,7 +17,8 @@ import os
 import pickle
 import tempfile
 import time
-from collections.abc import Callable, Iterator
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -191,6 +192,64 @@ class Renderer:
                 if progress is not None:
                     progress(done, total)
         return RenderResult(image, counts, time.perf_counter() - started)
+
+    def render_frames(self, scenes: Iterable[sc.Scene]) -> Iterator[RenderResult]:
+        """render() for each scene in turn, results in order. With forked workers the next frame's bands wait in
+        the pool's queue while the current frame finishes, so no worker idles between frames (an animation)."""
+        if self.workers <= 1 or not self._forking:
+            for scene in scenes:
+                yield self.render(scene)
+            return
+        self._start_pool()
+        pending: deque[_Frame] = deque()
+        try:
+            for scene in scenes:
+                pending.append(self._submit(scene))
+                if len(pending) == 2:  # one frame traced, one queued: memory stays at two images
+                    yield pending.popleft().finish()
+            while pending:
+                yield pending.popleft().finish()
+        finally:
+            for frame in pending:  # stopped early: let the workers finish with the files before they go
+                frame.abandon()
+
+    def _submit(self, scene: sc.Scene) -> _Frame:
+        settings = scene.render
+        shape = (settings.height, settings.width, 3)
+        dtype = np.dtype(settings.dtype)
+        started = time.perf_counter()
+        file = _image_file(math.prod(shape) * dtype.itemsize)
+        name, mapping = file.__enter__()
+        scene_bytes = pickle.dumps(scene)
+        tasks = [
+            self._pool.apply_async(_render_band, ((scene_bytes, rows, shape, dtype.str, name),))
+            for rows in bands(settings)
+        ]
+        return _Frame(np.ndarray(shape, dtype, buffer=mapping), tasks, file, started)
+
+
+@dataclass
+class _Frame:
+    """A frame whose bands are in the pool: its image (mapping the shared file), the bands' tasks, the file."""
+
+    image: np.ndarray
+    tasks: list
+    file: contextlib.AbstractContextManager
+    started: float
+
+    def finish(self) -> RenderResult:
+        counts = RayCounts()
+        try:
+            for task in self.tasks:
+                counts.add(task.get()[2])
+        finally:
+            self.abandon()
+        return RenderResult(self.image, counts, time.perf_counter() - self.started)
+
+    def abandon(self) -> None:
+        for task in self.tasks:
+            task.wait(60.0)  # a band takes well under a second; never hang on a pool that is gone
+        self.file.__exit__(None, None, None)
 
 
 @contextlib.contextmanager
