@@ -26,7 +26,11 @@ import numpy as np
 from . import scene as sc
 from .wavefront import PreparedScene, RayCounts
 
-RAYS_PER_BAND = 160000  # camera samples per band: bounds memory (tens of MB) and amortises NumPy's call cost
+# One coordinate of every camera sample of a band, in bytes: 80,000 samples in float64, 160,000 in float32. A band's
+# arrays peak at about 36 such coordinates per sample (23 MB), which keeps a 1920x1080 frame in float64 within
+# about 135 MB for the parent and two workers together; fewer, larger bands would amortise NumPy's call cost
+# better (at 640x480 in float64, 2 bands instead of 4 were 9% faster), at 200 MB for that frame.
+BAND_BYTES = 640_000
 BLOCK_ROWS = 16
 
 Progress = Callable[[int, int], None]
@@ -40,19 +44,20 @@ def default_workers() -> int:
 
 
 def bands(settings: sc.RenderSettings) -> list[np.ndarray]:
-    """The image's rows (arrays of row indices) dealt into bands of at most about RAYS_PER_BAND camera samples.
+    """The image's rows (arrays of row indices) dealt into bands of at most about BAND_BYTES / itemsize samples.
 
     Rows go in blocks of BLOCK_ROWS, dealt round-robin, so each band holds a like share of sky, ground and object
     (the workers finish together) while its rays stay coherent enough for the hierarchy (a fully interleaved deal
     was about 35% slower here). The number of bands is even, so that 1 or 2 workers get equal shares, and as small
-    as the memory bound allows: each band costs about 13 ms of fixed NumPy overhead at 640x480 (1 band 123 ms, 2
-    bands 138 ms, 4 bands 162 ms per frame on one worker here). It depends only on the image.
+    as the memory bound allows: each band costs fixed NumPy overhead (one worker, a float32 frame at 640x480 before
+    later work: 1 band 123 ms, 2 bands 138 ms, 4 bands 162 ms). It depends only on the image and the dtype.
     """
     samples = settings.height * settings.width * settings.samples
+    per_band = BAND_BYTES // np.dtype(settings.dtype).itemsize
     blocks = [
         np.arange(start, min(start + BLOCK_ROWS, settings.height)) for start in range(0, settings.height, BLOCK_ROWS)
     ]
-    count = min(len(blocks), 2 * math.ceil(samples / RAYS_PER_BAND / 2))
+    count = min(len(blocks), 2 * math.ceil(samples / per_band / 2))
     return [np.concatenate(blocks[first::count]) for first in range(count)]
 
 
