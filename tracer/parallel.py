@@ -26,11 +26,13 @@ import numpy as np
 from . import scene as sc
 from .wavefront import PreparedScene, RayCounts
 
-# One coordinate of every camera sample of a band, in bytes: 80,000 samples in float64, 160,000 in float32. A band's
-# arrays peak at about 36 such coordinates per sample (23 MB), which keeps a 1920x1080 frame in float64 within
-# about 135 MB for the parent and two workers together; fewer, larger bands would amortise NumPy's call cost
-# better (at 640x480 in float64, 2 bands instead of 4 were 9% faster), at 200 MB for that frame.
-BAND_BYTES = 640_000
+# One coordinate of every camera sample of a band, in bytes. A band's arrays peak at about 35 such coordinates per
+# sample. Small frames go in few large bands (each band costs fixed NumPy overhead: at 640x480 in float64, 2 bands
+# were 9% faster than 4); a large image leaves less room beside it, so its bands are smaller: 1920x1080 in float64
+# took 197-211 MB for the parent and two workers together with bands of 148,000 samples, 155-165 MB with 80,000.
+BAND_BYTES = 1_280_000  # 160,000 samples in float64, 320,000 in float32
+LARGE_IMAGE_BYTES = 16 << 20
+LARGE_IMAGE_BAND_BYTES = 480_000  # 60,000 samples in float64, 120,000 in float32
 BLOCK_ROWS = 16
 
 Progress = Callable[[int, int], None]
@@ -44,7 +46,8 @@ def default_workers() -> int:
 
 
 def bands(settings: sc.RenderSettings) -> list[np.ndarray]:
-    """The image's rows (arrays of row indices) dealt into bands of at most about BAND_BYTES / itemsize samples.
+    """The image's rows (arrays of row indices) dealt into bands of at most about BAND_BYTES / itemsize samples
+    (LARGE_IMAGE_BAND_BYTES for an image of more than LARGE_IMAGE_BYTES).
 
     Rows go in blocks of BLOCK_ROWS, dealt round-robin, so each band holds a like share of sky, ground and object
     (the workers finish together) while its rays stay coherent enough for the hierarchy (a fully interleaved deal
@@ -53,7 +56,9 @@ def bands(settings: sc.RenderSettings) -> list[np.ndarray]:
     later work: 1 band 123 ms, 2 bands 138 ms, 4 bands 162 ms). It depends only on the image and the dtype.
     """
     samples = settings.height * settings.width * settings.samples
-    per_band = BAND_BYTES // np.dtype(settings.dtype).itemsize
+    itemsize = np.dtype(settings.dtype).itemsize
+    large = settings.height * settings.width * 3 * itemsize > LARGE_IMAGE_BYTES
+    per_band = (LARGE_IMAGE_BAND_BYTES if large else BAND_BYTES) // itemsize
     blocks = [
         np.arange(start, min(start + BLOCK_ROWS, settings.height)) for start in range(0, settings.height, BLOCK_ROWS)
     ]

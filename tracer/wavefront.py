@@ -282,8 +282,9 @@ class PreparedScene:
             O, D, t, obj, part = take(O, hit), take(D, hit), t.take(hit), obj.take(hit), part.take(hit)
             weight, pixel = weight.take(hit), pixel.take(hit)
             P = O + D * t
-            N = self.normals(P, obj, part)
             V = -D
+            O = D = t = None  # memory: a band's peak comes in the shading below
+            N = self.normals(P, obj, part)
             intensity = self.find_intensity(P, N, V, self.specular.take(obj), counts)
             reflective = self.reflective.take(obj)
             local = (intensity * (1.0 - reflective)) * self.colors.take(obj, axis=1)
@@ -305,9 +306,8 @@ class PreparedScene:
         """Image rows (R,) -> (R, width, 3) linear image in the scene's dtype, and the ray counts."""
         settings = self.scene.render
         counts = RayCounts()
-        D = cam.cached_band_directions(self.scene.camera, settings, rows, self.dtype)
-        with quiet():
-            color = self.trace(D, counts, np.asarray(rows))
+        with quiet():  # the directions are not kept here: trace() lets them go after the first bounce
+            color = self.trace(cam.cached_band_directions(self.scene.camera, settings, rows, self.dtype), counts, rows)
         samples = color.reshape(3, len(rows), settings.width, settings.samples)
         image = samples.sum(axis=3) / settings.samples if settings.samples > 1 else samples[..., 0]
         return np.ascontiguousarray(image.transpose(1, 2, 0)), counts
