@@ -147,3 +147,20 @@ def test_cached_band_directions_are_the_computed_ones_and_stay_bounded(monkeypat
     monkeypatch.setattr(cam, "BAND_CACHE_BYTES", whole - 1)  # the image no longer fits: nothing is kept
     cam.cached_band_directions(camera, settings, rows, np.dtype(np.float64))
     assert not cam._BAND_CACHE
+
+
+@pytest.mark.parametrize("fit", ["AUTO", "HORIZONTAL", "VERTICAL"])
+def test_to_pixels_inverts_primary_direction(fit: str) -> None:
+    camera = sc.Camera(location=(1.0, -6.0, 2.0), rotation=(80.0, 5.0, 20.0), lens=35.0, sensor_fit=fit)
+    settings = sc.RenderSettings(width=64, height=48)
+    rng = random.Random(7)
+    positions = [(rng.uniform(0, 64), rng.uniform(0, 48)) for _ in range(20)]
+    points = np.array(
+        [
+            np.asarray(camera.location) + 3.5 * np.asarray(cam.primary_direction(camera, settings, x, y))
+            for x, y in positions
+        ]
+    )
+    x, y, depth = cam.to_pixels(camera, settings, points, np.asarray(camera.location))
+    np.testing.assert_allclose(np.column_stack((x, y)), positions, atol=1e-9)
+    assert (depth > 0).all()

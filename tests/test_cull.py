@@ -81,11 +81,13 @@ def test_screen_rectangles_hold_every_pixel_that_sees_a_sphere() -> None:
 
 
 def test_a_camera_among_the_objects_gets_no_screen_rectangles() -> None:
-    box = (np.array([[-1.0, -1.0, -1.0]]), np.array([[1.0, 1.0, 1.0]]))
-    axes = np.eye(3)
-    args = (1.0, 50.0, (36.0, 24.0), (64, 48), 1, ([0], *box), np.dtype(np.float64))
-    assert ScreenRectangles.build(axes, np.zeros(3), *args[1:]) is None
-    assert ScreenRectangles.build(axes, np.array([0.0, 0.0, 5.0]), *args[1:]) is not None
+    from tracer import scene as sc
+
+    boxes = ([0], np.array([[-1.0, -1.0, -1.0]]), np.array([[1.0, 1.0, 1.0]]))
+    camera = sc.Camera(location=(0.0, 0.0, 0.0), rotation=(0.0, 0.0, 0.0), lens=50.0)  # looks down -z
+    settings = sc.RenderSettings(width=64, height=48)
+    assert ScreenRectangles.build(camera, settings, np.zeros(3), boxes) is None
+    assert ScreenRectangles.build(camera, settings, np.array([0.0, 0.0, 5.0]), boxes) is not None
 
 
 def test_a_light_among_the_objects_gets_no_grid() -> None:

@@ -104,9 +104,6 @@ class Hierarchy:
         best_object = np.full(count, -1, dtype=np.int32)
         best_part = np.zeros(count, dtype=np.int32)
 
-        def test(index: int, rays: np.ndarray | None, O: np.ndarray, D: np.ndarray) -> None:
-            offer(index, rays, *self.kernels[index].hit(O, D, t_min, math.inf))
-
         def offer(index: int, rays: np.ndarray | None, t: np.ndarray, part: np.ndarray) -> None:
             """Hits t, part (n,) of kernel index on rays (n,) (None: all) replace nearer-or-tied earlier ones."""
             owner = self.owners[index]
@@ -125,33 +122,39 @@ class Hierarchy:
             best_part.put(chosen, part.take(better))
 
         for index in self.unbounded:
-            test(index, None, O, D)
-        if sets is not None:
-            for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, sets):
-                offer(index, rays, t, part)
-        elif self.root is not None:
-            sets = []
-            # each entry carries its rays compacted, so deeper nodes gather from ever smaller arrays
-            stack = [(self.root, np.arange(count), O, D, 1.0 / D)]
-            while stack:
-                node, rays, O_n, D_n, inverse_n = stack.pop()
-                near, far = slab(O_n, inverse_n, node.lower, node.upper)
-                keep = indices((near <= far) & (far > t_min) & (near <= best_t.take(rays)))
-                if keep.size == 0:
-                    continue
-                if keep.size < rays.size:
-                    rays, O_n, D_n, inverse_n = (
-                        rays.take(keep),
-                        take(O_n, keep),
-                        take(D_n, keep),
-                        take(inverse_n, keep),
-                    )
-                sets.extend((index, rays) for index in node.objects)
-                stack.extend((child, rays, O_n, D_n, inverse_n) for child in node.children)
-            # the leaves' tests after the walk, so that kernels of one class share a batch
-            for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, sets):
-                offer(index, rays, t, part)
+            offer(index, None, *self.kernels[index].hit(O, D, t_min, math.inf))
+        if sets is None:  # the planes' hits bound the walk
+            sets = self._walk(O, D, np.arange(count), t_min, best_t)
+        for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, sets):
+            offer(index, rays, t, part)
         return best_t, best_object, best_part
+
+    def _walk(
+        self, O: np.ndarray, D: np.ndarray, rays: np.ndarray, t_min: float, limit: float | np.ndarray
+    ) -> list[tuple[int, np.ndarray]]:
+        """The leaves' rays: rays (n,) -> (kernel index, rays (m,)) for each leaf whose box the rays meet within
+        (t_min, limit]; limit is one number or one per ray of all N. The leaves are tested afterwards, so that
+        kernels of one class share a batch (_evaluate)."""
+        sets: list[tuple[int, np.ndarray]] = []
+        if self.root is None or rays.size == 0:
+            return sets
+        O_n, D_n = (O, D) if rays.size == ray_count(O, D) else (take(O, rays), take(D, rays))
+        limit_n = limit.take(rays) if isinstance(limit, np.ndarray) else limit
+        # each entry carries its rays compacted, so deeper nodes gather from ever smaller arrays
+        stack = [(self.root, rays, O_n, D_n, 1.0 / D_n, limit_n)]
+        while stack:
+            node, rays, O_n, D_n, inverse_n, limit_n = stack.pop()
+            near, far = slab(O_n, inverse_n, node.lower, node.upper)
+            keep = indices((near <= far) & (far > t_min) & (near <= limit_n))
+            if keep.size == 0:
+                continue
+            if keep.size < rays.size:
+                rays, O_n, D_n, inverse_n = rays.take(keep), take(O_n, keep), take(D_n, keep), take(inverse_n, keep)
+                if isinstance(limit_n, np.ndarray):
+                    limit_n = limit_n.take(keep)
+            sets.extend((index, rays) for index in node.objects)
+            stack.extend((child, rays, O_n, D_n, inverse_n, limit_n) for child in node.children)
+        return sets
 
     def occluded(
         self,
@@ -245,28 +248,7 @@ class Hierarchy:
         t_max: float | np.ndarray,
         blocked: np.ndarray,
     ) -> np.ndarray:
-        if self.root is None or blocked.all():
-            return blocked
-        live = indices(~blocked)
-        if live.size == 0:
-            return blocked
-        O_live, L_live = take(O, live), take(L, live)
-        inverse = 1.0 / L_live
-        limits = t_max.take(live) if isinstance(t_max, np.ndarray) else t_max
-        stack = [(self.root, live, O_live, L_live, inverse, limits)]
-        sets = []
-        while stack:
-            node, rays, O_n, L_n, inverse_n, limit = stack.pop()
-            near, far = slab(O_n, inverse_n, node.lower, node.upper)
-            keep = indices((near <= far) & (far > t_min) & (near < limit) & ~blocked.take(rays))
-            if keep.size == 0:
-                continue
-            if keep.size < rays.size:
-                rays, O_n, L_n, inverse_n = rays.take(keep), take(O_n, keep), take(L_n, keep), take(inverse_n, keep)
-                if isinstance(limit, np.ndarray):
-                    limit = limit.take(keep)
-            sets.extend((index, rays) for index in node.objects)
-            stack.extend((child, rays, O_n, L_n, inverse_n, limit) for child in node.children)
+        sets = self._walk(O, L, indices(~blocked), t_min, t_max)  # rays the planes block go no further
         return self._occluded_in_sets(O, L, t_min, t_max, blocked, sets)
 
 

@@ -122,6 +122,25 @@ def band_directions(camera: sc.Camera, settings: sc.RenderSettings, rows: np.nda
     return np.stack((wx / size, wy / size, wz / size))
 
 
+def to_pixels(
+    camera: sc.Camera, settings: sc.RenderSettings, points: np.ndarray, location: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World points (..., 3) -> image position x, y (...) in pixels from the top-left corner and depth (...) in
+    front of the camera: primary_direction's inverse. location (3,): the camera's position as the tracer holds it."""
+    local = (points - location) @ np.asarray(tf.euler_xyz_matrix(camera.rotation))  # the camera's axes
+    depth = -local[..., 2]
+    sensor_x, sensor_y = sensor_size(camera, settings.width, settings.height)
+    x = (camera.lens * local[..., 0] / depth / sensor_x + 0.5) * settings.width
+    y = (0.5 - camera.lens * local[..., 1] / depth / sensor_y) * settings.height
+    return x, y, depth
+
+
+def pixel_footprint(camera: sc.Camera, settings: sc.RenderSettings, depth: float) -> float:
+    """The world size of one pixel at a depth in front of the camera (the smaller side, for any sensor fit)."""
+    sensor_x, sensor_y = sensor_size(camera, settings.width, settings.height)
+    return depth * min(sensor_x / settings.width, sensor_y / settings.height) / camera.lens
+
+
 _BAND_CACHE: OrderedDict[tuple, np.ndarray] = OrderedDict()
 BAND_CACHE_BYTES = 8 << 20  # holds every band of a 640x480 frame in either dtype; 1080p is computed each time
 

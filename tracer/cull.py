@@ -1,16 +1,15 @@
-"""Rays that share a point or a direction -> which of them could meet any bounded object, from a coverage grid.
+"""Rays that share a point or a direction -> for each bounded kernel, the rays that may meet it.
 
-Camera rays all leave the camera and shadow rays toward a point light all end at the light: seen from that point,
-every ray is one point of a picture, and it can only meet an object whose box covers that point of the picture.
-Shadow rays toward a directional light are all parallel: projected along the light, each ray is again one point.
-A grid over that picture marks the cells that some object's box covers; a ray in an unmarked cell can meet no
-bounded object, so the hierarchy never sees it. This replaces the hierarchy's root test for the 70-90% of rays
-that pass beside the objects with a projection and one table look-up.
+Shadow rays toward a point light all end at the light: seen from there, every ray is one point of a picture, and it
+can only meet an object whose box covers that point. Shadow rays toward a directional light are parallel: projected
+along the light, each ray is again one point. A CoverageGrid over that picture records in each cell which boxes
+cover it, so a shadow ray is projected, looked up, and goes only to those boxes' kernels; most rays pass beside
+every object and go nowhere. Camera rays need no projection at all: ScreenRectangles gives each kernel the pixels of
+its box's rectangle on the screen.
 
-The grid only removes rays that cannot hit. Each marked area is grown by one cell, and the projection is done in
-float64; rounding in the tracing dtype (of the rays, of the objects) moves a ray's picture point by far less than a
-cell, and where a bound on that movement is not below half a cell (absurdly far rays, tiny objects) the grid culls
-nothing for that batch.
+Both only remove rays that cannot hit. Each grid area is grown by one cell (each rectangle by two pixels), and where
+a bound on what rounding in the tracing dtype does (to the rays, the objects and the projection) is not well below
+that margin (absurdly far rays, tiny objects, the point among the boxes), nothing is culled.
 """
 
 from __future__ import annotations
@@ -18,6 +17,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from . import camera as cam
+from . import scene as sc
 
 CELLS = 128  # along the picture's longer side
 DEPTH_MARGIN = 1e-3  # of the scene's size: a perspective picture needs every box at least this far in front
@@ -29,6 +31,11 @@ def _frame(forward: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     right = np.cross(forward, helper)
     right /= np.linalg.norm(right)
     return right, np.cross(forward, right), forward
+
+
+def _rectangles(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Picture coordinates u, v (k, 8) of each box's corners -> its rectangle (k, 4): u_min, v_min, u_max, v_max."""
+    return np.stack((u.min(axis=1), v.min(axis=1), u.max(axis=1), v.max(axis=1)), axis=1)
 
 
 def _corners(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -87,8 +94,7 @@ class CoverageGrid:
         size = float(np.max(upper.max(axis=0) - lower.min(axis=0))) + distance
         if float(local[..., 2].min()) <= DEPTH_MARGIN * size:
             return None  # the point sits among the boxes: a picture cannot hold them all
-        u, v = local[..., 0] / local[..., 2], local[..., 1] / local[..., 2]
-        rectangles = np.stack((u.min(axis=1), v.min(axis=1), u.max(axis=1), v.max(axis=1)), axis=1)
+        rectangles = _rectangles(local[..., 0] / local[..., 2], local[..., 1] / local[..., 2])
         reach = float(max(np.abs(lower).max(), np.abs(upper).max(), np.abs(point).max()))
         return cls(axes, rectangles, reach, float(local[..., 2].min()), kernels)
 
@@ -99,15 +105,7 @@ class CoverageGrid:
         """Rays along a shared direction (3,) toward boxes (k, 3) of kernels (k,)."""
         axes = np.stack(_frame(direction / np.linalg.norm(direction)))
         local = _corners(lower, upper) @ axes.T
-        rectangles = np.stack(
-            (
-                local[..., 0].min(axis=1),
-                local[..., 1].min(axis=1),
-                local[..., 0].max(axis=1),
-                local[..., 1].max(axis=1),
-            ),
-            axis=1,
-        )
+        rectangles = _rectangles(local[..., 0], local[..., 1])
         return cls(axes, rectangles, float(max(np.abs(lower).max(), np.abs(upper).max())), None, kernels)
 
     @property
@@ -189,33 +187,23 @@ class ScreenRectangles:
     @classmethod
     def build(
         cls,
-        camera_to_world: np.ndarray,
+        camera: sc.Camera,
+        settings: sc.RenderSettings,
         location: np.ndarray,
-        lens: float,
-        sensor: tuple[float, float],
-        size: tuple[int, int],
-        samples: int,
         boxes: tuple[list[int], np.ndarray, np.ndarray],
-        dtype: np.dtype,
     ) -> ScreenRectangles | None:
-        """camera_to_world (3, 3): the camera's axes as columns (it looks along -z); location (3,); lens and
-        sensor (x, y) in mm, the sensor as fitted to the image; size (width, height) in pixels; boxes: kernel
-        indices (k,) with their boxes lower, upper (k, 3).
-
-        None where a box reaches behind the camera, or where a pixel is too fine for the tracing dtype."""
+        """location (3,): the camera's position as the tracer holds it; boxes: kernel indices (k,) with their boxes
+        lower, upper (k, 3). None where a box reaches behind the camera, or a pixel is too fine for the dtype."""
         kernels, lower, upper = boxes
-        local = (_corners(lower, upper) - location) @ camera_to_world  # (k, 8, 3) in the camera's axes
-        depth = -local[..., 2]
+        x, y, depth = cam.to_pixels(camera, settings, _corners(lower, upper), location)  # (k, 8) each
         nearest = float(depth.min())
         reach = float(max(np.abs(lower).max(), np.abs(upper).max(), np.abs(location).max()))
         if nearest <= DEPTH_MARGIN * reach:
             return None
-        width, height = size
-        pixel = nearest * min(sensor[0] / width, sensor[1] / height) / lens  # its footprint at the nearest corner
-        if pixel < 64.0 * float(np.finfo(dtype).eps) * reach:  # rounding could move a ray by a pixel
+        # rounding could move a ray by a pixel's footprint at the nearest corner
+        if cam.pixel_footprint(camera, settings, nearest) < 64.0 * float(np.finfo(settings.dtype).eps) * reach:
             return None
-        x = (lens * local[..., 0] / depth / sensor[0] + 0.5) * width
-        y = (0.5 - lens * local[..., 1] / depth / sensor[1]) * height
+        width, height = settings.width, settings.height
         rectangles = np.stack(
             (
                 np.clip(np.floor(x.min(axis=1)) - 2, 0, width - 1),
@@ -225,7 +213,7 @@ class ScreenRectangles:
             ),
             axis=1,
         ).astype(np.int64)
-        return cls(list(kernels), rectangles, width, samples)
+        return cls(list(kernels), rectangles, width, settings.samples)
 
     def rays(self, rows: np.ndarray) -> list[tuple[int, np.ndarray]]:
         """Image rows (R,) of a band, ascending -> (kernel index, ray indices ascending) for every kernel that

@@ -165,9 +165,8 @@ class Renderer:
         if self._pool is None:
             self._pool = multiprocessing.get_context("fork" if self._forking else "spawn").Pool(self.workers)
 
-    def _results(
-        self, scene: sc.Scene, shape: tuple[int, int, int], image_file: str | None
-    ) -> Iterator[tuple[np.ndarray, np.ndarray | None, RayCounts]]:
+    def _bands(self, scene: sc.Scene) -> Iterator[tuple[np.ndarray, np.ndarray, RayCounts]]:
+        """(rows, band, counts) as bands finish, traced here (one worker) or by spawned workers (bands pickled)."""
         if self.workers <= 1:
             tune_allocator()
             scene_bytes = pickle.dumps(scene)
@@ -180,27 +179,25 @@ class Renderer:
             return
         self._start_pool()
         scene_bytes = pickle.dumps(scene)
-        dtype = np.dtype(scene.render.dtype).str
-        tasks = [(scene_bytes, rows, shape, dtype, image_file) for rows in bands(scene.render)]
+        shape = (scene.render.height, scene.render.width, 3)
+        tasks = [(scene_bytes, rows, shape, np.dtype(scene.render.dtype).str, None) for rows in bands(scene.render)]
         yield from self._pool.imap_unordered(_render_band, tasks)
 
     def render(self, scene: sc.Scene, progress: Progress | None = None) -> RenderResult:
         """Trace the whole image; progress(bands_done, bands_total) is called as bands finish."""
+        if self.workers > 1 and self._forking:
+            self._start_pool()
+            return self._submit(scene).finish(progress)
         settings = scene.render
         started = time.perf_counter()
-        shape = (settings.height, settings.width, 3)
-        dtype = np.dtype(settings.dtype)
+        image = np.empty((settings.height, settings.width, 3), dtype=settings.dtype)
         counts = RayCounts()
         total = len(bands(settings))
-        shared = self.workers > 1 and self._forking
-        with _image_file(math.prod(shape) * dtype.itemsize) if shared else contextlib.nullcontext() as mapped:
-            image = np.empty(shape, dtype=dtype) if mapped is None else np.ndarray(shape, dtype, buffer=mapped[1])
-            for done, (rows, band, band_counts) in enumerate(self._results(scene, shape, mapped and mapped[0]), 1):
-                if band is not None:
-                    image[rows] = band
-                counts.add(band_counts)
-                if progress is not None:
-                    progress(done, total)
+        for done, (rows, band, band_counts) in enumerate(self._bands(scene), 1):
+            image[rows] = band
+            counts.add(band_counts)
+            if progress is not None:
+                progress(done, total)
         return RenderResult(image, counts, time.perf_counter() - started)
 
     def render_frames(self, scenes: Iterable[sc.Scene]) -> Iterator[RenderResult]:
@@ -247,11 +244,13 @@ class _Frame:
     file: contextlib.AbstractContextManager
     started: float
 
-    def finish(self) -> RenderResult:
+    def finish(self, progress: Progress | None = None) -> RenderResult:
         counts = RayCounts()
         try:
-            for task in self.tasks:
+            for done, task in enumerate(self.tasks, 1):
                 counts.add(task.get()[2])
+                if progress is not None:
+                    progress(done, len(self.tasks))
         finally:
             self.abandon()
         return RenderResult(self.image, counts, time.perf_counter() - self.started)

@@ -92,16 +92,8 @@ class PreparedScene:
         self.origin = column(self.scene.camera.location, self.dtype)
         self.screen = None  # which camera rays each bounded kernel can meet
         if self.hierarchy.boxes is not None:
-            camera = self.scene.camera
             self.screen = ScreenRectangles.build(
-                np.asarray(tf.euler_xyz_matrix(camera.rotation)),
-                self.origin.ravel().astype(np.float64),
-                camera.lens,
-                cam.sensor_size(camera, settings.width, settings.height),
-                (settings.width, settings.height),
-                settings.samples,
-                self.hierarchy.boxes,
-                self.dtype,
+                self.scene.camera, settings, self.origin.ravel().astype(np.float64), self.hierarchy.boxes
             )
             boxes = self.hierarchy.boxes
             for light in self.lights:
