@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,7 +18,7 @@ import numpy as np
 from . import scene as sc
 from .images import atomic_path, write_image
 from .keyframes import DEFAULT_TOLERANCE, reduce_keys
-from .motion import Motion, simulate
+from .motion import Motion, iter_headings
 from .parallel import Renderer
 from .wavefront import RayCounts
 
@@ -32,13 +32,32 @@ def frame_path(folder: Path, frame: int) -> Path:
 
 def headings(scene: sc.Scene, last_frame: int, fps: float | None = None) -> np.ndarray:
     """The vane's heading (last_frame,) in degrees at frames 1..last_frame (index 0 is frame 1)."""
+    return np.concatenate([np.empty(0), *_heading_pieces(scene, last_frame, fps)])
+
+
+def _heading_pieces(scene: sc.Scene, last_frame: int, fps: float | None) -> Iterator[np.ndarray]:
     motion = scene.motion or Motion()
     if fps is not None:
         from dataclasses import replace
 
         motion = replace(motion, fps=fps)
     start = scene.vane.heading if scene.vane is not None else 0.0
-    return simulate(motion, last_frame, start)
+    return iter_headings(motion, last_frame, start)
+
+
+def frame_is_complete(path: Path, width: int, height: int) -> bool:
+    """Whether a frame file left by an earlier run is a whole PNG of the right size (a file copied in, truncated or
+    damaged outside this program is rendered again rather than trusted)."""
+    from PIL import Image
+
+    try:
+        with Image.open(path) as image:
+            if image.format != "PNG" or image.size != (width, height):
+                return False
+            image.load()  # decodes every row: a truncated file fails here
+    except (OSError, ValueError, SyntaxError):
+        return False
+    return True
 
 
 @dataclass
@@ -65,20 +84,35 @@ def animate(
     """Render frames first..last (inclusive, 1-based) into folder; returns what was rendered and skipped."""
     if scene.vane is None:
         raise ValueError("the scene has no vane to turn (add a 'vane' section naming its parts)")
-    angles = headings(scene, last, fps)
     folder.mkdir(parents=True, exist_ok=True)
     rendered, skipped = [], []
     rays = RayCounts()
     started = time.perf_counter()
     total = last - first + 1
-    # a frame is encoded and written on a thread while the pool traces the next one (about a fifth of a frame's
-    # time at 640x480, which the pool would otherwise wait for); one write at a time keeps memory to two images
+    width, height = scene.render.width, scene.render.height
     for frame in range(first, last + 1):
-        (rendered if overwrite or not frame_path(folder, frame).exists() else skipped).append(frame)
+        path = frame_path(folder, frame)
+        keep = not overwrite and path.exists() and frame_is_complete(path, width, height)
+        (skipped if keep else rendered).append(frame)
     done = len(skipped)
     if progress is not None and done:
         progress(done, total)
-    scenes = (scene.with_heading(float(angles[frame - 1])) for frame in rendered)
+    span: list[np.ndarray] = []  # headings of frames first..last, for the keyframe count
+
+    def frame_headings() -> Iterator[tuple[int, float]]:
+        """(frame, heading) for frames 1..last, simulated a piece at a time as the renderer asks for them."""
+        frame = 1
+        for piece in _heading_pieces(scene, last, fps):
+            span.append(piece[max(0, first - frame) : max(0, last + 1 - frame)])
+            for heading in piece.tolist():
+                yield frame, heading
+                frame += 1
+
+    to_render = set(rendered)
+    stream = frame_headings()
+    scenes = (scene.with_heading(heading) for frame, heading in stream if frame in to_render)
+    # a frame is encoded and written on a thread while the pool traces the next one (about a fifth of a frame's
+    # time at 640x480, which the pool would otherwise wait for); one write at a time keeps memory to two images
     with (
         Renderer(scene.render.workers) as renderer,
         ThreadPoolExecutor(1, "weathervane-writer") as writer,
@@ -96,8 +130,10 @@ def animate(
                 progress(done, total)
         if pending is not None:
             pending.result()
-    span = angles[first - 1 : last]
-    return AnimationResult(rendered, skipped, time.perf_counter() - started, rays, int(reduce_keys(span).size), total)
+    for _ in stream:
+        pass  # the frames after the last rendered one, for the keyframe count
+    keys = int(reduce_keys(np.concatenate(span)).size)
+    return AnimationResult(rendered, skipped, time.perf_counter() - started, rays, keys, total)
 
 
 def write_gif(folder: Path, first: int, last: int, fps: float, target: Path) -> Path:

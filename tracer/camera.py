@@ -90,19 +90,23 @@ def primary_direction(camera: sc.Camera, settings: sc.RenderSettings, x: float, 
     return wx / size, wy / size, wz / size
 
 
-def band_directions(camera: sc.Camera, settings: sc.RenderSettings, rows: np.ndarray) -> np.ndarray:
-    """Unit directions (3, N) float64 of every sample of the given image rows, ordered row, column, sample.
+def band_directions(
+    camera: sc.Camera, settings: sc.RenderSettings, rows: np.ndarray, columns: np.ndarray | None = None
+) -> np.ndarray:
+    """Unit directions (3, N) float64 of every sample of the given image rows (R,) and columns (C,; every column
+    when None), ordered row, column, sample.
 
     The same operations in the same order as primary_direction, so each ray is bit-identical to the scalar one.
     """
     width, samples = settings.width, settings.samples
     n = math.isqrt(samples)
     rows = np.asarray(rows, dtype=np.int64)
-    columns = np.arange(width, dtype=np.int64)
+    columns = np.arange(width, dtype=np.int64) if columns is None else np.asarray(columns, dtype=np.int64)
     sample = np.arange(samples, dtype=np.int64)
-    j = np.broadcast_to(rows[:, None, None], (rows.size, width, samples)).ravel()
-    i = np.broadcast_to(columns[None, :, None], (rows.size, width, samples)).ravel()
-    s = np.broadcast_to(sample[None, None, :], (rows.size, width, samples)).ravel()
+    shape = (rows.size, columns.size, samples)
+    j = np.broadcast_to(rows[:, None, None], shape).ravel()
+    i = np.broadcast_to(columns[None, :, None], shape).ravel()
+    s = np.broadcast_to(sample[None, None, :], shape).ravel()
     if n == 1:
         x = i + 0.5
         y = j + 0.5

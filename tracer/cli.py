@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
+import signal
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -12,11 +15,31 @@ from .animate import DEFAULT_TOLERANCE, animate, write_gif
 from .images import SUFFIXES, write_image
 from .loader import SceneError, check_samples, default_scene, load_scene
 from .parallel import Renderer
+from .pool import TaskFailedError, WorkerLostError
 from .progress import ProgressBar
+from .resources import ResourceError, check_disk, check_resources, output_bytes
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143  # 128 + SIGTERM, as a shell reports a process ended by it
+
+
+class TerminatedError(Exception):
+    """SIGTERM arrived: stop as Ctrl-C does (workers stopped, temporary files gone), and say so."""
+
+
+def _raise_terminated(_signum: int, _frame: object) -> None:
+    raise TerminatedError
+
+
+def _write_problem(path: Path, error: OSError) -> str:
+    """One line for a failed write: the user's path (never a temporary one) and the reason."""
+    if error.errno == errno.ENOSPC:
+        return f"error: no space left on the device for {path}"
+    if error.errno == errno.ENAMETOOLONG:
+        return f"error: cannot write {path}: the file name is too long for its file system"
+    return f"error: cannot write {path}: {error.strerror or error}"
 
 
 def _integer(low: int, high: int, extra: Callable[[int], str | None] | None = None) -> Callable[[str], int]:
@@ -195,13 +218,16 @@ def run_render(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     progress = ProgressBar("render", enabled=None if not args.quiet else False)
     with Renderer(scene.render.workers) as renderer:
+        suffix = args.output.suffix.lower()
+        check_resources(scene.render, renderer.workers, output=suffix)
+        check_disk(args.output, output_bytes(scene.render, suffix))
         result = renderer.render(scene, progress)
         workers = renderer.workers
     progress.close()
     try:
         write_image(result.image, args.output, srgb=args.srgb)
     except OSError as error:
-        print(f"error: cannot write {args.output}: {error.strerror or error}", file=sys.stderr)
+        print(_write_problem(args.output, error), file=sys.stderr)
         return EXIT_FAILED
     if not args.quiet:
         print(_summary(args.output, scene, workers, result))
@@ -221,17 +247,25 @@ def run_animate(args: argparse.Namespace) -> int:
     first, last = args.frames
     fps = args.fps or (scene.motion.fps if scene.motion else 24.0)
     progress = ProgressBar("frames", enabled=None if not args.quiet else False)
+    check_resources(scene.render, Renderer(scene.render.workers).workers, frames=3, output=".png")
     try:
         result = animate(
             scene, args.output, first, last, fps=fps, overwrite=args.overwrite, srgb=args.srgb, progress=progress
         )
-        progress.close()
-        if args.gif is not None:
-            write_gif(args.output, first, last, fps, args.gif)
     except OSError as error:
         progress.close()
-        print(f"error: cannot write into {args.output}: {error.strerror or error}", file=sys.stderr)
+        where = Path(error.filename) if error.filename else args.output
+        if where.name.startswith(".") and where.name.endswith(".partial"):  # the temporary beside a frame
+            where = args.output
+        print(_write_problem(where, error), file=sys.stderr)
         return EXIT_FAILED
+    progress.close()
+    if args.gif is not None:
+        try:
+            write_gif(args.output, first, last, fps, args.gif)
+        except OSError as error:
+            print(_write_problem(args.gif, error), file=sys.stderr)
+            return EXIT_FAILED
     if not args.quiet:
         rendered = len(result.rendered)
         per_frame = result.seconds / rendered * 1000 if rendered else 0.0
@@ -247,8 +281,20 @@ def run_animate(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    with contextlib.suppress(ValueError):  # only the main thread may set handlers (not so when embedded)
+        signal.signal(signal.SIGTERM, _raise_terminated)
+    written = "finished frames stay" if args.command == "animate" else "no image written"
     try:
         return run_animate(args) if args.command == "animate" else run_render(args)
     except KeyboardInterrupt:
-        print("interrupted: no image written", file=sys.stderr)
+        print(f"\ninterrupted: {written}", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except TerminatedError:
+        print(f"terminated: {written}", file=sys.stderr)
+        return EXIT_TERMINATED
+    except (ResourceError, WorkerLostError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_FAILED
+    except TaskFailedError as error:  # a bug: the worker's traceback helps a report, the user sees one line
+        print(f"error: {error} (please report this, with the scene file)", file=sys.stderr)
+        return EXIT_FAILED

@@ -18,9 +18,22 @@ import numpy as np
 SUFFIXES = (".png", ".npy")
 
 
+# Rows converted at a time to 8 bits: the float64 working copy stays a few MB however large the image.
+CONVERT_PIXELS = 1 << 20
+
+
 def to_8bit(image: np.ndarray, srgb: bool = False) -> np.ndarray:
     """(H, W, 3) linear floats -> uint8: clamp to [0, 1] as the seed's canvas does, optionally sRGB-encode, round."""
-    clamped = image.astype(np.float64)  # always a copy of its own, worked on in place (an animation's every frame)
+    height, width = image.shape[:2]
+    out = np.empty(image.shape, dtype=np.uint8)
+    step = max(1, CONVERT_PIXELS // max(1, width))
+    for first in range(0, height, step):
+        out[first : first + step] = _rows_to_8bit(image[first : first + step], srgb)
+    return out
+
+
+def _rows_to_8bit(image: np.ndarray, srgb: bool) -> np.ndarray:
+    clamped = image.astype(np.float64)  # always a copy of its own, worked on in place
     np.nan_to_num(clamped, copy=False, nan=0.0)
     np.clip(clamped, 0.0, 1.0, out=clamped)
     if srgb:
@@ -30,11 +43,22 @@ def to_8bit(image: np.ndarray, srgb: bool = False) -> np.ndarray:
     return np.floor(clamped, out=clamped).astype(np.uint8)
 
 
+# A temporary name is the target's, cut to this many bytes, plus a dot, 8 random characters and ".partial": within
+# the 255 bytes a file name may have, however long the target's own name is.
+TEMPORARY_NAME_BYTES = 200
+
+
 @contextlib.contextmanager
 def atomic_path(target: Path) -> Iterator[Path]:
-    """A temporary path beside target that replaces it only when the block finishes without an exception."""
+    """A temporary path beside target that replaces it only when the block finishes without an exception.
+
+    A target that is a symbolic link is followed, as a shell's `>` does: the file it points to is replaced and the
+    link stays."""
+    if target.is_symlink():
+        target = Path(os.path.realpath(target))
     target.parent.mkdir(parents=True, exist_ok=True)
-    handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".partial", dir=target.parent)
+    stem = target.name.encode()[:TEMPORARY_NAME_BYTES].decode(errors="ignore")
+    handle, name = tempfile.mkstemp(prefix=f".{stem}.", suffix=".partial", dir=target.parent)
     os.close(handle)
     temporary = Path(name)
     umask = os.umask(0)
@@ -68,6 +92,17 @@ def write_image(image: np.ndarray, target: str | Path, srgb: bool = False, compr
         if payload is not None:
             temporary.write_bytes(payload)
         else:
-            with temporary.open("wb") as stream:
-                np.save(stream, image.astype(np.float32))
+            _write_npy(image, temporary)
     return target
+
+
+def _write_npy(image: np.ndarray, path: Path) -> None:
+    """(H, W, 3) -> a float32 .npy, a few rows at a time: no float32 copy of the whole image, and a full disk
+    raises OSError(ENOSPC) from the write rather than NumPy's 'N requested and M written'."""
+    with path.open("wb") as stream:
+        np.lib.format.write_array_header_1_0(
+            stream, {"descr": np.dtype(np.float32).str, "fortran_order": False, "shape": image.shape}
+        )
+        step = max(1, CONVERT_PIXELS // max(1, image.shape[1]))
+        for first in range(0, image.shape[0], step):
+            stream.write(np.ascontiguousarray(image[first : first + step], dtype=np.float32).tobytes())

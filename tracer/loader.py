@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import stat
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -13,6 +14,19 @@ from . import scene as sc
 from . import wind as wi
 
 DEFAULT_SCENE_RESOURCE = "default_scene.json"
+
+# What the tracer renders to finite pixels in both precisions (docs/scene-format.md, "Limits"); beyond these the
+# arithmetic overflows or divides by zero, so the loader refuses rather than render garbage or crash.
+MAX_SCENE_BYTES = 256 << 20  # a scene file; read no further (a device or a huge file is refused before reading)
+COORDINATE_LIMIT = 1e9  # metres: any position, |x| at most
+LENGTH_RANGE = (1e-6, 1e9)  # metres: radii, heights, sizes
+ANGLE_LIMIT = 1e6  # degrees: rotations and headings, |a| at most
+DIRECTION_MIN_LENGTH = 1e-9  # a direction or axis shorter than this has no usable direction
+INTENSITY_MAX = 1e6
+SPECULAR_MAX = 1e6  # the specular exponent (and coef times it)
+LENS_RANGE = (1e-3, 1e6)  # millimetres: lens and sensor sizes
+FOV_RANGE = (1e-3, 179.0)  # degrees
+SHOWN_CHARACTERS = 60  # a value in a message is cut to about this many characters
 
 
 class SceneError(ValueError):
@@ -25,6 +39,15 @@ class SceneError(ValueError):
 
 
 def _show(value: Any) -> str:
+    shown = _show_whole(value)
+    if len(shown) > SHOWN_CHARACTERS:
+        return f"{shown[: SHOWN_CHARACTERS - 20]}...{shown[-10:]} ({len(shown)} characters)"
+    return shown
+
+
+def _show_whole(value: Any) -> str:
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**30:
+        return f"an integer of {len(str(abs(value)))} digits"
     if isinstance(value, str):
         return json.dumps(value)
     if isinstance(value, bool) or value is None:
@@ -46,6 +69,8 @@ class _Reader:
         self.seen: set[str] = set()
         if not isinstance(data, dict):
             self.fail("", f"must be an object, got {_show_shape(data)}")
+        for key in getattr(data, "duplicates", ()):
+            self.fail(key, "appears more than once in this object (JSON keeps only the last; remove the others)")
 
     def at(self, key: str) -> str:
         if not key:
@@ -74,6 +99,7 @@ class _Reader:
         high: float | None = None,
         low_open: bool = False,
         integer: bool = False,
+        least: float | None = None,
     ) -> Any:
         if key not in self.data:
             value = self.raw(key, default)
@@ -81,7 +107,7 @@ class _Reader:
         value = self.raw(key)
         if value is None and default is None:  # an optional number written as null
             return None
-        return self.check_number(key, value, low=low, high=high, low_open=low_open, integer=integer)
+        return self.check_number(key, value, low=low, high=high, low_open=low_open, integer=integer, least=least)
 
     def check_number(
         self,
@@ -92,10 +118,15 @@ class _Reader:
         high: float | None = None,
         low_open: bool = False,
         integer: bool = False,
+        least: float | None = None,
     ) -> Any:
+        """least: a positive floor checked after low (a size must be > 0, and at least this to be rendered)."""
         kind = "an integer" if integer else "a number"
         if isinstance(value, bool) or not isinstance(value, int | float):
             self.fail(key, f"must be {kind}, got {_show_shape(value)}")
+            return _fallback_number(low)
+        if isinstance(value, int) and abs(value) > 2**1023:  # beyond any float: float(value) would overflow
+            self.fail(key, f"must be a finite number, got {_show(value)}")
             return _fallback_number(low)
         if not math.isfinite(value):
             self.fail(key, f"must be a finite number, got {_show(value)}")
@@ -107,6 +138,8 @@ class _Reader:
             self.fail(key, f"must be {'>' if low_open else '>='} {_show(low)}, got {_show(value)}")
         elif high is not None and value > high:
             self.fail(key, f"must be <= {_show(high)}, got {_show(value)}")
+        elif least is not None and value < least:
+            self.fail(key, f"must be at least {_show(least)} (the smallest the tracer renders), got {_show(value)}")
         return int(value) if integer else float(value)
 
     def vector(
@@ -119,7 +152,9 @@ class _Reader:
         high: float | None = None,
         low_open: bool = False,
         nonzero: bool = False,
+        least: float | None = None,
     ) -> Any:
+        """nonzero: a direction, whose length must be at least DIRECTION_MIN_LENGTH."""
         if key not in self.data:
             value = self.raw(key, default)
             return (0.0,) * length if value is ... else value
@@ -128,12 +163,28 @@ class _Reader:
             self.fail(key, f"must be a list of {length} numbers, got {_show_shape(value)}")
             return (0.0,) * length
         items = tuple(
-            self.check_number(f"{key}[{i}]", item, low=low, high=high, low_open=low_open)
+            self.check_number(f"{key}[{i}]", item, low=low, high=high, low_open=low_open, least=least)
             for i, item in enumerate(value)
         )
         if nonzero and all(isinstance(item, float) and item == 0.0 for item in items):
             self.fail(key, "must not be the zero vector, got [0, 0, 0]")
+        elif nonzero and all(isinstance(item, float) for item in items) and math.hypot(*items) < DIRECTION_MIN_LENGTH:
+            self.fail(key, f"must have a length of at least {_show(DIRECTION_MIN_LENGTH)} to give a direction")
         return items
+
+    def position(self, key: str, default: Any = ...) -> Any:
+        return self.vector(key, default, low=-COORDINATE_LIMIT, high=COORDINATE_LIMIT)
+
+    def angles(self, key: str, default: Any = ...) -> Any:
+        return self.vector(key, default, low=-ANGLE_LIMIT, high=ANGLE_LIMIT)
+
+    def length(self, key: str, default: Any = ...) -> Any:
+        low, high = LENGTH_RANGE
+        return self.number(key, default, low=0.0, low_open=True, high=high, least=low)
+
+    def lengths(self, key: str, default: Any = ..., count: int = 3) -> Any:
+        low, high = LENGTH_RANGE
+        return self.vector(key, default, length=count, low=0.0, low_open=True, high=high, least=low)
 
     def color(self, key: str, default: Any = ...) -> Any:
         return self.vector(key, default, low=0.0, high=1.0)
@@ -204,7 +255,7 @@ def _fallback_number(low: float | None) -> float:
 def _material(reader: _Reader) -> sc.Material:
     material = sc.Material(
         color=reader.color("color"),
-        specular=reader.number("specular", 0.0, low=0.0),
+        specular=reader.number("specular", 0.0, low=0.0, high=SPECULAR_MAX),
         reflective=reader.number("reflective", 0.0, low=0.0, high=1.0),
     )
     reader.finish()
@@ -225,25 +276,25 @@ def _object(reader: _Reader, materials: dict[str, sc.Material], index: int) -> s
     common = {
         "name": name,
         "material": material,
-        "location": reader.vector("location", (0.0, 0.0, 0.0)),
-        "rotation": reader.vector("rotation", (0.0, 0.0, 0.0)),
+        "location": reader.position("location", (0.0, 0.0, 0.0)),
+        "rotation": reader.angles("rotation", (0.0, 0.0, 0.0)),
     }
     result: sc.SceneObject | None = None
     if kind == "sphere":
-        result = sc.Sphere(radius=reader.number("radius", low=0.0, low_open=True), **common)
+        result = sc.Sphere(radius=reader.length("radius"), **common)
     elif kind == "plane":
-        size = reader.vector("size", None, length=2, low=0.0, low_open=True)
+        size = reader.lengths("size", None, count=2)
         result = sc.Plane(size=size, **common)
     elif kind == "cylinder":
         result = sc.Cylinder(
-            radius=reader.number("radius", low=0.0, low_open=True),
-            height=reader.number("height", low=0.0, low_open=True),
+            radius=reader.length("radius"),
+            height=reader.length("height"),
             **common,
         )
     elif kind == "box":
-        result = sc.Box(size=reader.vector("size", low=0.0, low_open=True), **common)
+        result = sc.Box(size=reader.lengths("size"), **common)
     elif kind == "pyramid":
-        result = sc.Pyramid(size=reader.vector("size", low=0.0, low_open=True), **common)
+        result = sc.Pyramid(size=reader.lengths("size"), **common)
     elif kind == "mesh":
         result = _mesh(reader, common)
     reader.finish()
@@ -260,7 +311,7 @@ def _mesh(reader: _Reader, common: dict[str, Any]) -> sc.TriangleMesh:
             reader.fail("vertices", f"must be a non-empty list of [x, y, z], got {_show_shape(raw_vertices)}")
         else:
             holder = _Reader({f"vertices[{i}]": v for i, v in enumerate(raw_vertices)}, reader.path, reader.problems)
-            vertices = [holder.vector(f"vertices[{i}]") for i in range(len(raw_vertices))]
+            vertices = [holder.position(f"vertices[{i}]") for i in range(len(raw_vertices))]
     if raw_triangles is not ...:
         if not isinstance(raw_triangles, list) or not raw_triangles:
             reader.fail("triangles", f"must be a non-empty list of [i, j, k], got {_show_shape(raw_triangles)}")
@@ -296,14 +347,17 @@ def _light(reader: _Reader) -> sc.Light | None:
     kind = reader.choice("type", ("ambient", "point", "directional"), None)
     if kind is None and "type" not in reader.data:
         reader.fail("type", "is required (one of ambient, point, directional)")
-    intensity = reader.number("intensity", low=0.0)
+    intensity = reader.number("intensity", low=0.0, high=INTENSITY_MAX)
     result: sc.Light | None = None
     if kind == "ambient":
         result = sc.AmbientLight(intensity=intensity)
     elif kind == "point":
-        result = sc.PointLight(location=reader.vector("location"), intensity=intensity)
+        result = sc.PointLight(location=reader.position("location"), intensity=intensity)
     elif kind == "directional":
-        result = sc.DirectionalLight(direction=reader.vector("direction", nonzero=True), intensity=intensity)
+        result = sc.DirectionalLight(
+            direction=reader.vector("direction", nonzero=True, low=-COORDINATE_LIMIT, high=COORDINATE_LIMIT),
+            intensity=intensity,
+        )
     reader.finish()
     return result
 
@@ -312,20 +366,21 @@ def _camera(reader: _Reader | None) -> sc.Camera:
     if reader is None:
         return sc.Camera()
     base = sc.Camera()
-    sensor_width = reader.number("sensor_width", base.sensor_width, low=0.0, low_open=True)
-    sensor_height = reader.number("sensor_height", base.sensor_height, low=0.0, low_open=True)
+    millimetres = {"low": 0.0, "low_open": True, "least": LENS_RANGE[0], "high": LENS_RANGE[1]}
+    sensor_width = reader.number("sensor_width", base.sensor_width, **millimetres)
+    sensor_height = reader.number("sensor_height", base.sensor_height, **millimetres)
     sensor_fit = reader.choice("sensor_fit", sc.SENSOR_FITS, base.sensor_fit)
-    lens = reader.number("lens", base.lens, low=0.0, low_open=True)
-    fov = reader.number("fov", None, low=0.0, low_open=True, high=179.0)
+    lens = reader.number("lens", base.lens, **millimetres)
+    fov = reader.number("fov", None, low=0.0, low_open=True, least=FOV_RANGE[0], high=FOV_RANGE[1])
     if "lens" in reader.data and "fov" in reader.data:
         reader.fail("fov", "give either lens or fov, not both")
-    elif fov is not None and isinstance(fov, float) and 0.0 < fov <= 179.0:
+    elif fov is not None and isinstance(fov, float) and FOV_RANGE[0] <= fov <= FOV_RANGE[1]:
         # Blender's camera.angle: the fitted sensor side (height for VERTICAL, width otherwise) spans fov.
         sensor = sensor_height if sensor_fit == "VERTICAL" else sensor_width
         lens = sensor / 2.0 / math.tan(math.radians(fov) / 2.0)
     camera = sc.Camera(
-        location=reader.vector("location", base.location),
-        rotation=reader.vector("rotation", base.rotation),
+        location=reader.position("location", base.location),
+        rotation=reader.angles("rotation", base.rotation),
         lens=lens,
         sensor_width=sensor_width,
         sensor_height=sensor_height,
@@ -358,7 +413,7 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         height=reader.number("height", base.height, low=1, high=16384, integer=True),
         depth=reader.number("depth", base.depth, low=0, high=64, integer=True),
         model=reader.choice("model", sc.MODELS, base.model),
-        coef=reader.number("coef", base.coef, low=0.0, low_open=True),
+        coef=reader.number("coef", base.coef, low=0.0, low_open=True, high=SPECULAR_MAX),
         samples=reader.number("samples", base.samples, low=1, high=1024, integer=True),
         workers=reader.number("workers", base.workers, low=0, high=256, integer=True),
         dtype=reader.choice("dtype", sc.DTYPES, base.dtype),
@@ -366,9 +421,11 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         gate_specular=reader.boolean("gate_specular", base.gate_specular),
         numerics=reader.choice("numerics", sc.NUMERICS, base.numerics),
     )
-    samples_problem = check_samples(settings.samples)
-    if samples_problem and "samples" in reader.data and isinstance(reader.data["samples"], int):
-        reader.fail("samples", samples_problem)
+    raw_samples = reader.data.get("samples")
+    if isinstance(raw_samples, int) and not isinstance(raw_samples, bool) and 1 <= raw_samples <= 1024:
+        samples_problem = check_samples(raw_samples)
+        if samples_problem:
+            reader.fail("samples", samples_problem)
     reader.finish()
     return settings
 
@@ -396,9 +453,9 @@ def _vane(reader: _Reader | None, object_names: set[str]) -> sc.Vane | None:
                     names.append(part)
     vane = sc.Vane(
         parts=tuple(names),
-        pivot=reader.vector("pivot", (0.0, 0.0, 0.0)),
-        axis=reader.vector("axis", (0.0, 0.0, 1.0), nonzero=True),
-        heading=reader.number("heading", 0.0),
+        pivot=reader.position("pivot", (0.0, 0.0, 0.0)),
+        axis=reader.vector("axis", (0.0, 0.0, 1.0), nonzero=True, low=-COORDINATE_LIMIT, high=COORDINATE_LIMIT),
+        heading=reader.number("heading", 0.0, low=-ANGLE_LIMIT, high=ANGLE_LIMIT),
         name=reader.string("name", "vane"),
     )
     reader.finish()
@@ -420,7 +477,7 @@ def _wind(reader: _Reader | None) -> wi.Wind:
             for i, body in enumerate(raw_keys):
                 key_reader = _Reader(body, reader.at(f"keys[{i}]"), reader.problems)
                 key = wi.WindKey(
-                    time=key_reader.number("time", low=0.0),
+                    time=key_reader.number("time", low=0.0, high=1e7),
                     direction=key_reader.number("direction", low=0.0, high=360.0),
                     speed=key_reader.number("speed", low=0.0, high=60.0),
                 )
@@ -444,12 +501,12 @@ def _wind(reader: _Reader | None) -> wi.Wind:
     if gust_reader is not None:
         gusts = wi.Gusts(
             intensity=gust_reader.number("intensity", 0.2, low=0.0, high=1.0),
-            time_scale=gust_reader.number("time_scale", 2.0, low=0.0, low_open=True),
+            time_scale=gust_reader.number("time_scale", 2.0, low=0.0, low_open=True, least=1e-3, high=1e6),
             seed=gust_reader.number("seed", 0, low=0, high=2**32 - 1, integer=True),
         )
         gust_reader.finish()
-    start = reader.number("start", 0.0, low=0.0)
-    stop = reader.number("stop", None, low=0.0)
+    start = reader.number("start", 0.0, low=0.0, high=1e7)
+    stop = reader.number("stop", None, low=0.0, high=1e7)
     if stop is not None and isinstance(start, float) and isinstance(stop, float) and stop <= start:
         reader.fail("stop", f"must be after start ({_show(start)}), got {_show(stop)}")
     wind = wi.Wind(keys=tuple(keys) or wi.Wind().keys, gusts=gusts, start=start, stop=stop)
@@ -461,14 +518,14 @@ def _spin(reader: _Reader | None) -> mo.Spin:
     if reader is None:
         return mo.Spin()
     base = mo.Spin()
-    start = reader.number("start", base.start, low=0.0)
-    stop = reader.number("stop", None, low=0.0)
+    start = reader.number("start", base.start, low=0.0, high=1e7)
+    stop = reader.number("stop", None, low=0.0, high=1e7)
     if stop is not None and isinstance(start, float) and isinstance(stop, float) and stop < start:
         reader.fail("stop", f"must not be before start ({_show(start)}), got {_show(stop)}")
     spin = mo.Spin(
         direction=reader.choice("direction", ("clockwise", "counterclockwise"), base.direction),
         speed=reader.number("speed", base.speed, low=0.0, high=3600.0),
-        smoothness=reader.number("smoothness", base.smoothness, low=0.0),
+        smoothness=reader.number("smoothness", base.smoothness, low=0.0, high=1e6),
         start=start,
         stop=stop,
     )
@@ -486,10 +543,10 @@ def _motion(reader: _Reader | None, wind_reader: _Reader | None) -> mo.Motion | 
     motion = mo.Motion(
         mode=reader.choice("mode", ("wind", "spin"), base.mode),
         damping=reader.number("damping", base.damping, low=0.0, low_open=True, high=5.0),
-        wavelength=reader.number("wavelength", base.wavelength, low=0.0, low_open=True),
-        threshold=reader.number("threshold", base.threshold, low=0.0),
-        friction_time=reader.number("friction_time", base.friction_time, low=0.0, low_open=True),
-        initial_heading=reader.number("initial_heading", None),
+        wavelength=reader.number("wavelength", base.wavelength, low=0.0, low_open=True, least=1e-3, high=1e6),
+        threshold=reader.number("threshold", base.threshold, low=0.0, high=60.0),
+        friction_time=reader.number("friction_time", base.friction_time, low=0.0, low_open=True, least=1e-3, high=1e6),
+        initial_heading=reader.number("initial_heading", None, low=-ANGLE_LIMIT, high=ANGLE_LIMIT),
         fps=reader.number("fps", base.fps, low=0.0, low_open=True, high=1000.0),
         wind=wind,
         spin=_spin(reader.reader("spin")),
@@ -530,9 +587,11 @@ def scene_from_dict(data: Any, source: str = "scene") -> sc.Scene:
                 if made is not None:
                     objects.append(made)
     names = [obj.name for obj in objects]
+    seen_names: set[str] = set()
     for i, name in enumerate(names):
-        if name in names[:i]:
+        if name in seen_names:
             problems.append(f"objects[{i}].name: must be unique, got {_show(name)} twice")
+        seen_names.add(name)
 
     lights: list[sc.Light] = []
     raw_lights = top.raw("lights", [])
@@ -567,23 +626,65 @@ def scene_from_dict(data: Any, source: str = "scene") -> sc.Scene:
 def load_scene(path: str | Path) -> sc.Scene:
     """Read and validate a JSON scene file; raises SceneError (unreadable file, bad JSON, bad fields)."""
     source = str(path)
+    return scene_from_dict(parse_json(_read_scene_bytes(Path(path), source), source), source)
+
+
+def _read_scene_bytes(path: Path, source: str) -> bytes:
+    """The file's bytes, refusing before reading what is not a regular file (a FIFO would wait forever, a device
+    never ends) or is larger than MAX_SCENE_BYTES."""
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        status = path.stat()
+        if stat.S_ISDIR(status.st_mode):
+            raise SceneError(["is a folder, not a scene file"], source)
+        if not stat.S_ISREG(status.st_mode):
+            raise SceneError(["must be a regular file (this is a device, a pipe or a socket)"], source)
+        if status.st_size > MAX_SCENE_BYTES:
+            raise SceneError(
+                [f"is {status.st_size} bytes; scene files of at most {MAX_SCENE_BYTES} bytes are read"], source
+            )
+        with path.open("rb") as stream:
+            data = stream.read(MAX_SCENE_BYTES + 1)
     except OSError as error:
         raise SceneError([f"cannot read the file ({error.strerror or error})"], source) from None
+    if len(data) > MAX_SCENE_BYTES:  # it grew while being read
+        raise SceneError([f"is larger than {MAX_SCENE_BYTES} bytes, the most a scene file may be"], source)
+    return data
+
+
+class _JSONObject(dict):
+    """A JSON object that remembers the keys it saw more than once (json keeps the last silently)."""
+
+    duplicates: tuple[str, ...] = ()
+
+
+def _object_pairs(pairs: list[tuple[str, Any]]) -> _JSONObject:
+    made = _JSONObject(pairs)
+    if len(made) != len(pairs):
+        counted: dict[str, int] = {}
+        for key, _ in pairs:
+            counted[key] = counted.get(key, 0) + 1
+        made.duplicates = tuple(key for key, count in counted.items() if count > 1)
+    return made
+
+
+def parse_json(data: bytes | str, source: str = "scene") -> Any:
+    """JSON text -> Python values, with duplicate keys remembered; raises SceneError for what is not JSON."""
+    try:
+        text = data.decode("utf-8") if isinstance(data, bytes) else data
     except UnicodeDecodeError:
         raise SceneError(["is not UTF-8 text"], source) from None
     try:
-        data = json.loads(text, parse_constant=_reject_constant)
+        return json.loads(text, parse_constant=_reject_constant, object_pairs_hook=_object_pairs)
     except json.JSONDecodeError as error:
         raise SceneError([f"line {error.lineno} column {error.colno}: invalid JSON: {error.msg}"], source) from None
-    except ValueError as error:
-        raise SceneError([str(error)], source) from None
-    return scene_from_dict(data, source)
+    except RecursionError:
+        raise SceneError(["nests objects and lists too deeply to read (a scene needs 5 levels)"], source) from None
+    except ValueError as error:  # a constant (NaN, Infinity), an integer of over 4300 digits
+        raise SceneError([f"invalid JSON: {error}"], source) from None
 
 
 def _reject_constant(name: str) -> float:
-    raise ValueError(f"invalid JSON: {name} is not a number JSON allows")
+    raise ValueError(f"{name} is not a number JSON allows")
 
 
 def default_scene_dict() -> dict[str, Any]:

@@ -18,6 +18,7 @@ seconds after start and down over the same time after stop.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -26,6 +27,7 @@ import numpy as np
 from .wind import Wind, sample, wrap_degrees
 
 MAX_SUBSTEP = 1.0 / 120.0  # seconds: the wind is sampled at least this often, whatever the frame rate
+CHUNK_FRAMES = 2048  # frames simulated at a time: a long animation starts at once, in little memory
 
 
 @dataclass(frozen=True)
@@ -85,32 +87,47 @@ def simulate_wind(motion: Motion, times: np.ndarray, initial_heading: float = 0.
 
     The vane starts at rest at initial_heading at time 0."""
     times = np.asarray(times, dtype=np.float64)
-    end = float(times[-1]) if times.size else 0.0
-    steps = max(1, math.ceil(end / MAX_SUBSTEP - 1e-9)) if end > 0.0 else 0
-    # sub-step edges: every frame time is an edge, with sub-steps no longer than MAX_SUBSTEP between them
-    edges = np.unique(np.concatenate(([0.0], times, np.linspace(0.0, end, steps + 1))))
-    edges = edges[edges >= 0.0]
-    middles = (edges[:-1] + edges[1:]) / 2.0
-    direction, speed = sample(motion.wind, middles)
-    target = heading_into_wind(direction)
-    theta, rate = float(initial_heading), 0.0
-    at_edge = {0.0: theta}
+    pieces = (times[first : first + CHUNK_FRAMES] for first in range(0, times.size, CHUNK_FRAMES))
+    return np.concatenate([np.empty(0), *_wind_pieces(motion, pieces, initial_heading)])
+
+
+def _wind_pieces(motion: Motion, pieces: Iterable[np.ndarray], initial_heading: float) -> Iterator[np.ndarray]:
+    """simulate_wind's headings, chunk frames at a time: the vane's state carries over, so memory stays small and
+    the first frames are ready at once however many follow.
+
+    Each span between frame times is cut into the fewest equal sub-steps of at most MAX_SUBSTEP seconds; the wind
+    is held at each sub-step's middle while the exact transition matrix advances the vane."""
+    theta, rate, previous = float(initial_heading), 0.0, 0.0
     friction = motion.friction_time
-    for k in range(middles.size):
-        h = float(edges[k + 1] - edges[k])
-        if speed[k] < motion.threshold or speed[k] <= 0.0:
-            fade = math.exp(-h / friction)
-            theta += rate * friction * (1.0 - fade)
-            rate *= fade
-        else:
-            omega = 2.0 * math.pi * float(speed[k]) / motion.wavelength
-            error = float(wrap_degrees(theta - target[k]))
-            a11, a12, a21, a22 = transition(motion.damping, omega, h)
-            new_error = a11 * error + a12 * rate
-            rate = a21 * error + a22 * rate
-            theta += new_error - error
-        at_edge[float(edges[k + 1])] = theta
-    return np.array([at_edge[float(t)] for t in times])
+    for part in pieces:
+        spans = part - np.concatenate(([previous], part[:-1]))
+        counts = np.maximum(0, np.ceil(spans / MAX_SUBSTEP - 1e-9)).astype(np.int64)
+        frame_of = np.repeat(np.arange(part.size), counts)  # the frame whose span each sub-step is in
+        step = np.arange(frame_of.size) - np.repeat(np.cumsum(counts) - counts, counts)
+        h = spans[frame_of] / counts[frame_of] if frame_of.size else np.empty(0)
+        starts = part[frame_of] - spans[frame_of]
+        direction, speed = sample(motion.wind, starts + (step + 0.5) * h)
+        target = heading_into_wind(direction)
+        ends = np.cumsum(counts)  # sub-steps done when each frame's time is reached
+        out = np.empty(part.size)
+        done = 0
+        for k in range(part.size):
+            for index in range(done, ends[k]):
+                if speed[index] < motion.threshold or speed[index] <= 0.0:
+                    fade = math.exp(-h[index] / friction)
+                    theta += rate * friction * (1.0 - fade)
+                    rate *= fade
+                else:
+                    omega = 2.0 * math.pi * float(speed[index]) / motion.wavelength
+                    error = float(wrap_degrees(theta - target[index]))
+                    a11, a12, a21, a22 = transition(motion.damping, omega, float(h[index]))
+                    new_error = a11 * error + a12 * rate
+                    rate = a21 * error + a22 * rate
+                    theta += new_error - error
+            done = ends[k]
+            out[k] = theta
+        previous = float(part[-1])
+        yield out
 
 
 def simulate_spin(spin: Spin, times: np.ndarray, initial_heading: float = 0.0) -> np.ndarray:
@@ -147,8 +164,17 @@ def simulate_spin(spin: Spin, times: np.ndarray, initial_heading: float = 0.0) -
 
 def simulate(motion: Motion, frames: int, initial_heading: float = 0.0) -> np.ndarray:
     """The vane's heading (frames,) in degrees at frames 1..frames, unwrapped."""
+    return np.concatenate([np.empty(0), *iter_headings(motion, frames, initial_heading)])
+
+
+def iter_headings(motion: Motion, frames: int, initial_heading: float = 0.0) -> Iterator[np.ndarray]:
+    """simulate()'s headings in consecutive pieces (of CHUNK_FRAMES or fewer), computed as they are asked for."""
     start = motion.initial_heading if motion.initial_heading is not None else initial_heading
-    times = frame_times(frames, motion.fps)
+    pieces = (
+        np.arange(first, min(frames, first + CHUNK_FRAMES), dtype=np.float64) / motion.fps
+        for first in range(0, frames, CHUNK_FRAMES)
+    )  # frame_times(frames, fps), a piece at a time
     if motion.mode == "spin":
-        return simulate_spin(motion.spin, times, start)
-    return simulate_wind(motion, times, start)
+        yield from (simulate_spin(motion.spin, times, start) for times in pieces)
+    else:
+        yield from _wind_pieces(motion, pieces, start)

@@ -8,14 +8,12 @@ bounded by the band.
 
 from __future__ import annotations
 
-import contextlib
 import ctypes
 import math
 import mmap
 import multiprocessing
 import os
 import pickle
-import tempfile
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
@@ -24,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import scene as sc
+from .pool import Task, WorkerPool
+from .resources import check_resources
 from .wavefront import PreparedScene, RayCounts
 
 # One coordinate of every camera sample of a band, in bytes. A band's arrays peak at about 35 such coordinates per
@@ -45,9 +45,17 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
+def band_samples(settings: sc.RenderSettings) -> int:
+    """The most camera samples traced at once: about BAND_BYTES / itemsize (LARGE_IMAGE_BAND_BYTES for an image of
+    more than LARGE_IMAGE_BYTES). A band of more samples (a block of rows at many samples per pixel) is traced in
+    pieces of this size, so memory stays bounded at any sample count."""
+    itemsize = np.dtype(settings.dtype).itemsize
+    large = settings.height * settings.width * 3 * itemsize > LARGE_IMAGE_BYTES
+    return (LARGE_IMAGE_BAND_BYTES if large else BAND_BYTES) // itemsize
+
+
 def bands(settings: sc.RenderSettings) -> list[np.ndarray]:
-    """The image's rows (arrays of row indices) dealt into bands of at most about BAND_BYTES / itemsize samples
-    (LARGE_IMAGE_BAND_BYTES for an image of more than LARGE_IMAGE_BYTES).
+    """The image's rows (arrays of row indices) dealt into bands of at most about band_samples() samples.
 
     Rows go in blocks of BLOCK_ROWS, dealt round-robin, so each band holds a like share of sky, ground and object
     (the workers finish together) while its rays stay coherent enough for the hierarchy (a fully interleaved deal
@@ -56,13 +64,10 @@ def bands(settings: sc.RenderSettings) -> list[np.ndarray]:
     later work: 1 band 123 ms, 2 bands 138 ms, 4 bands 162 ms). It depends only on the image and the dtype.
     """
     samples = settings.height * settings.width * settings.samples
-    itemsize = np.dtype(settings.dtype).itemsize
-    large = settings.height * settings.width * 3 * itemsize > LARGE_IMAGE_BYTES
-    per_band = (LARGE_IMAGE_BAND_BYTES if large else BAND_BYTES) // itemsize
     blocks = [
         np.arange(start, min(start + BLOCK_ROWS, settings.height)) for start in range(0, settings.height, BLOCK_ROWS)
     ]
-    count = min(len(blocks), 2 * math.ceil(samples / per_band / 2))
+    count = min(len(blocks), 2 * math.ceil(samples / band_samples(settings) / 2))
     return [np.concatenate(blocks[first::count]) for first in range(count)]
 
 
@@ -118,17 +123,18 @@ def _prepared_for(scene_bytes: bytes) -> PreparedScene:
 
 
 def _render_band(
-    task: tuple[bytes, np.ndarray, tuple[int, int, int], str, str | None],
-) -> tuple[np.ndarray, np.ndarray | None, RayCounts]:
-    scene_bytes, rows, shape, dtype, image_file = task
-    band, counts = _prepared_for(scene_bytes).render_rows(rows)
-    if image_file is None:  # a spawned worker: the band travels back pickled
-        return rows, band, counts
-    with open(image_file, "r+b") as handle, mmap.mmap(handle.fileno(), 0) as mapping:
-        image = np.ndarray(shape, dtype=dtype, buffer=mapping)
-        image[rows] = band
-        del image  # the mapping closes only when no array uses it
-    return rows, None, counts
+    scene_bytes: bytes, rows: np.ndarray, shape: tuple[int, int, int], dtype: str, image: int | None = None
+) -> tuple[np.ndarray | None, RayCounts]:
+    """Trace rows (R,) of the scene; the band (R, W, 3) goes into the shared image (a descriptor) or comes back."""
+    prepared = _prepared_for(scene_bytes)
+    band, counts = prepared.render_rows(rows, band_samples(prepared.scene.render))
+    if image is None:
+        return band, counts
+    with mmap.mmap(image, 0) as mapping:
+        shared = np.ndarray(shape, dtype=dtype, buffer=mapping)
+        shared[rows] = band
+        del shared  # the mapping closes only when no array uses it
+    return None, counts
 
 
 # ---- parent side -------------------------------------------------------------------------------------------------
@@ -137,17 +143,19 @@ def _render_band(
 class Renderer:
     """Renders scenes with a pool of worker processes kept alive between frames (use as a context manager).
 
-    Where processes fork, each frame's image is a file in shared memory (/dev/shm) that the workers map and write
-    their bands into and that the returned array maps in turn: bands are not copied through pipes, and the image
-    is never copied at all (at 1920x1080 in float64 that is 50 MB less at the peak). Elsewhere bands come back
-    pickled.
+    Where the system has anonymous shared memory (Linux's memfd), each frame's image is such a file that the
+    workers map and write their bands into and that the returned array maps in turn: bands are not copied through
+    pipes, the image is never copied at all (at 1920x1080 in float64 that is 50 MB less at the peak), and the file
+    has no name, so nothing outlives the processes however they end. Elsewhere bands come back pickled.
+    A worker that dies (killed, out of memory) has its bands traced again by a fresh one (tracer/pool.py).
     """
 
     def __init__(self, workers: int = 0) -> None:
         self.workers = workers if workers > 0 else default_workers()
-        self._pool = None
+        self._pool: WorkerPool | None = None
         self._prepared: tuple[bytes, PreparedScene] | None = None
-        self._forking = "fork" in multiprocessing.get_all_start_methods()
+        self._start_method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+        self._shared = hasattr(os, "memfd_create")
 
     def __enter__(self) -> Renderer:
         return self
@@ -157,53 +165,43 @@ class Renderer:
 
     def close(self) -> None:
         if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
+            self._pool.close()
             self._pool = None
 
-    def _start_pool(self) -> None:
+    def _start_pool(self) -> WorkerPool:
         if self._pool is None:
-            self._pool = multiprocessing.get_context("fork" if self._forking else "spawn").Pool(self.workers)
-
-    def _bands(self, scene: sc.Scene) -> Iterator[tuple[np.ndarray, np.ndarray, RayCounts]]:
-        """(rows, band, counts) as bands finish, traced here (one worker) or by spawned workers (bands pickled)."""
-        if self.workers <= 1:
-            tune_allocator()
-            scene_bytes = pickle.dumps(scene)
-            if self._prepared is None or self._prepared[0] != scene_bytes:
-                self._prepared = (scene_bytes, PreparedScene(scene))
-            prepared = self._prepared[1]
-            for rows in bands(scene.render):
-                image, counts = prepared.render_rows(rows)
-                yield rows, image, counts
-            return
-        self._start_pool()
-        scene_bytes = pickle.dumps(scene)
-        shape = (scene.render.height, scene.render.width, 3)
-        tasks = [(scene_bytes, rows, shape, np.dtype(scene.render.dtype).str, None) for rows in bands(scene.render)]
-        yield from self._pool.imap_unordered(_render_band, tasks)
+            self._pool = WorkerPool(self.workers, self._start_method)
+        return self._pool
 
     def render(self, scene: sc.Scene, progress: Progress | None = None) -> RenderResult:
-        """Trace the whole image; progress(bands_done, bands_total) is called as bands finish."""
-        if self.workers > 1 and self._forking:
+        """Trace the whole image; progress(bands_done, bands_total) is called as bands finish.
+
+        An exception from progress (a cancelled render) stops the frame; the pool stays usable."""
+        check_resources(scene.render, self.workers)
+        if self.workers > 1:
             self._start_pool()
             return self._submit(scene).finish(progress)
         settings = scene.render
         started = time.perf_counter()
+        tune_allocator()
+        scene_bytes = pickle.dumps(scene)
+        if self._prepared is None or self._prepared[0] != scene_bytes:
+            self._prepared = (scene_bytes, PreparedScene(scene))
+        prepared = self._prepared[1]
         image = np.empty((settings.height, settings.width, 3), dtype=settings.dtype)
         counts = RayCounts()
-        total = len(bands(settings))
-        for done, (rows, band, band_counts) in enumerate(self._bands(scene), 1):
-            image[rows] = band
+        every = bands(settings)
+        for done, rows in enumerate(every, 1):
+            image[rows], band_counts = prepared.render_rows(rows, band_samples(settings))
             counts.add(band_counts)
             if progress is not None:
-                progress(done, total)
+                progress(done, len(every))
         return RenderResult(image, counts, time.perf_counter() - started)
 
     def render_frames(self, scenes: Iterable[sc.Scene]) -> Iterator[RenderResult]:
-        """render() for each scene in turn, results in order. With forked workers the next frame's bands wait in
-        the pool's queue while the current frame finishes, so no worker idles between frames (an animation)."""
-        if self.workers <= 1 or not self._forking:
+        """render() for each scene in turn, results in order. With workers the next frame's bands wait in the
+        pool's queue while the current frame finishes, so no worker idles between frames (an animation)."""
+        if self.workers <= 1:
             for scene in scenes:
                 yield self.render(scene)
             return
@@ -211,44 +209,50 @@ class Renderer:
         pending: deque[_Frame] = deque()
         try:
             for scene in scenes:
+                check_resources(scene.render, self.workers, frames=2)
                 pending.append(self._submit(scene))
                 if len(pending) == 2:  # one frame traced, one queued: memory stays at two images
                     yield pending.popleft().finish()
             while pending:
                 yield pending.popleft().finish()
         finally:
-            for frame in pending:  # stopped early: let the workers finish with the files before they go
+            for frame in pending:  # stopped early
                 frame.abandon()
 
     def _submit(self, scene: sc.Scene) -> _Frame:
+        pool = self._start_pool()
         settings = scene.render
         shape = (settings.height, settings.width, 3)
         dtype = np.dtype(settings.dtype)
         started = time.perf_counter()
-        file = _image_file(math.prod(shape) * dtype.itemsize)
-        name, mapping = file.__enter__()
+        descriptor, image = _shared_image(shape, dtype) if self._shared else (None, np.empty(shape, dtype))
         scene_bytes = pickle.dumps(scene)
         tasks = [
-            self._pool.apply_async(_render_band, ((scene_bytes, rows, shape, dtype.str, name),))
+            (rows, pool.submit(_render_band, (scene_bytes, rows, shape, dtype.str), descriptor))
             for rows in bands(settings)
         ]
-        return _Frame(np.ndarray(shape, dtype, buffer=mapping), tasks, file, started)
+        return _Frame(pool, image, tasks, descriptor, started)
 
 
 @dataclass
 class _Frame:
-    """A frame whose bands are in the pool: its image (mapping the shared file), the bands' tasks, the file."""
+    """A frame whose bands are in the pool: its image, the bands' tasks, the shared image's descriptor."""
 
+    pool: WorkerPool
     image: np.ndarray
-    tasks: list
-    file: contextlib.AbstractContextManager
+    tasks: list[tuple[np.ndarray, Task]]
+    descriptor: int | None
     started: float
 
     def finish(self, progress: Progress | None = None) -> RenderResult:
         counts = RayCounts()
+        rows_of = {id(task): rows for rows, task in self.tasks}
         try:
-            for done, task in enumerate(self.tasks, 1):
-                counts.add(task.get()[2])
+            for done, task in enumerate(self.pool.as_completed([task for _, task in self.tasks]), 1):
+                band, band_counts = task.result
+                if band is not None:
+                    self.image[rows_of[id(task)]] = band
+                counts.add(band_counts)
                 if progress is not None:
                     progress(done, len(self.tasks))
         finally:
@@ -256,30 +260,25 @@ class _Frame:
         return RenderResult(self.image, counts, time.perf_counter() - self.started)
 
     def abandon(self) -> None:
-        for task in self.tasks:
-            task.wait(60.0)  # a band takes well under a second; never hang on a pool that is gone
-        self.file.__exit__(None, None, None)
+        """Forget the bands not yet finished (their workers may still write into the image: it is this frame's own
+        file, which goes when the last process lets go of it)."""
+        self.pool.cancel(task for _, task in self.tasks)
+        if self.descriptor is not None:
+            os.close(self.descriptor)
+            self.descriptor = None
 
 
-@contextlib.contextmanager
-def _image_file(size: int) -> Iterator[tuple[str, mmap.mmap]]:
-    """A file of size bytes in shared memory and the parent's mapping of it; the name is gone after the block (the
-    mapping lives on with the array made from it)."""
-    try:  # shared memory where it has room (a container's is often 64 MB); else the temporary folder
-        roomy = os.statvfs("/dev/shm").f_bavail * os.statvfs("/dev/shm").f_frsize > 2 * size
-    except OSError:
-        roomy = False
-    handle, name = tempfile.mkstemp(prefix="weathervane-image-", dir="/dev/shm" if roomy else None)
+def _shared_image(shape: tuple[int, int, int], dtype: np.dtype) -> tuple[int, np.ndarray]:
+    """An anonymous shared-memory file for an image (a descriptor to hand to workers) and the array mapping it."""
+    size = math.prod(shape) * dtype.itemsize
+    descriptor = os.memfd_create("weathervane-image", os.MFD_CLOEXEC)
     try:
-        if hasattr(os, "posix_fallocate"):
-            os.posix_fallocate(handle, 0, size)  # no room fails here, not as a crash when a worker writes
-        else:
-            os.ftruncate(handle, size)
-        mapping = mmap.mmap(handle, size)
-        yield name, mapping
-    finally:
-        os.close(handle)
-        os.unlink(name)
+        os.posix_fallocate(descriptor, 0, size)  # no memory fails here, not as a crash when a worker writes
+        mapping = mmap.mmap(descriptor, size)
+    except BaseException:
+        os.close(descriptor)
+        raise
+    return descriptor, np.ndarray(shape, dtype, buffer=mapping)
 
 
 def render(scene: sc.Scene, workers: int | None = None, progress: Progress | None = None) -> RenderResult:

@@ -294,13 +294,47 @@ class PreparedScene:
             t_min = 0.0 if self.robust else REFLECTION_T_MIN
         return color
 
-    def render_rows(self, rows: np.ndarray) -> tuple[np.ndarray, RayCounts]:
-        """Image rows (R,) -> (R, width, 3) linear image in the scene's dtype, and the ray counts."""
+    def render_rows(self, rows: np.ndarray, max_samples: int | None = None) -> tuple[np.ndarray, RayCounts]:
+        """Image rows (R,) -> (R, width, 3) linear image in the scene's dtype, and the ray counts.
+
+        max_samples: trace at most this many camera samples at once (memory); a larger band goes in pieces of whole
+        rows, or of a row's columns where one row is too many. Every ray is traced by the same elementwise
+        operations whatever else is in its piece, so the pixels are the same bytes either way."""
+        settings = self.scene.render
+        per_row = settings.width * settings.samples
+        if max_samples is None or len(rows) * per_row <= max_samples:
+            return self._render_piece(np.asarray(rows), None)
+        counts = RayCounts()
+        image = np.empty((len(rows), settings.width, 3), dtype=self.dtype)
+        rows_at_once = max_samples // per_row
+        if rows_at_once >= 1:
+            for first in range(0, len(rows), rows_at_once):
+                piece, piece_counts = self._render_piece(np.asarray(rows[first : first + rows_at_once]), None)
+                image[first : first + rows_at_once] = piece
+                counts.add(piece_counts)
+            return image, counts
+        columns_at_once = max(1, max_samples // settings.samples)
+        for index, row in enumerate(rows):
+            for first in range(0, settings.width, columns_at_once):
+                columns = np.arange(first, min(first + columns_at_once, settings.width))
+                piece, piece_counts = self._render_piece(np.asarray([row]), columns)
+                image[index, columns] = piece[0]
+                counts.add(piece_counts)
+        return image, counts
+
+    def _render_piece(self, rows: np.ndarray, columns: np.ndarray | None) -> tuple[np.ndarray, RayCounts]:
+        """Rows (R,) and columns (C,) of the image (every column when None) -> (R, C, 3) and the ray counts."""
         settings = self.scene.render
         counts = RayCounts()
         with quiet():  # the directions are not kept here: trace() lets them go after the first bounce
-            color = self.trace(cam.cached_band_directions(self.scene.camera, settings, rows, self.dtype), counts, rows)
-        samples = color.reshape(3, len(rows), settings.width, settings.samples)
+            if columns is None:
+                directions = cam.cached_band_directions(self.scene.camera, settings, rows, self.dtype)
+                color = self.trace(directions, counts, rows)  # whole rows: the screen rectangles cull them
+            else:
+                directions = cam.band_directions(self.scene.camera, settings, rows, columns).astype(self.dtype)
+                color = self.trace(directions, counts)
+        width = settings.width if columns is None else len(columns)
+        samples = color.reshape(3, len(rows), width, settings.samples)
         image = samples.sum(axis=3) / settings.samples if settings.samples > 1 else samples[..., 0]
         return np.ascontiguousarray(image.transpose(1, 2, 0)), counts
 

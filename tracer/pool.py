@@ -1,0 +1,244 @@
+"""Tasks -> results on worker processes that the parent watches: a worker that dies has its tasks run again.
+
+multiprocessing.Pool waits forever for the result of a worker killed by a signal (the OOM killer, kill -9), and its
+workers print KeyboardInterrupt tracebacks on Ctrl-C. This pool is small and explicit instead: each worker has a
+pipe of its own, the parent waits on every pipe and every worker's exit sentinel at once, so a death is seen as it
+happens; its tasks go back to the queue and a fresh worker takes its place. A task is a pure function of its
+arguments, so a re-run gives the same bytes. Workers ignore Ctrl-C (the parent decides), and leave quietly when the
+parent is gone (their pipe closes).
+
+A task may carry a file descriptor (the shared image of a frame, a memfd): it goes to the worker over the pipe
+(SCM_RIGHTS) right after the task, so no file name is ever made that a killed parent could leave behind.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import signal
+import traceback
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from multiprocessing import connection, reduction
+from typing import Any
+
+# Tasks sent ahead to each worker, so that it never waits for the parent between two tasks (the parent may be busy
+# elsewhere for a while, e.g. handing a finished frame to its writer).
+TASKS_AHEAD = 2
+# Times one task may be under a worker that dies before the pool gives up: a task that kills every worker it meets
+# (one that needs more memory than there is) must not restart workers forever.
+MAX_ATTEMPTS = 3
+TERMINATE_SECONDS = 2.0
+
+
+class WorkerLostError(RuntimeError):
+    """A task's workers died MAX_ATTEMPTS times (killed by a signal, out of memory, ...)."""
+
+
+class TaskFailedError(RuntimeError):
+    """A task raised in a worker; details holds the worker's traceback."""
+
+    def __init__(self, message: str, details: str) -> None:
+        super().__init__(message)
+        self.details = details
+
+
+@dataclass(eq=False)
+class Task:
+    function: Callable[..., Any]
+    args: tuple
+    descriptor: int | None = None  # a file descriptor the worker receives as the function's last argument
+    attempts: int = 0
+    done: bool = False
+    cancelled: bool = False
+    result: Any = None
+    error: BaseException | None = None
+
+    def value(self) -> Any:
+        if self.error is not None:
+            raise self.error
+        return self.result
+
+
+@dataclass(eq=False)
+class _Worker:
+    process: Any
+    conn: connection.Connection
+    tasks: deque[Task] = field(default_factory=deque)  # sent, in the order they will come back
+
+
+def _worker_main(conn: connection.Connection, inherited: list[int]) -> None:
+    for descriptor in inherited:  # a forked worker's copies of the parent's other pipes and images: let them go,
+        with contextlib.suppress(OSError):  # or a pipe would stay open after the parent dies
+            os.close(descriptor)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole process group; the parent handles it
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    while True:
+        try:
+            message = conn.recv()
+            if message is None:
+                return
+            function, args, carries_descriptor = message
+            descriptor = reduction.recv_handle(conn) if carries_descriptor else None
+        except (EOFError, OSError):  # the parent is gone
+            return
+        try:
+            result = (True, function(*args, descriptor) if carries_descriptor else function(*args))
+        except Exception as error:
+            result = (False, (f"{type(error).__name__}: {error}", traceback.format_exc()))
+        finally:
+            if descriptor is not None:
+                os.close(descriptor)
+        try:
+            conn.send(result)
+        except (OSError, ValueError):  # the parent is gone
+            return
+
+
+class WorkerPool:
+    """workers processes that run Tasks; results are collected by the parent calling wait()."""
+
+    def __init__(self, workers: int, start_method: str = "fork") -> None:
+        self.size = workers
+        self._context = multiprocessing.get_context(start_method)
+        self._workers: list[_Worker] = []
+        self._queue: deque[Task] = deque()
+        self.restarts = 0  # workers replaced after a death, over the pool's life
+        for _ in range(workers):
+            self._start_worker()
+
+    # ---- tasks -------------------------------------------------------------------------------------------------
+
+    def submit(self, function: Callable[..., Any], args: tuple, descriptor: int | None = None) -> Task:
+        """Queue function(*args) (plus descriptor, received in the worker as a descriptor of its own)."""
+        task = Task(function, args, descriptor)
+        self._queue.append(task)
+        self._dispatch()
+        return task
+
+    def cancel(self, tasks: Iterable[Task]) -> None:
+        """Forget tasks: queued ones are dropped, running ones finish and their results are thrown away."""
+        for task in tasks:
+            task.cancelled = True
+        self._queue = deque(task for task in self._queue if not task.cancelled)
+
+    def as_completed(self, tasks: list[Task]) -> Iterator[Task]:
+        """The tasks, each as it finishes (raising its error if it failed)."""
+        waiting = [task for task in tasks if not task.done]
+        for task in tasks:
+            if task.done:
+                task.value()
+                yield task
+        while waiting:
+            self._wait()
+            for task in [task for task in waiting if task.done]:
+                waiting.remove(task)
+                task.value()
+                yield task
+
+    # ---- workers -----------------------------------------------------------------------------------------------
+
+    def _start_worker(self) -> None:
+        parent_end, child_end = multiprocessing.Pipe(duplex=True)
+        inherited = []
+        if self._context.get_start_method() == "fork":
+            inherited = [w.conn.fileno() for w in self._workers] + [parent_end.fileno()]
+            inherited += [t.descriptor for t in self._queue if t.descriptor is not None]
+            inherited += [t.descriptor for w in self._workers for t in w.tasks if t.descriptor is not None]
+        process = self._context.Process(
+            target=_worker_main, args=(child_end, sorted(set(inherited))), daemon=True, name="weathervane-worker"
+        )
+        # Ctrl-C in a terminal goes to the whole process group: held back until the worker has set it to be ignored
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            process.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+        child_end.close()
+        self._workers.append(_Worker(process, parent_end))
+
+    def _dispatch(self) -> None:
+        for worker in self._workers:
+            while self._queue and len(worker.tasks) < TASKS_AHEAD:
+                task = self._queue.popleft()
+                try:
+                    worker.conn.send((task.function, task.args, task.descriptor is not None))
+                    if task.descriptor is not None:
+                        reduction.send_handle(worker.conn, task.descriptor, worker.process.pid)
+                except OSError:  # the worker died: its sentinel says so in the next wait
+                    self._queue.appendleft(task)
+                    break
+                worker.tasks.append(task)
+
+    def _wait(self) -> None:
+        """Block until a worker sends a result or dies; handle it and refill the workers."""
+        ready = connection.wait([w.conn for w in self._workers] + [w.process.sentinel for w in self._workers])
+        for worker in list(self._workers):
+            if worker.conn in ready:
+                self._receive(worker)
+        for worker in list(self._workers):
+            if worker.process.sentinel in ready and not self._has_data(worker):
+                self._replace(worker)
+        self._dispatch()
+
+    @staticmethod
+    def _has_data(worker: _Worker) -> bool:
+        try:
+            return worker.conn.poll()
+        except OSError:
+            return False
+
+    def _receive(self, worker: _Worker) -> None:
+        try:
+            ok, payload = worker.conn.recv()
+        except (EOFError, OSError):  # died: the sentinel is (or soon will be) ready
+            return
+        task = worker.tasks.popleft()
+        task.done = True
+        if ok:
+            task.result = payload
+        else:
+            summary, details = payload
+            task.error = TaskFailedError(f"a worker failed: {summary}", details)
+
+    def _replace(self, worker: _Worker) -> None:
+        """A worker exited with tasks in hand (or none): put them back, first in the queue, and start another."""
+        worker.process.join()
+        code = worker.process.exitcode
+        worker.conn.close()
+        self._workers.remove(worker)
+        for task in reversed(worker.tasks):
+            task.attempts += 1
+            if task.attempts >= MAX_ATTEMPTS:
+                how = f"killed by signal {-code}" if code is not None and code < 0 else f"exit code {code}"
+                task.done = True
+                task.error = WorkerLostError(
+                    f"a worker process died {task.attempts} times on the same part of the image ({how}); "
+                    "if the system ran out of memory, try fewer workers, --dtype float32 or a smaller image"
+                )
+            elif not task.cancelled:
+                self._queue.appendleft(task)
+        self.restarts += 1
+        self._start_worker()
+
+    def close(self) -> None:
+        """Stop every worker now (running tasks are abandoned)."""
+        workers, self._workers = self._workers, []
+        self._queue.clear()
+        for worker in workers:
+            with contextlib.suppress(OSError):
+                worker.conn.send(None)
+            if worker.process.is_alive():
+                worker.process.terminate()  # SIGTERM: a worker has no handler, so it ends without a word
+        for worker in workers:
+            worker.process.join(TERMINATE_SECONDS)
+            if worker.process.is_alive():
+                worker.process.kill()
+                worker.process.join()
+            worker.conn.close()
+
+    def pids(self) -> list[int]:
+        return [worker.process.pid for worker in self._workers]

@@ -1,0 +1,107 @@
+"""Render settings -> the memory and disk a render needs, checked before it starts (a clear refusal, not a crash).
+
+A 16384 x 16384 image in float64 is 6.4 GB before anything is traced; started on a machine without the room, it
+ends in the OOM killer or an OSError halfway. The estimate is deliberately simple and errs on the large side:
+every image held at once, each worker's band arrays (BAND_PEAK_COORDINATES per sample), and the output buffers.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from . import scene as sc
+
+# A band's arrays peak at about 35 coordinates per camera sample (measured: docs/performance.md); the worker's
+# interpreter, NumPy and prepared scene add about WORKER_BASE_BYTES.
+BAND_PEAK_COORDINATES = 40
+WORKER_BASE_BYTES = 60 << 20
+# Beyond the tracer's own estimate, room left for everything else on the machine.
+HEADROOM = 1.1
+
+
+class ResourceError(RuntimeError):
+    """Not enough memory or disk for a render; the message says what is needed and how to need less."""
+
+
+def image_bytes(settings: sc.RenderSettings) -> int:
+    return settings.width * settings.height * 3 * np.dtype(settings.dtype).itemsize
+
+
+def memory_needed(settings: sc.RenderSettings, workers: int, frames: int = 1, output: str | None = None) -> int:
+    """Bytes a render needs at its peak: frames images, each worker's band arrays, and the output's buffers
+    (output: '.png' or '.npy', the file's suffix, or None when no file is written)."""
+    from .parallel import band_samples  # parallel imports this module
+
+    itemsize = np.dtype(settings.dtype).itemsize
+    per_worker = WORKER_BASE_BYTES + band_samples(settings) * BAND_PEAK_COORDINATES * itemsize
+    pixels = settings.width * settings.height
+    writing = {".png": 2 * pixels * 3, ".npy": 0, None: 0}.get(output, 0)  # 8-bit copy and the encoded PNG
+    return frames * image_bytes(settings) + max(1, workers) * per_worker + writing
+
+
+def available_memory() -> int | None:
+    """What the kernel says can be allocated without swapping (Linux's MemAvailable), or None where unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def _size(count: int) -> str:
+    for unit, scale in (("GB", 1e9), ("MB", 1e6), ("KB", 1e3)):
+        if count >= scale:
+            return f"{count / scale:.1f} {unit}"
+    return f"{count} bytes"
+
+
+def check_resources(settings: sc.RenderSettings, workers: int, frames: int = 1, output: str | None = None) -> None:
+    """Raise ResourceError when the render cannot fit in the memory there is now."""
+    needed = memory_needed(settings, workers, frames, output)
+    available = available_memory()
+    if available is None or needed * HEADROOM <= available:
+        return
+    advice = []
+    if settings.dtype == "float64":
+        advice.append("--dtype float32")
+    if workers > 1:
+        advice.append("fewer --workers")
+    advice.append("a smaller --width/--height")
+    raise ResourceError(
+        f"a {settings.width}x{settings.height} {settings.dtype} render with {max(1, workers)} workers needs about "
+        f"{_size(needed)} of memory and {_size(available)} is available; try {', '.join(advice)}"
+    )
+
+
+def output_bytes(settings: sc.RenderSettings, suffix: str) -> int:
+    """The largest the output file can be: .npy exactly (float32), .png at most the raw 8-bit pixels plus
+    filtering bytes and headers (an incompressible image)."""
+    pixels = settings.width * settings.height
+    if suffix == ".npy":
+        return pixels * 3 * 4 + 128
+    return pixels * 3 + settings.height + 4096
+
+
+def check_disk(target: Path, needed: int) -> None:
+    """Raise ResourceError when target's folder has less than needed bytes free."""
+    folder = target.parent if str(target.parent) else Path(".")
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        return
+    if needed > free:
+        raise ResourceError(
+            f"{target}: needs up to {_size(needed)} on disk and {folder} has {_size(free)} free; free some space or "
+            "write elsewhere"
+        )
+
+
+__all__ = ["ResourceError", "available_memory", "check_disk", "check_resources", "memory_needed", "output_bytes"]
