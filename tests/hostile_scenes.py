@@ -141,11 +141,11 @@ def hostile_text(seed: int, base: dict[str, Any]) -> str:
     paths = _paths(document)
     for _ in range(rng.randint(1, 3)):
         path = rng.choice(paths)
-        holder = document
-        for step in path[:-1]:
-            holder = holder[step]
         action = rng.random()
         try:
+            holder = document
+            for step in path[:-1]:  # an earlier change may have removed or replaced this path
+                holder = holder[step]
             if action < 0.6:
                 holder[path[-1]] = rng.choice(_mutations(rng))
             elif action < 0.8 and isinstance(holder, dict):

@@ -562,7 +562,7 @@ def scene_from_dict(data: Any, source: str = "scene") -> sc.Scene:
     """Validate a parsed JSON document and build the Scene; raises SceneError listing every problem."""
     problems: list[str] = []
     top = _Reader(data, "", problems)
-    if problems:
+    if not isinstance(data, dict):
         raise SceneError(problems, source)
     top.raw("$schema", None)
     top.raw("comment", None)

@@ -177,32 +177,26 @@ class WorkerPool:
         """Block until a worker sends a result or dies; handle it and refill the workers."""
         ready = connection.wait([w.conn for w in self._workers] + [w.process.sentinel for w in self._workers])
         for worker in list(self._workers):
-            if worker.conn in ready:
-                self._receive(worker)
-        for worker in list(self._workers):
-            if worker.process.sentinel in ready and not self._has_data(worker):
+            # a dead worker's pipe reads as ready too (end of file), after any results it sent before dying
+            if (worker.conn in ready or worker.process.sentinel in ready) and not self._receive(worker):
                 self._replace(worker)
         self._dispatch()
 
-    @staticmethod
-    def _has_data(worker: _Worker) -> bool:
+    def _receive(self, worker: _Worker) -> bool:
+        """Take every result the worker has sent; False when its pipe is closed (the worker is gone)."""
         try:
-            return worker.conn.poll()
-        except OSError:
+            while worker.conn.poll():
+                ok, payload = worker.conn.recv()
+                task = worker.tasks.popleft()
+                task.done = True
+                if ok:
+                    task.result = payload
+                else:
+                    summary, details = payload
+                    task.error = TaskFailedError(f"a worker failed: {summary}", details)
+        except (EOFError, OSError):
             return False
-
-    def _receive(self, worker: _Worker) -> None:
-        try:
-            ok, payload = worker.conn.recv()
-        except (EOFError, OSError):  # died: the sentinel is (or soon will be) ready
-            return
-        task = worker.tasks.popleft()
-        task.done = True
-        if ok:
-            task.result = payload
-        else:
-            summary, details = payload
-            task.error = TaskFailedError(f"a worker failed: {summary}", details)
+        return worker.process.is_alive() or worker.process.exitcode is None
 
     def _replace(self, worker: _Worker) -> None:
         """A worker exited with tasks in hand (or none): put them back, first in the queue, and start another."""

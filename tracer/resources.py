@@ -36,8 +36,9 @@ def memory_needed(settings: sc.RenderSettings, workers: int, frames: int = 1, ou
     from .parallel import band_samples  # parallel imports this module
 
     itemsize = np.dtype(settings.dtype).itemsize
-    per_worker = WORKER_BASE_BYTES + band_samples(settings) * BAND_PEAK_COORDINATES * itemsize
     pixels = settings.width * settings.height
+    at_once = min(band_samples(settings), pixels * settings.samples)
+    per_worker = WORKER_BASE_BYTES + at_once * BAND_PEAK_COORDINATES * itemsize
     writing = {".png": 2 * pixels * 3, ".npy": 0, None: 0}.get(output, 0)  # 8-bit copy and the encoded PNG
     return frames * image_bytes(settings) + max(1, workers) * per_worker + writing
 

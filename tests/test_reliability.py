@@ -1,0 +1,274 @@
+"""Faults a render must survive: workers killed, Ctrl-C and SIGTERM, the parent killed, memory and disk limits."""
+
+from __future__ import annotations
+
+import errno
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tracer import cli, default_scene
+from tracer import resources as rs
+from tracer.images import write_image
+from tracer.parallel import Renderer, band_samples, bands, render
+from tracer.pool import MAX_ATTEMPTS, TaskFailedError, WorkerLostError, WorkerPool
+from tracer.wavefront import PreparedScene
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def children(pid: int) -> list[int]:
+    try:
+        text = Path(f"/proc/{pid}/task/{pid}/children").read_text()
+    except OSError:
+        return []
+    return [int(child) for child in text.split()]
+
+
+def alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def wait_for(condition, seconds: float) -> bool:
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.02)
+    return condition()
+
+
+# ---- the pool ----------------------------------------------------------------------------------------------------
+
+
+def test_a_worker_killed_mid_frame_has_its_bands_traced_again_and_the_image_is_the_same_bytes() -> None:
+    scene = default_scene().with_render(width=160, height=192, samples=36)
+    assert len(bands(scene.render)) >= 6  # bands left after the first finishes, some in the killed worker's hands
+    expected = render(scene, workers=1).image
+    with Renderer(2) as renderer:
+        killed: list[int] = []
+
+        def kill_one(done: int, _total: int) -> None:
+            if done == 1:
+                killed.append(renderer._pool.pids()[0])
+                os.kill(killed[0], signal.SIGKILL)
+
+        image = renderer.render(scene, kill_one).image
+        assert renderer._pool.restarts >= 1
+        assert killed[0] not in renderer._pool.pids()
+        assert np.array_equal(image, expected)
+        assert np.array_equal(renderer.render(scene).image, expected)  # the pool goes on with a fresh worker
+
+
+def _kill_myself() -> None:
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _fail() -> None:
+    raise ZeroDivisionError("a bug")
+
+
+def _square(value: int) -> int:
+    return value * value
+
+
+def test_a_task_that_kills_every_worker_stops_after_bounded_attempts_and_the_pool_stays_usable() -> None:
+    pool = WorkerPool(2)
+    try:
+        deadly = pool.submit(_kill_myself, ())
+        with pytest.raises(WorkerLostError, match=r"died 3 times .*killed by signal 9.*fewer workers"):
+            list(pool.as_completed([deadly]))
+        assert deadly.attempts == MAX_ATTEMPTS
+        assert [task.result for task in pool.as_completed([pool.submit(_square, (7,))])] == [49]
+    finally:
+        pool.close()
+
+
+def test_an_exception_in_a_worker_comes_back_as_one_line_with_the_workers_traceback_kept() -> None:
+    pool = WorkerPool(1)
+    try:
+        with pytest.raises(TaskFailedError, match=r"^a worker failed: ZeroDivisionError: a bug$") as raised:
+            list(pool.as_completed([pool.submit(_fail, ())]))
+        assert "Traceback" in raised.value.details
+        assert [task.result for task in pool.as_completed([pool.submit(_square, (3,))])] == [9]
+    finally:
+        pool.close()
+
+
+def test_a_cancelled_frame_leaves_the_pool_ready_for_the_next() -> None:
+    scene = default_scene().with_render(width=96, height=96, samples=16)
+    expected = render(scene, workers=1).image
+
+    class Cancelled(Exception):
+        pass
+
+    def cancel(_done: int, _total: int) -> None:
+        raise Cancelled
+
+    with Renderer(2) as renderer:
+        with pytest.raises(Cancelled):
+            renderer.render(scene, cancel)
+        assert np.array_equal(renderer.render(scene).image, expected)
+
+
+# ---- the command line under signals ------------------------------------------------------------------------------
+
+SLOW_RENDER = ["--width", "640", "--height", "480", "--samples", "64", "--workers", "2", "--quiet"]
+
+
+def start_render(tmp_path: Path, *flags: str) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-m", "tracer", "render", "-o", str(tmp_path / "out.png"), *flags],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group, as a shell gives a foreground job
+    )
+
+
+def workers_of(process: subprocess.Popen, settle: float = 0.5) -> list[int]:
+    """The render's worker processes, once both run (and settle seconds later, into the first bands)."""
+    assert wait_for(lambda: len(children(process.pid)) >= 2, 30.0), "the workers never started"
+    time.sleep(settle)
+    return children(process.pid)
+
+
+def test_ctrl_c_stops_a_multi_worker_render_at_once_with_one_line_and_no_traceback(tmp_path: Path) -> None:
+    process = start_render(tmp_path, *SLOW_RENDER)
+    workers = workers_of(process)
+    sent = time.monotonic()
+    os.killpg(process.pid, signal.SIGINT)  # what Ctrl-C in a terminal does: the whole foreground group
+    _out, err = process.communicate(timeout=30)
+    took = time.monotonic() - sent
+    assert process.returncode == cli.EXIT_INTERRUPTED
+    assert took < 5.0, f"took {took:.1f} s to stop"
+    assert "Traceback" not in err
+    assert [line for line in err.splitlines() if line.strip()] == ["interrupted: no image written"]
+    assert wait_for(lambda: not any(alive(pid) for pid in workers), 5.0)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_sigterm_stops_a_render_like_ctrl_c(tmp_path: Path) -> None:
+    process = start_render(tmp_path, *SLOW_RENDER)
+    workers = workers_of(process)
+    process.terminate()
+    _out, err = process.communicate(timeout=30)
+    assert process.returncode == cli.EXIT_TERMINATED
+    assert "Traceback" not in err and err.strip() == "terminated: no image written"
+    assert wait_for(lambda: not any(alive(pid) for pid in workers), 5.0)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_workers_leave_quietly_when_the_parent_is_killed_and_no_file_is_left(tmp_path: Path) -> None:
+    shared_before = set(os.listdir("/dev/shm")) if os.path.isdir("/dev/shm") else set()
+    process = start_render(tmp_path, *SLOW_RENDER)
+    workers = workers_of(process)
+    process.kill()
+    _out, err = process.communicate(timeout=30)
+    assert wait_for(lambda: not any(alive(pid) for pid in workers), 10.0), "workers outlived their parent"
+    assert "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+    if os.path.isdir("/dev/shm"):
+        assert {name for name in set(os.listdir("/dev/shm")) - shared_before if "weathervane" in name} == set()
+
+
+def test_a_worker_killed_under_the_command_line_changes_nothing(tmp_path: Path) -> None:
+    flags = ["--width", "480", "--height", "360", "--samples", "36", "--workers", "2", "--quiet"]
+    process = start_render(tmp_path, *flags)
+    os.kill(workers_of(process, settle=0.1)[0], signal.SIGKILL)
+    _out, err = process.communicate(timeout=120)
+    assert process.returncode == 0, err
+    expected = tmp_path / "expected.png"
+    assert cli.main(["render", "-o", str(expected), *flags[:-3], "--workers", "1", "--quiet"]) == 0
+    assert (tmp_path / "out.png").read_bytes() == expected.read_bytes()
+
+
+# ---- memory and disk ---------------------------------------------------------------------------------------------
+
+
+def test_every_piece_traced_stays_within_the_band_budget_at_any_sample_count(monkeypatch) -> None:
+    """Rows of many samples are traced in pieces of at most band_samples(): whole rows, or a row's columns when one
+    row is too many. The budget is made small here so that the test's frame stays cheap; the pixels are the same
+    bytes as one piece gives."""
+    scene = default_scene().with_render(width=64, height=4, samples=256, depth=1)
+    traced: list[int] = []
+    original = PreparedScene.trace
+
+    def recording(self, D, counts, rows=None):
+        traced.append(D.shape[1])
+        return original(self, D, counts, rows)
+
+    monkeypatch.setattr(PreparedScene, "trace", recording)
+    monkeypatch.setattr("tracer.parallel.BAND_BYTES", 4096 * 8)
+    image = render(scene, workers=1).image
+    assert band_samples(scene.render) == 4096 < 64 * 256  # less than one row
+    assert max(traced) <= 4096 and sum(traced) >= 64 * 4 * 256
+    monkeypatch.setattr("tracer.parallel.BAND_BYTES", 1 << 24)
+    traced.clear()
+    assert np.array_equal(render(scene, workers=1).image, image)
+    assert max(traced) == 64 * 4 * 256
+
+
+def test_a_render_that_cannot_fit_in_memory_is_refused_before_it_starts(monkeypatch, tmp_path: Path, capsys) -> None:
+    monkeypatch.setattr(rs, "available_memory", lambda: 2 * 10**9)
+    target = tmp_path / "huge.png"
+    code = cli.main(["render", "--width", "16384", "--height", "16384", "--dtype", "float64", "-o", str(target)])
+    err = capsys.readouterr().err
+    assert code == cli.EXIT_FAILED
+    assert "16384x16384 float64" in err and "2.0 GB is available" in err and "--dtype float32" in err
+    assert "Traceback" not in err and not target.exists()
+    needed = rs.memory_needed(default_scene().with_render(width=16384, height=16384).render, 2, output=".png")
+    assert needed > 16384 * 16384 * 3 * 8  # at least the image itself
+
+
+def test_an_output_larger_than_the_free_disk_is_refused(monkeypatch, tmp_path: Path) -> None:
+    monkeypatch.setattr(rs.shutil, "disk_usage", lambda _path: _Usage())
+    settings = default_scene().render  # 640x480: a .npy of 3.7 MB
+    with pytest.raises(rs.ResourceError, match=r"out\.npy: needs up to 3\.7 MB on disk and .* has 1\.0 KB free"):
+        rs.check_disk(tmp_path / "sub" / "out.npy", rs.output_bytes(settings, ".npy"))
+    rs.check_disk(tmp_path / "out.png", 900)
+
+
+class _Usage:
+    free = 1000
+
+
+def test_a_full_disk_says_so_for_the_users_path() -> None:
+    image = np.zeros((4, 4, 3))
+    with pytest.raises(OSError) as raised:
+        from tracer.images import _write_npy
+
+        _write_npy(image, Path("/dev/full"))
+    assert raised.value.errno == errno.ENOSPC
+    assert cli._write_problem(Path("out/a.npy"), raised.value) == "error: no space left on the device for out/a.npy"
+
+
+# ---- output names ------------------------------------------------------------------------------------------------
+
+
+def test_the_longest_file_name_the_system_allows_can_be_written(tmp_path: Path) -> None:
+    name = "x" * (255 - len(".png")) + ".png"
+    write_image(np.zeros((2, 2, 3)), tmp_path / name)
+    assert [path.name for path in tmp_path.iterdir()] == [name]
+
+
+def test_output_through_a_symbolic_link_replaces_what_it_points_to_and_keeps_the_link(tmp_path: Path) -> None:
+    real = tmp_path / "real.png"
+    real.write_bytes(b"old")
+    link = tmp_path / "link.png"
+    link.symlink_to(real)
+    write_image(np.ones((2, 2, 3)), link)
+    assert link.is_symlink() and link.resolve() == real
+    assert real.read_bytes().startswith(b"\x89PNG")
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["link.png", "real.png"]
