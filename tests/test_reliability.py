@@ -109,14 +109,14 @@ def test_a_cancelled_frame_leaves_the_pool_ready_for_the_next() -> None:
     scene = default_scene().with_render(width=96, height=96, samples=16)
     expected = render(scene, workers=1).image
 
-    class Cancelled(Exception):
+    class CancelledError(Exception):
         pass
 
     def cancel(_done: int, _total: int) -> None:
-        raise Cancelled
+        raise CancelledError
 
     with Renderer(2) as renderer:
-        with pytest.raises(Cancelled):
+        with pytest.raises(CancelledError):
             renderer.render(scene, cancel)
         assert np.array_equal(renderer.render(scene).image, expected)
 
