@@ -16,7 +16,7 @@ import bpy
 from mathutils import Matrix, Vector
 
 from . import camera as camera_module
-from . import lights, materials
+from . import compat, lights, materials
 from ._tracer import module
 
 COLLECTION = "Weathervane"
@@ -155,6 +155,22 @@ def clear(context) -> None:
     bpy.data.collections.remove(collection)
 
 
+def name_problems(scene) -> list[str]:
+    """One line per material or object whose Blender name (with the add-on's prefix) is longer than this Blender
+    keeps; empty when every name fits. Checked before anything is built, so a refused Build changes nothing."""
+    problems = []
+    named = [(f"materials.{name}", materials.material_name(name)) for name in scene.materials]
+    named += [(f"objects[{i}].name", f"WV {obj.name}") for i, obj in enumerate(scene.objects)]
+    for field, blender_name in named:
+        size = len(blender_name.encode("utf-8"))
+        if size > compat.MAX_NAME_BYTES:
+            problems.append(
+                f"{field}: the name is {size} bytes in Blender (with its 'WV ' prefix), Blender "
+                f"{'.'.join(map(str, compat.VERSION[:2]))} keeps at most {compat.MAX_NAME_BYTES}: shorten it"
+            )
+    return problems
+
+
 def build(context, scene) -> bpy.types.Collection:
     """Build a tracer Scene into the add-on's collection (replacing only it) and fill the panel's settings."""
     clear(context)
@@ -162,8 +178,9 @@ def build(context, scene) -> bpy.types.Collection:
     transforms = module("transforms")
     settings = context.scene.weathervane
     ambient = sum(light.intensity for light in scene.lights if type(light).__name__ == "AmbientLight")
+    made_materials = {}
     for name, material in scene.materials.items():
-        materials.ensure_material(
+        made_materials[name] = materials.ensure_material(
             name,
             material.color,
             material.specular,
@@ -192,7 +209,7 @@ def build(context, scene) -> bpy.types.Collection:
         world = transforms.world_primitive(obj, None)
         mesh = primitive_mesh(scene, obj, world)
         blender_object = bpy.data.objects.new(f"WV {obj.name}", mesh)
-        blender_object.data.materials.append(bpy.data.materials[materials.material_name(obj.material)])
+        blender_object.data.materials.append(made_materials[obj.material])
         collection.objects.link(blender_object)
         rotation, location = transforms.object_frame(obj, still.vane)
         blender_object.matrix_world = Matrix.Translation(location) @ Matrix(rotation).to_4x4()
@@ -266,8 +283,6 @@ def _fill_settings(context, scene) -> None:
 
 def _key_wind(blender_scene, wind, fps: float) -> None:
     """Keyed winds from a file become keyframes on the wind properties, as an artist would set them."""
-    from . import compat
-
     keys = sorted(wind.keys, key=lambda key: key.time)
     frames = [1.0 + key.time * fps for key in keys]
     unwrapped = [keys[0].direction]

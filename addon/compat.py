@@ -10,6 +10,9 @@ from __future__ import annotations
 import bpy
 
 VERSION = bpy.app.version
+# The longest data-block name in bytes (UTF-8): 63 until Blender 5.0 raised it to 255. A longer name is cut
+# silently, so a name looked up again after creation would not be found.
+MAX_NAME_BYTES = 255 if VERSION >= (5, 0, 0) else 63
 
 
 def fcurves_of(owner: bpy.types.ID) -> list:

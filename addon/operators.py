@@ -41,6 +41,11 @@ class WEATHERVANE_OT_build(bpy.types.Operator):
             for problem in error.problems[:8]:
                 self.report({"ERROR"}, f"{error.source}: {problem}")
             return {"CANCELLED"}
+        problems = build.name_problems(scene)
+        if problems:
+            for problem in problems[:8]:
+                self.report({"ERROR"}, f"{path or 'default scene'}: {problem}")
+            return {"CANCELLED"}
         build.build(context, scene)
         self.report({"INFO"}, f"Built {len(scene.objects)} parts in the '{build.COLLECTION}' collection")
         return {"FINISHED"}

@@ -44,13 +44,16 @@ def test_frames_show_the_vane_at_the_simulated_headings(tmp_path: Path) -> None:
 def test_resumes_and_overwrites_on_request(tmp_path: Path) -> None:
     out = tmp_path / "frames"
     assert run("-o", str(out), "--frames", "2-4", *SMALL).returncode == 0
+    kept = (out / "frame_0004.png").read_bytes()
     (out / "frame_0003.png").unlink()
-    (out / "frame_0004.png").write_bytes(b"kept")
+    (out / "frame_0002.png").write_bytes(b"not a frame")  # damaged: rendered again, not trusted
     result = run("-o", str(out), "--frames", "2-4", "--width", "32", "--height", "24")
-    assert "1 rendered, 2 already there" in result.stdout
-    assert (out / "frame_0004.png").read_bytes() == b"kept" and (out / "frame_0003.png").exists()
+    assert "2 rendered, 1 already there" in result.stdout
+    assert (out / "frame_0004.png").read_bytes() == kept and (out / "frame_0003.png").exists()
+    assert (out / "frame_0002.png").read_bytes().startswith(b"\x89PNG")
+    before = (out / "frame_0004.png").stat().st_mtime_ns
     assert run("-o", str(out), "--frames", "2-4", "--overwrite", *SMALL).returncode == 0
-    assert (out / "frame_0004.png").read_bytes() != b"kept"
+    assert (out / "frame_0004.png").stat().st_mtime_ns != before
 
 
 def test_bad_frames_and_scenes_without_a_vane(tmp_path: Path) -> None:

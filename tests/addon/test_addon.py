@@ -63,6 +63,29 @@ def test_a_bad_scene_file_is_refused_and_builds_nothing(tmp_path: Path) -> None:
     assert bpy.data.collections.get(build.COLLECTION) is None
 
 
+def _renamed_material(document: dict, new: str) -> dict:
+    old = document["objects"][0]["material"]
+    document["materials"][new] = document["materials"].pop(old)
+    for obj in document["objects"]:
+        if obj["material"] == old:
+            obj["material"] = new
+    return document
+
+
+def test_names_longer_than_blender_keeps_are_refused_before_anything_changes(tmp_path: Path) -> None:
+    built()
+    before = sorted(obj.name for obj in bpy.data.objects)
+    long_name = "m" * (compat.MAX_NAME_BYTES - 2)  # with "WV " one byte too many
+    path = tmp_path / "long.json"
+    path.write_text(json.dumps(_renamed_material(default_scene_dict(), long_name)))
+    expected = f"materials.{long_name}: the name is {compat.MAX_NAME_BYTES + 1} bytes in Blender"
+    with pytest.raises(RuntimeError, match=expected):
+        bpy.ops.weathervane.build(filepath=str(path))
+    assert sorted(obj.name for obj in bpy.data.objects) == before  # the earlier build is untouched
+    path.write_text(json.dumps(_renamed_material(default_scene_dict(), long_name[:-1])))  # fits exactly
+    assert bpy.ops.weathervane.build(filepath=str(path)) == {"FINISHED"}
+
+
 def _world_vertices(obj: bpy.types.Object) -> np.ndarray:
     return np.array([tuple(obj.matrix_world @ vertex.co) for vertex in obj.data.vertices])
 
