@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
 SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
-.PHONY: demo test test-slow lint bench docs study addon system-deps clean
+.PHONY: demo test test-slow lint bench bench-reliability docs study addon system-deps clean
 
 $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found; install Python 3.11" >&2; exit 1; }
@@ -46,6 +46,9 @@ test-slow: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_tracer.py
+
+bench-reliability: $(STAMP)
+	$(BIN)/python scripts/bench_reliability.py --repeats 3
 
 docs: $(STAMP)
 	$(BIN)/python scripts/plot_step_response.py
