@@ -57,9 +57,13 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             if self.test_break():
                 raise RenderCancelledError
 
+        pool, resources = module("pool"), module("resources")
         try:
             result = _renderer(scene.render.workers).render(scene, progress)
         except RenderCancelledError:
+            return
+        except (resources.ResourceError, pool.WorkerLostError, pool.TaskFailedError) as error:
+            self.report({"ERROR"}, str(error))  # not enough memory, workers lost: one line, the pool stays usable
             return
         image = np.flipud(result.image).astype(np.float32)  # Blender's rows go bottom-up
         rgba = np.concatenate((image, np.ones((height, width, 1), dtype=np.float32)), axis=2).reshape(-1, 4)

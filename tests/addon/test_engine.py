@@ -6,6 +6,7 @@ from pathlib import Path
 
 import bpy
 import numpy as np
+import pytest
 
 from tracer.loader import default_scene
 from tracer.parallel import render
@@ -49,3 +50,21 @@ def test_engine_follows_the_baked_motion(tmp_path: Path) -> None:
         image.pixels.foreach_get(pixels)
         images.append(pixels)
     assert np.abs(images[0] - images[1]).max() > 0.1  # the vane turned between the frames
+
+
+def test_a_render_too_large_for_memory_is_reported_in_one_line_not_raised(tmp_path: Path, monkeypatch) -> None:
+    from addon._tracer import module
+
+    monkeypatch.setattr(module("resources"), "available_memory", lambda: 10**6)  # 1 MB free
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    scene = bpy.context.scene
+    scene.render.engine = "WEATHERVANE_TRACER"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+    scene.render.filepath = str(tmp_path / "engine.png")
+    with pytest.raises(RuntimeError, match=r"needs about .* of memory and 1\.0 MB is available; try"):
+        bpy.ops.render.render(write_still=True)  # Blender turns the engine's ERROR report into the operator's
+    assert not (tmp_path / "engine.png").exists()
+    monkeypatch.undo()
+    scene.render.filepath = str(tmp_path / "after.png")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}  # the engine still renders
+    assert (tmp_path / "after.png").exists()
