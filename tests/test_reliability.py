@@ -159,6 +159,30 @@ def test_ctrl_c_stops_a_multi_worker_render_at_once_with_one_line_and_no_traceba
     assert list(tmp_path.iterdir()) == []
 
 
+ANIMATION = ["--width", "640", "--height", "480", "--workers", "2", "--quiet"]  # about 10 frames a second
+
+
+def test_ctrl_c_stops_a_multi_worker_animation_at_once_keeping_whole_frames(tmp_path: Path) -> None:
+    process = subprocess.Popen(
+        [sys.executable, "-m", "tracer", "animate", "-o", str(tmp_path), "--frames", "1-400", *ANIMATION],
+        cwd=ROOT,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    workers = workers_of(process, settle=1.5)
+    os.killpg(process.pid, signal.SIGINT)
+    _out, err = process.communicate(timeout=30)
+    assert process.returncode == cli.EXIT_INTERRUPTED
+    assert "Traceback" not in err and [line for line in err.splitlines() if line.strip()] == [
+        "interrupted: finished frames stay"
+    ]
+    assert wait_for(lambda: not any(alive(pid) for pid in workers), 5.0)
+    names = sorted(path.name for path in tmp_path.iterdir())
+    assert all(name.startswith("frame_") and name.endswith(".png") for name in names), names  # no temporaries
+    assert 0 < len(names) < 400
+
+
 def test_sigterm_stops_a_render_like_ctrl_c(tmp_path: Path) -> None:
     process = start_render(tmp_path, *SLOW_RENDER)
     workers = workers_of(process)

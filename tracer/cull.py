@@ -195,7 +195,8 @@ class ScreenRectangles:
         """location (3,): the camera's position as the tracer holds it; boxes: kernel indices (k,) with their boxes
         lower, upper (k, 3). None where a box reaches behind the camera, or a pixel is too fine for the dtype."""
         kernels, lower, upper = boxes
-        x, y, depth = cam.to_pixels(camera, settings, _corners(lower, upper), location)  # (k, 8) each
+        with np.errstate(divide="ignore", invalid="ignore"):  # a corner on the camera's plane: refused just below
+            x, y, depth = cam.to_pixels(camera, settings, _corners(lower, upper), location)  # (k, 8) each
         nearest = float(depth.min())
         reach = float(max(np.abs(lower).max(), np.abs(upper).max(), np.abs(location).max()))
         if nearest <= DEPTH_MARGIN * reach:
