@@ -14,7 +14,7 @@ from . import scene as sc
 from .animate import DEFAULT_TOLERANCE, animate, write_gif
 from .images import SUFFIXES, write_image
 from .loader import SceneError, check_samples, default_scene, load_scene
-from .parallel import Renderer
+from .parallel import Renderer, worker_count
 from .pool import TaskFailedError, WorkerLostError
 from .progress import ProgressBar
 from .resources import ResourceError, check_disk, check_resources, output_bytes
@@ -247,7 +247,7 @@ def run_animate(args: argparse.Namespace) -> int:
     first, last = args.frames
     fps = args.fps or (scene.motion.fps if scene.motion else 24.0)
     progress = ProgressBar("frames", enabled=None if not args.quiet else False)
-    check_resources(scene.render, Renderer(scene.render.workers).workers, frames=3, output=".png")
+    check_resources(scene.render, worker_count(scene.render.workers), frames=3, output=".png")
     try:
         result = animate(
             scene, args.output, first, last, fps=fps, overwrite=args.overwrite, srgb=args.srgb, progress=progress

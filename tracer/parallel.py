@@ -45,6 +45,11 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
+def worker_count(requested: int) -> int:
+    """The processes a render uses for a requested count (0: all cores)."""
+    return requested if requested > 0 else default_workers()
+
+
 def band_samples(settings: sc.RenderSettings) -> int:
     """The most camera samples traced at once: about BAND_BYTES / itemsize (LARGE_IMAGE_BAND_BYTES for an image of
     more than LARGE_IMAGE_BYTES). A band of more samples (a block of rows at many samples per pixel) is traced in
@@ -151,7 +156,7 @@ class Renderer:
     """
 
     def __init__(self, workers: int = 0) -> None:
-        self.workers = workers if workers > 0 else default_workers()
+        self.workers = worker_count(workers)
         self._pool: WorkerPool | None = None
         self._prepared: tuple[bytes, PreparedScene] | None = None
         self._start_method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
