@@ -104,9 +104,15 @@ class PreparedScene:
 
     # ---- intersection ------------------------------------------------------------------------------------------
 
-    def normals(self, P: np.ndarray, obj: np.ndarray, part: np.ndarray) -> np.ndarray:
-        """Unit normals (3, N) at hit points P (3, N) on objects obj (N,)."""
+    def normals(
+        self, P: np.ndarray, obj: np.ndarray, part: np.ndarray
+    ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+        """Unit normals (3, N) at hit points P (3, N) on objects obj (N,), and in robust numerics what
+        offset_origins() needs (else None): each point's signed distance (N,) from its surface along the normal, and
+        its primitive's rounding magnitude (N,)."""
         N = np.empty_like(P)
+        if self.robust:
+            distance, scale = np.empty(P.shape[1], dtype=self.dtype), np.empty(P.shape[1], dtype=self.dtype)
         # a stable sort of 8- or 16-bit keys is NumPy's radix sort: about twice as fast as on int32 here
         key = np.uint8 if len(self.kernels) <= 256 else np.uint16 if len(self.kernels) <= 65536 else obj.dtype
         order = np.argsort(obj.astype(key), kind="stable")
@@ -121,15 +127,27 @@ class PreparedScene:
                     unit = kernel.unit_normal(take(P, rows), part.take(rows))
                 for axis in range(3):
                     N[axis].put(rows, unit[axis])
+                if self.robust:
+                    along, rounding = kernel.surface(take(P, rows), part.take(rows))
+                    distance.put(rows, along)
+                    scale.put(rows, rounding)
                 start += size
-        return N
+        return N, ((distance, scale) if self.robust else None)
 
     # ---- shading -----------------------------------------------------------------------------------------------
 
     def find_intensity(
-        self, P: np.ndarray, N: np.ndarray, V: np.ndarray, specular: np.ndarray, counts: RayCounts
+        self,
+        P: np.ndarray,
+        N: np.ndarray,
+        V: np.ndarray,
+        specular: np.ndarray,
+        counts: RayCounts,
+        surface: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> np.ndarray:
         """Listing 3.2 for every hit point at once: P, N, V (3, n), specular (n,) -> intensity (n,).
+
+        surface: robust numerics' (distance, scale) (n,) of each point, as normals() gives them.
 
         The shadow rays of all lights go through the hierarchy in one batch; the terms are then added light by
         light in the listing's order."""
@@ -165,7 +183,7 @@ class PreparedScene:
             diffuse_gate = NL > 0.0
             needed = indices(diffuse_gate | gate)
             terms.append((L, NL, length_l, diffuse_gate, gate, cosine, needed))
-        lit = self._lit([term for term in terms if term is not None], P, N, counts)
+        lit = self._lit([term for term in terms if term is not None], P, N, counts, surface)
         intensity = np.zeros(count, dtype=self.dtype)
         shadow_rays = iter(lit)
         for light, term in zip(self.lights, terms, strict=True):
@@ -181,11 +199,18 @@ class PreparedScene:
             intensity = np.where(gate, intensity + highlight, intensity)
         return intensity
 
-    def _lit(self, terms: list[tuple], P: np.ndarray, N: np.ndarray, counts: RayCounts) -> list[np.ndarray]:
+    def _lit(
+        self,
+        terms: list[tuple],
+        P: np.ndarray,
+        N: np.ndarray,
+        counts: RayCounts,
+        surface: tuple[np.ndarray, np.ndarray] | None,
+    ) -> list[np.ndarray]:
         """One any-hit query for the shadow rays of every light: which points (n,) each light reaches.
 
-        Robust numerics start each shadow ray just off the surface, on the light's side, and search t from 0; the
-        documented ones start on the surface and search t from 0.001 (listing 3.2)."""
+        Robust numerics start each shadow ray just off the surface (offset_origins), on the light's side, and search
+        t from 0; the documented ones start on the surface and search t from 0.001 (listing 3.2)."""
         lights = [light for light in self.lights if light.kind != "ambient"]
         t_min = 0.0 if self.robust else SHADOW_T_MIN
         shadows, origins, vectors, limits, bits = [], [], [], [], []
@@ -193,7 +218,7 @@ class PreparedScene:
             vector = take(L, needed)  # a directional light's vector stays a shared column
             origin = take(P, needed)
             if self.robust:
-                origin = offset_origins(origin, take(N, needed), vector)
+                origin = offset_origins(origin, take(N, needed), vector, *(part.take(needed) for part in surface))
                 if light.kind == "point":
                     vector = light.vector - origin  # t = 1 is still exactly the light
             counts.shadow += needed.size
@@ -276,8 +301,8 @@ class PreparedScene:
             P = O + D * t
             V = -D
             O = D = t = None  # memory: a band's peak comes in the shading below
-            N = self.normals(P, obj, part)
-            intensity = self.find_intensity(P, N, V, self.specular.take(obj), counts)
+            N, surface = self.normals(P, obj, part)
+            intensity = self.find_intensity(P, N, V, self.specular.take(obj), counts, surface)
             reflective = self.reflective.take(obj)
             local = (intensity * (1.0 - reflective)) * self.colors.take(obj, axis=1)
             _accumulate(color, pixel, weight * local, bounce == 0)
@@ -288,7 +313,7 @@ class PreparedScene:
             k = 2.0 * dot(N, V)
             O, D = P, N * k - V
             if self.robust:
-                O = offset_origins(P, N, D)
+                O = offset_origins(P, N, D, *(part.take(go_on) for part in surface))
             weight, pixel = weight.take(go_on) * reflective.take(go_on), pixel.take(go_on)
             counts.reflection += D.shape[1]
             t_min = 0.0 if self.robust else REFLECTION_T_MIN
