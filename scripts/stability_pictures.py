@@ -1,4 +1,5 @@
-"""The stability cases -> pictures for docs/stability.md: acne and leaks per mode, Phong's cut-off, faceting.
+"""The stability cases -> pictures for docs/stability.md: acne and leaks per mode, the per-primitive size and position
+sweep (chart and JSON), Phong's cut-off, faceting.
 
 Usage: python scripts/stability_pictures.py [--out docs/stability]
 """
@@ -113,6 +114,58 @@ def faceting_chart(target: Path) -> None:
     print(f"wrote {target}")
 
 
+def sweep_chart(target: Path, table: Path) -> None:
+    """tests/stability_sweep.py in both modes: wrong pixels against each primitive's size, one panel per primitive."""
+    import json
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tests import stability_sweep as sweep
+
+    rows = []
+    for cell in sweep.cells():
+        for numerics in ("documented", "robust"):
+            acne, leaks, decided = sweep.wrong_pixels(cell, numerics)
+            rows.append({**cell.__dict__, "numerics": numerics, "acne": acne, "leaks": leaks, "decided": decided})
+    figure, axes = plt.subplots(1, len(sweep.KINDS), figsize=(12, 3.6), dpi=110, sharey=True)
+    for axis, kind in zip(axes, sweep.KINDS, strict=True):
+        for layout in sweep.LAYOUTS:
+            for position in sweep.POSITIONS:
+                for dtype in ("float64", "float32"):
+                    line = [
+                        (row["size"], 100.0 * (row["acne"] + row["leaks"]) / max(row["decided"], 1))
+                        for row in rows
+                        if (row["kind"], row["layout"], row["position"], row["dtype"], row["numerics"])
+                        == (kind, layout, position, dtype, "documented")
+                    ]
+                    if line:
+                        sizes, wrong = zip(*line, strict=True)
+                        style = "-" if dtype == "float64" else "--"
+                        marker = "o" if position == 0.0 else "s"
+                        axis.plot(
+                            sizes,
+                            wrong,
+                            style,
+                            marker=marker,
+                            markersize=3,
+                            label=f"{layout}, at {position:g}, {dtype}",
+                        )
+        robust = sum(row["acne"] + row["leaks"] for row in rows if row["kind"] == kind and row["numerics"] == "robust")
+        axis.set(xscale="log", xlabel="primitive size (m)", title=f"{kind} (robust: {robust} wrong)")
+    axes[0].set_ylabel("documented mode: wrong pixels (%)")
+    axes[0].legend(fontsize=6)
+    figure.tight_layout()
+    with atomic_path(target) as temporary:
+        figure.savefig(temporary, format="png")
+    print(f"wrote {target}")
+    with atomic_path(table) as temporary:
+        temporary.write_text(json.dumps(rows, indent=1) + "\n")
+    print(f"wrote {table}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "stability")
@@ -130,6 +183,7 @@ def main() -> None:
         args.out / "phong-cutoff.png",
     )
     faceting_chart(args.out / "faceting.png")
+    sweep_chart(args.out / "primitive-sweep.png", args.out / "primitive-sweep.json")
 
 
 if __name__ == "__main__":
