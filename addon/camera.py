@@ -1,10 +1,13 @@
-"""The tracer's camera -> a Blender camera object, and back: the models are the same (lens, sensor, fit)."""
+"""The tracer's camera -> a Blender camera object, and back: the models are the same (lens, sensor, fit, shift,
+perspective or orthographic, clipping); what the tracer cannot express is named by unsupported()."""
 
 from __future__ import annotations
 
 import math
 
 import bpy
+
+DEFAULT_CLIP = (0.01, 1000.0)  # metres: a built camera's clip_start and clip_end where the scene file has none
 
 
 def create(camera, collection, name: str = "WV Camera"):
@@ -14,8 +17,13 @@ def create(camera, collection, name: str = "WV Camera"):
     data.sensor_width = camera.sensor_width
     data.sensor_height = camera.sensor_height
     data.sensor_fit = camera.sensor_fit
-    data.clip_start = 0.01
-    data.clip_end = 1000.0
+    data.type = camera.type
+    data.ortho_scale = camera.ortho_scale
+    data.shift_x, data.shift_y = camera.shift_x, camera.shift_y
+    # Blender needs a positive near plane and a finite far one (and a depth buffer that resolves the viewport):
+    # where the scene file has none, Blender's usual 1 cm and 1 km, which export then writes
+    data.clip_start = camera.clip_start if camera.clip_start > 0.0 else DEFAULT_CLIP[0]
+    data.clip_end = camera.clip_end if camera.clip_end is not None else max(DEFAULT_CLIP[1], 2.0 * data.clip_start)
     obj = bpy.data.objects.new(name, data)
     obj.location = camera.location
     obj.rotation_euler = [math.radians(angle) for angle in camera.rotation]
@@ -27,11 +35,50 @@ def to_tracer(obj) -> dict:
     """A camera object -> the scene file's camera section (world transform, Euler XYZ degrees)."""
     location, rotation, _ = obj.matrix_world.decompose()
     euler = rotation.to_euler("XYZ")
+    data = obj.data
     return {
         "location": list(location),
         "rotation": [math.degrees(angle) for angle in euler],
-        "lens": obj.data.lens,
-        "sensor_width": obj.data.sensor_width,
-        "sensor_height": obj.data.sensor_height,
-        "sensor_fit": obj.data.sensor_fit,
+        "lens": data.lens,
+        "sensor_width": data.sensor_width,
+        "sensor_height": data.sensor_height,
+        "sensor_fit": data.sensor_fit,
+        "type": "ORTHO" if data.type == "ORTHO" else "PERSP",
+        "ortho_scale": data.ortho_scale,
+        "shift_x": data.shift_x,
+        "shift_y": data.shift_y,
+        "clip_start": data.clip_start,
+        "clip_end": data.clip_end,
     }
+
+
+def _moves(obj) -> bool:
+    """Whether an object or any of its parents is animated or constrained (its world transform can change)."""
+    while obj is not None:
+        animation = obj.animation_data
+        if (animation is not None and (animation.action is not None or animation.drivers)) or obj.constraints:
+            return True
+        obj = obj.parent
+    return False
+
+
+def unsupported(blender_scene, exporting: bool = True) -> list[str]:
+    """What of the scene's camera and render settings the tracer does not render, one short phrase each.
+
+    exporting: a moving camera counts (a scene file holds one camera; the render engine renders each frame's)."""
+    obj = blender_scene.camera
+    problems = []
+    if obj is not None:
+        data = obj.data
+        if data.type == "PANO":
+            problems.append("panoramic camera (rendered as perspective)")
+        if data.dof.use_dof:
+            problems.append("depth of field (rendered sharp)")
+        if exporting and _moves(obj):
+            problems.append(f"moving camera (exported as at frame {blender_scene.frame_current})")
+    render = blender_scene.render
+    if render.use_motion_blur:
+        problems.append("motion blur")
+    if render.use_border:
+        problems.append("render border (the whole frame is rendered)")
+    return problems

@@ -11,6 +11,7 @@ import json
 import bpy
 import numpy as np
 
+from . import camera
 from ._tracer import module
 
 
@@ -50,6 +51,9 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             self.report({"ERROR"}, "; ".join(error.problems[:4]))
             return
         width, height = scene.render.width, scene.render.height
+        left_out = camera.unsupported(blender_scene, exporting=False)
+        if left_out:
+            self.report({"WARNING"}, f"Weathervane Tracer does not render: {', '.join(left_out)}")
 
         def progress(done: int, total: int) -> None:
             self.update_progress(done / total)

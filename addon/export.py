@@ -136,6 +136,7 @@ def scene_document(context, depsgraph=None, blender_scene=None) -> dict:
             "coef": settings.coef,
             "samples": int(settings.samples),
             "workers": settings.workers,
+            "pixel_aspect": [render.pixel_aspect_x, render.pixel_aspect_y],
         },
     }
     if blender_scene.camera is not None:

@@ -9,7 +9,7 @@ import bpy
 from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
-from . import animation, build, lights
+from . import animation, build, camera, lights
 from ._tracer import module
 
 
@@ -95,7 +95,11 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
         target = Path(self.filepath)
         with module("images").atomic_path(target) as temporary:
             temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
-        self.report({"INFO"}, f"Wrote {target}")
+        left_out = camera.unsupported(context.scene)
+        if left_out:
+            self.report({"WARNING"}, f"Wrote {target}; the tracer does not render: {', '.join(left_out)}")
+        else:
+            self.report({"INFO"}, f"Wrote {target}")
         return {"FINISHED"}
 
 

@@ -4,20 +4,29 @@ from __future__ import annotations
 
 import math
 import random
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from tracer import camera as cam
 from tracer import scene as sc
+from tracer import transforms as tf
+from tracer.loader import default_scene
 from tracer.parallel import render
+from tracer.reference import render_reference
 
 
-def blender_world_to_camera_view(camera: sc.Camera, width: int, height: int, point: sc.Vec3) -> tuple[float, float]:
+def blender_world_to_camera_view(
+    camera: sc.Camera, width: int, height: int, point: sc.Vec3, pixel_aspect: tuple[float, float] = (1.0, 1.0)
+) -> tuple[float, float]:
     """bpy_extras.object_utils.world_to_camera_view, written out: normalised (x, y) with (0, 0) bottom-left.
 
-    Blender's view frame: the sensor side chosen by sensor_fit (AUTO: the wider image side takes sensor_width;
-    HORIZONTAL: sensor_width across; VERTICAL: sensor_height up) spans the image at distance lens.
+    Blender's view frame (BKE_camera_params_compute_viewplane): the sensor side chosen by sensor_fit (AUTO: the
+    wider side of the image times the pixel aspect takes sensor_width; HORIZONTAL: sensor_width across; VERTICAL:
+    sensor_height up), or ortho_scale for an orthographic camera, spans the image at distance lens (at any depth
+    for ORTHO); the frame is moved by shift times that side. The same check against Blender itself is in
+    tests/addon/test_addon.py.
     """
     rx, ry, rz = (math.radians(a) for a in camera.rotation)
 
@@ -34,20 +43,25 @@ def blender_world_to_camera_view(camera: sc.Camera, width: int, height: int, poi
     rotation = rot_z(rz) @ rot_y(ry) @ rot_x(rx)
     local = rotation.T @ (np.asarray(point) - np.asarray(camera.location))
     z = -local[2]
+    ycor = pixel_aspect[1] / pixel_aspect[0]
     fit = camera.sensor_fit
     if fit == "AUTO":
-        fit = "HORIZONTAL" if width >= height else "VERTICAL"
+        fit = "HORIZONTAL" if pixel_aspect[0] * width >= pixel_aspect[1] * height else "VERTICAL"
         sensor = camera.sensor_width
     else:
         sensor = camera.sensor_width if fit == "HORIZONTAL" else camera.sensor_height
+    # the frame at unit depth (perspective) or in metres (orthographic)
+    side = camera.ortho_scale if camera.type == "ORTHO" else sensor / camera.lens
     if fit == "HORIZONTAL":
-        half_x = sensor / 2 / camera.lens
-        half_y = half_x * height / width
+        half_x = side / 2
+        half_y = half_x * ycor * height / width
     else:
-        half_y = sensor / 2 / camera.lens
-        half_x = half_y * width / height
-    x = (local[0] / z + half_x) / (2 * half_x)
-    y = (local[1] / z + half_y) / (2 * half_y)
+        half_y = side / 2
+        half_x = half_y * width / (ycor * height)
+    centre_x, centre_y = camera.shift_x * side, camera.shift_y * side
+    u, v = (local[0], local[1]) if camera.type == "ORTHO" else (local[0] / z, local[1] / z)
+    x = (u - centre_x + half_x) / (2 * half_x)
+    y = (v - centre_y + half_y) / (2 * half_y)
     return x, y
 
 
@@ -59,18 +73,89 @@ CAMERAS = [
 ]
 
 
-@pytest.mark.parametrize(("camera", "width", "height"), CAMERAS)
-def test_pixel_centre_rays_project_back_onto_their_pixels(camera: sc.Camera, width: int, height: int) -> None:
-    settings = sc.RenderSettings(width=width, height=height)
+# shift, orthographic, pixel aspect and clipping: (camera, width, height, pixel aspect)
+MORE_CAMERAS = [
+    (sc.Camera(location=(1, -8, 2), rotation=(85, 3, -10), lens=35, shift_x=0.2, shift_y=-0.15), 64, 48, (1, 1)),
+    (sc.Camera(location=(2, -6, 3), rotation=(70, 0, 20), type="ORTHO", ortho_scale=5.0), 64, 48, (1, 1)),
+    (sc.Camera(location=(2, -6, 3), rotation=(70, 0, 20), type="ORTHO", ortho_scale=4, shift_x=-0.3), 30, 50, (1, 1)),
+    (sc.Camera(location=(0, -5, 1), rotation=(95, 0, 0), lens=24, clip_start=0.5, clip_end=30.0), 40, 30, (1, 2)),
+    (sc.Camera(rotation=(63.6, 0, 46.7), sensor_fit="VERTICAL", shift_y=0.4), 50, 40, (3, 1)),
+    (sc.Camera(type="ORTHO", ortho_scale=9, clip_start=1.0, clip_end=12.0, sensor_fit="HORIZONTAL"), 40, 60, (2, 1)),
+]
+ALL_CAMERAS = [(camera, width, height, (1, 1)) for camera, width, height in CAMERAS] + MORE_CAMERAS
+
+
+@pytest.mark.parametrize(("camera", "width", "height", "aspect"), ALL_CAMERAS)
+def test_pixel_centre_rays_project_back_onto_their_pixels(camera: sc.Camera, width: int, height: int, aspect) -> None:
+    settings = sc.RenderSettings(width=width, height=height, pixel_aspect=aspect)
     rng = random.Random(width)
     for _ in range(50):
         i, j = rng.randrange(width), rng.randrange(height)
-        direction = cam.primary_direction(camera, settings, i + 0.5, j + 0.5)
-        point = tuple(camera.location[k] + 7.0 * direction[k] for k in range(3))
-        x, y = blender_world_to_camera_view(camera, width, height, point)
+        origin, direction, _ = cam.primary_ray(camera, settings, i + 0.5, j + 0.5)
+        point = tuple(origin[k] + 7.0 * direction[k] for k in range(3))
+        x, y = blender_world_to_camera_view(camera, width, height, point, aspect)
         # Blender's normalised coordinates: pixel column x * width, row from the top (1 - y) * height
         assert x * width == pytest.approx(i + 0.5, abs=1e-9)
         assert (1 - y) * height == pytest.approx(j + 0.5, abs=1e-9)
+
+
+@pytest.mark.parametrize(("camera", "width", "height", "aspect"), MORE_CAMERAS)
+def test_camera_rays_start_and_stop_on_the_clip_planes(camera: sc.Camera, width: int, height: int, aspect) -> None:
+    settings = sc.RenderSettings(width=width, height=height, pixel_aspect=aspect)
+    forward = -np.asarray(tf.euler_xyz_matrix(camera.rotation))[:, 2]
+    for i, j in ((0, 0), (width - 1, height - 1), (width // 2, height // 3)):
+        origin, direction, t_max = cam.primary_ray(camera, settings, i + 0.5, j + 0.5)
+        depth = float(np.dot(np.subtract(origin, camera.location), forward))
+        assert depth == pytest.approx(camera.clip_start, abs=1e-12)
+        if camera.clip_end is None:
+            assert t_max == math.inf
+        else:
+            end = np.add(origin, np.multiply(direction, t_max))
+            assert float(np.dot(end - camera.location, forward)) == pytest.approx(camera.clip_end, rel=1e-12)
+    # the band's rays are the scalar ones, bit for bit
+    rows = np.arange(height)
+    directions = cam.band_directions(camera, settings, rows)
+    origins, far = cam.band_starts(camera, settings, rows, None, directions)
+    for k in (0, directions.shape[1] // 2, directions.shape[1] - 1):
+        origin, direction, t_max = cam.primary_ray(camera, settings, k % width + 0.5, k // width + 0.5)
+        assert tuple(directions[:, k]) == direction and tuple(origins[:, k]) == origin
+        assert (far is None and t_max == math.inf) or far[k] == t_max
+
+
+def test_clipping_hides_what_lies_before_clip_start_and_beyond_clip_end() -> None:
+    # a small sphere 2 m ahead and a wall 20 m ahead, seen by a camera clipped to (3, 15), (1, 30) and (3, 30)
+    def rendered(clip_start: float, clip_end: float | None) -> set[str]:
+        scene = sc.Scene(
+            materials={"near": sc.Material(color=(1, 0, 0)), "far": sc.Material(color=(0, 0, 1))},
+            objects=(
+                sc.Sphere(name="near", material="near", location=(0, 2, 0), radius=0.3),
+                sc.Plane(name="far", material="far", location=(0, 20, 0), rotation=(90, 0, 0)),
+            ),
+            lights=(sc.AmbientLight(1.0),),
+            camera=sc.Camera(location=(0, 0, 0), rotation=(90, 0, 0), clip_start=clip_start, clip_end=clip_end),
+            background=sc.Background(type="solid", color=(0, 1, 0)),
+            render=sc.RenderSettings(width=16, height=12, depth=0),
+        )
+        centre = render(scene, workers=1).image[6, 8]
+        corner = render(scene, workers=1).image[0, 0]
+        names = {(1, 0, 0): "near", (0, 0, 1): "far", (0, 1, 0): "sky"}
+        return {names[tuple(int(c) for c in centre)], names[tuple(int(c) for c in corner)]}
+
+    assert rendered(0.0, None) == {"near", "far"}
+    assert rendered(3.0, None) == {"far"}
+    assert rendered(1.0, 15.0) == {"near", "sky"}
+    assert rendered(3.0, 15.0) == {"sky"}
+
+
+@pytest.mark.parametrize(("camera", "width", "height", "aspect"), MORE_CAMERAS)
+@pytest.mark.parametrize("samples", [1, 4])
+def test_more_cameras_match_the_per_pixel_reference(
+    camera: sc.Camera, width: int, height: int, aspect, samples
+) -> None:
+    scene = replace(default_scene(), camera=replace(camera, location=(4.6, -5.4, 3.3), rotation=(79.92, 0, 39.81)))
+    scene = scene.with_render(width=width // 2, height=height // 2, pixel_aspect=aspect, samples=samples)
+    expected = np.asarray(render_reference(scene))
+    np.testing.assert_allclose(render(scene, workers=1).image, expected, rtol=0, atol=1e-9)
 
 
 @pytest.mark.parametrize(("camera", "width", "height"), CAMERAS)

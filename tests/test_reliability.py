@@ -229,9 +229,9 @@ def test_every_piece_traced_stays_within_the_band_budget_at_any_sample_count(mon
     traced: list[int] = []
     original = PreparedScene.trace
 
-    def recording(self, D, counts, rows=None):
+    def recording(self, D, counts, *rest):
         traced.append(D.shape[1])
-        return original(self, D, counts, rows)
+        return original(self, D, counts, *rest)
 
     monkeypatch.setattr(PreparedScene, "trace", recording)
     monkeypatch.setattr("tracer.parallel.BAND_BYTES", 4096 * 8)

@@ -1,8 +1,12 @@
 """Blender's camera model -> primary rays, one pixel sample at a time or a band of rows at once.
 
 Pixel (column i, row j) counts from the top-left corner, as images are stored; its centre is (i + 0.5, j + 0.5).
-A camera-space point on the sensor plane at distance lens is ((x / W - 0.5) * sensor_x, (0.5 - y / H) * sensor_y,
--lens), with the sensor sides fitted to the image as Blender does (sensor_fit AUTO, HORIZONTAL or VERTICAL).
+Image position (x, y) maps to the view plane point (cx, cy) = ((x / W - 0.5) * extent_x + shift_x * side,
+(0.5 - y / H) * extent_y + shift_y * side), the extents fitted to the image as Blender's viewplane does
+(sensor_fit AUTO, HORIZONTAL or VERTICAL, decided on the image's size times the pixel aspect; side: the fitted
+extent). A perspective camera's plane is the sensor at distance lens (millimetres) and its rays leave the camera
+through (cx, cy, -lens); an orthographic one's plane is ortho_scale metres across and its rays leave the plane's
+points along -Z. Camera rays start on the clip_start plane and end on the clip_end plane, as in Cycles.
 Samples per pixel form a stratified n x n grid, each jittered by a counter-based hash of (seed, pixel, sample),
 so any band of any worker draws the same positions; one sample per pixel sits on the pixel centre.
 """
@@ -20,17 +24,37 @@ from . import transforms as tf
 MASK64 = (1 << 64) - 1
 
 
-def sensor_size(camera: sc.Camera, width: int, height: int) -> tuple[float, float]:
-    """The sensor's (x, y) extent in millimetres that maps onto the image, as Blender fits it."""
+def view_extent(camera: sc.Camera, settings: sc.RenderSettings) -> tuple[float, float, float]:
+    """The view plane's (x extent, y extent, fitted side) as Blender's viewplane fits it to the image: millimetres
+    at distance lens for a perspective camera, metres for an orthographic one."""
+    return _fitted(camera, settings.width, settings.height, settings.pixel_aspect)
+
+
+def _fitted(
+    camera: sc.Camera, width: int, height: int, pixel_aspect: tuple[float, float] = (1.0, 1.0)
+) -> tuple[float, float, float]:
+    aspect_x, aspect_y = pixel_aspect
+    ycor = aspect_y / aspect_x  # Blender's ycor: a pixel's height over its width
     fit = camera.sensor_fit
-    if fit == "AUTO":
-        fit = "HORIZONTAL" if width >= height else "VERTICAL"
-        side = camera.sensor_width
+    if camera.type == "ORTHO":
+        side = camera.ortho_scale
+    elif fit == "VERTICAL":
+        side = camera.sensor_height
     else:
-        side = camera.sensor_width if fit == "HORIZONTAL" else camera.sensor_height
+        side = camera.sensor_width  # AUTO takes the width whichever way it fits, as Blender does
+    if fit == "AUTO":
+        fit = "HORIZONTAL" if aspect_x * width >= aspect_y * height else "VERTICAL"
     if fit == "HORIZONTAL":
-        return side, side * height / width
-    return side * width / height, side
+        return side, side * ycor * height / width, side
+    return side * width / (ycor * height), side, side
+
+
+def sensor_size(
+    camera: sc.Camera, width: int, height: int, pixel_aspect: tuple[float, float] = (1.0, 1.0)
+) -> tuple[float, float]:
+    """The view plane's (x, y) extent that maps onto the image, as Blender fits it."""
+    extent_x, extent_y, _ = _fitted(camera, width, height, pixel_aspect)
+    return extent_x, extent_y
 
 
 def _mix64(key: int) -> int:
@@ -76,13 +100,21 @@ def sample_position(settings: sc.RenderSettings, i: int, j: int, s: int) -> tupl
     return x, y
 
 
+def _view_point(camera: sc.Camera, settings: sc.RenderSettings, x, y):
+    """Image positions x, y in pixels (floats or arrays) -> view plane coordinates cx, cy, lens shift included."""
+    extent_x, extent_y, side = view_extent(camera, settings)
+    cx = (x / settings.width - 0.5) * extent_x + camera.shift_x * side
+    cy = (0.5 - y / settings.height) * extent_y + camera.shift_y * side
+    return cx, cy
+
+
 def primary_direction(camera: sc.Camera, settings: sc.RenderSettings, x: float, y: float) -> sc.Vec3:
     """Unit world direction of the camera ray through image position (x, y) in pixels; Python floats."""
-    sensor_x, sensor_y = sensor_size(camera, settings.width, settings.height)
-    cx = (x / settings.width - 0.5) * sensor_x
-    cy = (0.5 - y / settings.height) * sensor_y
-    cz = -camera.lens
     r = tf.euler_xyz_matrix(camera.rotation)
+    if camera.type == "ORTHO":
+        return -r[0][2], -r[1][2], -r[2][2]
+    cx, cy = _view_point(camera, settings, x, y)
+    cz = -camera.lens
     wx = r[0][0] * cx + r[0][1] * cy + r[0][2] * cz
     wy = r[1][0] * cx + r[1][1] * cy + r[1][2] * cz
     wz = r[2][0] * cx + r[2][1] * cy + r[2][2] * cz
@@ -90,14 +122,31 @@ def primary_direction(camera: sc.Camera, settings: sc.RenderSettings, x: float, 
     return wx / size, wy / size, wz / size
 
 
-def band_directions(
-    camera: sc.Camera, settings: sc.RenderSettings, rows: np.ndarray, columns: np.ndarray | None = None
-) -> np.ndarray:
-    """Unit directions (3, N) float64 of every sample of the given image rows (R,) and columns (C,; every column
-    when None), ordered row, column, sample.
+def primary_ray(camera: sc.Camera, settings: sc.RenderSettings, x: float, y: float) -> tuple[sc.Vec3, sc.Vec3, float]:
+    """The camera ray through image position (x, y): (origin, unit direction, t_max), Python floats.
 
-    The same operations in the same order as primary_direction, so each ray is bit-identical to the scalar one.
-    """
+    It starts on the clip_start plane and ends on the clip_end plane (t_max infinite without one); with neither
+    and a perspective camera (the documented camera) the origin is the camera's location exactly."""
+    D = primary_direction(camera, settings, x, y)
+    r = tf.euler_xyz_matrix(camera.rotation)
+    start = camera.location
+    if camera.type == "ORTHO":
+        depth_per_t = 1.0
+        cx, cy = _view_point(camera, settings, x, y)
+        start = tuple(camera.location[k] + r[k][0] * cx + r[k][1] * cy for k in range(3))
+    else:  # how much deeper in front of the camera a unit step along the ray goes
+        depth_per_t = -(r[0][2] * D[0] + r[1][2] * D[1] + r[2][2] * D[2])
+    if camera.clip_start:
+        start = tuple(start[k] + D[k] * (camera.clip_start / depth_per_t) for k in range(3))
+    t_max = math.inf if camera.clip_end is None else (camera.clip_end - camera.clip_start) / depth_per_t
+    return start, D, t_max
+
+
+def _band_positions(
+    settings: sc.RenderSettings, rows: np.ndarray, columns: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Image positions x, y (N,) of every sample of the given rows and columns, ordered row, column, sample: the
+    same operations as sample_position."""
     width, samples = settings.width, settings.samples
     n = math.isqrt(samples)
     rows = np.asarray(rows, dtype=np.int64)
@@ -108,17 +157,27 @@ def band_directions(
     i = np.broadcast_to(columns[None, :, None], shape).ravel()
     s = np.broadcast_to(sample[None, None, :], shape).ravel()
     if n == 1:
-        x = i + 0.5
-        y = j + 0.5
-    else:
-        index = (j * width + i) * samples + s
-        x = i + ((s % n) + jitter_array(settings.seed, index, 0)) / n
-        y = j + ((s // n) + jitter_array(settings.seed, index, 1)) / n
-    sensor_x, sensor_y = sensor_size(camera, settings.width, settings.height)
-    cx = (x / settings.width - 0.5) * sensor_x
-    cy = (0.5 - y / settings.height) * sensor_y
-    cz = -camera.lens
+        return i + 0.5, j + 0.5
+    index = (j * width + i) * samples + s
+    x = i + ((s % n) + jitter_array(settings.seed, index, 0)) / n
+    y = j + ((s // n) + jitter_array(settings.seed, index, 1)) / n
+    return x, y
+
+
+def band_directions(
+    camera: sc.Camera, settings: sc.RenderSettings, rows: np.ndarray, columns: np.ndarray | None = None
+) -> np.ndarray:
+    """Unit directions (3, N) float64 of every sample of the given image rows (R,) and columns (C,; every column
+    when None), ordered row, column, sample.
+
+    The same operations in the same order as primary_direction, so each ray is bit-identical to the scalar one.
+    """
+    x, y = _band_positions(settings, rows, columns)
     r = tf.euler_xyz_matrix(camera.rotation)
+    if camera.type == "ORTHO":
+        return np.repeat(np.asarray([[-r[0][2]], [-r[1][2]], [-r[2][2]]]), x.size, axis=1)
+    cx, cy = _view_point(camera, settings, x, y)
+    cz = -camera.lens
     wx = r[0][0] * cx + r[0][1] * cy + r[0][2] * cz
     wy = r[1][0] * cx + r[1][1] * cy + r[1][2] * cz
     wz = r[2][0] * cx + r[2][1] * cy + r[2][2] * cz
@@ -126,23 +185,58 @@ def band_directions(
     return np.stack((wx / size, wy / size, wz / size))
 
 
+def shares_origin(camera: sc.Camera) -> bool:
+    """Whether every camera ray starts at the camera's location and has no far limit (the documented camera)."""
+    return camera.type == "PERSP" and not camera.clip_start and camera.clip_end is None
+
+
+def band_starts(
+    camera: sc.Camera,
+    settings: sc.RenderSettings,
+    rows: np.ndarray,
+    columns: np.ndarray | None,
+    directions: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Where the camera rays of band_directions(rows, columns) start and stop, as primary_ray computes them:
+    origins (3, N) float64 and t_max (N,), or None where there is no far limit. directions: those rays (3, N)."""
+    r = tf.euler_xyz_matrix(camera.rotation)
+    D = np.asarray(directions, dtype=np.float64)
+    if camera.type == "ORTHO":
+        depth_per_t = 1.0
+        cx, cy = _view_point(camera, settings, *_band_positions(settings, rows, columns))
+        start = np.stack([camera.location[k] + r[k][0] * cx + r[k][1] * cy for k in range(3)])
+    else:
+        depth_per_t = -(r[0][2] * D[0] + r[1][2] * D[1] + r[2][2] * D[2])
+        start = np.broadcast_to(np.asarray(camera.location, dtype=np.float64).reshape(3, 1), D.shape)
+    if camera.clip_start:
+        start = start + D * (camera.clip_start / depth_per_t)
+    if camera.clip_end is None:
+        return start, None
+    return start, np.broadcast_to((camera.clip_end - camera.clip_start) / depth_per_t, (D.shape[1],))
+
+
 def to_pixels(
     camera: sc.Camera, settings: sc.RenderSettings, points: np.ndarray, location: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World points (..., 3) -> image position x, y (...) in pixels from the top-left corner and depth (...) in
-    front of the camera: primary_direction's inverse. location (3,): the camera's position as the tracer holds it."""
+    front of the camera: the camera rays' inverse. location (3,): the camera's position as the tracer holds it."""
     local = (points - location) @ np.asarray(tf.euler_xyz_matrix(camera.rotation))  # the camera's axes
     depth = -local[..., 2]
-    sensor_x, sensor_y = sensor_size(camera, settings.width, settings.height)
-    x = (camera.lens * local[..., 0] / depth / sensor_x + 0.5) * settings.width
-    y = (0.5 - camera.lens * local[..., 1] / depth / sensor_y) * settings.height
+    extent_x, extent_y, side = view_extent(camera, settings)
+    if camera.type == "ORTHO":
+        cx, cy = local[..., 0], local[..., 1]
+    else:
+        cx, cy = camera.lens * local[..., 0] / depth, camera.lens * local[..., 1] / depth
+    x = ((cx - camera.shift_x * side) / extent_x + 0.5) * settings.width
+    y = (0.5 - (cy - camera.shift_y * side) / extent_y) * settings.height
     return x, y, depth
 
 
 def pixel_footprint(camera: sc.Camera, settings: sc.RenderSettings, depth: float) -> float:
     """The world size of one pixel at a depth in front of the camera (the smaller side, for any sensor fit)."""
-    sensor_x, sensor_y = sensor_size(camera, settings.width, settings.height)
-    return depth * min(sensor_x / settings.width, sensor_y / settings.height) / camera.lens
+    extent_x, extent_y, _ = view_extent(camera, settings)
+    across = min(extent_x / settings.width, extent_y / settings.height)
+    return across if camera.type == "ORTHO" else depth * across / camera.lens
 
 
 _BAND_CACHE: OrderedDict[tuple, np.ndarray] = OrderedDict()
@@ -164,6 +258,7 @@ def cached_band_directions(
         settings.height,
         settings.samples,
         settings.seed,
+        settings.pixel_aspect,
         np.dtype(dtype).str,
         rows.tobytes(),
     )

@@ -26,6 +26,8 @@ INTENSITY_MAX = 1e6
 SPECULAR_MAX = 1e6  # the specular exponent (and coef times it)
 LENS_RANGE = (1e-3, 1e6)  # millimetres: lens and sensor sizes
 FOV_RANGE = (1e-3, 179.0)  # degrees
+SHIFT_LIMIT = 10.0  # Blender's lens shift range, in units of the fitted sensor side
+PIXEL_ASPECT_RANGE = (1.0, 200.0)  # Blender's pixel_aspect_x and _y
 SHOWN_CHARACTERS = 60  # a value in a message is cut to about this many characters
 
 
@@ -378,6 +380,17 @@ def _camera(reader: _Reader | None) -> sc.Camera:
         # Blender's camera.angle: the fitted sensor side (height for VERTICAL, width otherwise) spans fov.
         sensor = sensor_height if sensor_fit == "VERTICAL" else sensor_width
         lens = sensor / 2.0 / math.tan(math.radians(fov) / 2.0)
+    if reader.data.get("type") == "PANO":
+        reader.raw("type")
+        reader.fail("type", 'panoramic cameras are not supported: use "PERSP" or "ORTHO"')
+        kind = base.type
+    else:
+        kind = reader.choice("type", sc.CAMERA_TYPES, base.type)
+    shift = {"low": -SHIFT_LIMIT, "high": SHIFT_LIMIT}
+    clip_start = reader.number("clip_start", base.clip_start, low=0.0, high=LENGTH_RANGE[1])
+    clip_end = reader.number("clip_end", None, low=0.0, low_open=True, high=LENGTH_RANGE[1])
+    if isinstance(clip_end, float) and isinstance(clip_start, float) and clip_end <= clip_start:
+        reader.fail("clip_end", f"must be greater than clip_start ({_show(clip_start)}), got {_show(clip_end)}")
     camera = sc.Camera(
         location=reader.position("location", base.location),
         rotation=reader.angles("rotation", base.rotation),
@@ -385,6 +398,12 @@ def _camera(reader: _Reader | None) -> sc.Camera:
         sensor_width=sensor_width,
         sensor_height=sensor_height,
         sensor_fit=sensor_fit,
+        type=kind,
+        ortho_scale=reader.length("ortho_scale", base.ortho_scale),
+        shift_x=reader.number("shift_x", base.shift_x, **shift),
+        shift_y=reader.number("shift_y", base.shift_y, **shift),
+        clip_start=clip_start,
+        clip_end=clip_end,
     )
     reader.finish()
     return camera
@@ -420,6 +439,9 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         seed=reader.number("seed", base.seed, low=0, high=2**32 - 1, integer=True),
         gate_specular=reader.boolean("gate_specular", base.gate_specular),
         numerics=reader.choice("numerics", sc.NUMERICS, base.numerics),
+        pixel_aspect=reader.vector(
+            "pixel_aspect", base.pixel_aspect, length=2, low=PIXEL_ASPECT_RANGE[0], high=PIXEL_ASPECT_RANGE[1]
+        ),
     )
     raw_samples = reader.data.get("samples")
     if isinstance(raw_samples, int) and not isinstance(raw_samples, bool) and 1 <= raw_samples <= 1024:

@@ -232,9 +232,9 @@ class ReferenceTracer:
         total = [0.0, 0.0, 0.0]
         for s in range(self.settings.samples):
             x, y = cam.sample_position(self.settings, i, j, s)
-            D = cam.primary_direction(self.scene.camera, self.settings, x, y)
+            O, D, t_max = cam.primary_ray(self.scene.camera, self.settings, x, y)
             self.rays["camera"] += 1
-            color = self.trace_ray(self.scene.camera.location, D, CAMERA_T_MIN, INF, self.settings.depth)
+            color = self.trace_ray(O, D, CAMERA_T_MIN, t_max, self.settings.depth)
             total = [total[0] + color[0], total[1] + color[1], total[2] + color[2]]
         n = self.settings.samples
         return (total[0] / n, total[1] / n, total[2] / n)

@@ -17,6 +17,7 @@ Color = tuple[float, float, float]
 MODELS = ("phong", "blinn-phong")
 BACKGROUNDS = ("solid", "sky", "documented", "none")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
+CAMERA_TYPES = ("PERSP", "ORTHO")
 DTYPES = ("float32", "float64")
 NUMERICS = ("documented", "robust")
 
@@ -111,7 +112,12 @@ Light = AmbientLight | PointLight | DirectionalLight
 
 @dataclass(frozen=True)
 class Camera:
-    """Blender's camera: looks along its local -Z with local +Y up; lens and sensor in millimetres."""
+    """Blender's camera: looks along its local -Z with local +Y up; lens and sensor in millimetres.
+
+    type ORTHO: parallel rays from a view ortho_scale metres across (the fitted side), lens unused. shift_x, shift_y:
+    Blender's lens shift, in units of the fitted side. clip_start, clip_end: camera rays start at the plane
+    clip_start metres in front of the camera and stop at clip_end (planes, as Cycles does; None: no far limit);
+    the documented camera has neither (rays from the camera itself, t from 0 to infinity)."""
 
     location: Vec3 = (7.36, -6.93, 4.96)
     rotation: Vec3 = (63.6, 0.0, 46.7)
@@ -119,6 +125,12 @@ class Camera:
     sensor_width: float = 36.0
     sensor_height: float = 24.0
     sensor_fit: Literal["AUTO", "HORIZONTAL", "VERTICAL"] = "AUTO"
+    type: Literal["PERSP", "ORTHO"] = "PERSP"
+    ortho_scale: float = 6.0
+    shift_x: float = 0.0
+    shift_y: float = 0.0
+    clip_start: float = 0.0
+    clip_end: float | None = None
 
 
 @dataclass(frozen=True)
@@ -164,6 +176,7 @@ class RenderSettings:
     seed: int = 0
     gate_specular: bool = False
     numerics: Literal["documented", "robust"] = "documented"  # tracer/robust.py
+    pixel_aspect: tuple[float, float] = (1.0, 1.0)  # Blender's pixel_aspect_x, pixel_aspect_y
 
 
 @dataclass(frozen=True)

@@ -274,21 +274,32 @@ class PreparedScene:
 
     # ---- TraceRay as a wavefront -------------------------------------------------------------------------------
 
-    def trace(self, D: np.ndarray, counts: RayCounts, rows: np.ndarray | None = None) -> np.ndarray:
-        """Camera rays (3, N) from the camera -> linear colors (3, N), unclamped.
+    def trace(
+        self,
+        D: np.ndarray,
+        counts: RayCounts,
+        rows: np.ndarray | None = None,
+        origins: np.ndarray | None = None,
+        far: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Camera rays (3, N) -> linear colors (3, N), unclamped.
 
-        rows: the image rows (R,) that the rays are, ordered as camera.band_directions gives them, if they are."""
+        rows: the image rows (R,) that the rays are, ordered as camera.band_directions gives them, if they are.
+        origins (3, N): where each ray starts (None: all at the camera); far (N,): where each stops (None: never),
+        as camera.band_starts gives them for a clipped or orthographic camera."""
         depth = self.scene.render.depth
         total = D.shape[1]
         counts.camera += total
         color = np.zeros((3, total), dtype=self.dtype)
         weight = np.ones(total, dtype=self.dtype)
         pixel = np.arange(total)
-        O = self.origin  # (3, 1): every camera ray starts at the camera
+        O = self.origin if origins is None else origins  # (3, 1): every camera ray starts at the camera
         t_min = CAMERA_T_MIN
         for bounce in range(depth + 1):
             sets = self.screen.rays(rows) if bounce == 0 and rows is not None and self.screen is not None else None
             t, obj, part = self.hierarchy.closest(O, D, t_min, sets)
+            if bounce == 0 and far is not None:  # beyond the camera's clip_end: the nearest hit is, so all are
+                obj[t >= far] = -1
             miss = indices(obj < 0)
             if miss.size:
                 sky = weight.take(miss) * self.background(take(D, miss))
@@ -351,13 +362,18 @@ class PreparedScene:
         """Rows (R,) and columns (C,) of the image (every column when None) -> (R, C, 3) and the ray counts."""
         settings = self.scene.render
         counts = RayCounts()
+        camera = self.scene.camera
         with quiet():  # the directions are not kept here: trace() lets them go after the first bounce
             if columns is None:
-                directions = cam.cached_band_directions(self.scene.camera, settings, rows, self.dtype)
-                color = self.trace(directions, counts, rows)  # whole rows: the screen rectangles cull them
+                directions = cam.cached_band_directions(camera, settings, rows, self.dtype)
             else:
-                directions = cam.band_directions(self.scene.camera, settings, rows, columns).astype(self.dtype)
-                color = self.trace(directions, counts)
+                directions = cam.band_directions(camera, settings, rows, columns).astype(self.dtype)
+            origins = far = None
+            if not cam.shares_origin(camera):
+                origins, far = cam.band_starts(camera, settings, rows, columns, directions)
+                origins = origins.astype(self.dtype)
+            # whole rows: the screen rectangles cull them
+            color = self.trace(directions, counts, rows if columns is None else None, origins, far)
         width = settings.width if columns is None else len(columns)
         samples = color.reshape(3, len(rows), width, settings.samples)
         image = samples.sum(axis=3) / settings.samples if settings.samples > 1 else samples[..., 0]

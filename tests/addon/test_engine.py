@@ -68,3 +68,42 @@ def test_a_render_too_large_for_memory_is_reported_in_one_line_not_raised(tmp_pa
     scene.render.filepath = str(tmp_path / "after.png")
     assert bpy.ops.render.render(write_still=True) == {"FINISHED"}  # the engine still renders
     assert (tmp_path / "after.png").exists()
+
+
+def test_engine_renders_blenders_orthographic_shifted_clipped_camera(
+    tmp_path: Path, capfd: pytest.CaptureFixture
+) -> None:
+    import json
+    from dataclasses import replace
+
+    from tracer.loader import scene_from_dict
+
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    scene = bpy.context.scene
+    camera = scene.camera.data
+    camera.type, camera.ortho_scale, camera.shift_x = "ORTHO", 7.0, 0.1
+    camera.clip_start, camera.clip_end = 2.0, 9.0  # the far end of the ground is clipped away
+    camera.dof.use_dof = True
+    scene.render.engine = "WEATHERVANE_TRACER"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 48, 32, 100
+    scene.render.pixel_aspect_x = 2.0
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.filepath = str(tmp_path / "engine.exr")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    lines = [line for line in capfd.readouterr().out.splitlines() if "does not render" in line]
+    assert len(lines) == 1 and "depth of field" in lines[0]
+    image = bpy.data.images.load(str(tmp_path / "engine.exr"))
+    pixels = np.empty(48 * 32 * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    rendered = np.flipud(pixels.reshape(32, 48, 4))[..., :3]
+    assert bpy.ops.weathervane.export(filepath=str(tmp_path / "scene.json")) == {"FINISHED"}
+    exported = scene_from_dict(json.loads((tmp_path / "scene.json").read_text()))
+    assert (exported.camera.type, exported.render.pixel_aspect) == ("ORTHO", (2.0, 1.0))
+    expected = render(exported, workers=1).image
+    assert np.abs(rendered - expected).max() < 1e-4
+    # the clip planes and the orthographic view both changed the picture
+    unclipped = replace(exported, camera=replace(exported.camera, clip_start=0.0, clip_end=None))
+    assert (np.abs(render(unclipped, workers=1).image - expected).max(axis=2) > 0.05).mean() > 0.05
+    perspective = render(default_scene().with_render(width=48, height=32), workers=1).image
+    assert not np.allclose(rendered, perspective, atol=1e-3)
