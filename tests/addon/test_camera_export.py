@@ -99,3 +99,19 @@ def test_export_names_what_the_tracer_does_not_render(tmp_path: Path, capfd: pyt
     assert unsupported(scene)[0] == "panoramic camera (rendered as perspective)"
     assert bpy.ops.weathervane.export(filepath=str(path)) == {"FINISHED"}
     assert json.loads(path.read_text())["camera"]["type"] == "PERSP"
+
+
+def test_a_scene_files_camera_builds_and_exports_unchanged(tmp_path: Path) -> None:
+    from tracer.loader import default_scene_dict
+
+    document = default_scene_dict()
+    camera = {"type": "ORTHO", "ortho_scale": 8.5, "shift_x": 0.25, "shift_y": -0.1, "clip_start": 0.3, "clip_end": 60}
+    document["camera"].update(camera)
+    path = tmp_path / "ortho.json"
+    path.write_text(json.dumps(document))
+    assert bpy.ops.weathervane.build(filepath=str(path)) == {"FINISHED"}
+    data = bpy.context.scene.camera.data
+    assert (data.type, data.shift_x, data.shift_y) == ("ORTHO", pytest.approx(0.25), pytest.approx(-0.1))
+    again = exported(tmp_path).camera
+    for name, value in camera.items():
+        assert getattr(again, name) == (value if isinstance(value, str) else pytest.approx(value, rel=1e-6))
