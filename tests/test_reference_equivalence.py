@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
+from tests import cgfs_peer
 from tests.random_scenes import random_scene_document
 from tracer.loader import default_scene, scene_from_dict
 from tracer.parallel import render
@@ -117,3 +120,18 @@ def test_large_mesh_split_into_clusters_matches_reference() -> None:
     scene = replace(base, objects=(base.objects[0], mesh), vane=None).with_render(width=40, height=30)
     assert len(faces) > 16 * 4
     np.testing.assert_allclose(render(scene, workers=1).image, np.asarray(render_reference(scene)), rtol=0, atol=1e-9)
+
+
+def test_the_books_tracer_with_the_documented_conventions_is_the_tracer() -> None:
+    # docs/algorithm.md: Gambetta's CGFS tracer, written from the book, with its four differing conventions switched
+    size = 40
+    tracer_image = np.clip(render(cgfs_peer.as_scene(size), workers=1).image, 0.0, 1.0)
+    np.testing.assert_allclose(cgfs_peer.render(size, cgfs_peer.DOCUMENTED), tracer_image, rtol=0, atol=1e-9)
+    book = cgfs_peer.render(size, cgfs_peer.BOOK)
+    changed = {}
+    for name in ("weighted_last_bounce", "reflection_epsilon", "unit_camera_rays", "pixel_centres"):
+        one = cgfs_peer.render(size, replace(cgfs_peer.BOOK, **{name: True}))
+        changed[name] = float((np.abs(one - book).max(axis=2) > 1 / 255).mean())
+    # as the doc's table says: the weighting and the pixel centres change the picture, unit camera rays do not
+    assert changed["weighted_last_bounce"] > 0.02 and changed["pixel_centres"] > 0.1
+    assert changed["unit_camera_rays"] == 0.0
