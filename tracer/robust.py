@@ -13,12 +13,13 @@ textbook quadratic, Moller-Trumbore). Each fixes one way the documented numerics
 - secondary rays (after Pharr, Jakob and Humphreys, Physically Based Rendering, "Managing Rounding Error"): each
   hit point is first put back onto its primitive's surface along the normal (the primitive's own signed distance),
   then pushed off it, to the side the ray leaves from, by a bound on the rounding of that primitive's own test:
-  OFFSET_EPSILONS units of the dtype's epsilon times the largest magnitude the test works with (the primitive's
-  coordinates and size, and the point's). From there the primitive's test decides the origin's side correctly, so
-  a ray leaving a surface cannot meet it again at t near 0, at any size or distance from the world origin; t is
-  then searched from 0. The documented mode's fixed epsilons (0.001, 0.01) are too large at small scales (light
-  leaks) and too small at large ones (shadow acne); an offset from the hit point's magnitude alone misses the
-  rounding of a large primitive's own test (c = |O - C|^2 - R^2 rounds at ULP(R^2)).
+  OFFSET_EPSILONS units of the dtype's epsilon times the largest magnitude the test subtracts (a sphere's radius,
+  a cylinder's radius + height, a plane's or triangle's coordinates) or the point's own. From there the
+  primitive's test decides the origin's side correctly, so a ray leaving a surface cannot meet it again at t near
+  0, at any size or distance from the world origin; t is then searched from 0. The documented mode's fixed
+  epsilons (0.001, 0.01) are too large at small scales (light leaks) and too small at large ones (shadow acne); an
+  offset from the hit point's magnitude alone misses the rounding of a large primitive's own test
+  (c = |O - C|^2 - R^2 rounds at ULP(R^2)).
 """
 
 from __future__ import annotations
@@ -141,9 +142,8 @@ class WatertightTrianglesKernel(TrianglesKernel):
         self.scales = np.abs(np.asarray(mesh.triangles, dtype=np.float64)).max(axis=(1, 2)).astype(dtype)  # (T,)
 
     def surface(self, P, part):
-        return dot(self.unit_normals.take(part, axis=1), P - self.v0[:, :, 0].take(part, axis=1)), self.scales.take(
-            part
-        )
+        corner = self.v0[:, :, 0].take(part, axis=1)  # each point's triangle's first vertex (3, n)
+        return dot(self.unit_normals.take(part, axis=1), P - corner), self.scales.take(part)
 
     CHUNK = 4096  # rays per pass: the test holds (3 vertices, 3 axes, rays, triangles) arrays
 
