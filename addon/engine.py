@@ -20,6 +20,7 @@ class RenderCancelledError(Exception):
 
 
 _renderers: dict[int, object] = {}  # one worker pool per worker count, kept across frames of an animation
+_turning: dict[int, object] = {}  # per pool: the last scene's pixels that the vane can change (tracer/incremental.py)
 
 
 def _renderer(workers: int):
@@ -32,6 +33,7 @@ def close_renderers() -> None:
     for renderer in _renderers.values():
         renderer.close()
     _renderers.clear()
+    _turning.clear()
 
 
 class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
@@ -63,7 +65,9 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
 
         pool, resources = module("pool"), module("resources")
         try:
-            result = _renderer(scene.render.workers).render(scene, progress)
+            workers = scene.render.workers
+            turning = _turning.setdefault(workers, module("incremental").TurningFrames())
+            result = turning.render(_renderer(workers), scene, progress)
         except RenderCancelledError:
             return
         except (resources.ResourceError, pool.WorkerLostError, pool.TaskFailedError) as error:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import time
+from collections import deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
@@ -17,9 +18,10 @@ import numpy as np
 
 from . import scene as sc
 from .images import atomic_path, write_image
+from .incremental import render_frames as incremental_frames
 from .keyframes import DEFAULT_TOLERANCE, reduce_keys
 from .motion import Motion, iter_headings
-from .parallel import Renderer
+from .parallel import Renderer, RenderResult
 from .wavefront import RayCounts
 
 FrameProgress = Callable[[int, int], None]
@@ -80,8 +82,12 @@ def animate(
     overwrite: bool = False,
     srgb: bool = False,
     progress: FrameProgress | None = None,
+    incremental: bool = True,
 ) -> AnimationResult:
-    """Render frames first..last (inclusive, 1-based) into folder; returns what was rendered and skipped."""
+    """Render frames first..last (inclusive, 1-based) into folder; returns what was rendered and skipped.
+
+    incremental: trace again only the pixels the vane can change (tracer/incremental.py; the same bytes); False
+    traces every frame whole."""
     if scene.vane is None:
         raise ValueError("the scene has no vane to turn (add a 'vane' section naming its parts)")
     folder.mkdir(parents=True, exist_ok=True)
@@ -110,16 +116,16 @@ def animate(
 
     to_render = set(rendered)
     stream = frame_headings()
-    scenes = (scene.with_heading(heading) for frame, heading in stream if frame in to_render)
+    wanted = ((frame, heading) for frame, heading in stream if frame in to_render)
     # a frame is encoded and written on a thread while the pool traces the next one (about a fifth of a frame's
     # time at 640x480, which the pool would otherwise wait for); one write at a time keeps memory to two images
     with (
         Renderer(scene.render.workers) as renderer,
         ThreadPoolExecutor(1, "weathervane-writer") as writer,
-        contextlib.closing(renderer.render_frames(scenes)) as results,  # closed before the pool stops
+        contextlib.closing(_frames(renderer, scene, wanted, incremental)) as results,  # closed before the pool stops
     ):
         pending: Future | None = None
-        for frame, result in zip(rendered, results, strict=True):
+        for frame, result in results:
             if pending is not None:
                 pending.result()  # raises here if that write failed
             target = frame_path(folder, frame)
@@ -134,6 +140,24 @@ def animate(
         pass  # the frames after the last rendered one, for the keyframe count
     keys = int(reduce_keys(np.concatenate(span)).size)
     return AnimationResult(rendered, skipped, time.perf_counter() - started, rays, keys, total)
+
+
+def _frames(
+    renderer: Renderer, scene: sc.Scene, wanted: Iterator[tuple[int, float]], incremental: bool
+) -> Iterator[tuple[int, RenderResult]]:
+    """(frame, image) for the (frame, heading) pairs, in order."""
+    if incremental:
+        yield from incremental_frames(renderer, scene, wanted)
+        return
+    frames: deque[int] = deque()  # the frames whose scenes the renderer has taken, oldest first
+
+    def scenes() -> Iterator[sc.Scene]:
+        for frame, heading in wanted:
+            frames.append(frame)
+            yield scene.with_heading(heading)
+
+    for result in renderer.render_frames(scenes()):
+        yield frames.popleft(), result
 
 
 def write_gif(folder: Path, first: int, last: int, fps: float, target: Path) -> Path:

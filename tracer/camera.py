@@ -142,20 +142,24 @@ def primary_ray(camera: sc.Camera, settings: sc.RenderSettings, x: float, y: flo
     return start, D, t_max
 
 
-def _band_positions(
-    settings: sc.RenderSettings, rows: np.ndarray, columns: np.ndarray | None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Image positions x, y (N,) of every sample of the given rows and columns, ordered row, column, sample: the
-    same operations as sample_position."""
+def band_pixels(settings: sc.RenderSettings, rows: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
+    """Flat pixel indices j * W + i (R * C,) of the given rows (R,) and columns (C,; every column when None), ordered
+    row, column."""
+    rows = np.asarray(rows, dtype=np.int64)
+    columns = np.arange(settings.width, dtype=np.int64) if columns is None else np.asarray(columns, dtype=np.int64)
+    return (rows[:, None] * settings.width + columns[None, :]).ravel()
+
+
+def _sample_positions(settings: sc.RenderSettings, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Image positions x, y (N,) of every sample of the given flat pixels (P,), ordered pixel, sample: the same
+    operations as sample_position."""
     width, samples = settings.width, settings.samples
     n = math.isqrt(samples)
-    rows = np.asarray(rows, dtype=np.int64)
-    columns = np.arange(width, dtype=np.int64) if columns is None else np.asarray(columns, dtype=np.int64)
-    sample = np.arange(samples, dtype=np.int64)
-    shape = (rows.size, columns.size, samples)
-    j = np.broadcast_to(rows[:, None, None], shape).ravel()
-    i = np.broadcast_to(columns[None, :, None], shape).ravel()
-    s = np.broadcast_to(sample[None, None, :], shape).ravel()
+    pixels = np.asarray(pixels, dtype=np.int64)
+    shape = (pixels.size, samples)
+    j = np.broadcast_to((pixels // width)[:, None], shape).ravel()
+    i = np.broadcast_to((pixels % width)[:, None], shape).ravel()
+    s = np.broadcast_to(np.arange(samples, dtype=np.int64)[None, :], shape).ravel()
     if n == 1:
         return i + 0.5, j + 0.5
     index = (j * width + i) * samples + s
@@ -164,15 +168,12 @@ def _band_positions(
     return x, y
 
 
-def band_directions(
-    camera: sc.Camera, settings: sc.RenderSettings, rows: np.ndarray, columns: np.ndarray | None = None
-) -> np.ndarray:
-    """Unit directions (3, N) float64 of every sample of the given image rows (R,) and columns (C,; every column
-    when None), ordered row, column, sample.
+def pixel_directions(camera: sc.Camera, settings: sc.RenderSettings, pixels: np.ndarray) -> np.ndarray:
+    """Unit directions (3, N) float64 of every sample of the given flat pixels (P,), ordered pixel, sample.
 
-    The same operations in the same order as primary_direction, so each ray is bit-identical to the scalar one.
-    """
-    x, y = _band_positions(settings, rows, columns)
+    The same operations in the same order as primary_direction, so each ray is bit-identical to the scalar one
+    (and to itself in any band or subset)."""
+    x, y = _sample_positions(settings, pixels)
     r = tf.euler_xyz_matrix(camera.rotation)
     if camera.type == "ORTHO":
         return np.repeat(np.asarray([[-r[0][2]], [-r[1][2]], [-r[2][2]]]), x.size, axis=1)
@@ -185,25 +186,29 @@ def band_directions(
     return np.stack((wx / size, wy / size, wz / size))
 
 
+def band_directions(
+    camera: sc.Camera, settings: sc.RenderSettings, rows: np.ndarray, columns: np.ndarray | None = None
+) -> np.ndarray:
+    """Unit directions (3, N) float64 of every sample of the given image rows (R,) and columns (C,; every column
+    when None), ordered row, column, sample: pixel_directions of those pixels."""
+    return pixel_directions(camera, settings, band_pixels(settings, rows, columns))
+
+
 def shares_origin(camera: sc.Camera) -> bool:
     """Whether every camera ray starts at the camera's location and has no far limit (the documented camera)."""
     return camera.type == "PERSP" and not camera.clip_start and camera.clip_end is None
 
 
-def band_starts(
-    camera: sc.Camera,
-    settings: sc.RenderSettings,
-    rows: np.ndarray,
-    columns: np.ndarray | None,
-    directions: np.ndarray,
+def pixel_starts(
+    camera: sc.Camera, settings: sc.RenderSettings, pixels: np.ndarray, directions: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    """Where the camera rays of band_directions(rows, columns) start and stop, as primary_ray computes them:
-    origins (3, N) float64 and t_max (N,), or None where there is no far limit. directions: those rays (3, N)."""
+    """Where the camera rays of pixel_directions(pixels) start and stop, as primary_ray computes them: origins
+    (3, N) float64 and t_max (N,), or None where there is no far limit. directions: those rays (3, N)."""
     r = tf.euler_xyz_matrix(camera.rotation)
     D = np.asarray(directions, dtype=np.float64)
     if camera.type == "ORTHO":
         depth_per_t = 1.0
-        cx, cy = _view_point(camera, settings, *_band_positions(settings, rows, columns))
+        cx, cy = _view_point(camera, settings, *_sample_positions(settings, pixels))
         start = np.stack([camera.location[k] + r[k][0] * cx + r[k][1] * cy for k in range(3)])
     else:
         depth_per_t = -(r[0][2] * D[0] + r[1][2] * D[1] + r[2][2] * D[2])
@@ -213,6 +218,17 @@ def band_starts(
     if camera.clip_end is None:
         return start, None
     return start, np.broadcast_to((camera.clip_end - camera.clip_start) / depth_per_t, (D.shape[1],))
+
+
+def band_starts(
+    camera: sc.Camera,
+    settings: sc.RenderSettings,
+    rows: np.ndarray,
+    columns: np.ndarray | None,
+    directions: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """pixel_starts() of the rays of band_directions(rows, columns)."""
+    return pixel_starts(camera, settings, band_pixels(settings, rows, columns), directions)
 
 
 def to_pixels(

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import scene as sc
+from .footprint import Volume
 from .pool import Task, WorkerPool
 from .resources import check_resources
 from .wavefront import PreparedScene, RayCounts
@@ -81,6 +82,7 @@ class RenderResult:
     image: np.ndarray  # (height, width, 3) linear RGB, unclamped, in the scene's dtype
     rays: RayCounts
     seconds: float
+    touched: np.ndarray | None = None  # (height, width) bool: pixels whose ray trees met the volume asked about
 
     @property
     def mrays_per_second(self) -> float:
@@ -128,18 +130,31 @@ def _prepared_for(scene_bytes: bytes) -> PreparedScene:
 
 
 def _render_band(
-    scene_bytes: bytes, rows: np.ndarray, shape: tuple[int, int, int], dtype: str, image: int | None = None
-) -> tuple[np.ndarray | None, RayCounts]:
-    """Trace rows (R,) of the scene; the band (R, W, 3) goes into the shared image (a descriptor) or comes back."""
+    scene_bytes: bytes,
+    rows: np.ndarray,
+    shape: tuple[int, int, int],
+    dtype: str,
+    volume: Volume | None = None,
+    image: int | None = None,
+) -> tuple[np.ndarray | None, RayCounts, np.ndarray | None]:
+    """Trace rows (R,) of the scene; the band (R, W, 3) goes into the shared image (a descriptor) or comes back,
+    with (R, W) touched where a volume is given (footprint.py)."""
     prepared = _prepared_for(scene_bytes)
-    band, counts = prepared.render_rows(rows, band_samples(prepared.scene.render))
+    touched = None if volume is None else np.zeros((len(rows), shape[1]), dtype=bool)
+    band, counts = prepared.render_rows(rows, band_samples(prepared.scene.render), volume, touched)
     if image is None:
-        return band, counts
+        return band, counts, touched
     with mmap.mmap(image, 0) as mapping:
         shared = np.ndarray(shape, dtype=dtype, buffer=mapping)
         shared[rows] = band
         del shared  # the mapping closes only when no array uses it
-    return None, counts
+    return None, counts, touched
+
+
+def _render_pixels(scene_bytes: bytes, pixels: np.ndarray) -> tuple[np.ndarray, RayCounts]:
+    """Trace the flat pixels (P,) of the scene: their colours (P, 3)."""
+    prepared = _prepared_for(scene_bytes)
+    return prepared.render_pixels(pixels, band_samples(prepared.scene.render))
 
 
 # ---- parent side -------------------------------------------------------------------------------------------------
@@ -178,29 +193,50 @@ class Renderer:
             self._pool = WorkerPool(self.workers, self._start_method)
         return self._pool
 
-    def render(self, scene: sc.Scene, progress: Progress | None = None) -> RenderResult:
-        """Trace the whole image; progress(bands_done, bands_total) is called as bands finish.
+    def render(self, scene: sc.Scene, progress: Progress | None = None, volume: Volume | None = None) -> RenderResult:
+        """Trace the whole image; progress(bands_done, bands_total) is called as bands finish. volume: also tell
+        which pixels' ray trees meet it (RenderResult.touched; footprint.py).
 
         An exception from progress (a cancelled render) stops the frame; the pool stays usable."""
         check_resources(scene.render, self.workers)
         if self.workers > 1:
             self._start_pool()
-            return self._submit(scene).finish(progress)
+            return self._submit(scene, volume).finish(progress)
         settings = scene.render
         started = time.perf_counter()
+        prepared = self._prepared_here(scene)
+        image = np.empty((settings.height, settings.width, 3), dtype=settings.dtype)
+        touched = None if volume is None else np.zeros((settings.height, settings.width), dtype=bool)
+        counts = RayCounts()
+        every = bands(settings)
+        for done, rows in enumerate(every, 1):
+            band_touched = None if touched is None else np.zeros((len(rows), settings.width), dtype=bool)
+            image[rows], band_counts = prepared.render_rows(rows, band_samples(settings), volume, band_touched)
+            if touched is not None:
+                touched[rows] = band_touched
+            counts.add(band_counts)
+            if progress is not None:
+                progress(done, len(every))
+        return RenderResult(image, counts, time.perf_counter() - started, touched)
+
+    def _prepared_here(self, scene: sc.Scene) -> PreparedScene:
+        """The scene prepared in this process (one worker), kept while it stays the same."""
         tune_allocator()
         scene_bytes = pickle.dumps(scene)
         if self._prepared is None or self._prepared[0] != scene_bytes:
             self._prepared = (scene_bytes, PreparedScene(scene))
-        prepared = self._prepared[1]
-        image = np.empty((settings.height, settings.width, 3), dtype=settings.dtype)
-        counts = RayCounts()
-        every = bands(settings)
-        for done, rows in enumerate(every, 1):
-            image[rows], band_counts = prepared.render_rows(rows, band_samples(settings))
-            counts.add(band_counts)
-            if progress is not None:
-                progress(done, len(every))
+        return self._prepared[1]
+
+    def render_pixels(self, scene: sc.Scene, pixels: np.ndarray, base: np.ndarray) -> RenderResult:
+        """The image base (height, width, 3) with the flat pixels (P,) traced again in scene: bit for bit the
+        scene's whole image where no other pixel can differ from base (footprint.py)."""
+        if self.workers > 1:
+            self._start_pool()
+            return self._submit_pixels(scene, pixels, base).finish()
+        started = time.perf_counter()
+        image = base.copy()
+        colors, counts = self._prepared_here(scene).render_pixels(pixels, band_samples(scene.render))
+        image.reshape(-1, 3)[pixels] = colors
         return RenderResult(image, counts, time.perf_counter() - started)
 
     def render_frames(self, scenes: Iterable[sc.Scene]) -> Iterator[RenderResult]:
@@ -224,7 +260,31 @@ class Renderer:
             for frame in pending:  # stopped early
                 frame.abandon()
 
-    def _submit(self, scene: sc.Scene) -> _Frame:
+    def render_pixel_frames(
+        self, scenes: Iterable[sc.Scene], pixels: np.ndarray, base: np.ndarray
+    ) -> Iterator[RenderResult]:
+        """render_pixels() for each scene in turn, results in order. With workers each frame is one task and as
+        many frames as workers (and one more, queued) are traced at once: such a frame is small, and most of its
+        time is the fixed cost of a trace (preparing the scene, NumPy calls per bounce), which splitting it would
+        pay again in every worker."""
+        if self.workers <= 1:
+            for scene in scenes:
+                yield self.render_pixels(scene, pixels, base)
+            return
+        self._start_pool()
+        pending: deque[_Frame] = deque()
+        try:
+            for scene in scenes:
+                pending.append(self._submit_pixels(scene, pixels, base, pieces=1))
+                if len(pending) > self.workers:
+                    yield pending.popleft().finish()
+            while pending:
+                yield pending.popleft().finish()
+        finally:
+            for frame in pending:  # stopped early
+                frame.abandon()
+
+    def _submit(self, scene: sc.Scene, volume: Volume | None = None) -> _Frame:
         pool = self._start_pool()
         settings = scene.render
         shape = (settings.height, settings.width, 3)
@@ -233,10 +293,20 @@ class Renderer:
         descriptor, image = _shared_image(shape, dtype) if self._shared else (None, np.empty(shape, dtype))
         scene_bytes = pickle.dumps(scene)
         tasks = [
-            (rows, pool.submit(_render_band, (scene_bytes, rows, shape, dtype.str), descriptor))
+            (rows, pool.submit(_render_band, (scene_bytes, rows, shape, dtype.str, volume), descriptor))
             for rows in bands(settings)
         ]
-        return _Frame(pool, image, tasks, descriptor, started)
+        touched = None if volume is None else np.zeros(shape[:2], dtype=bool)
+        return _Frame(pool, image, tasks, descriptor, started, touched)
+
+    def _submit_pixels(self, scene: sc.Scene, pixels: np.ndarray, base: np.ndarray, pieces: int = 0) -> _Frame:
+        """A frame of base with pixels traced again, in the given number of tasks (0: one per worker)."""
+        pool = self._start_pool()
+        started = time.perf_counter()
+        scene_bytes = pickle.dumps(scene)
+        count = max(1, min(len(pixels), pieces or self.workers))
+        tasks = [(piece, pool.submit(_render_pixels, (scene_bytes, piece))) for piece in np.array_split(pixels, count)]
+        return _Frame(pool, base.copy(), tasks, None, started, pixels=True)
 
 
 @dataclass
@@ -245,24 +315,32 @@ class _Frame:
 
     pool: WorkerPool
     image: np.ndarray
-    tasks: list[tuple[np.ndarray, Task]]
+    tasks: list[tuple[np.ndarray, Task]]  # (rows of a band, or flat pixels where pixels is set; its task)
     descriptor: int | None
     started: float
+    touched: np.ndarray | None = None
+    pixels: bool = False
 
     def finish(self, progress: Progress | None = None) -> RenderResult:
         counts = RayCounts()
-        rows_of = {id(task): rows for rows, task in self.tasks}
+        where = {id(task): rows for rows, task in self.tasks}
         try:
             for done, task in enumerate(self.pool.as_completed([task for _, task in self.tasks]), 1):
-                band, band_counts = task.result
-                if band is not None:
-                    self.image[rows_of[id(task)]] = band
-                counts.add(band_counts)
+                if self.pixels:
+                    colors, piece_counts = task.result
+                    self.image.reshape(-1, 3)[where[id(task)]] = colors
+                else:
+                    band, piece_counts, band_touched = task.result
+                    if band is not None:
+                        self.image[where[id(task)]] = band
+                    if self.touched is not None:
+                        self.touched[where[id(task)]] = band_touched
+                counts.add(piece_counts)
                 if progress is not None:
                     progress(done, len(self.tasks))
         finally:
             self.abandon()
-        return RenderResult(self.image, counts, time.perf_counter() - self.started)
+        return RenderResult(self.image, counts, time.perf_counter() - self.started, self.touched)
 
     def abandon(self) -> None:
         """Forget the bands not yet finished (their workers may still write into the image: it is this frame's own

@@ -18,6 +18,7 @@ from . import scene as sc
 from . import transforms as tf
 from .bvh import Hierarchy
 from .cull import CoverageGrid, ScreenRectangles, kernel_sets
+from .footprint import Footprint, Volume
 from .kernels import Kernel, PlaneKernel, column, dot, indices, leaves, make_kernel, quiet, take
 from .robust import make_robust_kernel, offset_origins
 
@@ -144,10 +145,13 @@ class PreparedScene:
         specular: np.ndarray,
         counts: RayCounts,
         surface: tuple[np.ndarray, np.ndarray] | None = None,
+        footprint: Footprint | None = None,
+        samples: np.ndarray | None = None,
     ) -> np.ndarray:
         """Listing 3.2 for every hit point at once: P, N, V (3, n), specular (n,) -> intensity (n,).
 
-        surface: robust numerics' (distance, scale) (n,) of each point, as normals() gives them.
+        surface: robust numerics' (distance, scale) (n,) of each point, as normals() gives them. footprint: records
+        the shadow rays of the camera samples (n,) the points belong to.
 
         The shadow rays of all lights go through the hierarchy in one batch; the terms are then added light by
         light in the listing's order."""
@@ -183,7 +187,7 @@ class PreparedScene:
             diffuse_gate = NL > 0.0
             needed = indices(diffuse_gate | gate)
             terms.append((L, NL, length_l, diffuse_gate, gate, cosine, needed))
-        lit = self._lit([term for term in terms if term is not None], P, N, counts, surface)
+        lit = self._lit([term for term in terms if term is not None], P, N, counts, surface, footprint, samples)
         intensity = np.zeros(count, dtype=self.dtype)
         shadow_rays = iter(lit)
         for light, term in zip(self.lights, terms, strict=True):
@@ -206,6 +210,8 @@ class PreparedScene:
         N: np.ndarray,
         counts: RayCounts,
         surface: tuple[np.ndarray, np.ndarray] | None,
+        footprint: Footprint | None = None,
+        samples: np.ndarray | None = None,
     ) -> list[np.ndarray]:
         """One any-hit query for the shadow rays of every light: which points (n,) each light reaches.
 
@@ -221,6 +227,8 @@ class PreparedScene:
                 origin = offset_origins(origin, take(N, needed), vector, *(part.take(needed) for part in surface))
                 if light.kind == "point":
                     vector = light.vector - origin  # t = 1 is still exactly the light
+            if footprint is not None:  # the whole segment: a blocker that moves in could block it anywhere
+                footprint.record(samples.take(needed), origin, vector, t_min, light.t_max)
             counts.shadow += needed.size
             # planes first, light by light (a shared direction keeps their test cheap); then only the rays that
             # the light's coverage grid cannot rule out go on to the hierarchy, all lights in one batch
@@ -281,12 +289,14 @@ class PreparedScene:
         rows: np.ndarray | None = None,
         origins: np.ndarray | None = None,
         far: np.ndarray | None = None,
+        footprint: Footprint | None = None,
     ) -> np.ndarray:
         """Camera rays (3, N) -> linear colors (3, N), unclamped.
 
         rows: the image rows (R,) that the rays are, ordered as camera.band_directions gives them, if they are.
         origins (3, N): where each ray starts (None: all at the camera); far (N,): where each stops (None: never),
-        as camera.band_starts gives them for a clipped or orthographic camera."""
+        as camera.band_starts gives them for a clipped or orthographic camera. footprint: records which of the N
+        camera rays' trees meet its volume."""
         depth = self.scene.render.depth
         total = D.shape[1]
         counts.camera += total
@@ -300,6 +310,9 @@ class PreparedScene:
             t, obj, part = self.hierarchy.closest(O, D, t_min, sets)
             if bounce == 0 and far is not None:  # beyond the camera's clip_end: the nearest hit is, so all are
                 obj[t >= far] = -1
+            if footprint is not None:  # each ray up to its hit; a miss to its end
+                end = np.where(obj >= 0, t, np.inf if bounce or far is None else far)
+                footprint.record(pixel, O, D, t_min, end)
             miss = indices(obj < 0)
             if miss.size:
                 sky = weight.take(miss) * self.background(take(D, miss))
@@ -313,7 +326,7 @@ class PreparedScene:
             V = -D
             O = D = t = None  # memory: a band's peak comes in the shading below
             N, surface = self.normals(P, obj, part)
-            intensity = self.find_intensity(P, N, V, self.specular.take(obj), counts, surface)
+            intensity = self.find_intensity(P, N, V, self.specular.take(obj), counts, surface, footprint, pixel)
             reflective = self.reflective.take(obj)
             local = (intensity * (1.0 - reflective)) * self.colors.take(obj, axis=1)
             _accumulate(color, pixel, weight * local, bounce == 0)
@@ -330,54 +343,99 @@ class PreparedScene:
             t_min = 0.0 if self.robust else REFLECTION_T_MIN
         return color
 
-    def render_rows(self, rows: np.ndarray, max_samples: int | None = None) -> tuple[np.ndarray, RayCounts]:
+    def render_rows(
+        self,
+        rows: np.ndarray,
+        max_samples: int | None = None,
+        volume: Volume | None = None,
+        touched: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, RayCounts]:
         """Image rows (R,) -> (R, width, 3) linear image in the scene's dtype, and the ray counts.
 
         max_samples: trace at most this many camera samples at once (memory); a larger band goes in pieces of whole
         rows, or of a row's columns where one row is too many. Every ray is traced by the same elementwise
-        operations whatever else is in its piece, so the pixels are the same bytes either way."""
+        operations whatever else is in its piece, so the pixels are the same bytes either way. volume, touched
+        (R, width) bool: marks each pixel some of whose rays' trees meet the volume (footprint.py)."""
         settings = self.scene.render
         per_row = settings.width * settings.samples
+        rows = np.asarray(rows)
         if max_samples is None or len(rows) * per_row <= max_samples:
-            return self._render_piece(np.asarray(rows), None)
+            return self._render_piece(rows, None, volume, touched)
         counts = RayCounts()
         image = np.empty((len(rows), settings.width, 3), dtype=self.dtype)
         rows_at_once = max_samples // per_row
         if rows_at_once >= 1:
             for first in range(0, len(rows), rows_at_once):
-                piece, piece_counts = self._render_piece(np.asarray(rows[first : first + rows_at_once]), None)
-                image[first : first + rows_at_once] = piece
+                part = slice(first, first + rows_at_once)
+                piece_touched = None if touched is None else touched[part]
+                image[part], piece_counts = self._render_piece(rows[part], None, volume, piece_touched)
                 counts.add(piece_counts)
             return image, counts
         columns_at_once = max(1, max_samples // settings.samples)
         for index, row in enumerate(rows):
             for first in range(0, settings.width, columns_at_once):
                 columns = np.arange(first, min(first + columns_at_once, settings.width))
-                piece, piece_counts = self._render_piece(np.asarray([row]), columns)
+                piece_touched = None if touched is None else touched[index : index + 1, first : first + len(columns)]
+                piece, piece_counts = self._render_piece(np.asarray([row]), columns, volume, piece_touched)
                 image[index, columns] = piece[0]
                 counts.add(piece_counts)
         return image, counts
 
-    def _render_piece(self, rows: np.ndarray, columns: np.ndarray | None) -> tuple[np.ndarray, RayCounts]:
-        """Rows (R,) and columns (C,) of the image (every column when None) -> (R, C, 3) and the ray counts."""
+    def _render_piece(
+        self, rows: np.ndarray, columns: np.ndarray | None, volume: Volume | None, touched: np.ndarray | None
+    ) -> tuple[np.ndarray, RayCounts]:
+        """Rows (R,) and columns (C,) of the image (every column when None) -> (R, C, 3) and the ray counts;
+        touched (R, C) is filled where a volume is given."""
         settings = self.scene.render
-        counts = RayCounts()
         camera = self.scene.camera
         with quiet():  # the directions are not kept here: trace() lets them go after the first bounce
             if columns is None:
                 directions = cam.cached_band_directions(camera, settings, rows, self.dtype)
             else:
                 directions = cam.band_directions(camera, settings, rows, columns).astype(self.dtype)
+        pixels = None if cam.shares_origin(camera) else cam.band_pixels(settings, rows, columns)
+        # whole rows: the screen rectangles cull them
+        colors, counts, hit = self._trace_pixels(directions, pixels, rows if columns is None else None, volume)
+        width = settings.width if columns is None else len(columns)
+        if touched is not None:
+            touched[...] = hit.reshape(len(rows), width)
+        return colors.reshape(len(rows), width, 3), counts
+
+    def render_pixels(self, pixels: np.ndarray, max_samples: int | None = None) -> tuple[np.ndarray, RayCounts]:
+        """Flat pixel indices j * W + i (P,) -> their linear colours (P, 3) in the scene's dtype, and the ray
+        counts: the same bytes as those pixels of a whole image (the incremental frames' re-trace)."""
+        settings = self.scene.render
+        at_once = len(pixels) if max_samples is None else max(1, max_samples // settings.samples)
+        colors = np.empty((len(pixels), 3), dtype=self.dtype)
+        counts = RayCounts()
+        for first in range(0, len(pixels), at_once):
+            piece = np.asarray(pixels[first : first + at_once])
+            with quiet():
+                directions = cam.pixel_directions(self.scene.camera, settings, piece).astype(self.dtype)
+            colors[first : first + at_once], piece_counts, _ = self._trace_pixels(directions, piece, None, None)
+            counts.add(piece_counts)
+        return colors, counts
+
+    def _trace_pixels(
+        self, directions: np.ndarray, pixels: np.ndarray | None, rows: np.ndarray | None, volume: Volume | None
+    ) -> tuple[np.ndarray, RayCounts, np.ndarray | None]:
+        """Camera rays (3, P * samples) of the flat pixels (P,; needed only for a camera whose rays do not all
+        start at its location) -> colours (P, 3) box-filtered over each pixel's samples, the ray counts, and where a
+        volume is given which pixels' trees met it (P,)."""
+        settings = self.scene.render
+        camera = self.scene.camera
+        counts = RayCounts()
+        footprint = None if volume is None else Footprint(volume, directions.shape[1])
+        with quiet():
             origins = far = None
             if not cam.shares_origin(camera):
-                origins, far = cam.band_starts(camera, settings, rows, columns, directions)
+                origins, far = cam.pixel_starts(camera, settings, pixels, directions)
                 origins = origins.astype(self.dtype)
-            # whole rows: the screen rectangles cull them
-            color = self.trace(directions, counts, rows if columns is None else None, origins, far)
-        width = settings.width if columns is None else len(columns)
-        samples = color.reshape(3, len(rows), width, settings.samples)
-        image = samples.sum(axis=3) / settings.samples if settings.samples > 1 else samples[..., 0]
-        return np.ascontiguousarray(image.transpose(1, 2, 0)), counts
+            color = self.trace(directions, counts, rows, origins, far, footprint)
+        samples = color.reshape(3, -1, settings.samples)
+        image = samples.sum(axis=2) / settings.samples if settings.samples > 1 else samples[..., 0]
+        hit = None if footprint is None else footprint.touched.reshape(-1, settings.samples).any(axis=1)
+        return np.ascontiguousarray(image.T), counts, hit
 
 
 _KERNELS: OrderedDict[tuple, object] = OrderedDict()

@@ -1,0 +1,111 @@
+"""Incremental frames (tracer/footprint.py, tracer/incremental.py) are the whole frames, bit for bit."""
+
+from __future__ import annotations
+
+import random
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from tests.random_scenes import random_scene_document
+from tracer import incremental
+from tracer import scene as sc
+from tracer.animate import headings
+from tracer.loader import default_scene, scene_from_dict
+from tracer.parallel import Renderer
+
+
+def turning_scene(seed: int, dtype: str, numerics: str) -> sc.Scene:
+    """A random scene whose non-plane objects are split: about half turn as a vane about a random tilted axis
+    through a point among them (so moving parts shadow and mirror static ones and each other), mirrors at depth 5,
+    a point and a directional light beside the scene's own."""
+    rng = random.Random(seed)
+    document = random_scene_document(seed, width=40, height=30)
+    document["render"].update(depth=5, dtype=dtype, numerics=numerics)
+    document["materials"]["mirror"] = {"color": [0.9, 0.9, 0.95], "specular": 40, "reflective": 0.8}
+    bounded = [obj for obj in document["objects"] if obj["type"] != "plane"]
+    for obj in bounded[::3]:
+        obj["material"] = "mirror"
+    parts = [obj["name"] for obj in bounded if rng.random() < 0.5] or [bounded[0]["name"]]
+    document["lights"] += [
+        {"type": "point", "location": [rng.uniform(-3, 3), rng.uniform(-3, 1), rng.uniform(2, 4)], "intensity": 0.4},
+        {"type": "directional", "direction": [rng.uniform(-1, 1), rng.uniform(-1, 1), 1.0], "intensity": 0.3},
+    ]
+    document["vane"] = {
+        "parts": parts,
+        "pivot": [rng.uniform(-1, 1), rng.uniform(-0.5, 1.5), rng.uniform(0, 1)],
+        "axis": [rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3), 1.0],
+    }
+    return scene_from_dict(document)
+
+
+def random_headings(seed: int, count: int) -> list[float]:
+    """A walk of small and large steps: runs of close headings and jumps between them."""
+    rng = random.Random(seed)
+    heading, result = rng.uniform(0, 360), []
+    for _ in range(count):
+        heading += rng.choice([0.0, rng.uniform(-4, 4), rng.uniform(-40, 40)])
+        result.append(heading)
+    return result
+
+
+def assert_frames_are_whole_frames(scene: sc.Scene, turns: list[float], workers: int) -> float:
+    """Every incremental frame equals a whole trace of it; returns the share of camera rays the increments saved."""
+    pairs = list(enumerate(turns, 1))
+    with Renderer(workers) as renderer:
+        traced = 0
+        for frame, result in incremental.render_frames(renderer, scene, iter(pairs)):
+            whole = renderer.render(scene.with_heading(turns[frame - 1]))
+            assert result.image.dtype == whole.image.dtype
+            assert np.array_equal(result.image, whole.image), f"frame {frame} differs"
+            traced += result.rays.camera
+    return 1.0 - traced / (len(turns) * scene.render.width * scene.render.height * scene.render.samples)
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize(("dtype", "numerics"), [("float64", "documented"), ("float32", "robust")])
+def test_random_turning_scenes_are_bit_identical_frame_by_frame(seed: int, dtype: str, numerics: str) -> None:
+    scene = turning_scene(seed, dtype, numerics)
+    assert_frames_are_whole_frames(scene, random_headings(seed, 24), workers=1)
+
+
+@pytest.mark.parametrize(("dtype", "numerics"), [("float32", "documented"), ("float64", "robust")])
+def test_random_turning_scenes_with_two_workers(dtype: str, numerics: str) -> None:
+    scene = turning_scene(11, dtype, numerics)
+    assert_frames_are_whole_frames(scene, random_headings(11, 24), workers=2)
+
+
+def test_the_default_animation_over_120_frames_and_what_it_saves() -> None:
+    scene = default_scene().with_render(width=64, height=48, samples=4)
+    saved = assert_frames_are_whole_frames(scene, headings(scene, 120).tolist(), workers=2)
+    assert saved > 0.5  # most camera rays are not traced again
+
+
+def test_turning_frames_in_any_order_are_whole_frames() -> None:
+    scene = turning_scene(3, "float64", "documented")
+    turning = incremental.TurningFrames()
+    with Renderer(1) as renderer:
+        for heading in random_headings(5, 12):
+            result = turning.render(renderer, scene.with_heading(heading))
+            assert np.array_equal(result.image, renderer.render(scene.with_heading(heading)).image)
+        # another scene (a moved light) starts again from a whole frame
+        moved = scene.with_render(depth=2)
+        assert np.array_equal(turning.render(renderer, moved).image, renderer.render(moved).image)
+
+
+def test_a_vane_that_fills_the_view_falls_back_to_whole_frames(monkeypatch: pytest.MonkeyPatch) -> None:
+    scene = turning_scene(2, "float64", "documented")
+    turns = random_headings(2, 6)
+    # the camera inside the box of the vane's first part: every camera ray starts in the volume
+    first = next(obj for obj in scene.objects if obj.name == scene.vane.parts[0])
+    inside = tuple(float(x) for x in first.location)
+    scene = replace(scene, camera=replace(scene.camera, location=inside), vane=replace(scene.vane, pivot=inside))
+
+    def not_incremental(*_args: object) -> None:
+        raise AssertionError("pixels traced again where whole frames cost no more")
+
+    monkeypatch.setattr(Renderer, "render_pixel_frames", not_incremental)
+    with Renderer(1) as renderer:
+        for frame, result in incremental.render_frames(renderer, scene, iter(list(enumerate(turns, 1)))):
+            assert np.array_equal(result.image, renderer.render(scene.with_heading(turns[frame - 1])).image)

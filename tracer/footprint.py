@@ -1,0 +1,120 @@
+"""What moves in an animation -> the volume it sweeps, and which pixels' ray trees meet that volume.
+
+Between two frames of an animation only the vane's parts move; everything else (camera, lights, other objects,
+materials) stays. A pixel's value is a function of its ray tree: the camera ray, the mirror rays and the shadow rays
+of every bounce, each a segment from its origin to its hit (or its end). If no segment of that tree meets the volume
+that the moving parts sweep over the whole animation, then in any other frame every segment meets the same surfaces
+at the same t (nothing in the volume is ever outside it, nothing outside it moves), so the tree and the pixel are the
+same, bit for bit: the tracer's result for a ray does not depend on which other rays are traced with it. Such a
+pixel is traced once; only the pixels whose trees meet the volume are traced again in each frame.
+
+The volume is a box that holds the parts at every heading of the frames it serves (incremental.py takes runs of
+frames whose headings stay close), or at every heading at all (the parts' box revolved a whole turn about the
+vane's axis) where the headings to come are not known.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from . import scene as sc
+from . import transforms as tf
+from .kernels import indices, make_kernel, padded_box, quiet, slab, take
+
+
+@dataclass(frozen=True)
+class Volume:
+    """Axis-aligned boxes (lower, upper (3, 1) each, in the tracing dtype) grown by more than the tracing's rounding,
+    and the box around them all (outer), which every segment meets first."""
+
+    boxes: tuple[tuple[np.ndarray, np.ndarray], ...]
+    outer: tuple[np.ndarray, np.ndarray]
+
+    @classmethod
+    def around(cls, boxes: list[tuple[np.ndarray, np.ndarray]], dtype: np.dtype, reach: float) -> Volume:
+        """boxes: (lower, upper) (3,) float64; reach: the largest coordinate the tests subtract (padded_box)."""
+        grown = tuple(padded_box(lower, upper, dtype, reach) for lower, upper in boxes)
+        lower = np.min([low for low, _ in boxes], axis=0)
+        upper = np.max([high for _, high in boxes], axis=0)
+        return cls(grown, padded_box(lower, upper, dtype, reach))
+
+    def meets(self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
+        """Whether each segment O + t D (3, n; either may be a shared (3, 1) column), t_min <= t <= t_max, meets
+        a box: bool (n,). A ray parallel to a slab is decided by its other axes (slab's NaN rule)."""
+        count = max(O.shape[1], D.shape[1])
+        with quiet():
+            inverse = 1.0 / D
+            met = np.broadcast_to(_segment_meets(O, inverse, t_min, t_max, *self.outer), (count,))
+            if len(self.boxes) == 1:
+                return met
+            near = indices(met)  # only the segments that meet the outer box go on to the boxes
+            O_n, inverse_n = take(O, near), take(inverse, near)
+            limit = t_max.take(near) if isinstance(t_max, np.ndarray) else t_max
+            inside = np.zeros(near.size, dtype=bool)
+            for lower, upper in self.boxes:
+                inside |= _segment_meets(O_n, inverse_n, t_min, limit, lower, upper)
+        result = np.zeros(count, dtype=bool)
+        result[near] = inside
+        return result
+
+
+def _segment_meets(O, inverse, t_min, t_max, lower, upper) -> np.ndarray:
+    near, far = slab(O, inverse, lower, upper)
+    return (near <= far) & (far >= t_min) & (near <= t_max)
+
+
+def swept_volume(scene: sc.Scene, dtype: np.dtype, headings: np.ndarray | None = None) -> Volume | None:
+    """Boxes that hold the vane's parts at each of the given headings (degrees), one per part; None: at every
+    heading (the parts' boxes revolved a whole turn about the axis). None where there is no vane or a part is
+    unbounded (an infinite plane as a part: every pixel could change)."""
+    vane = scene.vane
+    if vane is None or not vane.parts:
+        return None
+    pivot = np.asarray(vane.pivot, dtype=np.float64)
+    axis = np.asarray(tf.normalize(vane.axis))
+    turns = [0.0] if headings is None else np.unique(np.asarray(headings, dtype=np.float64)).tolist()
+    boxes = []
+    for obj in scene.objects:
+        if obj.name not in vane.parts:
+            continue
+        lows, highs = [], []
+        for heading in turns:
+            bounds = make_kernel(tf.world_primitive(obj, replace(vane, heading=heading)), np.dtype(np.float64)).bounds()
+            if bounds is None:
+                return None
+            lows.append(bounds[0])
+            highs.append(bounds[1])
+        lower, upper = np.min(lows, axis=0), np.max(highs, axis=0)
+        boxes.append(_revolved(lower, upper, pivot, axis) if headings is None else (lower, upper))
+    return Volume.around(boxes, dtype, float(np.abs(pivot).max()) + float(np.abs(np.concatenate(boxes)).max()))
+
+
+def _revolved(
+    lower: np.ndarray, upper: np.ndarray, pivot: np.ndarray, axis: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The box (3,) around a box turned a whole turn about the unit axis through pivot."""
+    corners = np.array([[(upper if (k >> i) & 1 else lower)[i] for i in range(3)] for k in range(8)]) - pivot
+    along = corners @ axis
+    across = corners - np.outer(along, axis)
+    radius = float(np.sqrt((across * across).sum(axis=1)).max())
+    ends = np.array([pivot + axis * along.min(), pivot + axis * along.max()])
+    # a disc of radius r about unit axis a reaches r * sqrt(1 - a_i^2) along world axis i
+    reach = radius * np.sqrt(np.maximum(0.0, 1.0 - axis**2))
+    return ends.min(axis=0) - reach, ends.max(axis=0) + reach
+
+
+class Footprint:
+    """Which camera samples' ray trees met a volume, recorded as they are traced."""
+
+    def __init__(self, volume: Volume, count: int) -> None:
+        self.volume = volume
+        self.touched = np.zeros(count, dtype=bool)  # (count,): one per camera sample of the traced piece
+
+    def record(
+        self, samples: np.ndarray, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float | np.ndarray
+    ) -> None:
+        """Segments (3, n) of the trees of camera samples (n,) (indices into touched)."""
+        if samples.size:
+            self.touched[samples.take(indices(self.volume.meets(O, D, t_min, t_max)))] = True
