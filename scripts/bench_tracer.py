@@ -93,19 +93,45 @@ def full_hd(dtype: str) -> dict:
     return {key: round(value, 1) for key, value in figures.items()}
 
 
-def animation() -> dict:
-    """`animate` on the default scene: 120 frames at 640x480 with one persistent pool, PNG files written."""
+def animation(repeats: int) -> dict:
+    """`animate` on the default scene: 120 frames at 640x480, 2 workers, PNG files written; whole frames against
+    incremental ones (the same bytes), alternating in the same run; and what share of pixels each frame traces."""
+    import statistics
     import tempfile
 
-    from tracer.animate import animate
+    from tracer import incremental
+    from tracer.animate import animate, headings
+    from tracer.parallel import Renderer
 
     scene = default_scene().with_render(width=640, height=480, workers=2)
-    with tempfile.TemporaryDirectory() as folder:
-        result = animate(scene, Path(folder), 1, 120)
+    seconds: dict[str, list[float]] = {"whole": [], "incremental": []}
+    for _ in range(repeats):
+        for name in seconds:
+            with tempfile.TemporaryDirectory() as folder:
+                result = animate(scene, Path(folder), 1, 120, incremental=name == "incremental")
+            seconds[name].append(result.seconds)
+    pixels = scene.render.width * scene.render.height
+    shares, whole_frames = [], 0
+    with Renderer(2) as renderer:
+        turns = headings(scene, 120).tolist()
+        for _, result in incremental.render_frames(renderer, scene, iter(list(enumerate(turns, 1)))):
+            share = result.rays.camera / pixels
+            whole_frames += share == 1.0
+            shares.append(share)
+    retraced = [share for share in shares if share < 1.0]
+    whole, fast = statistics.median(seconds["whole"]), statistics.median(seconds["incremental"])
     return {
-        "seconds": round(result.seconds, 2),
-        "ms_per_frame": round(result.seconds / 120 * 1000, 1),
-        "mrays_per_s": round(result.rays.total / result.seconds / 1e6, 2),
+        "repeats": repeats,
+        "whole_seconds": [round(x, 2) for x in seconds["whole"]],
+        "incremental_seconds": [round(x, 2) for x in seconds["incremental"]],
+        "seconds": round(fast, 2),
+        "whole_median_seconds": round(whole, 2),
+        "speedup": round(whole / fast, 2),
+        "ms_per_frame": round(fast / 120 * 1000, 1),
+        "whole_frames": whole_frames,
+        "retraced_share_mean": round(statistics.mean(retraced), 4) if retraced else None,
+        "retraced_share_max": round(max(retraced), 4) if retraced else None,
+        "traced_share_overall": round(statistics.mean(shares), 4),
     }
 
 
@@ -114,7 +140,14 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--width", type=int, default=640)
     parser.add_argument("--height", type=int, default=480)
+    parser.add_argument(
+        "--animation-only", action="store_true", help="only the 120-frame animation (whole against incremental)"
+    )
+    parser.add_argument("--animation-repeats", type=int, default=3)
     args = parser.parse_args()
+    if args.animation_only:
+        print(json.dumps(animation(args.animation_repeats)))
+        return
     scene = default_scene().with_render(width=args.width, height=args.height, depth=3, samples=1)
     report: dict = {
         "scene": "default",
@@ -141,10 +174,12 @@ def main() -> None:
             f"parent and its workers together (proportional set size); largest resident sets "
             f"{hd['peak_mb_parent']:.0f} MB (parent), {hd['peak_mb_worker']:.0f} MB (a worker)"
         )
-    report["animation_120_frames_640x480"] = animation()
+    report["animation_120_frames_640x480"] = motion = animation(args.animation_repeats)
     print(
-        f"animation, 120 frames at 640x480 (PNG files included): "
-        f"{report['animation_120_frames_640x480']['seconds']:.2f} s"
+        f"animation, 120 frames at 640x480 (PNG files included): whole frames {motion['whole_median_seconds']:.2f} s, "
+        f"incremental {motion['seconds']:.2f} s ({motion['speedup']:.2f}x, medians of {motion['repeats']}); "
+        f"{motion['whole_frames']} frames traced whole, the others {100 * motion['retraced_share_mean']:.1f}% of "
+        f"their pixels on average"
     )
     small = scene.with_render(width=64, height=48)
     started = time.perf_counter()

@@ -94,6 +94,36 @@ def test_a_task_that_kills_every_worker_stops_after_bounded_attempts_and_the_poo
         pool.close()
 
 
+def _echo_doubled(values: np.ndarray) -> np.ndarray:
+    return values * 2
+
+
+LARGE_MESSAGES_SCRIPT = """
+import numpy as np
+from tracer.pool import WorkerPool
+pool = WorkerPool(2)
+values = np.arange(1_000_000, dtype=np.float64)  # 8 MB each way: far more than a pipe holds
+from tests.test_reliability import _echo_doubled
+tasks = [pool.submit(_echo_doubled, (values + k,)) for k in range(8)]
+assert len(list(pool.as_completed(tasks))) == 8
+assert all(np.array_equal(task.result, (values + k) * 2) for k, task in enumerate(tasks))
+pool.close()
+print("ok")
+"""
+
+
+def test_large_tasks_and_results_both_ways_do_not_deadlock_the_pipes() -> None:
+    # the parent sending a task while a worker sends a result used to leave both blocked on full pipes forever
+    result = subprocess.run(
+        [sys.executable, "-c", LARGE_MESSAGES_SCRIPT],
+        cwd=Path(__file__).resolve().parents[1],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0 and result.stdout.strip() == "ok", result.stderr
+
+
 def test_an_exception_in_a_worker_comes_back_as_one_line_with_the_workers_traceback_kept() -> None:
     pool = WorkerPool(1)
     try:

@@ -16,7 +16,9 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
+import queue
 import signal
+import threading
 import traceback
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
@@ -76,17 +78,17 @@ def _worker_main(conn: connection.Connection, inherited: list[int]) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole process group; the parent handles it
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    # A thread takes tasks off the pipe as they come, so that the parent's send of a task never waits for this
+    # worker's send of a result (both would block on full pipes with large messages: pixel lists and colours)
+    tasks: queue.SimpleQueue = queue.SimpleQueue()
+    threading.Thread(target=_receive_tasks, args=(conn, tasks), daemon=True, name="weathervane-tasks").start()
     while True:
-        try:
-            message = conn.recv()
-            if message is None:
-                return
-            function, args, carries_descriptor = message
-            descriptor = reduction.recv_handle(conn) if carries_descriptor else None
-        except (EOFError, OSError):  # the parent is gone
+        message = tasks.get()
+        if message is None:  # stopped, or the parent is gone
             return
+        function, args, descriptor = message
         try:
-            result = (True, function(*args, descriptor) if carries_descriptor else function(*args))
+            result = (True, function(*args, descriptor) if descriptor is not None else function(*args))
         except Exception as error:
             result = (False, (f"{type(error).__name__}: {error}", traceback.format_exc()))
         finally:
@@ -96,6 +98,20 @@ def _worker_main(conn: connection.Connection, inherited: list[int]) -> None:
             conn.send(result)
         except (OSError, ValueError):  # the parent is gone
             return
+
+
+def _receive_tasks(conn: connection.Connection, tasks: queue.SimpleQueue) -> None:
+    """The worker's reader: (function, args, descriptor or None) for each task, then None."""
+    try:
+        while True:
+            message = conn.recv()
+            if message is None:
+                break
+            function, args, carries_descriptor = message
+            tasks.put((function, args, reduction.recv_handle(conn) if carries_descriptor else None))
+    except (EOFError, OSError):  # the parent is gone
+        pass
+    tasks.put(None)
 
 
 class WorkerPool:
