@@ -22,8 +22,8 @@ from .parallel import Progress, Renderer, RenderResult
 # Runs: a tighter box means fewer pixels to trace again, a longer run fewer whole frames. On the default 640x480
 # animation a box over 30 degrees of heading holds the ray trees of 12% of the pixels (8% for one heading, 21% for a
 # whole turn); a whole frame with its footprint costs about 1.7 plain frames.
-RUN_DEGREES = 30.0
-RUN_FRAMES = 48
+RUN_DEGREES = 90.0
+RUN_FRAMES = 120
 FULL_SHARE = 0.5
 
 
