@@ -66,7 +66,7 @@ def sample(pids):
 scene = default_scene().with_render(width=1920, height=1080, depth=3, samples=1, dtype={dtype!r})
 with Renderer(2) as renderer:
     renderer.render(scene)
-    pids = lambda: [os.getpid()] + [worker.pid for worker in renderer._pool._pool]
+    pids = lambda: [os.getpid()] + renderer._pool.pids()
     sampler = threading.Thread(target=sample, args=(pids,), daemon=True)
     sampler.start()
     times = []
@@ -81,6 +81,36 @@ times.sort()
 print(json.dumps({{"ms": round(times[1] * 1000, 1), "peak_mb_total_pss": peak["total"],
                   "peak_mb_parent": peak["parent"], "peak_mb_worker": peak["worker"]}}))
 """
+
+
+MESH_SCRIPT = (
+    HD_SCRIPT.replace(
+        "from tracer.loader import default_scene\n",
+        "sys.path.insert(0, {scripts!r})\nfrom study import triangles\n",
+    )
+    .replace(
+        "scene = default_scene().with_render(width=1920, height=1080, depth=3, samples=1, dtype={dtype!r})",
+        "scene = triangles({count}).with_render(width=640, height=480, depth=3, samples=1, dtype={dtype!r})",
+    )
+    .replace(
+        "    renderer.render(scene)\n    pids",
+        "    started = time.perf_counter()\n    renderer.render(scene)\n"
+        "    first = time.perf_counter() - started\n    pids",
+    )
+    .replace('"ms": round(times[1] * 1000, 1),', '"ms": round(times[1] * 1000, 1), "first_ms": round(first * 1000, 1),')
+)
+
+
+def mesh(count: int) -> dict:
+    """A UV-sphere mesh of about count triangles in place of the vane, 640x480, 2 workers, in a fresh process:
+    the median of 3 frames after the first (which builds the mesh's hierarchy in each worker), and peak memory."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    script = MESH_SCRIPT.format(root=str(root), scripts=str(root / "scripts"), dtype="float64", count=count)
+    output = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True).stdout
+    figures = json.loads(output.strip().splitlines()[-1])
+    return {"triangles": count, **{key: round(value, 1) for key, value in figures.items()}}
 
 
 def full_hd(dtype: str) -> dict:
@@ -135,6 +165,12 @@ def animation(repeats: int) -> dict:
     }
 
 
+def meshes() -> dict:
+    rows = [mesh(count) for count in (1_000, 10_000, 100_000, 1_000_000)]
+    by_count = {row["triangles"]: row for row in rows}
+    return {"rows": rows, "ratio_100k_to_1k": round(by_count[100_000]["ms"] / by_count[1_000]["ms"], 2)}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
@@ -144,9 +180,15 @@ def main() -> None:
         "--animation-only", action="store_true", help="only the 120-frame animation (whole against incremental)"
     )
     parser.add_argument("--animation-repeats", type=int, default=3)
+    parser.add_argument(
+        "--meshes-only", action="store_true", help="only the mesh scaling (1,000 to 1,000,000 triangles)"
+    )
     args = parser.parse_args()
     if args.animation_only:
         print(json.dumps(animation(args.animation_repeats)))
+        return
+    if args.meshes_only:
+        print(json.dumps(meshes()))
         return
     scene = default_scene().with_render(width=args.width, height=args.height, depth=3, samples=1)
     report: dict = {
@@ -180,6 +222,15 @@ def main() -> None:
         f"incremental {motion['seconds']:.2f} s ({motion['speedup']:.2f}x, medians of {motion['repeats']}); "
         f"{motion['whole_frames']} frames traced whole, the others {100 * motion['retraced_share_mean']:.1f}% of "
         f"their pixels on average"
+    )
+    report["meshes_640x480_w2"] = scaling = meshes()
+    print(
+        "meshes at 640x480, 2 workers: "
+        + ", ".join(
+            f"{row['triangles']:,} triangles {row['ms']:.0f} ms ({row['peak_mb_total_pss']:.0f} MB)"
+            for row in scaling["rows"]
+        )
+        + f"; 100,000 against 1,000: {scaling['ratio_100k_to_1k']:.2f}x"
     )
     small = scene.with_render(width=64, height=48)
     started = time.perf_counter()

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .kernels import Kernel, PlaneKernel, indices, padded_box, quiet, ray_count, slab, take
+from .meshbvh import MeshKernel
 
 
 @dataclass
@@ -196,7 +197,7 @@ class Hierarchy:
         blocked: np.ndarray,
         sets: list[tuple[int, np.ndarray]],
     ) -> np.ndarray:
-        for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, sets):
+        for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, sets, any_hit=True):
             blocked.put(rays.take(indices(t < np.inf)), True)
         return blocked
 
@@ -207,15 +208,20 @@ class Hierarchy:
         t_min: float,
         t_max: float | np.ndarray,
         sets: list[tuple[int, np.ndarray]],
+        any_hit: bool = False,
     ) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
         """(kernel index, rays (n,)) sets -> (kernel index, rays (m,), t (m,), part (m,)) for the rays that pass its
         oriented box; kernels of one class that allow it are tested together in one batch (Kernel.batched), since
-        here each NumPy call costs more than the arithmetic on a few hundred rays."""
+        here each NumPy call costs more than the arithmetic on a few hundred rays. any_hit: only whether a ray hits
+        matters (shadow rays), which lets a mesh's own hierarchy stop at its first hit."""
         results, batches = [], {}
         for index, rays in sets:
             kernel = self.kernels[index]
             O_r, D_r = take(O, rays), take(D, rays)
             limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
+            if isinstance(kernel, MeshKernel):
+                results.append((index, rays, *kernel.hit(O_r, D_r, t_min, limit, any_hit=any_hit)))
+                continue
             if not kernel.batch_attributes:
                 results.append((index, rays, *kernel.hit(O_r, D_r, t_min, limit)))
                 continue

@@ -361,13 +361,11 @@ class TrianglesKernel(Kernel):
 
     def __init__(self, mesh: tf.WorldTriangles, dtype: np.dtype) -> None:
         triangles = np.asarray(mesh.triangles, dtype=np.float64)  # (T, 3 vertices, 3)
-        v0 = [tuple(float(x) for x in tri[0]) for tri in triangles]
-        e1 = [tf.sub(tuple(tri[1]), tuple(tri[0])) for tri in triangles]
-        e2 = [tf.sub(tuple(tri[2]), tuple(tri[0])) for tri in triangles]
-        # (3, T, 1): broadcasts against rays as (3, 1, N), so that NumPy's inner loops run along the rays
-        self.v0 = np.asarray(v0, dtype=dtype).T[:, :, None]
-        self.e1 = np.asarray(e1, dtype=dtype).T[:, :, None]
-        self.e2 = np.asarray(e2, dtype=dtype).T[:, :, None]
+        # edges in float64, as the reference subtracts them, then in the tracing dtype; (3, T, 1): broadcasts against
+        # rays as (3, 1, N), so that NumPy's inner loops run along the rays
+        self.v0 = np.ascontiguousarray(triangles[:, 0].T, dtype=dtype)[:, :, None]
+        self.e1 = np.ascontiguousarray((triangles[:, 1] - triangles[:, 0]).T, dtype=dtype)[:, :, None]
+        self.e2 = np.ascontiguousarray((triangles[:, 2] - triangles[:, 0]).T, dtype=dtype)[:, :, None]
         self.normals = np.asarray(mesh.normals, dtype=dtype).T  # (3, T)
         self.unit_normals = _unit(self.normals)
         self.cost = 3.0 + len(mesh.triangles)
@@ -405,65 +403,36 @@ class TrianglesKernel(Kernel):
         nearest = np.argmin(t, axis=0)  # first triangle on ties, as the reference's loop
         return t.min(axis=0), nearest
 
+    def pack(self, triangles: np.ndarray) -> np.ndarray:
+        """Triangle indices (L, K) -> their v0, e1, e2 components (9, L, K) in the tracing dtype, for packed_t (a
+        take along axis 1 then gives each component's (P, K) contiguous)."""
+        corners = (self.v0, self.e1, self.e2)
+        return np.stack([array[axis, :, 0].take(triangles) for array in corners for axis in range(3)])
+
+    def packed_t(self, O: np.ndarray, D: np.ndarray, packed: np.ndarray, t_min: float) -> np.ndarray:
+        """Rays (3, P), each against its own triangles packed (9, P, K) -> t (P, K), inf where the test fails or
+        t <= t_min: the operations of _hit, so the same t for the same ray and triangle."""
+        dx, dy, dz = D[0][:, None], D[1][:, None], D[2][:, None]  # (P, 1)
+        ax, ay, az, bx, by, bz, cx, cy, cz = packed  # (P, K) each
+        tx, ty, tz = O[0][:, None] - ax, O[1][:, None] - ay, O[2][:, None] - az
+        px, py, pz = dy * cz - dz * cy, dz * cx - dx * cz, dx * cy - dy * cx
+        qx, qy, qz = ty * bz - tz * by, tz * bx - tx * bz, tx * by - ty * bx
+        determinant = px * bx + py * by + pz * bz
+        t = (qx * cx + qy * cy + qz * cz) / determinant
+        u = (px * tx + py * ty + pz * tz) / determinant
+        v = (qx * dx + qy * dy + qz * dz) / determinant
+        ok = determinant != 0.0
+        ok &= u >= 0.0
+        ok &= v >= 0.0
+        ok &= u + v <= 1.0
+        ok &= t > t_min
+        return np.where(ok, t, np.inf)
+
     def normal(self, P, part):
         return self.normals[:, part]
 
     def unit_normal(self, P, part):
         return self.unit_normals.take(part, axis=1)
-
-
-CLUSTER_SIZE = 16  # triangles per hierarchy leaf: a mesh larger than this is split into spatial clusters
-
-
-class ClusterKernel(Kernel):
-    """Some triangles of a mesh, as one leaf of the hierarchy; parts are the mesh's own triangle indices."""
-
-    def __init__(self, inner: Kernel, triangle_indices: np.ndarray) -> None:
-        self.inner = inner
-        self.indices = triangle_indices
-        self.dtype = inner.dtype
-        self.cost = inner.cost
-
-    def hit(self, O, D, t_min, t_max):
-        t, part = self.inner.hit(O, D, t_min, t_max)
-        return t, self.indices.take(part)
-
-    def bounds(self):
-        return self.inner.bounds()
-
-
-def clusters(mesh: tf.WorldTriangles, size: int = CLUSTER_SIZE) -> list[np.ndarray]:
-    """Triangle indices of a mesh split by median cuts of their centroids into groups of at most size."""
-    centroids = np.asarray(mesh.triangles, dtype=np.float64).mean(axis=1)
-
-    def split(indices: np.ndarray) -> list[np.ndarray]:
-        if indices.size <= size:
-            return [indices]
-        points = centroids[indices]
-        axis = int(np.argmax(points.max(axis=0) - points.min(axis=0)))
-        order = indices[np.argsort(points[:, axis], kind="stable")]
-        half = order.size // 2
-        return split(order[:half]) + split(order[half:])
-
-    return split(np.arange(len(mesh.triangles)))
-
-
-def leaves(primitive: tf.WorldPrimitive, dtype: np.dtype, build) -> list[Kernel | None]:
-    """The hierarchy's leaves for one object: [None] for its own whole kernel, or for a large mesh one kernel per
-    cluster."""
-    if not isinstance(primitive, tf.WorldTriangles) or len(primitive.triangles) <= CLUSTER_SIZE:
-        return [None]
-    result: list[Kernel] = []
-    for indices in clusters(primitive):
-        part = tf.WorldTriangles(
-            primitive.material,
-            tuple(primitive.triangles[k] for k in indices),
-            tuple(primitive.normals[k] for k in indices),
-            primitive.rotation,
-            primitive.location,
-        )
-        result.append(ClusterKernel(build(part, dtype), indices))
-    return result
 
 
 def make_kernel(primitive: tf.WorldPrimitive, dtype: np.dtype) -> Kernel:

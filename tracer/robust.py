@@ -161,41 +161,56 @@ class WatertightTrianglesKernel(TrianglesKernel):
         return np.concatenate([t for t, _ in parts]), np.concatenate([part for _, part in parts])
 
     def _hit_chunk(self, O, D, t_min, t_max):
-        # the ray's dominant axis becomes z, kept right-handed
-        kz = np.argmax(np.abs(D), axis=0)
-        kx = (kz + 1) % 3
-        ky = (kx + 1) % 3
-        flip = np.take_along_axis(D, kz[None], axis=0)[0] < 0.0
-        kx, ky = np.where(flip, ky, kx), np.where(flip, kx, ky)
-
-        def component(array: np.ndarray, axis: np.ndarray) -> np.ndarray:
-            return np.take_along_axis(array, axis[None], axis=0)[0]
-
-        Dz = component(D, kz)
-        Sx, Sy, Sz = component(D, kx) / Dz, component(D, ky) / Dz, 1.0 / Dz
-        relative = self.vertices - O[None, :, :, None]  # (3 vertices, 3 axes, N, T)
-
-        def sheared(vertex: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-            v = relative[vertex]
-            vz = np.take_along_axis(v, kz[None, :, None], axis=0)[0]
-            vx = np.take_along_axis(v, kx[None, :, None], axis=0)[0] - Sx[:, None] * vz
-            vy = np.take_along_axis(v, ky[None, :, None], axis=0)[0] - Sy[:, None] * vz
-            return vx, vy, vz
-
-        (Ax, Ay, Az), (Bx, By, Bz), (Cx, Cy, Cz) = sheared(0), sheared(1), sheared(2)
-        U = Cx * By - Cy * Bx
-        V = Ax * Cy - Ay * Cx
-        W = Bx * Ay - By * Ax
-        inside = ~(((U < 0.0) | (V < 0.0) | (W < 0.0)) & ((U > 0.0) | (V > 0.0) | (W > 0.0)))
-        determinant = U + V + W
-        T = (U * Az + V * Bz + W * Cz) * Sz[:, None]
         limit = t_max[:, None] if isinstance(t_max, np.ndarray) else t_max
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = T / determinant
-            ok = inside & (determinant != 0.0) & (t > t_min) & (t < limit)
-        t = np.where(ok, t, np.inf)
+        t = _watertight_t(O, D, self.vertices, t_min, limit)  # (N, T)
         nearest = np.argmin(t, axis=1)
         return t.min(axis=1), nearest
+
+    def pack(self, triangles: np.ndarray) -> np.ndarray:
+        """Triangle indices (L, K) -> their vertices (9 = 3 vertices x 3 axes, L, K), for packed_t."""
+        return self.vertices[:, :, 0, :].take(triangles, axis=2).reshape(9, *triangles.shape)
+
+    def packed_t(self, O: np.ndarray, D: np.ndarray, packed: np.ndarray, t_min: float) -> np.ndarray:
+        """Rays (3, P), each against its own triangles packed (9, P, K) -> t (P, K), inf where there is no hit:
+        the same operations as _hit, so the same t for the same ray and triangle."""
+        return _watertight_t(O, D, packed.reshape(3, 3, *packed.shape[1:]), t_min, np.inf)
+
+
+def _watertight_t(O: np.ndarray, D: np.ndarray, vertices: np.ndarray, t_min: float, limit) -> np.ndarray:
+    """Woop et al.'s test of rays (3, N) against triangles (3 vertices, 3 axes, 1 or N, T) -> t (N, T), inf where
+    there is no hit in (t_min, limit)."""
+    # the ray's dominant axis becomes z, kept right-handed
+    kz = np.argmax(np.abs(D), axis=0)
+    kx = (kz + 1) % 3
+    ky = (kx + 1) % 3
+    flip = np.take_along_axis(D, kz[None], axis=0)[0] < 0.0
+    kx, ky = np.where(flip, ky, kx), np.where(flip, kx, ky)
+
+    def component(array: np.ndarray, axis: np.ndarray) -> np.ndarray:
+        return np.take_along_axis(array, axis[None], axis=0)[0]
+
+    Dz = component(D, kz)
+    Sx, Sy, Sz = component(D, kx) / Dz, component(D, ky) / Dz, 1.0 / Dz
+    relative = vertices - O[None, :, :, None]  # (3 vertices, 3 axes, N, T)
+
+    def sheared(vertex: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        v = relative[vertex]
+        vz = np.take_along_axis(v, kz[None, :, None], axis=0)[0]
+        vx = np.take_along_axis(v, kx[None, :, None], axis=0)[0] - Sx[:, None] * vz
+        vy = np.take_along_axis(v, ky[None, :, None], axis=0)[0] - Sy[:, None] * vz
+        return vx, vy, vz
+
+    (Ax, Ay, Az), (Bx, By, Bz), (Cx, Cy, Cz) = sheared(0), sheared(1), sheared(2)
+    U = Cx * By - Cy * Bx
+    V = Ax * Cy - Ay * Cx
+    W = Bx * Ay - By * Ax
+    inside = ~(((U < 0.0) | (V < 0.0) | (W < 0.0)) & ((U > 0.0) | (V > 0.0) | (W > 0.0)))
+    determinant = U + V + W
+    T = (U * Az + V * Bz + W * Cz) * Sz[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = T / determinant
+        ok = inside & (determinant != 0.0) & (t > t_min) & (t < limit)
+    return np.where(ok, t, np.inf)
 
 
 class RobustPlaneKernel(PlaneKernel):

@@ -19,7 +19,8 @@ from . import transforms as tf
 from .bvh import Hierarchy
 from .cull import CoverageGrid, ScreenRectangles, kernel_sets
 from .footprint import Footprint, Volume
-from .kernels import Kernel, PlaneKernel, column, dot, indices, leaves, make_kernel, quiet, take
+from .kernels import Kernel, PlaneKernel, column, dot, indices, make_kernel, quiet, take
+from .meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
 from .robust import make_robust_kernel, offset_origins
 
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0
@@ -67,11 +68,14 @@ class PreparedScene:
         build = make_robust_kernel if self.robust else make_kernel
         primitives = tf.world_primitives(self.scene)
         self.kernels = [_kernel(build, primitive, self.dtype) for primitive in primitives]  # per object: normals
-        leaf_kernels, owners = [], []
-        for index, primitive in enumerate(primitives):
-            for leaf in _kernel(leaves, primitive, self.dtype, build):
-                leaf_kernels.append(self.kernels[index] if leaf is None else leaf)
-                owners.append(index)
+        # a large mesh enters the scene's hierarchy as one leaf with a hierarchy of its own over its triangles
+        leaf_kernels = [
+            _kernel(MeshKernel, kernel, primitive)
+            if isinstance(primitive, tf.WorldTriangles) and len(primitive.triangles) > MESH_HIERARCHY_TRIANGLES
+            else kernel
+            for kernel, primitive in zip(self.kernels, primitives, strict=True)
+        ]
+        owners = list(range(len(leaf_kernels)))
         self.hierarchy = Hierarchy(leaf_kernels, self.dtype, owners)
         materials = [self.scene.materials[obj.material] for obj in self.scene.objects]
         self.colors = np.asarray([m.color for m in materials], dtype=self.dtype).T.reshape(3, -1)  # (3, objects)
@@ -442,13 +446,13 @@ _KERNELS: OrderedDict[tuple, object] = OrderedDict()
 KERNEL_CACHE_SIZE = 512
 
 
-def _kernel(make, primitive: tf.WorldPrimitive, dtype: np.dtype, *more: object):
-    """make(primitive, dtype, *more), kept for primitives that stay put between frames (in an animation all but
-    the vane's parts); kernels never change once made."""
-    key = (make, primitive, dtype.str, *more)
+def _kernel(make, first: object, second: object):
+    """make(first, second) (a primitive and a dtype, or a mesh's kernel and its primitive), kept for primitives that
+    stay put between frames (in an animation all but the vane's parts); kernels never change once made."""
+    key = (make, first, second.str if isinstance(second, np.dtype) else second)
     made = _KERNELS.get(key)
     if made is None:
-        made = _KERNELS[key] = make(primitive, dtype, *more)
+        made = _KERNELS[key] = make(first, second)
         if len(_KERNELS) > KERNEL_CACHE_SIZE:
             _KERNELS.popitem(last=False)
     else:

@@ -1,0 +1,87 @@
+"""Large meshes (tracer/meshbvh.py): their own hierarchy finds exactly the hits of the whole-mesh test."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tracer import scene as sc
+from tracer import transforms as tf
+from tracer.kernels import make_kernel, quiet
+from tracer.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
+from tracer.parallel import render
+from tracer.reference import render_reference
+from tracer.robust import make_robust_kernel
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+from study import triangles as uv_sphere
+
+
+def soup(count: int, seed: int) -> tf.WorldTriangles:
+    """Random triangles crossing each other, some repeated exactly (ties: the lower index must win) and some
+    sharing edges."""
+    rng = np.random.default_rng(seed)
+    centres = rng.uniform(-2, 2, (count, 1, 3))
+    triangles = centres + rng.normal(0, 0.4, (count, 3, 3))
+    triangles[count // 2 :: 7] = triangles[: len(triangles[count // 2 :: 7])]  # exact repeats of earlier ones
+    triangles[1::5, 0] = triangles[0::5, 1][: len(triangles[1::5])]  # shared vertices
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    as_tuples = tuple(tuple(tuple(float(x) for x in vertex) for vertex in triangle) for triangle in triangles)
+    return tf.WorldTriangles("m", as_tuples, tuple(tuple(float(x) for x in normal) for normal in normals))
+
+
+def rays(mesh: tf.WorldTriangles, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rays from around the mesh toward points near its triangles' centres (most hit, some graze or miss)."""
+    rng = np.random.default_rng(seed)
+    O = rng.uniform(-4, 4, (3, count))
+    centres = np.asarray(mesh.triangles).mean(axis=1)
+    D = centres[rng.integers(0, len(centres), count)].T + rng.normal(0, 0.2, (3, count)) - O
+    return O, D / np.linalg.norm(D, axis=0)
+
+
+@pytest.mark.parametrize("build", [make_kernel, make_robust_kernel])
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+@pytest.mark.parametrize(("count", "seed"), [(40, 1), (300, 2), (1500, 3)])
+def test_the_mesh_hierarchy_finds_the_whole_mesh_tests_hits(build, dtype, count, seed) -> None:
+    mesh = soup(count, seed)
+    whole = build(mesh, np.dtype(dtype))
+    kernel = MeshKernel(whole, mesh)
+    O, D = (array.astype(dtype) for array in rays(mesh, 4000, seed))
+    with quiet():
+        for t_min, t_max in ((0.5, 3.0), (0.0, np.inf)):
+            expected_t, expected_part = whole.hit(O, D, t_min, t_max)
+            t, part = kernel.hit(O, D, t_min, t_max)
+            assert np.array_equal(t, expected_t)
+            hit = expected_t < np.inf
+            assert np.array_equal(part[hit], expected_part[hit])  # the lowest index on ties, as the whole test
+            occluded, _ = kernel.hit(O, D, t_min, t_max, any_hit=True)
+            assert np.array_equal(occluded < np.inf, hit)
+    assert (expected_t < np.inf).mean() > 0.5  # of the unbounded queries
+
+
+def mesh_scene(count: int, width: int, height: int) -> sc.Scene:
+    return uv_sphere(count).with_render(width=width, height=height, depth=3)
+
+
+def test_a_mesh_scene_matches_the_per_pixel_reference() -> None:
+    scene = mesh_scene(200, 40, 30)
+    assert len(scene.objects[1].triangles) > MESH_HIERARCHY_TRIANGLES
+    np.testing.assert_allclose(render(scene, workers=1).image, np.asarray(render_reference(scene)), rtol=0, atol=1e-9)
+
+
+@pytest.mark.slow
+def test_a_large_mesh_scene_matches_the_per_pixel_reference() -> None:
+    scene = mesh_scene(10_000, 24, 18)
+    np.testing.assert_allclose(render(scene, workers=2).image, np.asarray(render_reference(scene)), rtol=0, atol=1e-9)
+
+
+def test_a_mesh_renders_the_same_bytes_with_one_worker_or_two_and_in_robust_mode_too() -> None:
+    scene = mesh_scene(2000, 80, 60)
+    for numerics in ("documented", "robust"):
+        one = render(scene.with_render(numerics=numerics), workers=1).image
+        two = render(scene.with_render(numerics=numerics), workers=2).image
+        assert np.array_equal(one, two)
