@@ -101,7 +101,7 @@ def run(repeats: int) -> dict:
         for count in (1, 4, 16, 64, 256):
             many = spheres(count).with_render(width=320, height=240)
             data.setdefault("spheres", []).append((count, timed(renderer, many, repeats)[0]))
-        for count in (12, 100, 1000, 10000):
+        for count in (12, 100, 1000, 10_000, 100_000, 1_000_000):
             mesh = triangles(count).with_render(width=320, height=240)
             actual = len(mesh.objects[1].triangles)
             data.setdefault("triangles", []).append((actual, timed(renderer, mesh, repeats)[0]))
