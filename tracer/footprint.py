@@ -40,9 +40,10 @@ class Volume:
         upper = np.max([high for _, high in boxes], axis=0)
         return cls(grown, padded_box(lower, upper, dtype, reach))
 
-    def meets(self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
-        """Whether each segment O + t D (3, n; either may be a shared (3, 1) column), t_min <= t <= t_max, meets
-        a box: bool (n,). A ray parallel to a slab is decided by its other axes (slab's NaN rule)."""
+    def meets(self, O: np.ndarray, D: np.ndarray, t_min: float | np.ndarray, t_max: float | np.ndarray) -> np.ndarray:
+        """Whether each segment O + t D (3, n; either may be a shared (3, 1) column), t_min <= t <= t_max (numbers
+        or (n,) each), meets a box: bool (n,). A ray parallel to a slab is decided by its other axes (slab's NaN
+        rule)."""
         count = max(O.shape[1], D.shape[1])
         with quiet():
             inverse = 1.0 / D
@@ -52,9 +53,10 @@ class Volume:
             near = indices(met)  # only the segments that meet the outer box go on to the boxes
             O_n, inverse_n = take(O, near), take(inverse, near)
             limit = t_max.take(near) if isinstance(t_max, np.ndarray) else t_max
+            start = t_min.take(near) if isinstance(t_min, np.ndarray) else t_min
             inside = np.zeros(near.size, dtype=bool)
             for lower, upper in self.boxes:
-                inside |= _segment_meets(O_n, inverse_n, t_min, limit, lower, upper)
+                inside |= _segment_meets(O_n, inverse_n, start, limit, lower, upper)
         result = np.zeros(count, dtype=bool)
         result[near] = inside
         return result
@@ -113,8 +115,16 @@ class Footprint:
         self.touched = np.zeros(count, dtype=bool)  # (count,): one per camera sample of the traced piece
 
     def record(
-        self, samples: np.ndarray, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float | np.ndarray
+        self,
+        samples: np.ndarray,
+        O: np.ndarray,
+        D: np.ndarray,
+        t_min: float,
+        t_max: float | np.ndarray,
+        hit: np.ndarray | None = None,
+        light: int | None = None,
     ) -> None:
-        """Segments (3, n) of the trees of camera samples (n,) (indices into touched)."""
+        """Segments (3, n) of the trees of camera samples (n,) (indices into touched); what they hit (hit: objects
+        (n,), -1 for none) or which light they seek (light) does not matter here."""
         if samples.size:
             self.touched[samples.take(indices(self.volume.meets(O, D, t_min, t_max)))] = True

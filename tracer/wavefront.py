@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from . import transforms as tf
 from .bvh import Hierarchy
 from .cull import CoverageGrid, ScreenRectangles, kernel_sets
 from .footprint import Footprint, Volume
+
+if TYPE_CHECKING:
+    from .edits import RayStore
 from .kernels import Kernel, PlaneKernel, column, dot, indices, make_kernel, quiet, take
 from .meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
 from .robust import make_robust_kernel, offset_origins
@@ -221,10 +225,10 @@ class PreparedScene:
 
         Robust numerics start each shadow ray just off the surface (offset_origins), on the light's side, and search
         t from 0; the documented ones start on the surface and search t from 0.001 (listing 3.2)."""
-        lights = [light for light in self.lights if light.kind != "ambient"]
+        lights = [(index, light) for index, light in enumerate(self.lights) if light.kind != "ambient"]
         t_min = 0.0 if self.robust else SHADOW_T_MIN
         shadows, origins, vectors, limits, bits = [], [], [], [], []
-        for light, (L, *_, needed) in zip(lights, terms, strict=True):
+        for (index, light), (L, *_, needed) in zip(lights, terms, strict=True):
             vector = take(L, needed)  # a directional light's vector stays a shared column
             origin = take(P, needed)
             if self.robust:
@@ -232,7 +236,7 @@ class PreparedScene:
                 if light.kind == "point":
                     vector = light.vector - origin  # t = 1 is still exactly the light
             if footprint is not None:  # the whole segment: a blocker that moves in could block it anywhere
-                footprint.record(samples.take(needed), origin, vector, t_min, light.t_max)
+                footprint.record(samples.take(needed), origin, vector, t_min, light.t_max, light=index)
             counts.shadow += needed.size
             # planes first, light by light (a shared direction keeps their test cheap); then only the rays that
             # the light's coverage grid cannot rule out go on to the hierarchy, all lights in one batch
@@ -293,7 +297,7 @@ class PreparedScene:
         rows: np.ndarray | None = None,
         origins: np.ndarray | None = None,
         far: np.ndarray | None = None,
-        footprint: Footprint | None = None,
+        footprint: Footprint | RayStore | None = None,
     ) -> np.ndarray:
         """Camera rays (3, N) -> linear colors (3, N), unclamped.
 
@@ -316,7 +320,7 @@ class PreparedScene:
                 obj[t >= far] = -1
             if footprint is not None:  # each ray up to its hit; a miss to its end
                 end = np.where(obj >= 0, t, np.inf if bounce or far is None else far)
-                footprint.record(pixel, O, D, t_min, end)
+                footprint.record(pixel, O, D, t_min, end, hit=obj)
             miss = indices(obj < 0)
             if miss.size:
                 sky = weight.take(miss) * self.background(take(D, miss))
@@ -405,9 +409,12 @@ class PreparedScene:
             touched[...] = hit.reshape(len(rows), width)
         return colors.reshape(len(rows), width, 3), counts
 
-    def render_pixels(self, pixels: np.ndarray, max_samples: int | None = None) -> tuple[np.ndarray, RayCounts]:
+    def render_pixels(
+        self, pixels: np.ndarray, max_samples: int | None = None, store: RayStore | None = None
+    ) -> tuple[np.ndarray, RayCounts]:
         """Flat pixel indices j * W + i (P,) -> their linear colours (P, 3) in the scene's dtype, and the ray
-        counts: the same bytes as those pixels of a whole image (the incremental frames' re-trace)."""
+        counts: the same bytes as those pixels of a whole image (the incremental frames' re-trace). store: keeps
+        every segment of their ray trees (edits.py)."""
         settings = self.scene.render
         at_once = len(pixels) if max_samples is None else max(1, max_samples // settings.samples)
         colors = np.empty((len(pixels), 3), dtype=self.dtype)
@@ -416,12 +423,20 @@ class PreparedScene:
             piece = np.asarray(pixels[first : first + at_once])
             with quiet():
                 directions = cam.pixel_directions(self.scene.camera, settings, piece).astype(self.dtype)
-            colors[first : first + at_once], piece_counts, _ = self._trace_pixels(directions, piece, None, None)
+            if store is not None:
+                store.begin(piece, settings.samples)
+            traced = self._trace_pixels(directions, piece, None, None, store)
+            colors[first : first + at_once], piece_counts, _ = traced
             counts.add(piece_counts)
         return colors, counts
 
     def _trace_pixels(
-        self, directions: np.ndarray, pixels: np.ndarray | None, rows: np.ndarray | None, volume: Volume | None
+        self,
+        directions: np.ndarray,
+        pixels: np.ndarray | None,
+        rows: np.ndarray | None,
+        volume: Volume | None,
+        store: RayStore | None = None,
     ) -> tuple[np.ndarray, RayCounts, np.ndarray | None]:
         """Camera rays (3, P * samples) of the flat pixels (P,; needed only for a camera whose rays do not all
         start at its location) -> colours (P, 3) box-filtered over each pixel's samples, the ray counts, and where a
@@ -429,7 +444,7 @@ class PreparedScene:
         settings = self.scene.render
         camera = self.scene.camera
         counts = RayCounts()
-        footprint = None if volume is None else Footprint(volume, directions.shape[1])
+        footprint = store if store is not None else None if volume is None else Footprint(volume, directions.shape[1])
         with quiet():
             origins = far = None
             if not cam.shares_origin(camera):
@@ -438,7 +453,7 @@ class PreparedScene:
             color = self.trace(directions, counts, rows, origins, far, footprint)
         samples = color.reshape(3, -1, settings.samples)
         image = samples.sum(axis=2) / settings.samples if settings.samples > 1 else samples[..., 0]
-        hit = None if footprint is None else footprint.touched.reshape(-1, settings.samples).any(axis=1)
+        hit = None if volume is None else footprint.touched.reshape(-1, settings.samples).any(axis=1)
         return np.ascontiguousarray(image.T), counts, hit
 
 
