@@ -165,6 +165,48 @@ def animation(repeats: int) -> dict:
     }
 
 
+def edits(repeats: int = 5) -> dict:
+    """tracer/edits.py on the default scene at 640x480 in one process: the editable image against a plain render,
+    and four edits (medians of repeats): the share of pixels each traces again and its time."""
+    from tracer import edits as editing
+    from tracer import scene as sc
+
+    scene = default_scene().with_render(width=640, height=480)
+    with Renderer(1) as renderer:
+        renderer.render(scene)
+        plain = statistics.median(renderer.render(scene).seconds for _ in range(repeats))
+    started = time.perf_counter()
+    image = editing.EditableImage(scene)
+    editable = time.perf_counter() - started
+    segments = image.segments
+    fin = next(obj for obj in scene.objects if obj.name == "tail_fin")
+    sun = next(k for k, light in enumerate(scene.lights) if isinstance(light, sc.DirectionalLight))
+    cases = {
+        "tail fin's material": editing.MaterialEdit(fin.material, sc.Material((0.9, 0.1, 0.1), 20.0, 0.2)),
+        "ball moved": editing.TransformEdit("ball", (0.3, 0.0, 3.3), (0.0, 0.0, 0.0)),
+        "sun's intensity": editing.LightEdit(sun, 0.3),
+        "ground's material": editing.MaterialEdit("tiles", sc.Material((0.5, 0.5, 0.5), 0.0, 0.3)),
+    }
+    rows = {}
+    for label, edit in cases.items():
+        times = []
+        for _ in range(repeats):
+            started = time.perf_counter()
+            image.apply(edit)
+            times.append(time.perf_counter() - started)
+        rows[label] = {
+            "traced_share": round(image.last_traced / (640 * 480), 4),
+            "ms": round(1000 * statistics.median(times), 1),
+        }
+    return {
+        "plain_ms": round(plain * 1000, 1),
+        "editable_ms": round(editable * 1000, 1),
+        "segments": int(segments.pixel.size),
+        "segments_mb": round(sum(column.nbytes for column in segments.columns) / 1e6, 1),
+        "edits": rows,
+    }
+
+
 def meshes() -> dict:
     rows = [mesh(count) for count in (1_000, 10_000, 100_000, 1_000_000)]
     by_count = {row["triangles"]: row for row in rows}
@@ -183,12 +225,16 @@ def main() -> None:
     parser.add_argument(
         "--meshes-only", action="store_true", help="only the mesh scaling (1,000 to 1,000,000 triangles)"
     )
+    parser.add_argument("--edits-only", action="store_true", help="only the edits (tracer/edits.py)")
     args = parser.parse_args()
     if args.animation_only:
         print(json.dumps(animation(args.animation_repeats)))
         return
     if args.meshes_only:
         print(json.dumps(meshes()))
+        return
+    if args.edits_only:
+        print(json.dumps(edits()))
         return
     scene = default_scene().with_render(width=args.width, height=args.height, depth=3, samples=1)
     report: dict = {
@@ -231,6 +277,11 @@ def main() -> None:
             for row in scaling["rows"]
         )
         + f"; 100,000 against 1,000: {scaling['ratio_100k_to_1k']:.2f}x"
+    )
+    report["edits_640x480"] = editing = edits()
+    print(
+        f"edits at 640x480: editable image {editing['editable_ms']:.0f} ms (plain {editing['plain_ms']:.0f} ms); "
+        + ", ".join(f"{label} {row['ms']:.0f} ms" for label, row in editing["edits"].items())
     )
     small = scene.with_render(width=64, height=48)
     started = time.perf_counter()

@@ -82,12 +82,13 @@ class Segments:
             np.empty(0, np.int32), np.empty(0, np.int32),
         )  # fmt: skip
 
-    def without(self, pixels: np.ndarray) -> Segments:
-        keep = ~np.isin(self.pixel, pixels)
-        return Segments(*(array[..., keep] for array in self.columns))
+    def take(self, keep: np.ndarray) -> Segments:
+        """The segments at positions keep (k,)."""
+        return Segments(*(array.take(keep, axis=-1) for array in self.columns))
 
-    def joined(self, other: Segments) -> Segments:
-        return Segments(*(np.concatenate((a, b), axis=-1) for a, b in zip(self.columns, other.columns, strict=True)))
+    def joined(self, *others: Segments) -> Segments:
+        parts = [self, *others]
+        return Segments(*(np.concatenate([part.columns[k] for part in parts], axis=-1) for k in range(7)))
 
     @property
     def columns(self) -> tuple[np.ndarray, ...]:
@@ -117,48 +118,74 @@ Edit = MaterialEdit | LightEdit | TransformEdit
 
 
 class EditableImage:
-    """A scene's image that edits update in place of a whole render (one process)."""
+    """A scene's image that edits update in place of a whole render (one process).
+
+    The segments are kept in chunks, one per trace; a pixel traced again makes its older segments stale (each chunk
+    notes the pixel's generation it was traced in), so an edit costs its own segments, not a copy of all of them;
+    the chunks are compacted when stale segments are more than half."""
 
     def __init__(self, scene: sc.Scene) -> None:
         self.scene = scene
         settings = scene.render
         self.pixels = settings.width * settings.height
-        store = RayStore()
-        colors, self.rays = PreparedScene(scene).render_pixels(np.arange(self.pixels), band_samples(settings), store)
-        self.image = colors.reshape(settings.height, settings.width, 3)
-        self.segments = store.segments()
-        self.last_traced = self.pixels
+        self.generation = np.zeros(self.pixels, dtype=np.int32)  # how often each pixel was traced again
+        self.chunks: list[tuple[Segments, np.ndarray]] = []  # segments and the generation they belong to
+        self.image = np.empty((settings.height, settings.width, 3), dtype=settings.dtype)
+        self.rays = RayCounts()
+        self._trace(scene, np.arange(self.pixels))
+
+    @property
+    def segments(self) -> Segments:
+        """The current segments, every pixel's latest tree (a copy)."""
+        live = [chunk.take(self._live(chunk, generation)) for chunk, generation in self.chunks]
+        return Segments.empty() if not live else live[0].joined(*live[1:])
 
     def apply(self, edit: Edit) -> np.ndarray:
         """The edited scene's image (height, width, 3); self.scene becomes the edited scene."""
         edited = _edited(self.scene, edit)
         pixels = self._affected(edit, edited)
-        store = RayStore()
-        colors, rays = PreparedScene(edited).render_pixels(pixels, band_samples(edited.render), store)
-        self.image.reshape(-1, 3)[pixels] = colors
-        self.segments = self.segments.without(pixels).joined(store.segments())
-        self.scene, self.rays, self.last_traced = edited, rays, len(pixels)
+        self.generation[pixels] += 1
+        self._trace(edited, pixels)
+        self.scene = edited
         return self.image
+
+    def _trace(self, scene: sc.Scene, pixels: np.ndarray) -> None:
+        store = RayStore()
+        colors, self.rays = PreparedScene(scene).render_pixels(pixels, band_samples(scene.render), store)
+        self.image.reshape(-1, 3)[pixels] = colors
+        chunk = store.segments()
+        self.chunks.append((chunk, self.generation.take(chunk.pixel)))
+        self.last_traced = len(pixels)
+        total = sum(chunk.pixel.size for chunk, _ in self.chunks)
+        if len(self.chunks) > 1 and 2 * sum(self._live(c, g).size for c, g in self.chunks) < total:
+            current = self.segments
+            self.chunks = [(current, self.generation.take(current.pixel))]
+
+    def _live(self, chunk: Segments, generation: np.ndarray) -> np.ndarray:
+        return (generation == self.generation.take(chunk.pixel)).nonzero()[0]
 
     def _affected(self, edit: Edit, edited: sc.Scene) -> np.ndarray:
         """The flat pixels (P,) whose trees touch what the edit changes, ascending."""
-        segments = self.segments
-        if isinstance(edit, MaterialEdit):
-            objects = [k for k, obj in enumerate(self.scene.objects) if obj.material == edit.name]
-            touched = np.isin(segments.hit, objects)
-        elif isinstance(edit, LightEdit):
-            if isinstance(self.scene.lights[edit.index], sc.AmbientLight):
-                touched = segments.hit >= 0
-            else:
-                touched = segments.light == edit.index
-        else:
+        if isinstance(edit, TransformEdit):
             index = next(k for k, obj in enumerate(self.scene.objects) if obj.name == edit.name)
             boxes = [_box(self.scene, index), _box(edited, index)]
             if any(box is None for box in boxes):  # an unbounded plane moved: anything may change
                 return np.arange(self.pixels)
             volume = Volume.around(boxes, np.dtype(np.float64), float(np.abs(np.concatenate(boxes)).max()))
-            touched = volume.meets(segments.O, segments.D, segments.start, segments.end)
-        return np.unique(segments.pixel[touched])
+        touched = []
+        for segments, generation in self.chunks:  # stale segments are tested too, and left out after
+            if isinstance(edit, MaterialEdit):
+                objects = [k for k, obj in enumerate(self.scene.objects) if obj.material == edit.name]
+                hits = np.isin(segments.hit, objects)
+            elif isinstance(edit, LightEdit):
+                if isinstance(self.scene.lights[edit.index], sc.AmbientLight):
+                    hits = segments.hit >= 0
+                else:
+                    hits = segments.light == edit.index
+            else:
+                hits = volume.meets(segments.O, segments.D, segments.start, segments.end)
+            touched.append(segments.pixel[hits & (generation == self.generation.take(segments.pixel))])
+        return np.unique(np.concatenate(touched))
 
 
 def _box(scene: sc.Scene, index: int) -> tuple[np.ndarray, np.ndarray] | None:
