@@ -1,10 +1,10 @@
 """Frames of a turning vane -> their images, tracing again only the pixels that the vane can change (footprint.py).
 
 Frames go in runs whose headings stay within RUN_DEGREES of each other (at most RUN_FRAMES long). The run's first
-frame is traced whole, noting which pixels' ray trees meet the box that holds the vane at every heading of the run;
-each later frame of the run is that image with those pixels traced again. Every frame is bit-identical to a whole
-trace of it. Where the box's pixels are more than FULL_SHARE of the image (a camera inside the vane's reach, a huge
-vane), the run's frames are traced whole instead, which costs nothing more than a plain animation.
+frame is traced whole, noting which pixels' ray trees meet the boxes that hold the vane's parts at every heading of
+the run; each later frame of the run is that image with those pixels traced again. Every frame is bit-identical to a
+whole trace of it. Where the boxes' pixels are more than FULL_SHARE of the image (a camera inside the vane's reach, a
+huge vane), the run's frames are traced whole instead, which costs nothing more than a plain animation.
 """
 
 from __future__ import annotations
@@ -19,9 +19,10 @@ from . import scene as sc
 from .footprint import swept_volume
 from .parallel import Progress, Renderer, RenderResult
 
-# Runs: a tighter box means fewer pixels to trace again, a longer run fewer whole frames. On the default 640x480
-# animation a box over 30 degrees of heading holds the ray trees of 12% of the pixels (8% for one heading, 21% for a
-# whole turn); a whole frame with its footprint costs about 1.7 plain frames.
+# Runs: tighter boxes mean fewer pixels to trace again, a longer run fewer whole frames. On the default scene the
+# parts' boxes hold the ray trees of 3.6% of the pixels for one heading, 5% over 15 degrees, 6.2% over 30 and 7.9%
+# over 60; a whole frame with its footprint costs about 1.6 plain frames. The default 120 frames (no PNG): 6.9 s with
+# runs of 30 degrees, 5.8 s of 60, 5.5 s of 90, 5.3 s of 180, 5.9 s of a whole turn (one noisy run each).
 RUN_DEGREES = 90.0
 RUN_FRAMES = 120
 FULL_SHARE = 0.5

@@ -4,8 +4,10 @@ time for all rays at once.
 A hierarchy walked node by node costs NumPy calls per node, so its time grows with the number of nodes a frame
 visits, not with the rays: that is what made a 10,000-triangle mesh grow as n^0.58. Here every query keeps (ray,
 node) pairs and moves them down one level per step: one slab test over all pairs of a level, the leaves' triangles
-tested over all (pair, triangle) at once, the inner nodes' children as the next level's pairs. A query costs a few
-dozen NumPy calls per level, about log2(n / LEAF_TRIANGLES) levels, and arithmetic in proportion to the pairs.
+tested over all (pair, triangle) at once, the inner nodes' children as the next level's pairs. Before that walk each
+ray follows one path, always into the child it enters first, and tests that leaf: its hit (usually the nearest, or
+for a shadow ray any) prunes every node beyond it. A query costs a few dozen NumPy calls per level, about
+log2(n / LEAF_TRIANGLES) levels, and arithmetic in proportion to the pairs.
 The exact test per triangle is the mesh kernel's own (Moller-Trumbore as the seed writes it, or the watertight
 test of the robust numerics), with the same operations, so the hits are the ones the whole-mesh kernel finds:
 nearest t, then the lowest triangle index on ties.
