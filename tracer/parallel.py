@@ -246,19 +246,13 @@ class Renderer:
             for scene in scenes:
                 yield self.render(scene)
             return
-        self._start_pool()
-        pending: deque[_Frame] = deque()
-        try:
+
+        def submitted() -> Iterator[_Frame]:
             for scene in scenes:
                 check_resources(scene.render, self.workers, frames=2)
-                pending.append(self._submit(scene))
-                if len(pending) == 2:  # one frame traced, one queued: memory stays at two images
-                    yield pending.popleft().finish()
-            while pending:
-                yield pending.popleft().finish()
-        finally:
-            for frame in pending:  # stopped early
-                frame.abandon()
+                yield self._submit(scene)
+
+        yield from self._pipelined(submitted(), 2)  # one frame traced, one queued: memory stays at two images
 
     def render_pixel_frames(
         self, scenes: Iterable[sc.Scene], pixels: np.ndarray, base: np.ndarray
@@ -271,12 +265,17 @@ class Renderer:
             for scene in scenes:
                 yield self.render_pixels(scene, pixels, base)
             return
+        submitted = (self._submit_pixels(scene, pixels, base, pieces=1) for scene in scenes)
+        yield from self._pipelined(submitted, self.workers + 1)
+
+    def _pipelined(self, frames: Iterator[_Frame], depth: int) -> Iterator[RenderResult]:
+        """The frames' results in order, with up to depth frames in the pool at once."""
         self._start_pool()
         pending: deque[_Frame] = deque()
         try:
-            for scene in scenes:
-                pending.append(self._submit_pixels(scene, pixels, base, pieces=1))
-                if len(pending) > self.workers:
+            for frame in frames:
+                pending.append(frame)
+                if len(pending) == depth:
                     yield pending.popleft().finish()
             while pending:
                 yield pending.popleft().finish()
