@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import functools
 import json
+import sys
+import traceback
 from pathlib import Path
 
 import bpy
@@ -11,6 +14,22 @@ from bpy_extras.io_utils import ExportHelper
 
 from . import animation, build, camera, lights
 from ._tracer import module
+
+
+def reports_errors(execute):
+    """An operator's execute that never lets an exception reach the user: an unexpected one becomes one report line
+    naming the operator and the error (the traceback goes to the system console, for a bug report)."""
+
+    @functools.wraps(execute)
+    def guarded(self, context):
+        try:
+            return execute(self, context)
+        except Exception as error:  # the last line of defence: one line for the user, the details for a report
+            traceback.print_exc(file=sys.stderr)
+            self.report({"ERROR"}, f"{self.bl_label} failed: {type(error).__name__}: {error}")
+            return {"CANCELLED"}
+
+    return guarded
 
 
 def _load_scene(path: str):
@@ -33,6 +52,7 @@ class WEATHERVANE_OT_build(bpy.types.Operator):
         description="Tracer scene (.json); empty uses the panel's scene file or the default",
     )
 
+    @reports_errors
     def execute(self, context):
         path = self.filepath or context.scene.weathervane.scene_file
         try:
@@ -58,6 +78,7 @@ class WEATHERVANE_OT_bake(bpy.types.Operator):
     bl_label = "Bake Motion"
     bl_options = {"REGISTER", "UNDO"}
 
+    @reports_errors
     def execute(self, context):
         window_manager = context.window_manager
         window_manager.progress_begin(0, 100)
@@ -82,6 +103,7 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
     filename_ext = ".json"
     filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
 
+    @reports_errors
     def execute(self, context):
         from .export import scene_document
 
@@ -92,9 +114,13 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
             for problem in error.problems[:8]:
                 self.report({"ERROR"}, f"cannot export: {problem}")
             return {"CANCELLED"}
-        target = Path(self.filepath)
-        with module("images").atomic_path(target) as temporary:
-            temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
+        target = Path(bpy.path.abspath(self.filepath))
+        try:
+            with module("images").atomic_path(target) as temporary:  # nothing is left behind if it fails
+                temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
+        except OSError as error:
+            self.report({"ERROR"}, f"cannot write {target}: {error.strerror or error}")
+            return {"CANCELLED"}
         left_out = camera.unsupported(context.scene)
         if left_out:
             self.report({"WARNING"}, f"Wrote {target}; the tracer does not render: {', '.join(left_out)}")
@@ -120,6 +146,7 @@ class WEATHERVANE_OT_light_add(bpy.types.Operator):
         default="POINT",
     )
 
+    @reports_errors
     def execute(self, context):
         settings = context.scene.weathervane
         entry = settings.lights.add()
@@ -145,6 +172,7 @@ class WEATHERVANE_OT_light_remove(bpy.types.Operator):
         settings = context.scene.weathervane
         return 0 <= settings.light_index < len(settings.lights)
 
+    @reports_errors
     def execute(self, context):
         settings = context.scene.weathervane
         entry = settings.lights[settings.light_index]

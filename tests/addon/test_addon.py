@@ -274,3 +274,30 @@ def test_export_turns_other_meshes_into_triangles(tmp_path: Path) -> None:
     exported = next(obj for obj in document["objects"] if obj["name"] == "quad")
     assert exported["type"] == "mesh" and len(exported["triangles"]) == 2
     assert Vector(exported["vertices"][0]) == Vector((2, 0, 0))
+
+
+@pytest.mark.parametrize("where", ["/proc/weathervane.json", "a file/scene.json"])
+def test_export_to_a_place_that_cannot_be_written_reports_one_line_and_leaves_nothing(tmp_path: Path, where) -> None:
+    built()
+    (tmp_path / "a file").write_text("not a folder")
+    target = where if where.startswith("/") else str(tmp_path / where)
+    before = sorted(tmp_path.rglob("*"))
+    with pytest.raises(RuntimeError) as raised:
+        bpy.ops.weathervane.export(filepath=target)
+    message = str(raised.value)
+    assert f"cannot write {target}:" in message and "Traceback" not in message and ".partial" not in message
+    assert len([line for line in message.splitlines() if line.startswith("Error:")]) == 1
+    assert sorted(tmp_path.rglob("*")) == before
+
+
+def test_an_unexpected_error_in_an_operator_is_one_report_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    built()
+
+    def broken(*_args, **_kwargs):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr("addon.animation.bake", broken)
+    with pytest.raises(RuntimeError) as raised:
+        bpy.ops.weathervane.bake()
+    message = str(raised.value)
+    assert "Bake Motion failed: ZeroDivisionError: a bug" in message and "Traceback" not in message
