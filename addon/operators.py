@@ -10,7 +10,7 @@ from pathlib import Path
 
 import bpy
 from bpy.props import EnumProperty, StringProperty
-from bpy_extras.io_utils import ExportHelper
+from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import animation, build, camera, lights
 from ._tracer import module
@@ -54,21 +54,39 @@ class WEATHERVANE_OT_build(bpy.types.Operator):
 
     @reports_errors
     def execute(self, context):
-        path = self.filepath or context.scene.weathervane.scene_file
-        try:
-            scene = _load_scene(path)
-        except module("loader").SceneError as error:
-            for problem in error.problems[:8]:
-                self.report({"ERROR"}, f"{error.source}: {problem}")
-            return {"CANCELLED"}
-        problems = build.name_problems(scene)
-        if problems:
-            for problem in problems[:8]:
-                self.report({"ERROR"}, f"{path or 'default scene'}: {problem}")
-            return {"CANCELLED"}
-        build.build(context, scene)
-        self.report({"INFO"}, f"Built {len(scene.objects)} parts in the '{build.COLLECTION}' collection")
-        return {"FINISHED"}
+        return _build_from(self, context, self.filepath or context.scene.weathervane.scene_file)
+
+
+def _build_from(operator: bpy.types.Operator, context, path: str) -> set[str]:
+    """Build from a scene file (empty: the default scene), reporting through operator."""
+    try:
+        scene = _load_scene(path)
+    except module("loader").SceneError as error:
+        for problem in error.problems[:8]:
+            operator.report({"ERROR"}, f"{error.source}: {problem}")
+        return {"CANCELLED"}
+    problems = build.name_problems(scene)
+    if problems:
+        for problem in problems[:8]:
+            operator.report({"ERROR"}, f"{path or 'default scene'}: {problem}")
+        return {"CANCELLED"}
+    build.build(context, scene)
+    operator.report({"INFO"}, f"Built {len(scene.objects)} parts in the '{build.COLLECTION}' collection")
+    return {"FINISHED"}
+
+
+class WEATHERVANE_OT_import(bpy.types.Operator, ImportHelper):
+    """Build the weathervane from a tracer scene file (.json) in its own collection"""
+
+    bl_idname = "weathervane.import_scene"
+    bl_label = "Import Weathervane Scene"
+    bl_options = {"REGISTER", "UNDO"}
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+    @reports_errors
+    def execute(self, context):
+        return _build_from(self, context, self.filepath)
 
 
 class WEATHERVANE_OT_bake(bpy.types.Operator):
@@ -99,7 +117,7 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
     """Write the scene as a tracer scene file (.json)"""
 
     bl_idname = "weathervane.export"
-    bl_label = "Export Tracer Scene"
+    bl_label = "Export Weathervane Scene"
     filename_ext = ".json"
     filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
 
@@ -190,6 +208,7 @@ class WEATHERVANE_OT_light_remove(bpy.types.Operator):
 
 CLASSES = (
     WEATHERVANE_OT_build,
+    WEATHERVANE_OT_import,
     WEATHERVANE_OT_bake,
     WEATHERVANE_OT_export,
     WEATHERVANE_OT_light_add,
@@ -197,4 +216,31 @@ CLASSES = (
 )
 
 
-register, unregister = bpy.utils.register_classes_factory(CLASSES)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
+
+
+def menu_import(self, context) -> None:
+    self.layout.operator(WEATHERVANE_OT_import.bl_idname, text="Weathervane Scene (.json)")
+
+
+def menu_export(self, context) -> None:
+    self.layout.operator(WEATHERVANE_OT_export.bl_idname, text="Weathervane Scene (.json)")
+
+
+def menu_add(self, context) -> None:
+    self.layout.operator(WEATHERVANE_OT_build.bl_idname, text="Weathervane", icon="FORCE_WIND")
+
+
+MENUS = (("TOPBAR_MT_file_import", menu_import), ("TOPBAR_MT_file_export", menu_export), ("VIEW3D_MT_add", menu_add))
+
+
+def register() -> None:
+    _register_classes()
+    for menu, entry in MENUS:
+        getattr(bpy.types, menu).append(entry)
+
+
+def unregister() -> None:
+    for menu, entry in MENUS:
+        getattr(bpy.types, menu).remove(entry)
+    _unregister_classes()

@@ -96,6 +96,19 @@ def capture() -> float | None:
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.screen.screenshot(filepath=SCREENSHOT)
     print("WEATHERVANE-GUI screenshot", SCREENSHOT)
+    # File > Export, opened as a click on the menu would: the add-on's entry is in it
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        bpy.ops.wm.call_menu(name="TOPBAR_MT_file_export")
+    bpy.app.timers.register(capture_menu, first_interval=1.0)
+    return None
+
+
+def capture_menu() -> float | None:
+    window, area, region = view3d()
+    target = SCREENSHOT.replace(".png", "-export-menu.png")
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        bpy.ops.screen.screenshot(filepath=target)
+    print("WEATHERVANE-GUI export menu", target)
     bpy.app.timers.register(lambda: bpy.ops.wm.quit_blender() and None, first_interval=0.5)
     return None
 

@@ -301,3 +301,24 @@ def test_an_unexpected_error_in_an_operator_is_one_report_line(monkeypatch: pyte
         bpy.ops.weathervane.bake()
     message = str(raised.value)
     assert "Bake Motion failed: ZeroDivisionError: a bug" in message and "Traceback" not in message
+
+
+def test_file_import_export_and_add_menus_hold_the_operators_and_unregister_removes_them(tmp_path: Path) -> None:
+    import addon
+    from addon import operators
+
+    for menu, entry in operators.MENUS:
+        assert entry in getattr(bpy.types, menu)._dyn_ui_initialize(), menu
+    # File > Import builds from a scene file, as the Build operator does
+    document = default_scene_dict()
+    document["objects"][0]["size"] = [12, 12]
+    path = tmp_path / "small_ground.json"
+    path.write_text(json.dumps(document))
+    assert bpy.ops.weathervane.import_scene(filepath=str(path)) == {"FINISHED"}
+    assert bpy.data.objects["WV ground"].dimensions.x == pytest.approx(12)
+    addon.unregister()
+    try:
+        for menu, entry in operators.MENUS:
+            assert entry not in getattr(bpy.types, menu)._dyn_ui_initialize(), menu
+    finally:
+        addon.register()
