@@ -231,10 +231,13 @@ def build(context, scene) -> bpy.types.Collection:
         if kind == "AmbientLight":
             entry.kind, entry.intensity = "AMBIENT", light.intensity
         elif kind == "PointLight":
-            obj = lights.create("POINT", light.intensity, f"WV Point {index}", collection, light.location)
+            obj = lights.create(
+                "POINT", light.intensity, lights.object_name("POINT", index), collection, light.location
+            )
             entry.kind, entry.intensity, entry.object_name = "POINT", light.intensity, obj.name
         else:
-            obj = lights.create("DIRECTIONAL", light.intensity, f"WV Sun {index}", collection, light.direction)
+            name = lights.object_name("DIRECTIONAL", index)
+            obj = lights.create("DIRECTIONAL", light.intensity, name, collection, light.direction)
             entry.kind, entry.intensity, entry.object_name = "DIRECTIONAL", light.intensity, obj.name
     _fill_settings(context, scene)
     return collection

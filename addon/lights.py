@@ -42,6 +42,11 @@ def _constant_falloff(light_data) -> None:
     tree.links.new(falloff.outputs["Constant"], emission.inputs["Strength"])
 
 
+def object_name(kind: str, index: int) -> str:
+    """The Blender name of the panel's light number index of a kind (POINT or DIRECTIONAL), however it was made."""
+    return f"WV {'Point' if kind == 'POINT' else 'Sun'} {index}"
+
+
 def create(kind: str, intensity: float, name: str, collection, vector=(0.0, 0.0, 1.0)):
     """A Blender light object for a point (vector: location) or directional (vector: toward the light) light."""
     if kind == "POINT":

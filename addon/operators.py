@@ -75,6 +75,21 @@ def _build_from(operator: bpy.types.Operator, context, path: str) -> set[str]:
     return {"FINISHED"}
 
 
+class WEATHERVANE_OT_scene_file_browse(bpy.types.Operator, ImportHelper):
+    """Choose the tracer scene file (.json) that Build uses"""
+
+    bl_idname = "weathervane.scene_file_browse"
+    bl_label = "Choose Scene File"
+    bl_options = {"REGISTER", "UNDO"}
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+    @reports_errors
+    def execute(self, context):
+        context.scene.weathervane.scene_file = bpy.path.relpath(self.filepath) if bpy.data.filepath else self.filepath
+        return {"FINISHED"}
+
+
 class WEATHERVANE_OT_import(bpy.types.Operator, ImportHelper):
     """Build the weathervane from a tracer scene file (.json) in its own collection"""
 
@@ -95,6 +110,13 @@ class WEATHERVANE_OT_bake(bpy.types.Operator):
     bl_idname = "weathervane.bake"
     bl_label = "Bake Motion"
     bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if bpy.data.objects.get(build.TURN) is None:
+            cls.poll_message_set("Build the weathervane first: there is no vane to turn")
+            return False
+        return True
 
     @reports_errors
     def execute(self, context):
@@ -157,9 +179,9 @@ class WEATHERVANE_OT_light_add(bpy.types.Operator):
     kind: EnumProperty(
         name="Type",
         items=[
-            ("POINT", "Point", "A light at a position"),
-            ("DIRECTIONAL", "Directional", "A light at infinity"),
-            ("AMBIENT", "Ambient", "Light everywhere"),
+            ("POINT", "Point", "A light at a position", "LIGHT_POINT", 0),
+            ("DIRECTIONAL", "Directional", "A light at infinity", "LIGHT_SUN", 1),
+            ("AMBIENT", "Ambient", "Light everywhere", "WORLD", 2),
         ],
         default="POINT",
     )
@@ -172,7 +194,8 @@ class WEATHERVANE_OT_light_add(bpy.types.Operator):
         if self.kind != "AMBIENT":
             collection = build.own_collection(context)
             vector = (3.0, -3.0, 5.0) if self.kind == "POINT" else (1.0, -1.0, 2.0)
-            obj = lights.create(self.kind, entry.intensity, f"WV {self.kind.title()}", collection, vector)
+            name = lights.object_name(self.kind, len(settings.lights) - 1)
+            obj = lights.create(self.kind, entry.intensity, name, collection, vector)
             entry.object_name = obj.name
         settings.light_index = len(settings.lights) - 1
         return {"FINISHED"}
@@ -209,6 +232,7 @@ class WEATHERVANE_OT_light_remove(bpy.types.Operator):
 CLASSES = (
     WEATHERVANE_OT_build,
     WEATHERVANE_OT_import,
+    WEATHERVANE_OT_scene_file_browse,
     WEATHERVANE_OT_bake,
     WEATHERVANE_OT_export,
     WEATHERVANE_OT_light_add,

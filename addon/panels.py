@@ -19,7 +19,9 @@ class WEATHERVANE_PT_main(WeathervanePanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         settings = context.scene.weathervane
-        layout.prop(settings, "scene_file")
+        row = layout.row(align=True)
+        row.prop(settings, "scene_file")
+        row.operator("weathervane.scene_file_browse", icon="FILEBROWSER", text="")
         row = layout.row(align=True)
         row.operator("weathervane.build", icon="MOD_BUILD")
         row.operator("weathervane.export", icon="EXPORT", text="Export")

@@ -95,8 +95,8 @@ class WEATHERVANE_PG_light(bpy.types.PropertyGroup):
 class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     scene_file: StringProperty(
         name="Scene File",
-        subtype="FILE_PATH",
-        description="A tracer scene (.json) to build; empty builds the default weathervane",
+        description="A tracer scene (.json) to build; empty builds the default weathervane (the folder button "
+        "browses .json files only)",
     )
     # ---- wind (animatable: key them on the timeline) ----
     wind_direction: FloatProperty(

@@ -322,3 +322,30 @@ def test_file_import_export_and_add_menus_hold_the_operators_and_unregister_remo
             assert entry not in getattr(bpy.types, menu)._dyn_ui_initialize(), menu
     finally:
         addon.register()
+
+
+def test_bake_is_greyed_out_until_there_is_a_vane_and_lights_are_named_alike_however_made() -> None:
+    assert not bpy.ops.weathervane.bake.poll()  # the button is greyed out, its tooltip says why
+    built()
+    assert bpy.ops.weathervane.bake.poll()
+    settings = bpy.context.scene.weathervane
+    built_names = [entry.object_name for entry in settings.lights if entry.object_name]
+    assert all(name.startswith(("WV Point ", "WV Sun ")) for name in built_names), built_names
+    assert bpy.ops.weathervane.light_add(kind="DIRECTIONAL") == {"FINISHED"}
+    assert settings.lights[-1].object_name == f"WV Sun {len(settings.lights) - 1}"
+    items = bpy.ops.weathervane.light_add.get_rna_type().properties["kind"].enum_items
+    assert {item.identifier: item.icon for item in items} == {
+        "POINT": "LIGHT_POINT",
+        "DIRECTIONAL": "LIGHT_SUN",
+        "AMBIENT": "WORLD",
+    }
+
+
+def test_the_scene_file_button_browses_json_files_only_and_sets_the_field(tmp_path: Path) -> None:
+    rna = bpy.ops.weathervane.scene_file_browse.get_rna_type()
+    assert rna.properties["filter_glob"].default == "*.json"
+    path = tmp_path / "chosen.json"
+    path.write_text(json.dumps(default_scene_dict()))
+    assert bpy.ops.weathervane.scene_file_browse(filepath=str(path)) == {"FINISHED"}
+    assert bpy.context.scene.weathervane.scene_file == str(path)
+    assert bpy.ops.weathervane.build() == {"FINISHED"}  # Build uses the chosen file
