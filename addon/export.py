@@ -2,7 +2,8 @@
 
 The add-on's own objects map back exactly from what `build` recorded on them (kind, sizes, material) and their
 world transforms at the current frame; any other visible mesh object exports as world-space triangles with a matte
-material of its viewport color; the panel's lights and the scene camera convert.
+material of its viewport color; the panel's lights and the scene camera convert, and the scene's other lights only
+where the Lights panel's Other Lights is on.
 """
 
 from __future__ import annotations
@@ -68,6 +69,14 @@ def _collect(blender_scene, depsgraph, turn, materials: dict, objects: list, par
                 objects.append(body)
 
 
+def other_lights(blender_scene) -> list:
+    """The scene's rendered Blender lights that no entry of the panel's Lights list drives."""
+    driven = {entry.object_name for entry in blender_scene.weathervane.lights if entry.object_name}
+    return [
+        obj for obj in blender_scene.objects if obj.type == "LIGHT" and obj.name not in driven and not obj.hide_render
+    ]
+
+
 def scene_document(context, depsgraph=None, blender_scene=None) -> dict:
     """The current Blender scene (or the depsgraph's, inside a render) as a tracer scene document."""
     blender_scene = blender_scene or context.scene
@@ -83,7 +92,6 @@ def scene_document(context, depsgraph=None, blender_scene=None) -> dict:
     heading = math.degrees(turn.evaluated_get(depsgraph).matrix_basis.to_euler("XYZ")[2]) if turn is not None else 0.0
     _collect(blender_scene, depsgraph, turn, materials, objects, parts)
     light_list = []
-    driven = set()
     for entry in settings.lights:
         obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
         if entry.kind == "AMBIENT":
@@ -92,30 +100,19 @@ def scene_document(context, depsgraph=None, blender_scene=None) -> dict:
             light_list.append(
                 {"type": "point", "location": list(obj.matrix_world.translation), "intensity": entry.intensity}
             )
-            driven.add(obj.name)
         elif obj is not None:
             light_list.append(
                 {"type": "directional", "direction": list(lights.direction_toward(obj)), "intensity": entry.intensity}
             )
-            driven.add(obj.name)
-    for obj in blender_scene.objects:
-        if obj.type == "LIGHT" and obj.name not in driven and not obj.hide_render:
-            if obj.data.type == "SUN":
-                light_list.append(
-                    {
-                        "type": "directional",
-                        "direction": list(lights.direction_toward(obj)),
-                        "intensity": obj.data.energy / lights.SUN_STRENGTH_PER_UNIT,
-                    }
-                )
-            else:
-                light_list.append(
-                    {
-                        "type": "point",
-                        "location": list(obj.matrix_world.translation),
-                        "intensity": obj.data.energy / lights.POINT_WATTS_PER_UNIT,
-                    }
-                )
+    for obj in other_lights(blender_scene) if settings.other_lights else ():
+        if obj.data.type == "SUN":
+            intensity = obj.data.energy / lights.SUN_STRENGTH_PER_UNIT
+            light_list.append(
+                {"type": "directional", "direction": list(lights.direction_toward(obj)), "intensity": intensity}
+            )
+        else:
+            intensity = obj.data.energy / lights.POINT_WATTS_PER_UNIT
+            light_list.append({"type": "point", "location": list(obj.matrix_world.translation), "intensity": intensity})
     render = blender_scene.render
     scale = render.resolution_percentage / 100.0
     document = {

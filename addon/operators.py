@@ -14,6 +14,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import animation, build, camera, lights
 from ._tracer import module
+from .export import other_lights
 
 
 def reports_errors(execute):
@@ -71,7 +72,16 @@ def _build_from(operator: bpy.types.Operator, context, path: str) -> set[str]:
             operator.report({"ERROR"}, f"{path or 'default scene'}: {problem}")
         return {"CANCELLED"}
     build.build(context, scene)
-    operator.report({"INFO"}, f"Built {len(scene.objects)} parts in the '{build.COLLECTION}' collection")
+    built = f"Built {len(scene.objects)} parts in the '{build.COLLECTION}' collection"
+    others = [obj.name for obj in other_lights(context.scene)]
+    if others and not context.scene.weathervane.other_lights:
+        operator.report(
+            {"WARNING"},
+            f"{built}; not rendered by the tracer: {', '.join(others[:3])}{' ...' if len(others) > 3 else ''} "
+            "(Lights > Other Lights renders them)",
+        )
+    else:
+        operator.report({"INFO"}, built)
     return {"FINISHED"}
 
 

@@ -5,6 +5,9 @@ from __future__ import annotations
 import bpy
 
 from . import build
+from .export import other_lights
+
+LIGHT_ICONS = {"AMBIENT": "WORLD", "POINT": "LIGHT_POINT", "DIRECTIONAL": "LIGHT_SUN"}
 
 
 class WeathervanePanel:
@@ -95,9 +98,8 @@ class WEATHERVANE_PT_materials(WeathervanePanel, bpy.types.Panel):
 
 class WEATHERVANE_UL_lights(bpy.types.UIList):
     def draw_item(self, _context, layout, _data, item, _icon, _active_data, _active_property, _index):
-        icons = {"AMBIENT": "WORLD", "POINT": "LIGHT_POINT", "DIRECTIONAL": "LIGHT_SUN"}
         row = layout.row(align=True)
-        row.label(text=item.kind.title(), icon=icons[item.kind])
+        row.label(text=item.kind.title(), icon=LIGHT_ICONS[item.kind])
         row.prop(item, "intensity", text="")
 
 
@@ -118,11 +120,19 @@ class WEATHERVANE_PT_lights(WeathervanePanel, bpy.types.Panel):
             entry = settings.lights[settings.light_index]
             column = layout.column()
             column.use_property_split = True
-            column.prop(entry, "kind")
+            # the type is chosen when the light is added: the Blender light stays the kind the tracer renders
+            column.label(text=f"Type: {entry.kind.title()}", icon=LIGHT_ICONS[entry.kind])
             column.prop(entry, "intensity")
             obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
             if obj is not None:
                 column.prop(obj, "location" if entry.kind == "POINT" else "rotation_euler")
+        others = other_lights(context.scene)
+        if others:
+            box = layout.box()
+            box.prop(settings, "other_lights")
+            for obj in others[:6]:
+                rendered = "rendered" if settings.other_lights else "not rendered"
+                box.label(text=f"{obj.name} ({rendered})", icon="LIGHT" if settings.other_lights else "HIDE_ON")
 
 
 class WEATHERVANE_PT_camera(WeathervanePanel, bpy.types.Panel):

@@ -206,6 +206,12 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     material_index: IntProperty(name="Material", default=0)
     lights: CollectionProperty(type=WEATHERVANE_PG_light)
     light_index: IntProperty(name="Light", default=0)
+    other_lights: BoolProperty(
+        name="Other Lights",
+        default=False,
+        description="Also render the scene's lights that the add-on did not make (the startup file's Light, "
+        "lights you added), converted by their power; off, the tracer renders the listed lights only",
+    )
     # ---- the documented tracer ----
     depth: IntProperty(name="Depth", min=0, max=16, default=3, description="Recursion depth of the reflections")
     model: EnumProperty(

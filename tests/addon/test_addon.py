@@ -349,3 +349,83 @@ def test_the_scene_file_button_browses_json_files_only_and_sets_the_field(tmp_pa
     assert bpy.ops.weathervane.scene_file_browse(filepath=str(path)) == {"FINISHED"}
     assert bpy.context.scene.weathervane.scene_file == str(path)
     assert bpy.ops.weathervane.build() == {"FINISHED"}  # Build uses the chosen file
+
+
+def _exported(tmp_path: Path) -> dict:
+    path = tmp_path / "scene.json"
+    assert bpy.ops.weathervane.export(filepath=str(path)) in ({"FINISHED"},)
+    return json.loads(path.read_text())
+
+
+def test_other_lights_are_left_out_until_asked_for_and_build_says_so(tmp_path: Path, capfd) -> None:
+    from tracer.parallel import render
+
+    # the startup file's Light: 1000 W at (4.1, 1.0, 5.9)
+    data = bpy.data.lights.new("Light", type="POINT")
+    data.energy = 1000.0
+    startup_light = bpy.data.objects.new("Light", data)
+    startup_light.location = (4.08, 1.0, 5.9)
+    bpy.context.scene.collection.objects.link(startup_light)
+    built()
+    report = [line for line in capfd.readouterr().out.splitlines() if "not rendered by the tracer" in line]
+    assert len(report) == 1 and "Light" in report[0] and "Other Lights" in report[0]
+    document = _exported(tmp_path)
+    assert len(document["lights"]) == len(default_scene().lights)  # only the listed ones
+    small = {"width": 64, "height": 48}
+    document["render"].update(small)
+    mean = render(scene_from_dict(document), workers=1).image.mean()
+    expected = render(default_scene().with_render(**small), workers=1).image.mean()
+    assert abs(mean - expected) < 0.1 * expected
+    bpy.context.scene.weathervane.other_lights = True
+    document = _exported(tmp_path)
+    assert len(document["lights"]) == len(default_scene().lights) + 1
+    document["render"].update(small)
+    assert render(scene_from_dict(document), workers=1).image.mean() > 2 * expected  # what the user asked for
+
+
+def test_a_lights_type_is_fixed_after_add_so_panel_and_blender_light_agree() -> None:
+    built()
+    settings = bpy.context.scene.weathervane
+    for entry in settings.lights:
+        obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
+        if obj is not None:
+            assert obj.data.type == {"POINT": "POINT", "DIRECTIONAL": "SUN"}[entry.kind]
+    # the Lights panel, drawn: the selected light's type is a label, not a field, and Other Lights shows only when
+    # there is another light
+    settings.light_index = next(k for k, entry in enumerate(settings.lights) if entry.kind == "POINT")
+    drawn = _draw_lights_panel()
+    assert "kind" not in drawn["props"] and "intensity" in drawn["props"]
+    assert any(text.startswith("Type: Point") for text in drawn["labels"])
+    assert "other_lights" not in drawn["props"]
+    data = bpy.data.lights.new("Lamp", type="POINT")
+    bpy.context.scene.collection.objects.link(bpy.data.objects.new("Lamp", data))
+    drawn = _draw_lights_panel()
+    assert "other_lights" in drawn["props"] and "Lamp (not rendered)" in drawn["labels"]
+
+
+class _Recorder:
+    """A stand-in for a panel's layout that notes the properties and labels drawn."""
+
+    def __init__(self, drawn: dict) -> None:
+        self.drawn = drawn
+        self.use_property_split = False
+
+    def __getattr__(self, name: str):
+        if name in ("row", "column", "box", "split"):
+            return lambda *args, **kwargs: _Recorder(self.drawn)
+        return lambda *args, **kwargs: None
+
+    def prop(self, data, name: str, **kwargs) -> None:
+        self.drawn["props"].append(name)
+
+    def label(self, text: str = "", **kwargs) -> None:
+        self.drawn["labels"].append(text)
+
+
+def _draw_lights_panel() -> dict:
+    from addon import panels
+
+    drawn: dict = {"props": [], "labels": []}
+    holder = type("Panel", (), {"layout": _Recorder(drawn)})()
+    panels.WEATHERVANE_PT_lights.draw(holder, bpy.context)
+    return drawn
