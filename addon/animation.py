@@ -69,12 +69,41 @@ def headings(blender_scene, last_frame: int, initial_heading: float) -> np.ndarr
     return module("motion").simulate(motion_for(blender_scene, last_frame), last_frame, initial_heading)
 
 
+WIND_PROPERTIES = ("wind_direction", "wind_speed")
+
+
+def unkeyed_change(blender_scene) -> str | None:
+    """Why a bake would not follow what the panel shows: a keyed wind property whose value was changed without a
+    key (Blender shows it orange) would be ignored by the keys. None where there is none."""
+    settings = blender_scene.weathervane
+    frame = blender_scene.frame_current
+    for name in WIND_PROPERTIES:
+        fcurve = compat.find_fcurve(blender_scene, f"weathervane.{name}", 0)
+        if fcurve is None:
+            continue
+        shown, keyed = getattr(settings, name), fcurve.evaluate(float(frame))
+        if abs(shown - keyed) > 1e-4 * max(1.0, abs(keyed)):
+            label = settings.bl_rna.properties[name].name
+            if name == "wind_direction":
+                shown_text, keyed_text = f"{math.degrees(shown):.1f} degrees", f"{math.degrees(keyed):.1f} degrees"
+            else:
+                shown_text, keyed_text = f"{shown:.2f} m/s", f"{keyed:.2f} m/s"
+            return (
+                f"{label} shows {shown_text} but its keys give {keyed_text} at frame {frame}: key the change (I over "
+                f"the field) or clear its keys (Alt+I) to use one value, then bake"
+            )
+    return None
+
+
 def bake(context, progress=None) -> tuple[int, int]:
     """Write the vane's motion over the scene's frame range as keys; returns (keys written, frames)."""
     blender_scene = context.scene
     turn = bpy.data.objects.get(build.TURN)
     if turn is None:
         raise LookupError("build the weathervane first: there is no turning part to animate")
+    problem = unkeyed_change(blender_scene)
+    if problem is not None:
+        raise ValueError(problem)
     first, last = blender_scene.frame_start, blender_scene.frame_end
     if last < first:
         raise ValueError(f"the frame range is empty: end {last} is before start {first}")

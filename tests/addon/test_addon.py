@@ -183,6 +183,7 @@ def test_bake_follows_wind_keyed_on_the_timeline() -> None:
     for owner_curve in compat.fcurves_of(blender_scene):
         for point in owner_curve.keyframe_points:
             point.interpolation = "LINEAR"
+    blender_scene.frame_set(1)  # as moving on the timeline does: the fields show the keys again
     assert bpy.ops.weathervane.bake() == {"FINISHED"}
     wind = Wind(keys=(WindKey(0.0, 300.0, 4.0), WindKey(39 / 24, 340.0, 6.0), WindKey(79 / 24, 20.0, 9.0)))
     motion = motion_module.Motion(
@@ -429,3 +430,25 @@ def _draw_lights_panel() -> dict:
     holder = type("Panel", (), {"layout": _Recorder(drawn)})()
     panels.WEATHERVANE_PT_lights.draw(holder, bpy.context)
     return drawn
+
+
+def test_bake_refuses_a_wind_edit_that_its_keys_would_ignore_and_follows_it_once_keyed() -> None:
+    built()
+    blender_scene = bpy.context.scene
+    blender_scene.frame_set(1)
+    settings = blender_scene.weathervane
+    settings.wind_direction = math.radians(90.0)  # typed in the field: orange, changed but not keyed
+    settings.wind_speed = 12.0
+    with pytest.raises(
+        RuntimeError, match=r"Wind From shows 90\.0 degrees but its keys give 200\.0 degrees at frame 1"
+    ):
+        bpy.ops.weathervane.bake()
+    blender_scene.keyframe_insert("weathervane.wind_direction", frame=1)
+    with pytest.raises(RuntimeError, match=r"Wind Speed shows 12\.00 m/s but its keys give 6\.00 m/s"):
+        bpy.ops.weathervane.bake()
+    blender_scene.keyframe_insert("weathervane.wind_speed", frame=1)
+    assert bpy.ops.weathervane.bake() == {"FINISHED"}
+    frames = np.arange(1, 3, dtype=np.float64)
+    from addon.animation import _sampled
+
+    assert np.degrees(_sampled(blender_scene, "wind_direction", frames))[0] == pytest.approx(90.0)
