@@ -135,12 +135,17 @@ def own_collection(context, create: bool = True):
     return collection
 
 
-def clear(context) -> None:
-    """Remove the add-on's collection with its objects and their data; nothing else."""
+def clear(context, keep: frozenset[str] = frozenset()) -> None:
+    """Remove the add-on's collection with its objects and their data; nothing else. keep: objects (by name) to
+    take out of it first and keep (a rebuild's lights and camera), linked to the scene's own collection meanwhile."""
     collection = own_collection(context, create=False)
     if collection is None:
         return
     for obj in list(collection.all_objects):
+        if obj.name in keep:
+            context.scene.collection.objects.link(obj)
+            collection.objects.unlink(obj)
+            continue
         data = obj.data
         bpy.data.objects.remove(obj, do_unlink=True)
         if data is not None and data.users == 0:
@@ -171,12 +176,41 @@ def name_problems(scene) -> list[str]:
     return problems
 
 
-def build(context, scene) -> bpy.types.Collection:
-    """Build a tracer Scene into the add-on's collection (replacing only it) and fill the panel's settings."""
-    clear(context)
-    collection = own_collection(context)
-    transforms = module("transforms")
+def kept_for_rebuild(context, source: str) -> bool:
+    """Whether Build would keep the user's settings: the vane is built, from this same source."""
     settings = context.scene.weathervane
+    return own_collection(context, create=False) is not None and settings.built_from == source
+
+
+def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Collection:
+    """Build a tracer Scene into the add-on's collection (replacing only it) and fill the panel's settings.
+
+    keep (a rebuild): the geometry is made again from the scene; the panel's settings (materials, wind and its keys,
+    motion, the tracer's settings, the render percentage), the lights, the camera and the baked motion stay as the
+    user left them."""
+    settings = context.scene.weathervane
+    kept_objects = frozenset()
+    baked = None
+    if keep:
+        kept_objects = frozenset(entry.object_name for entry in settings.lights if entry.object_name)
+        if context.scene.camera is not None:
+            kept_objects |= {context.scene.camera.name}
+        old_turn = bpy.data.objects.get(TURN)
+        baked = compat.keyframes_of(old_turn, "rotation_euler", 2) if old_turn is not None else None
+        kept_colors = {
+            entry.name: (tuple(entry.color), entry.specular, entry.reflective) for entry in settings.materials
+        }
+    clear(context, kept_objects)
+    collection = own_collection(context)
+    for name in kept_objects:
+        obj = bpy.data.objects.get(name)
+        if obj is not None:
+            collection.objects.link(obj)
+            context.scene.collection.objects.unlink(obj)
+    settings.built_from = source
+    transforms = module("transforms")
+    if keep:
+        scene = _with_kept_materials(scene, kept_colors)
     ambient = sum(light.intensity for light in scene.lights if type(light).__name__ == "AmbientLight")
     made_materials = {}
     for name, material in scene.materials.items():
@@ -203,6 +237,8 @@ def build(context, scene) -> bpy.types.Collection:
         turn.parent = pivot
         turn.rotation_euler = (0.0, 0.0, math.radians(scene.vane.heading))
         turn["weathervane_initial_heading"] = scene.vane.heading
+        if baked:
+            compat.replace_fcurve(turn, "rotation_euler", 2, *baked)
     still = scene.with_heading(0.0)
     context.view_layer.update()
     for obj in scene.objects:
@@ -222,6 +258,8 @@ def build(context, scene) -> bpy.types.Collection:
             blender_object.parent = turn
             blender_object.matrix_parent_inverse = pivot.matrix_world.inverted()
             blender_object.matrix_basis = heading_zero
+    if keep:
+        return collection
     camera = camera_module.create(scene.camera, collection)
     context.scene.camera = camera
     settings.lights.clear()
@@ -241,6 +279,19 @@ def build(context, scene) -> bpy.types.Collection:
             entry.kind, entry.intensity, entry.object_name = "DIRECTIONAL", light.intensity, obj.name
     _fill_settings(context, scene)
     return collection
+
+
+def _with_kept_materials(scene, kept: dict):
+    """The scene with its materials' colour, specular and reflectivity as the panel has them."""
+    from dataclasses import replace
+
+    materials_now = {
+        name: replace(material, color=kept[name][0], specular=kept[name][1], reflective=kept[name][2])
+        if name in kept
+        else material
+        for name, material in scene.materials.items()
+    }
+    return replace(scene, materials=materials_now)
 
 
 def _fill_settings(context, scene) -> None:

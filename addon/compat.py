@@ -37,6 +37,14 @@ def find_fcurve(owner: bpy.types.ID, data_path: str, index: int = 0):
     return None
 
 
+def keyframes_of(owner: bpy.types.ID, data_path: str, index: int = 0) -> tuple[list[float], list[float]] | None:
+    """owner's keys on data_path[index] as (frames, values), or None where it has none."""
+    fcurve = find_fcurve(owner, data_path, index)
+    if fcurve is None or not fcurve.keyframe_points:
+        return None
+    return [point.co[0] for point in fcurve.keyframe_points], [point.co[1] for point in fcurve.keyframe_points]
+
+
 def replace_fcurve(owner: bpy.types.ID, data_path: str, index: int, frames: list[float], values: list[float]):
     """Key data_path[index] of owner at frames with values, LINEAR, replacing any keys it had; returns the F-curve."""
     old = find_fcurve(owner, data_path, index)

@@ -41,7 +41,9 @@ def _load_scene(path: str):
 
 
 class WEATHERVANE_OT_build(bpy.types.Operator):
-    """Build the weathervane (the default one, or the scene file) in its own collection, replacing only that"""
+    """Build the weathervane (the default one, or the scene file) in its own collection. Building again from the
+    same file remakes only its geometry and keeps your materials, wind, motion, lights, camera and render settings
+    (Reset Weathervane starts over)"""
 
     bl_idname = "weathervane.build"
     bl_label = "Build Weathervane"
@@ -58,8 +60,9 @@ class WEATHERVANE_OT_build(bpy.types.Operator):
         return _build_from(self, context, self.filepath or context.scene.weathervane.scene_file)
 
 
-def _build_from(operator: bpy.types.Operator, context, path: str) -> set[str]:
-    """Build from a scene file (empty: the default scene), reporting through operator."""
+def _build_from(operator: bpy.types.Operator, context, path: str, reset: bool = False) -> set[str]:
+    """Build from a scene file (empty: the default scene), reporting through operator; a rebuild from the same file
+    keeps the user's settings unless reset."""
     try:
         scene = _load_scene(path)
     except module("loader").SceneError as error:
@@ -71,8 +74,14 @@ def _build_from(operator: bpy.types.Operator, context, path: str) -> set[str]:
         for problem in problems[:8]:
             operator.report({"ERROR"}, f"{path or 'default scene'}: {problem}")
         return {"CANCELLED"}
-    build.build(context, scene)
+    keep = not reset and build.kept_for_rebuild(context, path)
+    build.build(context, scene, path, keep)
     built = f"Built {len(scene.objects)} parts in the '{build.COLLECTION}' collection"
+    if keep:
+        built = (
+            f"Rebuilt the {len(scene.objects)} parts; kept your materials, wind, motion, lights, camera and render "
+            "settings (Reset Weathervane starts over)"
+        )
     others = [obj.name for obj in other_lights(context.scene)]
     if others and not context.scene.weathervane.other_lights:
         operator.report(
@@ -83,6 +92,23 @@ def _build_from(operator: bpy.types.Operator, context, path: str) -> set[str]:
     else:
         operator.report({"INFO"}, built)
     return {"FINISHED"}
+
+
+class WEATHERVANE_OT_reset(bpy.types.Operator):
+    """Build the weathervane afresh from its scene file: its materials, wind, motion, lights, camera and render
+    settings go back to the file's (asks first)"""
+
+    bl_idname = "weathervane.reset"
+    bl_label = "Reset Weathervane"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_confirm(self, event)
+
+    @reports_errors
+    def execute(self, context):
+        settings = context.scene.weathervane
+        return _build_from(self, context, settings.scene_file or settings.built_from, reset=True)
 
 
 class WEATHERVANE_OT_scene_file_browse(bpy.types.Operator, ImportHelper):
@@ -242,6 +268,7 @@ class WEATHERVANE_OT_light_remove(bpy.types.Operator):
 CLASSES = (
     WEATHERVANE_OT_build,
     WEATHERVANE_OT_import,
+    WEATHERVANE_OT_reset,
     WEATHERVANE_OT_scene_file_browse,
     WEATHERVANE_OT_bake,
     WEATHERVANE_OT_export,

@@ -28,6 +28,7 @@ class WEATHERVANE_PT_main(WeathervanePanel, bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("weathervane.build", icon="MOD_BUILD")
         row.operator("weathervane.export", icon="EXPORT", text="Export")
+        row.operator("weathervane.reset", icon="LOOP_BACK", text="")
 
 
 class WEATHERVANE_PT_vane(WeathervanePanel, bpy.types.Panel):

@@ -206,6 +206,9 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     material_index: IntProperty(name="Material", default=0)
     lights: CollectionProperty(type=WEATHERVANE_PG_light)
     light_index: IntProperty(name="Light", default=0)
+    built_from: StringProperty(
+        name="Built From", default="", description="The scene file the vane was built from (empty: the default)"
+    )
     other_lights: BoolProperty(
         name="Other Lights",
         default=False,

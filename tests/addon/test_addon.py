@@ -452,3 +452,38 @@ def test_bake_refuses_a_wind_edit_that_its_keys_would_ignore_and_follows_it_once
     from addon.animation import _sampled
 
     assert np.degrees(_sampled(blender_scene, "wind_direction", frames))[0] == pytest.approx(90.0)
+
+
+def test_rebuild_keeps_the_users_work_and_reset_starts_over() -> None:
+    built()
+    blender_scene = bpy.context.scene
+    settings = blender_scene.weathervane
+    blender_scene.frame_set(1)
+    settings.materials[0].color = (0.9, 0.1, 0.2)
+    settings.materials[0].reflective = 0.45
+    settings.wind_speed = 11.0
+    blender_scene.keyframe_insert("weathervane.wind_speed", frame=1)
+    assert bpy.ops.weathervane.bake() == {"FINISHED"}
+    baked = compat.keyframes_of(bpy.data.objects[build.TURN], "rotation_euler", 2)
+    blender_scene.render.resolution_percentage = 50
+    light = next(bpy.data.objects[entry.object_name] for entry in settings.lights if entry.object_name)
+    light.location = (1.0, 2.0, 3.0)
+    camera_name = blender_scene.camera.name
+    assert bpy.ops.weathervane.build() == {"FINISHED"}  # build again, from the same (default) scene
+    assert tuple(settings.materials[0].color) == pytest.approx((0.9, 0.1, 0.2))
+    assert settings.materials[0].reflective == pytest.approx(0.45)
+    material = bpy.data.objects[f"WV {default_scene().objects[0].name}"].active_material
+    assert material is not None
+    assert compat.keyframes_of(blender_scene, "weathervane.wind_speed", 0)[1][0] == pytest.approx(11.0)
+    assert compat.keyframes_of(bpy.data.objects[build.TURN], "rotation_euler", 2) == baked
+    assert blender_scene.render.resolution_percentage == 50
+    assert tuple(bpy.data.objects[light.name].location) == pytest.approx((1.0, 2.0, 3.0))
+    assert blender_scene.camera.name == camera_name
+    assert bpy.data.collections[build.COLLECTION].objects.get(light.name) is not None
+    # Reset Weathervane (confirmed) takes everything back to the scene file's
+    assert bpy.ops.weathervane.reset("EXEC_DEFAULT") == {"FINISHED"}
+    original = default_scene()
+    first = settings.materials[0]
+    assert tuple(first.color) == pytest.approx(original.materials[first.name].color)
+    assert blender_scene.render.resolution_percentage == 100
+    assert compat.keyframes_of(bpy.data.objects[build.TURN], "rotation_euler", 2) is None
