@@ -77,6 +77,8 @@ def _build_from(operator: bpy.types.Operator, context, path: str, reset: bool = 
     keep = not reset and build.kept_for_rebuild(context, path)
     build.build(context, scene, path, keep)
     built = f"Built {len(scene.objects)} parts in the '{build.COLLECTION}' collection"
+    if scene.motion is not None and len(scene.motion.wind.keys) > 1:
+        built += f"; the wind follows the file's {len(scene.motion.wind.keys)} keys (Vane & Wind)"
     if keep:
         built = (
             f"Rebuilt the {len(scene.objects)} parts; kept your materials, wind, motion, lights, camera and render "

@@ -370,6 +370,7 @@ def test_other_lights_are_left_out_until_asked_for_and_build_says_so(tmp_path: P
     built()
     report = [line for line in capfd.readouterr().out.splitlines() if "not rendered by the tracer" in line]
     assert len(report) == 1 and "Light" in report[0] and "Other Lights" in report[0]
+    assert "the wind follows the file's 3 keys" in report[0]  # Build says it set the wind, not silently
     document = _exported(tmp_path)
     assert len(document["lights"]) == len(default_scene().lights)  # only the listed ones
     small = {"width": 64, "height": 48}
