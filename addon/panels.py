@@ -1,4 +1,8 @@
-"""The "Weathervane" tab of the 3D View's sidebar: Vane & Wind, Materials, Lights, Camera, Render."""
+"""The "Weathervane" tab of the 3D View's sidebar: Wind, Vane, Timing, Materials, Lights, Camera, Render.
+
+Fields carry their label inside (no split into a label column): at the sidebar's default width a label column
+leaves about 60 pixels, which cut most of the words; inside the field a label and its value share the whole width.
+The real-window test measures every label against that width with Blender's UI font."""
 
 from __future__ import annotations
 
@@ -22,53 +26,75 @@ class WEATHERVANE_PT_main(WeathervanePanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         settings = context.scene.weathervane
+        layout.label(text="Scene File (empty: the default)")
         row = layout.row(align=True)
-        row.prop(settings, "scene_file")
+        row.prop(settings, "scene_file", text="")
         row.operator("weathervane.scene_file_browse", icon="FILEBROWSER", text="")
+        layout.operator("weathervane.build", icon="MOD_BUILD")
         row = layout.row(align=True)
-        row.operator("weathervane.build", icon="MOD_BUILD")
         row.operator("weathervane.export", icon="EXPORT", text="Export")
-        row.operator("weathervane.reset", icon="LOOP_BACK", text="")
+        row.operator("weathervane.reset", icon="LOOP_BACK", text="Reset")
 
 
-class WEATHERVANE_PT_vane(WeathervanePanel, bpy.types.Panel):
-    bl_label = "Vane & Wind"
+class WEATHERVANE_PT_wind(WeathervanePanel, bpy.types.Panel):
+    bl_label = "Wind"
     bl_parent_id = "WEATHERVANE_PT_main"
 
     def draw(self, context):
         layout = self.layout
-        layout.use_property_split = True
         settings = context.scene.weathervane
         layout.prop(settings, "mode", expand=True)
+        column = layout.column(align=True)
         if settings.mode == "WIND":
-            column = layout.column(heading="Wind")
             column.prop(settings, "wind_direction")
             column.prop(settings, "wind_speed")
+            column = layout.column(align=True)
             column.prop(settings, "gust_intensity")
-            sub = column.column()
+            sub = column.column(align=True)
             sub.active = settings.gust_intensity > 0.0
             sub.prop(settings, "gust_time_scale")
             sub.prop(settings, "gust_seed")
-            column = layout.column(heading="Vane")
-            column.prop(settings, "damping")
-            column.prop(settings, "wavelength")
-            column.prop(settings, "threshold")
-            column.prop(settings, "friction_time")
         else:
-            column = layout.column(heading="Spin")
-            column.prop(settings, "spin_direction")
+            column.prop(settings, "spin_direction", text="")
             column.prop(settings, "spin_speed")
             column.prop(settings, "spin_smoothness")
-        column = layout.column()
+
+
+class WEATHERVANE_PT_vane(WeathervanePanel, bpy.types.Panel):
+    bl_label = "Vane"
+    bl_parent_id = "WEATHERVANE_PT_main"
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene.weathervane.mode == "WIND"
+
+    def draw(self, context):
+        column = self.layout.column(align=True)
+        settings = context.scene.weathervane
+        column.prop(settings, "damping")
+        column.prop(settings, "wavelength")
+        column.prop(settings, "threshold")
+        column.prop(settings, "friction_time")
+
+
+class WEATHERVANE_PT_timing(WeathervanePanel, bpy.types.Panel):
+    bl_label = "Timing"
+    bl_parent_id = "WEATHERVANE_PT_main"
+
+    def draw(self, context):
+        layout = self.layout
+        settings = context.scene.weathervane
+        column = layout.column(align=True)
         column.prop(settings, "start_frame")
-        column.prop(settings, "use_stop")
-        sub = column.column()
+        row = column.row(align=True)
+        row.prop(settings, "use_stop", text="")
+        sub = row.row(align=True)
         sub.active = settings.use_stop
         sub.prop(settings, "stop_frame")
         layout.prop(settings, "tolerance")
         layout.operator("weathervane.bake", icon="KEY_HLT")
         if bpy.data.objects.get(build.TURN) is None:
-            layout.label(text="Build the weathervane to bake its motion", icon="INFO")
+            layout.label(text="Build first, then bake", icon="INFO")
 
 
 class WEATHERVANE_UL_materials(bpy.types.UIList):
@@ -90,7 +116,6 @@ class WEATHERVANE_PT_materials(WeathervanePanel, bpy.types.Panel):
         if 0 <= settings.material_index < len(settings.materials):
             entry = settings.materials[settings.material_index]
             column = layout.column()
-            column.use_property_split = True
             column.prop(entry, "color")
             column.prop(entry, "specular")
             column.prop(entry, "reflective")
@@ -120,7 +145,6 @@ class WEATHERVANE_PT_lights(WeathervanePanel, bpy.types.Panel):
         if 0 <= settings.light_index < len(settings.lights):
             entry = settings.lights[settings.light_index]
             column = layout.column()
-            column.use_property_split = True
             # the type is chosen when the light is added: the Blender light stays the kind the tracer renders
             column.label(text=f"Type: {entry.kind.title()}", icon=LIGHT_ICONS[entry.kind])
             column.prop(entry, "intensity")
@@ -143,7 +167,6 @@ class WEATHERVANE_PT_camera(WeathervanePanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        layout.use_property_split = True
         camera = context.scene.camera
         if camera is None:
             layout.label(text="The scene has no camera", icon="INFO")
@@ -161,26 +184,30 @@ class WEATHERVANE_PT_render(WeathervanePanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        layout.use_property_split = True
         settings = context.scene.weathervane
         layout.prop(settings, "depth")
-        layout.prop(settings, "model")
+        layout.label(text="Highlights")
+        layout.prop(settings, "model", text="")
         row = layout.row()
         row.active = settings.model == "blinn-phong"
         row.prop(settings, "coef")
-        layout.prop(settings, "background")
+        layout.label(text="Background")
+        layout.prop(settings, "background", text="")
         if settings.background == "solid":
             layout.prop(settings, "background_color")
         elif settings.background in ("sky", "documented"):
             layout.prop(settings, "horizon")
             layout.prop(settings, "zenith")
-        layout.prop(settings, "samples")
+        layout.label(text="Samples per Pixel")
+        layout.prop(settings, "samples", text="")
         layout.prop(settings, "workers")
 
 
 CLASSES = (
     WEATHERVANE_PT_main,
+    WEATHERVANE_PT_wind,
     WEATHERVANE_PT_vane,
+    WEATHERVANE_PT_timing,
     WEATHERVANE_UL_materials,
     WEATHERVANE_PT_materials,
     WEATHERVANE_UL_lights,

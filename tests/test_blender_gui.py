@@ -65,6 +65,9 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
     assert "WEATHERVANE-GUI built" in log and "WEATHERVANE-GUI screenshot" in log, log[-4000:]
     assert "WEATHERVANE-GUI undo and redo" in log, log[-4000:]
     assert "WEATHERVANE-GUI export menu" in log, log[-4000:]
+    # every number field's label and value fit the sidebar at its default width (measured with the UI font)
+    print(*(line for line in log.splitlines() if line.startswith("WEATHERVANE-GUI")), sep="\n")
+    assert "WEATHERVANE-GUI labels fit" in log, log[-4000:]
     assert "Traceback" not in log and "Error: Python" not in log, log[-4000:]
     with Image.open(SCREENSHOT) as image:
         assert image.size == (1600, 900)

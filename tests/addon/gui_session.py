@@ -91,7 +91,58 @@ def setup() -> None:
     bpy.app.timers.register(capture, first_interval=2.0)
 
 
+class Recorder:
+    """A stand-in for a panel's layout that notes each property drawn with the label text it gets."""
+
+    def __init__(self, drawn: list) -> None:
+        self.drawn = drawn
+        self.active = True
+
+    def __getattr__(self, name: str):
+        if name in ("row", "column", "box", "split"):
+            return lambda *args, **kwargs: Recorder(self.drawn)
+        return lambda *args, **kwargs: None
+
+    def prop(self, data, name: str, text: str | None = None, **kwargs) -> None:
+        if text == "":
+            return  # no label: the field holds only its value
+        rna = data.bl_rna.properties[name]
+        label = text if text is not None else rna.name
+        if rna.type in ("FLOAT", "INT") and getattr(rna, "array_length", 0) == 0:
+            self.drawn.append(label)
+
+
+def measure_labels() -> None:
+    """Each number field's label plus room for its value, against the sidebar's width, in Blender's UI font."""
+    import blf
+
+    _, area, _ = view3d()
+    sidebar = next(r for r in area.regions if r.type == "UI")
+    scale = bpy.context.preferences.system.ui_scale
+    if bpy.app.version >= (4, 0, 0):
+        blf.size(0, 11 * scale)
+    else:
+        blf.size(0, 11, int(72 * scale))
+    drawn: list = []
+    holder = type("Panel", (), {})()
+    for cls in bpy.types.Panel.__subclasses__():
+        if getattr(cls, "bl_category", "") == "Weathervane" and cls.is_registered:
+            holder.layout = Recorder(drawn)
+            cls.draw(holder, bpy.context)
+    # a field spans the panel's width less its margins; its value needs about 8 characters ("600 ms", "200°")
+    room = sidebar.width - 2 * 14 * scale - blf.dimensions(0, "0000.000")[0] - 12 * scale
+    widths = {label: blf.dimensions(0, label)[0] for label in set(drawn)}
+    too_wide = sorted(label for label, width in widths.items() if width > room)
+    widest = max(widths, key=widths.get)
+    print(
+        f"WEATHERVANE-GUI sidebar {sidebar.width} px, {len(widths)} labels, widest {widest!r} {widths[widest]:.0f} of "
+        f"{room:.0f} px"
+    )
+    print("WEATHERVANE-GUI labels fit" if not too_wide else f"WEATHERVANE-GUI labels too wide: {too_wide}")
+
+
 def capture() -> float | None:
+    measure_labels()
     window, area, region = view3d()
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.screen.screenshot(filepath=SCREENSHOT)
