@@ -61,7 +61,8 @@ def create(kind: str, intensity: float, name: str, collection, vector=(0.0, 0.0,
         data.angle = 0.0
         data.energy = sun_strength(intensity)
         obj = bpy.data.objects.new(name, data)
-        obj.rotation_euler = Vector(vector).to_track_quat("Z", "Y").to_euler("XYZ")
+        # rounded to a millionth of a radian: the conversion leaves float noise that the panel shows as 0.000003°
+        obj.rotation_euler = [round(angle, 6) + 0.0 for angle in Vector(vector).to_track_quat("Z", "Y").to_euler("XYZ")]
         obj["weathervane_direction_length"] = Vector(vector).length  # the documented L keeps its length
     collection.objects.link(obj)
     return obj

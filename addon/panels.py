@@ -150,7 +150,10 @@ class WEATHERVANE_PT_lights(WeathervanePanel, bpy.types.Panel):
             column.prop(entry, "intensity")
             obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
             if obj is not None:
-                column.prop(obj, "location" if entry.kind == "POINT" else "rotation_euler")
+                if entry.kind == "POINT":
+                    column.prop(obj, "location")
+                else:
+                    column.prop(obj, "rotation_euler", text="Rotation")
         others = other_lights(context.scene)
         if others:
             box = layout.box()

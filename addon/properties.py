@@ -138,7 +138,7 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         name="Motion",
         items=[
             ("WIND", "Wind", "A real vane's damped response to the wind"),
-            ("SPIN", "Spin", "Turn at a set speed (the seed's mode)"),
+            ("SPIN", "Spin", "Turn at a set speed, whatever the wind (the course's second mode)"),
         ],
         default="WIND",
     )
@@ -183,7 +183,13 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         default="clockwise",
     )
     spin_speed: FloatProperty(
-        name="Speed", min=0.0, max=3600.0, soft_max=720.0, default=90.0, description="Spin speed in degrees per second"
+        name="Speed (°/s)",
+        min=0.0,
+        max=3600.0,
+        soft_max=720.0,
+        default=90.0,
+        precision=1,
+        description="Spin speed in degrees per second",
     )
     spin_smoothness: FloatProperty(
         name="Smoothness",
@@ -194,7 +200,7 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         description="Seconds to spin up after start and down after stop",
     )
     tolerance: FloatProperty(
-        name="Tolerance",
+        name="Tolerance (°)",
         min=0.001,
         max=5.0,
         default=0.05,
@@ -220,18 +226,27 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     model: EnumProperty(
         name="Model",
         items=[
-            ("blinn-phong", "Blinn-Phong", "Half-vector highlight (the seed's main model)"),
-            ("phong", "Phong", "Reflected-vector highlight"),
+            (
+                "blinn-phong",
+                "Blinn-Phong (as documented)",
+                "Highlights from the half vector between light and view: round highlights, the course's main model",
+            ),
+            (
+                "phong",
+                "Phong",
+                "Highlights from the light reflected about the surface: stretched, cut off at grazing angles",
+            ),
         ],
         default="blinn-phong",
         update=_model_changed,
     )
     coef: FloatProperty(
-        name="Coef",
+        name="Exponent Factor",
         min=0.1,
         max=16.0,
         default=3.0,
-        description="Blinn-Phong exponent factor: exponent = specular * coef (2-4 is typical)",
+        description="Blinn-Phong's highlight exponent is each material's specular exponent times this (2-4 keeps "
+        "highlights as tight as Phong's)",
         update=_model_changed,
     )
     background: EnumProperty(
@@ -239,7 +254,11 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         items=[
             ("sky", "Sky", "Vertical gradient by the ray's elevation"),
             ("solid", "Solid", "One color"),
-            ("documented", "Documented", "The seed's mode: the sky's color at the canvas centre for every miss"),
+            (
+                "documented",
+                "Centre Sky Color (as documented)",
+                "Every ray that misses gets the sky's color at the image centre, as the course's tracer does",
+            ),
             ("none", "None", "Black"),
         ],
         default="sky",

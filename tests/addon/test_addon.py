@@ -488,3 +488,24 @@ def test_rebuild_keeps_the_users_work_and_reset_starts_over() -> None:
     assert tuple(first.color) == pytest.approx(original.materials[first.name].color)
     assert blender_scene.render.resolution_percentage == 100
     assert compat.keyframes_of(bpy.data.objects[build.TURN], "rotation_euler", 2) is None
+
+
+def test_artist_words_units_on_values_and_no_float_noise_in_light_angles() -> None:
+    settings_rna = bpy.types.Scene.bl_rna.properties["weathervane"].fixed_type
+    texts = []
+    for prop in settings_rna.properties:
+        texts += [prop.name, prop.description]
+        if prop.type == "ENUM":
+            texts += [text for item in prop.enum_items for text in (item.name, item.description)]
+    words = " ".join(texts)
+    assert "seed's" not in words and "Coef" not in words  # the course's words, not the source file's
+    labels = {prop.identifier: prop.name for prop in settings_rna.properties}
+    assert "°/s" in labels["spin_speed"] and "°" in labels["tolerance"]
+    units = {prop.identifier: prop.unit for prop in settings_rna.properties if prop.type == "FLOAT"}
+    assert units["wind_speed"] == "VELOCITY" and units["friction_time"] in ("TIME", "TIME_ABSOLUTE")
+    built()
+    settings = bpy.context.scene.weathervane
+    for entry in settings.lights:
+        if entry.kind == "DIRECTIONAL":
+            angles = [math.degrees(a) for a in bpy.data.objects[entry.object_name].rotation_euler]
+            assert all(a == 0.0 or abs(a) > 1e-3 for a in angles), angles
