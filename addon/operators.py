@@ -294,11 +294,44 @@ def menu_add(self, context) -> None:
     self.layout.operator(WEATHERVANE_OT_build.bl_idname, text="Weathervane", icon="FORCE_WIND")
 
 
-MENUS = (("TOPBAR_MT_file_import", menu_import), ("TOPBAR_MT_file_export", menu_export), ("VIEW3D_MT_add", menu_add))
+class WEATHERVANE_MT_object(bpy.types.Menu):
+    """Object > Weathervane: every operator of the add-on, so that menu search (F3) finds each by name."""
+
+    bl_idname = "WEATHERVANE_MT_object"
+    bl_label = "Weathervane"
+    OPERATORS = (
+        WEATHERVANE_OT_build,
+        WEATHERVANE_OT_reset,
+        WEATHERVANE_OT_bake,
+        WEATHERVANE_OT_import,
+        WEATHERVANE_OT_export,
+        WEATHERVANE_OT_light_add,
+        WEATHERVANE_OT_light_remove,
+    )
+
+    def draw(self, context):
+        for operator in self.OPERATORS:
+            if operator is WEATHERVANE_OT_light_add:
+                self.layout.operator_menu_enum(operator.bl_idname, "kind", text=operator.bl_label)
+            else:
+                self.layout.operator(operator.bl_idname)
+
+
+def menu_object(self, context) -> None:
+    self.layout.menu(WEATHERVANE_MT_object.bl_idname, icon="FORCE_WIND")
+
+
+MENUS = (
+    ("TOPBAR_MT_file_import", menu_import),
+    ("TOPBAR_MT_file_export", menu_export),
+    ("VIEW3D_MT_add", menu_add),
+    ("VIEW3D_MT_object", menu_object),
+)
 
 
 def register() -> None:
     _register_classes()
+    bpy.utils.register_class(WEATHERVANE_MT_object)
     for menu, entry in MENUS:
         getattr(bpy.types, menu).append(entry)
 
@@ -306,4 +339,5 @@ def register() -> None:
 def unregister() -> None:
     for menu, entry in MENUS:
         getattr(bpy.types, menu).remove(entry)
+    bpy.utils.unregister_class(WEATHERVANE_MT_object)
     _unregister_classes()

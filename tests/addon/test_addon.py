@@ -310,6 +310,9 @@ def test_file_import_export_and_add_menus_hold_the_operators_and_unregister_remo
 
     for menu, entry in operators.MENUS:
         assert entry in getattr(bpy.types, menu)._dyn_ui_initialize(), menu
+    # Object > Weathervane holds every operator the add-on registers, so that menu search (F3) finds them
+    registered = {cls.bl_idname for cls in operators.CLASSES} - {"weathervane.scene_file_browse"}
+    assert {cls.bl_idname for cls in operators.WEATHERVANE_MT_object.OPERATORS} == registered
     # File > Import builds from a scene file, as the Build operator does
     document = default_scene_dict()
     document["objects"][0]["size"] = [12, 12]
