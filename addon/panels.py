@@ -26,7 +26,7 @@ class WEATHERVANE_PT_main(WeathervanePanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         settings = context.scene.weathervane
-        layout.label(text="Scene File (empty: the default)")
+        layout.label(text="Scene File (empty: default)")
         row = layout.row(align=True)
         row.prop(settings, "scene_file", text="")
         row.operator("weathervane.scene_file_browse", icon="FILEBROWSER", text="")

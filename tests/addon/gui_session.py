@@ -92,28 +92,69 @@ def setup() -> None:
 
 
 class Recorder:
-    """A stand-in for a panel's layout that notes each property drawn with the label text it gets."""
+    """A stand-in for a panel's layout that notes what is drawn: each item as (text, pixels it needs beside the
+    text, its share of the row) in a row of its own, so that buttons side by side each get their share."""
 
-    def __init__(self, drawn: list) -> None:
-        self.drawn = drawn
+    def __init__(self, rows: list, horizontal: bool = False) -> None:
+        self.rows = rows
+        self.horizontal = horizontal
+        self.items: list = []
+        if horizontal:
+            rows.append(self.items)
         self.active = True
 
     def __getattr__(self, name: str):
-        if name in ("row", "column", "box", "split"):
-            return lambda *args, **kwargs: Recorder(self.drawn)
+        if name in ("row", "split"):
+            return lambda *args, **kwargs: Recorder(self.rows, horizontal=True)
+        if name in ("column", "box"):
+            return lambda *args, **kwargs: Recorder(self.rows)
         return lambda *args, **kwargs: None
 
-    def prop(self, data, name: str, text: str | None = None, **kwargs) -> None:
-        if text == "":
-            return  # no label: the field holds only its value
+    def _add(self, text: str, beside: float) -> None:
+        if self.horizontal:
+            self.items.append((text, beside))
+        else:
+            self.rows.append([(text, beside)])
+
+    def prop(self, data, name: str, text: str | None = None, expand: bool = False, **kwargs) -> None:
         rna = data.bl_rna.properties[name]
         label = text if text is not None else rna.name
-        if rna.type in ("FLOAT", "INT") and getattr(rna, "array_length", 0) == 0:
-            self.drawn.append(label)
+        if rna.type == "ENUM":
+            if expand:
+                for item in rna.enum_items:
+                    self._add(item.name, 0.0)  # one button each
+            else:
+                shown = next(item.name for item in rna.enum_items if item.identifier == getattr(data, name))
+                self._add(shown if text == "" else f"{label} {shown}", 20.0)  # the menu's arrow
+        elif rna.type in ("FLOAT", "INT") and getattr(rna, "array_length", 0) == 0:
+            if text != "":
+                self._add(label, VALUE_ROOM)
+        elif rna.type == "BOOLEAN":
+            if text != "":
+                self._add(label, 20.0)  # the checkbox
+        elif text != "":
+            self._add(label, 0.0)  # a vector's or colour's label above or beside it
+
+    def label(self, text: str = "", **kwargs) -> None:
+        self._add(text, 20.0)  # an icon
+
+    def operator(self, idname: str, text: str | None = None, icon: str = "NONE", **kwargs) -> None:
+        module, name = idname.split(".")
+        label = text if text is not None else getattr(bpy.ops, module).__getattr__(name).get_rna_type().name
+        if label:
+            self._add(label, 20.0 if icon != "NONE" else 0.0)
+
+    def operator_menu_enum(self, *args, text: str = "", **kwargs) -> None:
+        if text:
+            self._add(text, 20.0)
+
+
+VALUE_ROOM = 60.0  # a number field's value: about 8 characters ("600 ms", "200°") at 11 points
 
 
 def measure_labels() -> None:
-    """Each number field's label plus room for its value, against the sidebar's width, in Blender's UI font."""
+    """Every text the Weathervane panels draw (labels, field labels with room for their values, menu and button
+    texts at their share of a row), in Blender's UI font, against the sidebar's width at its default size."""
     import blf
 
     _, area, _ = view3d()
@@ -123,20 +164,23 @@ def measure_labels() -> None:
         blf.size(0, 11 * scale)
     else:
         blf.size(0, 11, int(72 * scale))
-    drawn: list = []
+    rows: list = []
     holder = type("Panel", (), {})()
     for cls in bpy.types.Panel.__subclasses__():
         if getattr(cls, "bl_category", "") == "Weathervane" and cls.is_registered:
-            holder.layout = Recorder(drawn)
+            holder.layout = Recorder(rows)
             cls.draw(holder, bpy.context)
-    # a field spans the panel's width less its margins; its value needs about 8 characters ("600 ms", "200°")
-    room = sidebar.width - 2 * 14 * scale - blf.dimensions(0, "0000.000")[0] - 12 * scale
-    widths = {label: blf.dimensions(0, label)[0] for label in set(drawn)}
-    too_wide = sorted(label for label, width in widths.items() if width > room)
-    widest = max(widths, key=widths.get)
+    width = sidebar.width - 2 * 14 * scale  # the panel's margins
+    needs = {}
+    for row in rows:
+        for text, beside in row:
+            room = width / len(row) - 12 * scale  # a field's padding
+            needs[text] = max(needs.get(text, 0.0), (blf.dimensions(0, text)[0] + beside * scale) / room)
+    too_wide = sorted(text for text, share in needs.items() if share > 1.0)
+    widest = max(needs, key=needs.get)
     print(
-        f"WEATHERVANE-GUI sidebar {sidebar.width} px, {len(widths)} labels, widest {widest!r} {widths[widest]:.0f} of "
-        f"{room:.0f} px"
+        f"WEATHERVANE-GUI sidebar {sidebar.width} px, {len(needs)} texts, the widest {widest!r} needs "
+        f"{100 * needs[widest]:.0f}% of its room"
     )
     print("WEATHERVANE-GUI labels fit" if not too_wide else f"WEATHERVANE-GUI labels too wide: {too_wide}")
 
