@@ -113,14 +113,19 @@ class WEATHERVANE_OT_reset(bpy.types.Operator):
         return _build_from(self, context, settings.scene_file or settings.built_from, reset=True)
 
 
-class WEATHERVANE_OT_scene_file_browse(bpy.types.Operator, ImportHelper):
+class JsonFileBrowser(ImportHelper):
+    """A file browser that shows tracer scene files (.json) only."""
+
+    bl_options = {"REGISTER", "UNDO"}
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+
+class WEATHERVANE_OT_scene_file_browse(bpy.types.Operator, JsonFileBrowser):
     """Choose the tracer scene file (.json) that Build uses"""
 
     bl_idname = "weathervane.scene_file_browse"
     bl_label = "Choose Scene File"
-    bl_options = {"REGISTER", "UNDO"}
-    filename_ext = ".json"
-    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
 
     @reports_errors
     def execute(self, context):
@@ -128,14 +133,11 @@ class WEATHERVANE_OT_scene_file_browse(bpy.types.Operator, ImportHelper):
         return {"FINISHED"}
 
 
-class WEATHERVANE_OT_import(bpy.types.Operator, ImportHelper):
+class WEATHERVANE_OT_import(bpy.types.Operator, JsonFileBrowser):
     """Build the weathervane from a tracer scene file (.json) in its own collection"""
 
     bl_idname = "weathervane.import_scene"
     bl_label = "Import Weathervane Scene"
-    bl_options = {"REGISTER", "UNDO"}
-    filename_ext = ".json"
-    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
 
     @reports_errors
     def execute(self, context):
