@@ -79,6 +79,8 @@ def _build_from(operator: bpy.types.Operator, context, path: str, reset: bool = 
     built = f"Built {len(scene.objects)} parts in the '{build.COLLECTION}' collection"
     if scene.motion is not None and len(scene.motion.wind.keys) > 1:
         built += f"; the wind follows the file's {len(scene.motion.wind.keys)} keys (Vane & Wind)"
+    if not keep:
+        built += _display_as_the_tracer(context.scene)
     if keep:
         built = (
             f"Rebuilt the {len(scene.objects)} parts; kept your materials, wind, motion, lights, camera and render "
@@ -131,6 +133,18 @@ class WEATHERVANE_OT_scene_file_browse(bpy.types.Operator, JsonFileBrowser):
     def execute(self, context):
         context.scene.weathervane.scene_file = bpy.path.relpath(self.filepath) if bpy.data.filepath else self.filepath
         return {"FINISHED"}
+
+
+def _display_as_the_tracer(blender_scene) -> str:
+    """Colour management that shows the tracer's values as they are (the Standard view transform, no look, exposure
+    or gamma, no dither), as `python -m tracer render --srgb` writes them; what changed, for the report."""
+    view = blender_scene.view_settings
+    before = view.view_transform
+    view.view_transform = "Standard"
+    view.look = "None"
+    view.exposure, view.gamma = 0.0, 1.0
+    blender_scene.render.dither_intensity = 0.0
+    return "" if before == "Standard" else f"; view transform Standard (was {before}), as the tracer shows colours"
 
 
 class WEATHERVANE_OT_import(bpy.types.Operator, JsonFileBrowser):

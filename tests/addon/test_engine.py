@@ -107,3 +107,48 @@ def test_engine_renders_blenders_orthographic_shifted_clipped_camera(
     assert (np.abs(render(unclipped, workers=1).image - expected).max(axis=2) > 0.05).mean() > 0.05
     perspective = render(default_scene().with_render(width=48, height=32), workers=1).image
     assert not np.allclose(rendered, perspective, atol=1e-3)
+
+
+def test_f12_png_equals_the_tracers_srgb_png_and_the_properties_show_the_engine(tmp_path: Path) -> None:
+    import json
+
+    from tracer.images import to_8bit
+    from tracer.loader import scene_from_dict
+
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    scene = bpy.context.scene
+    assert scene.view_settings.view_transform == "Standard"  # Build set it, and said so
+    scene.render.engine = "WEATHERVANE_TRACER"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.image_settings.color_mode = "RGB"
+    scene.render.image_settings.color_depth = "8"
+    scene.render.filepath = str(tmp_path / "f12.png")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    image = bpy.data.images.load(str(tmp_path / "f12.png"))
+    pixels = np.empty(64 * 48 * image.channels, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    f12 = np.round(np.flipud(pixels.reshape(48, 64, image.channels))[..., :3] * 255).astype(int)
+    assert bpy.ops.weathervane.export(filepath=str(tmp_path / "scene.json")) == {"FINISHED"}
+    exported = scene_from_dict(json.loads((tmp_path / "scene.json").read_text()))
+    tracer_png = to_8bit(render(exported, workers=1).image, srgb=True).astype(int)
+    assert np.abs(f12 - tracer_png).max() <= 1
+    # Render and World Properties show the engine's own panels; the stock Output and colour panels include it
+    from addon import render_panels
+
+    for panel in render_panels.CLASSES:
+        assert panel.poll(bpy.context)
+    added = list(render_panels._added)
+    names = {cls.__name__ for cls in added}
+    assert {"RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_output", "RENDER_PT_color_management"} <= names
+    assert {"DATA_PT_lens", "DATA_PT_camera"} <= names and not any("_dof" in name for name in names)
+    assert all("WEATHERVANE_TRACER" in cls.COMPAT_ENGINES for cls in added)
+    # unregistering takes the engine out of exactly those panels, and leaves the others' engines alone
+    import addon
+
+    addon.unregister()
+    try:
+        assert not any("WEATHERVANE_TRACER" in cls.COMPAT_ENGINES for cls in added)
+        assert all("CYCLES" in cls.COMPAT_ENGINES for cls in added if cls.__name__ == "RENDER_PT_format")
+    finally:
+        addon.register()
