@@ -301,6 +301,7 @@ def _fill_settings(context, scene) -> None:
     render.resolution_percentage = 100
     settings.depth, settings.model, settings.coef = scene.render.depth, scene.render.model, scene.render.coef
     settings.background, settings.workers = scene.background.type, scene.render.workers
+    settings.numerics, settings.precision = scene.render.numerics, scene.render.dtype
     settings.background_color = scene.background.color
     settings.horizon, settings.zenith = scene.background.horizon, scene.background.zenith
     settings.samples = str(scene.render.samples) if str(scene.render.samples) in {"1", "4", "9", "16", "64"} else "1"

@@ -133,6 +133,8 @@ def scene_document(context, depsgraph=None, blender_scene=None) -> dict:
             "coef": settings.coef,
             "samples": int(settings.samples),
             "workers": settings.workers,
+            "numerics": settings.numerics,
+            "dtype": settings.precision,
             "pixel_aspect": [render.pixel_aspect_x, render.pixel_aspect_y],
         },
     }

@@ -291,6 +291,23 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         description="The sky's color straight up",
     )
     workers: IntProperty(name="Workers", min=0, max=64, default=0, description="Worker processes; 0: all cores")
+    numerics: EnumProperty(
+        name="Numerics",
+        items=[
+            (
+                "documented",
+                "As Documented",
+                "The course's fixed epsilons and formulas (shadow acne far from the origin)",
+            ),
+            ("robust", "Robust", "Stable quadratics, watertight triangles, offsets from each surface's own rounding"),
+        ],
+        default="documented",
+    )
+    precision: EnumProperty(
+        name="Precision",
+        items=[("float64", "Double", "64-bit floats"), ("float32", "Single", "32-bit floats: faster, coarser")],
+        default="float64",
+    )
     samples: EnumProperty(
         name="Samples",
         items=[

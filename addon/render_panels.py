@@ -60,6 +60,8 @@ class WEATHERVANE_RENDER_PT_tracer(TracerPanel, bpy.types.Panel):
         layout.prop(settings, "depth")
         layout.prop(settings, "samples")
         layout.prop(settings, "workers")
+        layout.prop(settings, "numerics")
+        layout.prop(settings, "precision")
         # the tracer's values are display values: only Standard shows them as `python -m tracer render --srgb` does
         transform = context.scene.view_settings.view_transform
         icon = "CHECKMARK" if transform == "Standard" else "ERROR"

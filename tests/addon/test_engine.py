@@ -152,3 +152,17 @@ def test_f12_png_equals_the_tracers_srgb_png_and_the_properties_show_the_engine(
         assert all("CYCLES" in cls.COMPAT_ENGINES for cls in added if cls.__name__ == "RENDER_PT_format")
     finally:
         addon.register()
+
+
+def test_numerics_and_precision_set_in_render_properties_reach_the_tracer(tmp_path: Path) -> None:
+    import json
+
+    from tracer.loader import scene_from_dict
+
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    settings = bpy.context.scene.weathervane
+    assert (settings.numerics, settings.precision) == ("documented", "float64")  # the file's
+    settings.numerics, settings.precision = "robust", "float32"
+    assert bpy.ops.weathervane.export(filepath=str(tmp_path / "scene.json")) == {"FINISHED"}
+    exported = scene_from_dict(json.loads((tmp_path / "scene.json").read_text()))
+    assert (exported.render.numerics, exported.render.dtype) == ("robust", "float32")
