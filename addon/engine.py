@@ -60,29 +60,50 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         def progress(done: int, total: int) -> None:
             self.update_progress(done / total)
             self.update_stats("Weathervane Tracer", f"band {done}/{total}")
-            if self.test_break():
+            if cancelled(self):
                 raise RenderCancelledError
+
+        # the image as Blender shows it (rows bottom-up, RGBA): bands are drawn into it as they finish, so a
+        # cancelled render keeps what was traced
+        shown = np.zeros((height, width, 4), dtype=np.float32)
+        shown[..., 3] = 1.0
+        render_result = self.begin_result(0, 0, width, height)
+
+        def band_done(image: np.ndarray, rows: np.ndarray) -> None:
+            shown[height - 1 - rows, :, :3] = image[rows]
+            _write(render_result, shown)
+            self.update_result(render_result)
 
         pool, resources = module("pool"), module("resources")
         try:
             workers = scene.render.workers
             turning = _turning.setdefault(workers, module("incremental").TurningFrames())
-            result = turning.render(_renderer(workers), scene, progress)
+            result = turning.render(_renderer(workers), scene, progress, band_done)
         except RenderCancelledError:
+            self.end_result(render_result)  # the bands finished before the cancel
             return
         except (resources.ResourceError, pool.WorkerLostError, pool.TaskFailedError) as error:
+            self.end_result(render_result, cancel=True)
             self.report({"ERROR"}, str(error))  # not enough memory, workers lost: one line, the pool stays usable
             return
-        image = np.flipud(result.image).astype(np.float32)  # Blender's rows go bottom-up
-        rgba = np.concatenate((image, np.ones((height, width, 1), dtype=np.float32)), axis=2).reshape(-1, 4)
-        render_result = self.begin_result(0, 0, width, height)
-        combined = render_result.layers[0].passes["Combined"]
-        try:
-            combined.rect.foreach_set(rgba.ravel())
-        except (AttributeError, TypeError):
-            combined.rect = rgba.tolist()
+        shown[..., :3] = np.flipud(result.image)  # Blender's rows go bottom-up
+        _write(render_result, shown)
         self.end_result(render_result)
         self.update_stats("Weathervane Tracer", f"{result.seconds * 1000:.0f} ms, {result.rays.total} rays")
+
+
+def cancelled(engine) -> bool:
+    """Whether the user asked to stop the render (Esc)."""
+    return engine.test_break()
+
+
+def _write(render_result, rgba: np.ndarray) -> None:
+    """A (height, width, 4) float32 image into the render result's Combined pass."""
+    combined = render_result.layers[0].passes["Combined"]
+    try:
+        combined.rect.foreach_set(rgba.ravel())
+    except (AttributeError, TypeError):
+        combined.rect = rgba.reshape(-1, 4).tolist()
 
 
 CLASSES = (WEATHERVANE_RE_tracer,)

@@ -17,7 +17,7 @@ import numpy as np
 
 from . import scene as sc
 from .footprint import swept_volume
-from .parallel import Progress, Renderer, RenderResult
+from .parallel import BandDone, Progress, Renderer, RenderResult
 
 # Runs: tighter boxes mean fewer pixels to trace again, a longer run fewer whole frames. On the default scene the
 # parts' boxes hold the ray trees of 3.6% of the pixels for one heading, 5% over 15 degrees, 6.2% over 30 and 7.9%
@@ -78,16 +78,18 @@ class TurningFrames:
         self._pixels: np.ndarray | None = None  # None: the vane's reach covers too much, trace whole frames
         self._base: np.ndarray | None = None
 
-    def render(self, renderer: Renderer, scene: sc.Scene, progress: Progress | None = None) -> RenderResult:
+    def render(
+        self, renderer: Renderer, scene: sc.Scene, progress: Progress | None = None, band_done: BandDone | None = None
+    ) -> RenderResult:
         if scene.vane is None:
-            return renderer.render(scene, progress)
+            return renderer.render(scene, progress, band_done=band_done)
         still = pickle.dumps(replace(scene, vane=replace(scene.vane, heading=0.0)))
         if still == self._still:
             if self._pixels is None:
-                return renderer.render(scene, progress)
+                return renderer.render(scene, progress, band_done=band_done)
             return renderer.render_pixels(scene, self._pixels, self._base)
         volume = swept_volume(scene, np.dtype(scene.render.dtype))
-        result = renderer.render(scene, progress, volume)
+        result = renderer.render(scene, progress, volume, band_done)
         self._still, self._pixels, self._base = still, None, None
         if volume is not None and result.touched.mean() <= FULL_SHARE:
             self._pixels, self._base = np.flatnonzero(result.touched), result.image.copy()

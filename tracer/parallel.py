@@ -37,6 +37,7 @@ LARGE_IMAGE_BAND_BYTES = 480_000  # 60,000 samples in float64, 120,000 in float3
 BLOCK_ROWS = 16
 
 Progress = Callable[[int, int], None]
+BandDone = Callable[[np.ndarray, np.ndarray], None]  # (the frame's image so far, the rows just finished)
 
 
 def default_workers() -> int:
@@ -193,15 +194,22 @@ class Renderer:
             self._pool = WorkerPool(self.workers, self._start_method)
         return self._pool
 
-    def render(self, scene: sc.Scene, progress: Progress | None = None, volume: Volume | None = None) -> RenderResult:
-        """Trace the whole image; progress(bands_done, bands_total) is called as bands finish. volume: also tell
-        which pixels' ray trees meet it (RenderResult.touched; footprint.py).
+    def render(
+        self,
+        scene: sc.Scene,
+        progress: Progress | None = None,
+        volume: Volume | None = None,
+        band_done: BandDone | None = None,
+    ) -> RenderResult:
+        """Trace the whole image; progress(bands_done, bands_total) is called as bands finish, and band_done(image,
+        rows) with the image so far (a display that draws bands as they come). volume: also tell which pixels' ray
+        trees meet it (RenderResult.touched; footprint.py).
 
         An exception from progress (a cancelled render) stops the frame; the pool stays usable."""
         check_resources(scene.render, self.workers)
         if self.workers > 1:
             self._start_pool()
-            return self._submit(scene, volume).finish(progress)
+            return self._submit(scene, volume).finish(progress, band_done)
         settings = scene.render
         started = time.perf_counter()
         prepared = self._prepared_here(scene)
@@ -215,6 +223,8 @@ class Renderer:
             if touched is not None:
                 touched[rows] = band_touched
             counts.add(band_counts)
+            if band_done is not None:
+                band_done(image, rows)
             if progress is not None:
                 progress(done, len(every))
         return RenderResult(image, counts, time.perf_counter() - started, touched)
@@ -320,7 +330,7 @@ class _Frame:
     touched: np.ndarray | None = None
     pixels: bool = False
 
-    def finish(self, progress: Progress | None = None) -> RenderResult:
+    def finish(self, progress: Progress | None = None, band_done: BandDone | None = None) -> RenderResult:
         counts = RayCounts()
         where = {id(task): rows for rows, task in self.tasks}
         try:
@@ -334,6 +344,8 @@ class _Frame:
                         self.image[where[id(task)]] = band
                     if self.touched is not None:
                         self.touched[where[id(task)]] = band_touched
+                    if band_done is not None:
+                        band_done(self.image, where[id(task)])
                 counts.add(piece_counts)
                 if progress is not None:
                     progress(done, len(self.tasks))

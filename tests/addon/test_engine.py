@@ -166,3 +166,31 @@ def test_numerics_and_precision_set_in_render_properties_reach_the_tracer(tmp_pa
     assert bpy.ops.weathervane.export(filepath=str(tmp_path / "scene.json")) == {"FINISHED"}
     exported = scene_from_dict(json.loads((tmp_path / "scene.json").read_text()))
     assert (exported.render.numerics, exported.render.dtype) == ("robust", "float32")
+
+
+def test_a_cancelled_render_keeps_the_bands_finished_before_the_cancel(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from addon import engine
+    from tracer.parallel import bands
+
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    scene = bpy.context.scene
+    scene.weathervane.workers = 1  # bands one after another: the cancel comes after the first
+    scene.render.engine = "WEATHERVANE_TRACER"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    monkeypatch.setattr(engine, "cancelled", lambda _engine: True)  # Esc, as soon as the engine asks
+    bpy.ops.render.render()
+    bpy.data.images["Render Result"].save_render(str(tmp_path / "cancelled.exr"))
+    image = bpy.data.images.load(str(tmp_path / "cancelled.exr"))
+    pixels = np.empty(64 * 48 * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    shown = np.flipud(pixels.reshape(48, 64, 4))[..., :3]
+    expected = render(default_scene().with_render(width=64, height=48), workers=1).image
+    first, *rest = bands(default_scene().with_render(width=64, height=48).render)
+    assert rest, "the frame must have more than one band"
+    assert np.abs(shown[first] - expected[first]).max() < 1e-4  # the band traced before the cancel is shown
+    others = np.setdiff1d(np.arange(48), first)
+    assert np.all(shown[others] == 0.0)  # the rest was never traced
