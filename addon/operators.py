@@ -78,7 +78,7 @@ def _build_from(operator: bpy.types.Operator, context, path: str, reset: bool = 
     build.build(context, scene, path, keep)
     built = f"Built {len(scene.objects)} parts in the '{build.COLLECTION}' collection"
     if scene.motion is not None and len(scene.motion.wind.keys) > 1:
-        built += f"; the wind follows the file's {len(scene.motion.wind.keys)} keys (Vane & Wind)"
+        built += f"; the wind follows the file's {len(scene.motion.wind.keys)} keys (Wind panel)"
     if not keep:
         built += _display_as_the_tracer(context.scene)
     if keep:
