@@ -14,6 +14,19 @@ from .export import other_lights
 LIGHT_ICONS = {"AMBIENT": "WORLD", "POINT": "LIGHT_POINT", "DIRECTIONAL": "LIGHT_SUN"}
 
 
+def draw_background(layout, settings, text: str | None = None) -> None:
+    """The tracer's background: its type, and the colours that type uses (the sidebar and World Properties)."""
+    if text is None:
+        layout.prop(settings, "background")
+    else:
+        layout.prop(settings, "background", text=text)
+    if settings.background == "solid":
+        layout.prop(settings, "background_color")
+    elif settings.background in ("sky", "documented"):
+        layout.prop(settings, "horizon")
+        layout.prop(settings, "zenith")
+
+
 class WeathervanePanel:
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
@@ -195,12 +208,7 @@ class WEATHERVANE_PT_render(WeathervanePanel, bpy.types.Panel):
         row.active = settings.model == "blinn-phong"
         row.prop(settings, "coef")
         layout.label(text="Background")
-        layout.prop(settings, "background", text="")
-        if settings.background == "solid":
-            layout.prop(settings, "background_color")
-        elif settings.background in ("sky", "documented"):
-            layout.prop(settings, "horizon")
-            layout.prop(settings, "zenith")
+        draw_background(layout, settings, text="")
         layout.label(text="Samples per Pixel")
         layout.prop(settings, "samples", text="")
         layout.prop(settings, "workers")

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import bpy
 
+from .panels import draw_background
+
 ENGINE = "WEATHERVANE_TRACER"
 
 # Data panels of the camera and the light that mean something for the tracer (lens, sensor, shift, clipping,
@@ -92,13 +94,7 @@ class WEATHERVANE_WORLD_PT_background(TracerPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
-        settings = context.scene.weathervane
-        layout.prop(settings, "background")
-        if settings.background == "solid":
-            layout.prop(settings, "background_color")
-        elif settings.background in ("sky", "documented"):
-            layout.prop(settings, "horizon")
-            layout.prop(settings, "zenith")
+        draw_background(layout, context.scene.weathervane)
 
 
 CLASSES = (WEATHERVANE_RENDER_PT_tracer, WEATHERVANE_RENDER_PT_shading, WEATHERVANE_WORLD_PT_background)
