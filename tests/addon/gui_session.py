@@ -85,6 +85,10 @@ def setup() -> None:
             obj.select_set(False)
         area.spaces.active.show_region_ui = True
         area.spaces.active.shading.color_type = "MATERIAL"
+        # the tracer as the scene's engine, Render Properties open: its own panels draw in the real window
+        bpy.context.scene.render.engine = "WEATHERVANE_TRACER"
+        for properties in (a for a in window.screen.areas if a.type == "PROPERTIES"):
+            properties.spaces.active.context = "RENDER"
         bpy.ops.view3d.view_camera()
         bpy.ops.view3d.view_center_camera()
     print("WEATHERVANE-GUI built")
