@@ -1,14 +1,24 @@
-"""Where the add-on finds the tracer: its own copy inside the built add-on, else the repository's package."""
+"""Where the add-on finds the tracer: its own copy inside the built add-on, else the repository's package.
+
+The copy is imported as a top-level package (`weathervane_tracer`, from the add-on's folder), not as a submodule
+of the add-on: the render engine's worker processes are started afresh (not forked from Blender), and they import
+the tracer's functions by module name; a submodule would make them import the add-on, which needs bpy.
+"""
 
 from __future__ import annotations
 
 import importlib
+import sys
+from pathlib import Path
 from types import ModuleType
 
-try:
-    from . import tracer as package  # the copy `make addon` puts inside the add-on
-except ImportError:
-    import tracer as package  # running from the repository (tests, development)
+_HERE = Path(__file__).resolve().parent
+if (_HERE / "weathervane_tracer").is_dir():  # the copy `make addon` puts inside the add-on
+    if str(_HERE) not in sys.path:
+        sys.path.append(str(_HERE))
+    import weathervane_tracer as package
+else:  # running from the repository (tests, development)
+    import tracer as package
 
 
 def module(name: str) -> ModuleType:

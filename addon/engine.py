@@ -24,9 +24,30 @@ _turning: dict[int, object] = {}  # per pool: the last scene's pixels that the v
 
 
 def _renderer(workers: int):
+    """The pool for a worker count. Its workers are started afresh with Blender's Python ("spawn"), never forked
+    from Blender's own process: a fork copies a process with threads running (Blender's, Python's) and can crash
+    in the child; a crash of Blender loses the artist's unsaved work."""
     if workers not in _renderers:
-        _renderers[workers] = module("parallel").Renderer(workers)
+        import multiprocessing
+
+        multiprocessing.set_executable(_python())
+        _renderers[workers] = module("parallel").Renderer(workers, start_method="spawn")
     return _renderers[workers]
+
+
+def _python() -> str:
+    """The Python interpreter Blender runs (its sys.executable may be the Blender binary or another Python on the
+    PATH): a virtual environment's own (the bpy wheel), else the interpreter under Blender's Python prefix."""
+    import sys
+    from pathlib import Path
+
+    if sys.prefix != sys.base_prefix:
+        return sys.executable
+    version = f"{sys.version_info.major}.{sys.version_info.minor}"
+    for candidate in (Path(sys.base_prefix) / "bin" / f"python{version}", Path(sys.base_prefix) / "bin" / "python3"):
+        if candidate.exists():
+            return str(candidate)
+    return sys.executable
 
 
 def close_renderers() -> None:

@@ -171,11 +171,15 @@ class Renderer:
     A worker that dies (killed, out of memory) has its bands traced again by a fresh one (tracer/pool.py).
     """
 
-    def __init__(self, workers: int = 0) -> None:
+    def __init__(self, workers: int = 0, start_method: str | None = None) -> None:
+        """start_method: how worker processes start ("fork", "spawn"); None: fork where the system has it (fast,
+        and safe in a single-threaded program like the command line; a program with threads of its own, such as
+        Blender, asks for "spawn")."""
         self.workers = worker_count(workers)
         self._pool: WorkerPool | None = None
         self._prepared: tuple[bytes, PreparedScene] | None = None
-        self._start_method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+        default = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+        self._start_method = start_method or default
         self._shared = hasattr(os, "memfd_create")
 
     def __enter__(self) -> Renderer:

@@ -18,6 +18,7 @@ import multiprocessing
 import os
 import queue
 import signal
+import sys
 import threading
 import traceback
 from collections import deque
@@ -100,6 +101,24 @@ def _worker_main(conn: connection.Connection, inherited: list[int]) -> None:
             return
 
 
+@contextlib.contextmanager
+def _main_script_hidden(hide: bool) -> Iterator[None]:
+    """A started (not forked) child runs the parent's main script again before it takes a task; the workers need only
+    the tracer's modules, and a script that Blender runs would import bpy there, which a plain Python has not."""
+    main = sys.modules.get("__main__")
+    if not hide or main is None:
+        yield
+        return
+    saved = {name: main.__dict__[name] for name in ("__file__", "__spec__") if name in main.__dict__}
+    main.__dict__.pop("__file__", None)
+    main.__spec__ = None  # multiprocessing reads it: a module name would be imported again instead
+    try:
+        yield
+    finally:
+        main.__dict__.pop("__spec__", None)
+        main.__dict__.update(saved)
+
+
 def _receive_tasks(conn: connection.Connection, tasks: queue.SimpleQueue) -> None:
     """The worker's reader: (function, args, descriptor or None) for each task, then None."""
     try:
@@ -170,7 +189,8 @@ class WorkerPool:
         # Ctrl-C in a terminal goes to the whole process group: held back until the worker has set it to be ignored
         blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         try:
-            process.start()
+            with _main_script_hidden(self._context.get_start_method() != "fork"):
+                process.start()
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
         child_end.close()

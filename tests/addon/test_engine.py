@@ -194,3 +194,29 @@ def test_a_cancelled_render_keeps_the_bands_finished_before_the_cancel(
     assert np.abs(shown[first] - expected[first]).max() < 1e-4  # the band traced before the cancel is shown
     others = np.setdiff1d(np.arange(48), first)
     assert np.all(shown[others] == 0.0)  # the rest was never traced
+
+
+def test_the_engines_workers_are_started_afresh_not_forked_from_blender(tmp_path: Path) -> None:
+    from addon import engine
+
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    scene = bpy.context.scene
+    scene.weathervane.workers = 2
+    scene.render.engine = "WEATHERVANE_TRACER"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.filepath = str(tmp_path / "two.exr")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    renderer = engine._renderers[2]
+    pids = renderer._pool.pids()
+    assert len(pids) == 2
+    for pid in pids:  # a spawned worker runs multiprocessing's spawn_main, a forked one Blender's own command line
+        command = Path(f"/proc/{pid}/cmdline").read_bytes().decode(errors="replace")
+        assert "spawn_main" in command, command
+    image = bpy.data.images.load(str(tmp_path / "two.exr"))
+    pixels = np.empty(64 * 48 * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    rendered = np.flipud(pixels.reshape(48, 64, 4))[..., :3]
+    expected = render(default_scene().with_render(width=64, height=48), workers=1).image
+    assert np.abs(rendered - expected).max() < 1e-4
