@@ -207,4 +207,4 @@ def _edited(scene: sc.Scene, edit: Edit) -> sc.Scene:
     return replace(scene, objects=objects)
 
 
-__all__ = ["EditableImage", "LightEdit", "MaterialEdit", "RayCounts", "TransformEdit"]
+__all__ = ["Edit", "EditableImage", "LightEdit", "MaterialEdit", "TransformEdit"]
