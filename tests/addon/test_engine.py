@@ -12,19 +12,32 @@ from tracer.loader import default_scene
 from tracer.parallel import render
 
 
-def test_render_result_is_the_tracers_image(tmp_path: Path) -> None:
+def engine_scene(workers: int | None = None):
+    """The built vane, rendered by the tracer engine at 64x48 into 32-bit EXR files."""
     assert bpy.ops.weathervane.build() == {"FINISHED"}
     scene = bpy.context.scene
+    if workers is not None:
+        scene.weathervane.workers = workers
     scene.render.engine = "WEATHERVANE_TRACER"
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
     scene.render.image_settings.file_format = "OPEN_EXR"
     scene.render.image_settings.color_depth = "32"
-    scene.render.filepath = str(tmp_path / "engine.exr")
-    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
-    image = bpy.data.images.load(str(tmp_path / "engine.exr"))
+    return scene
+
+
+def read_exr(path: Path) -> np.ndarray:
+    """A 64x48 image file Blender wrote -> (48, 64, 3) float32, rows from the top."""
+    image = bpy.data.images.load(str(path))
     pixels = np.empty(64 * 48 * 4, dtype=np.float32)
     image.pixels.foreach_get(pixels)
-    rendered = np.flipud(pixels.reshape(48, 64, 4))[..., :3]
+    return np.flipud(pixels.reshape(48, 64, 4))[..., :3]
+
+
+def test_render_result_is_the_tracers_image(tmp_path: Path) -> None:
+    scene = engine_scene()
+    scene.render.filepath = str(tmp_path / "engine.exr")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    rendered = read_exr(tmp_path / "engine.exr")
     expected = render(default_scene().with_render(width=64, height=48), workers=1).image
     # the scene went through Blender's float32 properties and back: rounding only
     assert np.abs(rendered - expected).max() < 1e-4
@@ -174,20 +187,11 @@ def test_a_cancelled_render_keeps_the_bands_finished_before_the_cancel(
     from addon import engine
     from tracer.parallel import bands
 
-    assert bpy.ops.weathervane.build() == {"FINISHED"}
-    scene = bpy.context.scene
-    scene.weathervane.workers = 1  # bands one after another: the cancel comes after the first
-    scene.render.engine = "WEATHERVANE_TRACER"
-    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
+    engine_scene(workers=1)  # bands one after another: the cancel comes after the first
     monkeypatch.setattr(engine, "cancelled", lambda _engine: True)  # Esc, as soon as the engine asks
     bpy.ops.render.render()
     bpy.data.images["Render Result"].save_render(str(tmp_path / "cancelled.exr"))
-    image = bpy.data.images.load(str(tmp_path / "cancelled.exr"))
-    pixels = np.empty(64 * 48 * 4, dtype=np.float32)
-    image.pixels.foreach_get(pixels)
-    shown = np.flipud(pixels.reshape(48, 64, 4))[..., :3]
+    shown = read_exr(tmp_path / "cancelled.exr")
     expected = render(default_scene().with_render(width=64, height=48), workers=1).image
     first, *rest = bands(default_scene().with_render(width=64, height=48).render)
     assert rest, "the frame must have more than one band"
@@ -199,13 +203,7 @@ def test_a_cancelled_render_keeps_the_bands_finished_before_the_cancel(
 def test_the_engines_workers_are_started_afresh_not_forked_from_blender(tmp_path: Path) -> None:
     from addon import engine
 
-    assert bpy.ops.weathervane.build() == {"FINISHED"}
-    scene = bpy.context.scene
-    scene.weathervane.workers = 2
-    scene.render.engine = "WEATHERVANE_TRACER"
-    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
+    scene = engine_scene(workers=2)
     scene.render.filepath = str(tmp_path / "two.exr")
     assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
     renderer = engine._renderers[2]
@@ -214,9 +212,5 @@ def test_the_engines_workers_are_started_afresh_not_forked_from_blender(tmp_path
     for pid in pids:  # a spawned worker runs multiprocessing's spawn_main, a forked one Blender's own command line
         command = Path(f"/proc/{pid}/cmdline").read_bytes().decode(errors="replace")
         assert "spawn_main" in command, command
-    image = bpy.data.images.load(str(tmp_path / "two.exr"))
-    pixels = np.empty(64 * 48 * 4, dtype=np.float32)
-    image.pixels.foreach_get(pixels)
-    rendered = np.flipud(pixels.reshape(48, 64, 4))[..., :3]
     expected = render(default_scene().with_render(width=64, height=48), workers=1).image
-    assert np.abs(rendered - expected).max() < 1e-4
+    assert np.abs(read_exr(tmp_path / "two.exr") - expected).max() < 1e-4
