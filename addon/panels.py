@@ -14,12 +14,25 @@ from .export import other_lights
 LIGHT_ICONS = {"AMBIENT": "WORLD", "POINT": "LIGHT_POINT", "DIRECTIONAL": "LIGHT_SUN"}
 
 
+def _prop(layout, settings, name: str, text: str | None) -> None:
+    """layout.prop with the property's own label where text is None."""
+    if text is None:
+        layout.prop(settings, name)
+    else:
+        layout.prop(settings, name, text=text)
+
+
+def draw_highlights(layout, settings, text: str | None = None) -> None:
+    """The highlight model and, for Blinn-Phong, its exponent factor (the sidebar and Render Properties)."""
+    _prop(layout, settings, "model", text)
+    row = layout.row()
+    row.active = settings.model == "blinn-phong"
+    row.prop(settings, "coef")
+
+
 def draw_background(layout, settings, text: str | None = None) -> None:
     """The tracer's background: its type, and the colours that type uses (the sidebar and World Properties)."""
-    if text is None:
-        layout.prop(settings, "background")
-    else:
-        layout.prop(settings, "background", text=text)
+    _prop(layout, settings, "background", text)
     if settings.background == "solid":
         layout.prop(settings, "background_color")
     elif settings.background in ("sky", "documented"):
@@ -203,10 +216,7 @@ class WEATHERVANE_PT_render(WeathervanePanel, bpy.types.Panel):
         settings = context.scene.weathervane
         layout.prop(settings, "depth")
         layout.label(text="Highlights")
-        layout.prop(settings, "model", text="")
-        row = layout.row()
-        row.active = settings.model == "blinn-phong"
-        row.prop(settings, "coef")
+        draw_highlights(layout, settings, text="")
         layout.label(text="Background")
         draw_background(layout, settings, text="")
         layout.label(text="Samples per Pixel")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import bpy
 
-from .panels import draw_background
+from .panels import draw_background, draw_highlights
 
 ENGINE = "WEATHERVANE_TRACER"
 
@@ -49,15 +49,20 @@ class TracerPanel:
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES
 
+    def split_layout(self):
+        """The panel's layout in Blender's Properties style: labels in a column, no keyframe decorators."""
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        return layout
+
 
 class WEATHERVANE_RENDER_PT_tracer(TracerPanel, bpy.types.Panel):
     bl_label = "Weathervane Tracer"
     bl_context = "render"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = self.split_layout()
         settings = context.scene.weathervane
         layout.prop(settings, "depth")
         layout.prop(settings, "samples")
@@ -76,14 +81,8 @@ class WEATHERVANE_RENDER_PT_shading(TracerPanel, bpy.types.Panel):
     bl_parent_id = "WEATHERVANE_RENDER_PT_tracer"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        settings = context.scene.weathervane
-        layout.prop(settings, "model")
-        row = layout.row()
-        row.active = settings.model == "blinn-phong"
-        row.prop(settings, "coef")
+        # the model's names and "Exponent Factor" are longer than a label column holds at the editor's default width
+        draw_highlights(self.layout, context.scene.weathervane, text="")
 
 
 class WEATHERVANE_WORLD_PT_background(TracerPanel, bpy.types.Panel):
@@ -91,10 +90,7 @@ class WEATHERVANE_WORLD_PT_background(TracerPanel, bpy.types.Panel):
     bl_context = "world"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        draw_background(layout, context.scene.weathervane)
+        draw_background(self.split_layout(), context.scene.weathervane)
 
 
 CLASSES = (WEATHERVANE_RENDER_PT_tracer, WEATHERVANE_RENDER_PT_shading, WEATHERVANE_WORLD_PT_background)
