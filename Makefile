@@ -7,7 +7,11 @@ STAMP := $(VENV)/.installed
 # Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
 SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
-.PHONY: demo test test-slow lint bench bench-reliability docs study addon system-deps clean
+.PHONY: demo test test-slow lint bench bench-reliability docs study addon system-deps blender-wheels clean
+
+# Blender versions as bpy wheels besides 5.0.1 (tests/addon/wheels.txt): one virtual environment each
+BPY_WHEELS := $(shell sed -e 's/\#.*//' tests/addon/wheels.txt)
+BPY_STAMPS := $(foreach version,$(BPY_WHEELS),.venv-bpy-$(version)/.installed)
 
 $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found; install Python 3.11" >&2; exit 1; }
@@ -15,6 +19,14 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev,blender,report]'
 	@touch $@
+
+.venv-bpy-%/.installed: tests/addon/wheels.txt
+	@test -x .venv-bpy-$*/bin/python || $(PYTHON) -m venv .venv-bpy-$*
+	.venv-bpy-$*/bin/python -m pip install --quiet --upgrade pip
+	.venv-bpy-$*/bin/python -m pip install --quiet "bpy==$*" "numpy<2" "pytest>=8"
+	@touch $@
+
+blender-wheels: $(BPY_STAMPS)
 
 system-deps:
 	@missing=""; \
@@ -38,7 +50,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 
-test: lint system-deps
+test: lint system-deps blender-wheels
 	$(BIN)/python -m pytest -q
 
 test-slow: $(STAMP)
@@ -60,4 +72,4 @@ addon: $(STAMP)
 	$(BIN)/python scripts/build_addon.py
 
 clean:
-	rm -rf $(VENV) out dist
+	rm -rf $(VENV) .venv-bpy-* out dist

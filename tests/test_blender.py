@@ -94,6 +94,32 @@ def test_addon_suite_passes_inside_blender_34() -> None:
     assert " passed" in result.stdout and " failed" not in result.stdout
 
 
+def wheel_versions() -> list[str]:
+    """The bpy wheels besides 5.0.1 that `make test` gives their own virtual environments (tests/addon/wheels.txt)."""
+    lines = (ROOT / "tests" / "addon" / "wheels.txt").read_text().splitlines()
+    return [line.split("#")[0].strip() for line in lines if line.split("#")[0].strip()]
+
+
+@pytest.mark.parametrize("version", wheel_versions())
+def test_addon_suite_passes_in_the_bpy_wheel(version: str) -> None:
+    python = ROOT / f".venv-bpy-{version}" / "bin" / "python"
+    if not python.exists():
+        pytest.skip(
+            f"no {python.parent.parent.name}: `make blender-wheels` (part of `make test`) installs bpy {version}"
+        )
+    script = textwrap.dedent(f"""
+        import sys
+        import bpy, numpy, pytest
+        print("Blender", bpy.app.version_string, "NumPy", numpy.__version__)
+        arguments = ["-q", "-p", "no:cacheprovider", "--rootdir", {str(ROOT)!r}, {str(ROOT / "tests" / "addon")!r}]
+        sys.exit(int(pytest.main(arguments)))
+    """)
+    result = subprocess.run([str(python), "-c", script], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert f"Blender {version}" in result.stdout, result.stdout[-2000:] + result.stderr[-2000:]
+    assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
+    assert " passed" in result.stdout and " failed" not in result.stdout
+
+
 @needs_blender_34
 def test_command_line_render_with_the_tracer_engine_in_blender_34(dist: Path, tmp_path: Path) -> None:
     """`blender -b file.blend -E WEATHERVANE_TRACER -f 1`: the frame Blender writes is the tracer's image."""
