@@ -1,4 +1,5 @@
-"""The documented tracer as a Blender render engine: F12, animation renders and `blender -b -E WEATHERVANE_TRACER`.
+"""The documented tracer as a Blender render engine: F12, animation renders, `blender -b -E WEATHERVANE_TRACER` and
+the 3D View's Rendered shading (addon/viewport.py).
 
 Each frame exports the evaluated scene to a tracer scene (addon/export.py), renders it on the tracer's worker
 pool band by band with progress and cancel, and hands the linear float image to Blender's render result.
@@ -11,7 +12,7 @@ import json
 import bpy
 import numpy as np
 
-from . import camera
+from . import camera, viewport
 from ._tracer import module
 
 
@@ -61,6 +62,46 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
     bl_idname = "WEATHERVANE_TRACER"
     bl_label = "Weathervane Tracer"
     bl_use_preview = False
+
+    def __del__(self) -> None:
+        session = self.__dict__.get("_viewport") if hasattr(self, "__dict__") else None
+        if session is not None:
+            session.close()
+
+    def _viewport_session(self, blender_scene) -> viewport.ViewportSession:
+        """This view's tracing session, started again if the number of workers changed."""
+        workers = blender_scene.weathervane.workers
+        session = getattr(self, "_viewport", None)
+        if session is None or session.workers != workers:
+            if session is not None:
+                session.close()
+            session = self._viewport = viewport.ViewportSession(workers)
+        return session
+
+    def view_update(self, context, depsgraph) -> None:
+        """The depsgraph changed: export the scene again (the view's own camera is added in view_draw)."""
+        try:
+            self._viewport_session(depsgraph.scene).update_scene(context, depsgraph)
+        except Exception:  # a viewport must never raise into Blender's draw loop
+            import traceback
+
+            traceback.print_exc()
+
+    def view_draw(self, context, depsgraph) -> None:
+        """Draw the newest traced level; trace again when the view (or the scene) changed."""
+        try:
+            blender_scene = depsgraph.scene
+            session = self._viewport_session(blender_scene)
+            if session.document is None and session.error is None:
+                session.update_scene(context, depsgraph)
+            session.show(context.region, context.region_data, blender_scene.view_settings)
+            status = session.draw(context.region, blender_scene.view_settings)
+        except Exception as failure:  # one line in the view; the console has the traceback
+            import traceback
+
+            traceback.print_exc()
+            status = f"Weathervane Tracer: {failure}"
+        self.update_stats("", status)
 
     def render(self, depsgraph) -> None:
         from .export import scene_document
@@ -138,5 +179,6 @@ def register() -> None:
 
 
 def unregister() -> None:
+    viewport.close_sessions()
     close_renderers()
     _unregister_classes()

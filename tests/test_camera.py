@@ -249,3 +249,13 @@ def test_to_pixels_inverts_primary_direction(fit: str) -> None:
     x, y, depth = cam.to_pixels(camera, settings, points, np.asarray(camera.location))
     np.testing.assert_allclose(np.column_stack((x, y)), positions, atol=1e-9)
     assert (depth > 0).all()
+
+
+@pytest.mark.parametrize(
+    "rotation", [(63.6, 0.0, 46.7), (-170.0, 45.0, 179.0), (10.0, 90.0, 0.0), (0.0, -90.0, 30.0), (5.0, 0.0, -120.0)]
+)
+def test_euler_angles_read_back_from_a_rotation_give_the_same_rotation(rotation) -> None:
+    angles = tf.euler_xyz_from_matrix(tf.euler_xyz_matrix(rotation))
+    assert np.allclose(tf.euler_xyz_matrix(angles), tf.euler_xyz_matrix(rotation), atol=1e-12)
+    if abs(rotation[1]) < 90.0:  # away from gimbal lock the angles themselves come back
+        assert np.allclose(angles, rotation, atol=1e-9)

@@ -27,6 +27,19 @@ def euler_xyz_matrix(rotation_degrees: sc.Vec3) -> Matrix3:
     )
 
 
+def euler_xyz_from_matrix(matrix: Matrix3) -> sc.Vec3:
+    """The XYZ Euler angles in degrees of a rotation matrix (row-major), the inverse of euler_xyz_matrix: the Y
+    angle in [-90, 90]; at +-90 degrees (gimbal lock) the X angle takes the whole turn about the shared axis."""
+    (r00, _, _), (r10, r11, r12), (r20, r21, r22) = matrix
+    cos_y = math.hypot(r00, r10)
+    y = math.atan2(-r20, cos_y)
+    if cos_y > 1e-12:
+        x, z = math.atan2(r21, r22), math.atan2(r10, r00)
+    else:
+        x, z = math.atan2(-r12, r11), 0.0
+    return math.degrees(x), math.degrees(y), math.degrees(z)
+
+
 def axis_angle_matrix(axis: sc.Vec3, angle_degrees: float) -> Matrix3:
     """Right-handed rotation by angle about a (not necessarily unit) axis (Rodrigues)."""
     length = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])

@@ -1,0 +1,196 @@
+"""The 3D View's Rendered shading with the tracer: the viewport's view -> a tracer camera, the scene traced coarse to
+fine on a thread (tracer/progressive.py), the newest image drawn with the gpu module over the whole view.
+
+Blender calls view_update() when the depsgraph changes (an object moved, a material or light edited, the frame
+changed) and view_draw() whenever the view is drawn (also when it is orbited or zoomed). Both only hand a new scene
+to the tracing thread when what the tracer would render changed, and never wait for it; a timer on Blender's main
+thread asks the Rendered views to redraw as levels finish.
+"""
+
+from __future__ import annotations
+
+import json
+import weakref
+
+import bpy
+import numpy as np
+
+from ._tracer import module
+
+SENSOR = 36.0  # millimetres: any width serves, the lens is derived from it
+REDRAW_SECONDS = 0.1  # how often the main thread looks for finished levels while a view is tracing
+
+
+def view_camera(view_matrix, window_matrix, width: int, height: int) -> dict:
+    """A 3D View's view and projection (mathutils 4x4 matrices, region of width x height pixels) -> the scene file's
+    camera section that traces exactly the pixels Blender draws there.
+
+    Blender's projection maps camera space to clip space; a perspective view's x / -z is (ndc_x + P[0][2]) / P[0][0],
+    so the tracer camera's lens is SENSOR * P[0][0] / 2 and its shift P[0][2] / 2 (likewise in y, in units of the
+    width); an orthographic view's x is (ndc_x - P[0][3]) / P[0][0]. The near and far planes come from P[2]. An
+    orthographic view's near plane can lie behind the view's centre (Blender centres its clip range there): the
+    camera is then moved back along its axis so that it starts on that plane."""
+    p = window_matrix
+    # inverted in float64: mathutils works in float32, and the camera's location then misses the near plane's
+    # pixels by 1e-3 px where the near plane is 1 cm away
+    camera_to_world = np.linalg.inv(np.array(view_matrix, dtype=np.float64))
+    location, axes = camera_to_world[:3, 3], camera_to_world[:3, :3]
+    section = {
+        "rotation": list(module("transforms").euler_xyz_from_matrix(axes.tolist())),
+        "sensor_width": SENSOR,
+        "sensor_height": SENSOR * height / width,
+        "sensor_fit": "HORIZONTAL",
+    }
+    if p[3][3] == 0.0:  # perspective: w = -z
+        near, far = p[2][3] / (p[2][2] - 1.0), p[2][3] / (p[2][2] + 1.0)
+        lens = SENSOR * p[0][0] / 2.0
+        section.update(
+            type="PERSP",
+            location=location.tolist(),
+            lens=lens,
+            shift_x=p[0][2] / 2.0,
+            shift_y=p[1][2] * p[0][0] / (2.0 * p[1][1]),
+            clip_start=near,
+            clip_end=far,
+        )
+        return section
+    near, far = (p[2][3] + 1.0) / p[2][2], (p[2][3] - 1.0) / p[2][2]
+    back = max(0.0, -near)
+    section.update(
+        type="ORTHO",
+        location=(location + axes[:, 2] * back).tolist(),
+        ortho_scale=2.0 / p[0][0],
+        shift_x=-p[0][3] / 2.0,
+        shift_y=-p[1][3] * p[0][0] / (2.0 * p[1][1]),
+        clip_start=near + back,
+        clip_end=far + back,
+    )
+    return section
+
+
+def display_rgba(image: np.ndarray, exposure: float = 0.0, gamma: float = 1.0) -> np.ndarray:
+    """(H, W, 3) linear floats, rows from the top -> (H, W, 4) float32 display values with rows from the bottom (as
+    a texture is laid out): exposure, clamp, the sRGB curve, gamma; what the Standard view transform shows."""
+    shown = np.clip(np.nan_to_num(image[::-1].astype(np.float64) * 2.0**exposure), 0.0, 1.0)
+    shown = np.where(shown <= 0.0031308, shown * 12.92, 1.055 * np.power(shown, 1.0 / 2.4) - 0.055)
+    if gamma != 1.0:
+        shown = np.power(shown, 1.0 / gamma)
+    rgba = np.ones((*shown.shape[:2], 4), dtype=np.float32)
+    rgba[..., :3] = shown
+    return rgba
+
+
+class ViewportSession:
+    """One Rendered view's state: the scene it shows, the tracing thread, the texture of the newest level."""
+
+    def __init__(self, workers: int) -> None:
+        import multiprocessing
+
+        from .engine import _python
+
+        multiprocessing.set_executable(_python())
+        self.workers = workers
+        self.progressive = module("progressive").ProgressiveRender(workers, start_method="spawn")
+        self.document: dict | None = None  # the scene without its camera (set by view_update)
+        self.error: str | None = None  # why the scene cannot be traced (a bad scene), shown in the view
+        self._shown_key: str | None = None
+        self._texture = None
+        self._texture_level = None
+        _sessions.add(self)
+
+    def close(self) -> None:
+        self.progressive.close()
+        _sessions.discard(self)
+
+    def update_scene(self, context, depsgraph) -> None:
+        from .export import scene_document
+
+        try:
+            document = scene_document(context, depsgraph, depsgraph.scene)
+        except Exception as failure:  # shown in the view as one line; the console has the rest
+            import traceback
+
+            traceback.print_exc()
+            self.error, self.document = f"cannot export the scene: {failure}", None
+            return
+        document.pop("camera", None)
+        self.document, self.error = document, None
+
+    def show(self, region, view, view_settings) -> None:
+        """Hand the scene as seen from this view to the tracing thread, if it differs from the one shown."""
+        if self.document is None:
+            return
+        document = dict(self.document)
+        document["camera"] = view_camera(view.view_matrix, view.window_matrix, region.width, region.height)
+        document["render"] = {**document["render"], "width": region.width, "height": region.height}
+        document["render"]["pixel_aspect"] = [1.0, 1.0]
+        key = json.dumps(document, sort_keys=True)
+        if key == self._shown_key:
+            return
+        loader = module("loader")
+        try:
+            scene = loader.scene_from_dict(json.loads(key), "viewport")
+        except loader.SceneError as error:
+            self.error = "; ".join(error.problems[:2])
+            return
+        self._shown_key, self.error = key, None
+        self.progressive.show(scene)
+        _keep_redrawing()
+
+    def draw(self, region, view_settings) -> str:
+        """Draw the newest level over the region; returns the status line to show."""
+        level = self.progressive.latest()
+        if level is None:
+            return self.error or self.progressive.error or "Weathervane Tracer: starting"
+        if self._texture_level is not level:
+            self._texture = _texture(display_rgba(level.image, view_settings.exposure, view_settings.gamma))
+            self._texture_level = level
+        from gpu_extras.presets import draw_texture_2d
+
+        draw_texture_2d(self._texture, (0, 0), region.width, region.height)
+        if self.error or self.progressive.error:
+            return self.error or self.progressive.error
+        if level.divisor == 1 and not self.progressive.busy:
+            return f"Weathervane Tracer: done in {level.seconds:.2f} s"
+        return f"Weathervane Tracer: 1/{level.divisor} resolution ({level.seconds:.2f} s)"
+
+
+def _texture(rgba: np.ndarray):
+    import gpu
+
+    height, width = rgba.shape[:2]
+    buffer = gpu.types.Buffer("FLOAT", width * height * 4, np.ascontiguousarray(rgba).ravel())
+    return gpu.types.GPUTexture((width, height), format="RGBA16F", data=buffer)
+
+
+_sessions: weakref.WeakSet[ViewportSession] = weakref.WeakSet()
+_redrawing = False
+
+
+def _keep_redrawing() -> None:
+    """Ask Blender to redraw the Rendered views every REDRAW_SECONDS while any of them is tracing."""
+    global _redrawing
+    if not _redrawing:
+        _redrawing = True
+        bpy.app.timers.register(_redraw_rendered_views, first_interval=REDRAW_SECONDS)
+
+
+def _redraw_rendered_views() -> float | None:
+    global _redrawing
+    for window in bpy.context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == "VIEW_3D" and area.spaces.active.shading.type == "RENDERED":
+                area.tag_redraw()
+    if any(session.progressive.busy for session in list(_sessions)):
+        return REDRAW_SECONDS
+    _redrawing = False
+    return None
+
+
+def close_sessions() -> None:
+    for session in list(_sessions):
+        session.close()
+    if bpy.app.timers.is_registered(_redraw_rendered_views):
+        bpy.app.timers.unregister(_redraw_rendered_views)
+    global _redrawing
+    _redrawing = False

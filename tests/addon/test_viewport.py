@@ -1,0 +1,163 @@
+"""Rendered shading: the tracer camera made from a 3D View's matrices traces Blender's own pixels, the view's image
+is the tracer's render of the scene from that view, and only a change to what the tracer renders traces again."""
+
+from __future__ import annotations
+
+import json
+import math
+import random
+from pathlib import Path
+from types import SimpleNamespace
+
+import bpy
+import numpy as np
+import pytest
+from mathutils import Matrix
+
+from addon import viewport
+from tracer import camera as cam
+from tracer import scene as sc
+from tracer.loader import scene_from_dict
+from tracer.parallel import render
+
+VIEWS = [
+    ({"lens": 35.0}, (64, 48), 0.0),
+    ({"lens": 24.0, "shift_x": 0.2, "shift_y": -0.15, "clip_start": 0.5, "clip_end": 30.0}, (50, 40), 0.0),
+    ({"type": "ORTHO", "ortho_scale": 5.0, "shift_y": 0.1}, (64, 48), 0.0),
+    # an orthographic view whose clip range starts behind the view's centre, as the 3D View's ortho views do
+    ({"type": "ORTHO", "ortho_scale": 9.0, "clip_start": 1.0, "clip_end": 12.0}, (40, 60), 3.0),
+]
+
+
+def view_of(settings: dict, size: tuple[int, int], ahead: float):
+    """A 3D View's (view matrix, projection) seen through the built scene's camera, changed by settings: Blender's
+    own projection for that camera and size; `ahead` moves the view's centre forward that far, keeping its pixels."""
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    obj = bpy.context.scene.camera
+    for name, value in settings.items():
+        setattr(obj.data, name, value)
+    obj.location = (1.0, -8.0, 2.0)
+    obj.rotation_euler = (math.radians(85), math.radians(3), math.radians(-10))
+    bpy.context.view_layer.update()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    window = obj.calc_matrix_camera(depsgraph, x=size[0], y=size[1])
+    view = obj.matrix_world.inverted()
+    return Matrix.Translation((0.0, 0.0, ahead)) @ view, window @ Matrix.Translation((0.0, 0.0, -ahead)), obj
+
+
+@pytest.mark.parametrize(("settings", "size", "ahead"), VIEWS)
+def test_the_views_camera_traces_blenders_pixels_between_its_clip_planes(settings, size, ahead) -> None:
+    view, window, _ = view_of(settings, size, ahead)
+    width, height = size
+    section = viewport.view_camera(view, window, width, height)
+    camera = sc.Camera(**{name: tuple(value) if isinstance(value, list) else value for name, value in section.items()})
+    settings = sc.RenderSettings(width=width, height=height)
+    # Blender's projection of a world point, worked in float64; the matrices themselves are float32, whose axes are
+    # orthogonal to about 1e-8 radians: 2e-4 px at the far plane 1 km away
+    projection = np.array(window, dtype=np.float64) @ np.array(view, dtype=np.float64)
+    rng = random.Random(width)
+    for _ in range(40):
+        i, j = rng.randrange(width), rng.randrange(height)
+        origin, direction, t_max = cam.primary_ray(camera, settings, i + 0.5, j + 0.5)
+        for t, ndc_depth in ((0.0, -1.0), (t_max / 3, None), (t_max, 1.0)):
+            clip = projection @ np.append(np.array(origin) + np.array(direction) * t, 1.0)
+            ndc = clip[:3] / clip[3]
+            # the region's pixels: x from the left, y from the bottom (an image's rows from the top)
+            assert (ndc[0] + 1) / 2 * width == pytest.approx(i + 0.5, abs=1e-3)
+            assert (1 - ndc[1]) / 2 * height == pytest.approx(j + 0.5, abs=1e-3)
+            if ndc_depth is not None:  # on Blender's near plane, then its far plane
+                assert ndc[2] == pytest.approx(ndc_depth, abs=1e-6)
+
+
+class View:
+    """What view_draw reads of a 3D View: its region's size and its matrices."""
+
+    def __init__(self, view_matrix, window_matrix, width: int, height: int) -> None:
+        self.region = SimpleNamespace(width=width, height=height)
+        self.data = SimpleNamespace(view_matrix=view_matrix, window_matrix=window_matrix)
+
+
+def test_the_views_image_is_the_tracers_render_from_that_view_and_edits_trace_again(tmp_path: Path) -> None:
+    view_matrix, window_matrix, _ = view_of({"lens": 30.0}, (48, 36), 0.0)
+    scene = bpy.context.scene
+    scene.weathervane.workers = 1
+    view = View(view_matrix, window_matrix, 48, 36)
+    session = viewport.ViewportSession(workers=1)
+    try:
+        session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
+        session.show(view.region, view.data, scene.view_settings)
+        assert session.progressive.wait(120) and session.progressive.error is None
+        shown = session.progressive.latest()
+        assert shown.divisor == 1
+        # the exported scene, rendered from the camera the view's matrices describe
+        assert bpy.ops.weathervane.export(filepath=str(tmp_path / "scene.json")) == {"FINISHED"}
+        document = json.loads((tmp_path / "scene.json").read_text())
+        document["camera"] = viewport.view_camera(view_matrix, window_matrix, 48, 36)
+        document["render"].update(width=48, height=36)
+        expected = render(scene_from_dict(document), workers=1).image
+        assert np.abs(shown.image - expected).max() < 1e-4  # Blender's float32 properties and back
+        assert shown.image.std() > 0.05
+        first = shown.generation
+
+        # nothing the tracer renders changed (a selection, a redraw): nothing is traced again
+        bpy.data.collections["Weathervane"].objects[0].select_set(True)
+        session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
+        session.show(view.region, view.data, scene.view_settings)
+        assert not session.progressive.busy and session.progressive.latest().generation == first
+
+        # a material edited, the view orbited, the frame changed: each traces again, coarse first
+        for change in ("material", "view", "frame"):
+            if change == "material":
+                scene.weathervane.materials[0].color = (0.9, 0.1, 0.1)
+            elif change == "view":
+                view.data.view_matrix = Matrix.Rotation(0.2, 4, "Z") @ view.data.view_matrix
+            else:
+                scene.frame_start, scene.frame_end = 1, 40
+                assert bpy.ops.weathervane.bake() == {"FINISHED"}
+                scene.frame_set(30)
+            session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
+            session.show(view.region, view.data, scene.view_settings)
+            assert session.progressive.wait(120)
+            latest = session.progressive.latest()
+            assert latest.generation > first and latest.divisor == 1, change
+            assert np.abs(latest.image - shown.image).max() > 0.05, change
+            first, shown = latest.generation, latest
+    finally:
+        session.close()
+
+
+def test_a_scene_the_tracer_cannot_render_shows_one_line_in_the_view() -> None:
+    view_matrix, window_matrix, _ = view_of({"lens": 30.0}, (48, 36), 0.0)
+    session = viewport.ViewportSession(workers=1)
+    try:
+        session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
+        session.document["render"]["samples"] = 3  # not a square: the loader names the field
+        session.show(SimpleNamespace(width=48, height=36), View(view_matrix, window_matrix, 48, 36).data, None)
+        assert session.error is not None and "samples" in session.error and "\n" not in session.error
+        assert session.progressive.latest() is None and not session.progressive.busy
+    finally:
+        session.close()
+
+
+@pytest.mark.parametrize(("exposure", "gamma"), [(0.0, 1.0), (1.0, 1.0), (-0.5, 1.6)])
+def test_display_values_are_what_blenders_standard_view_transform_saves(tmp_path: Path, exposure, gamma) -> None:
+    rng = np.random.default_rng(7)
+    linear = np.concatenate([np.linspace(0.0, 1.2, 32), rng.uniform(0.0, 1.0, 64 * 3 - 32)]).reshape(8, 8, 3)
+    scene = bpy.context.scene
+    scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
+    scene.view_settings.exposure, scene.view_settings.gamma = exposure, gamma
+    scene.render.dither_intensity = 0.0
+    scene.render.image_settings.file_format, scene.render.image_settings.color_depth = "PNG", "8"
+    image = bpy.data.images.new("linear", 8, 8, float_buffer=True)
+    pixels = np.ones((8, 8, 4), dtype=np.float32)
+    pixels[..., :3] = linear[::-1]  # Blender's rows go bottom-up
+    image.pixels.foreach_set(pixels.ravel())
+    image.save_render(str(tmp_path / "saved.png"), scene=scene)
+    saved = bpy.data.images.load(str(tmp_path / "saved.png"))  # 8 bits: pixels holds the bytes / 255, as stored
+    assert not saved.is_float
+    bytes_read = np.empty(8 * 8 * 4, dtype=np.float32)
+    saved.pixels.foreach_get(bytes_read)
+    blender = bytes_read.reshape(8, 8, 4)[::-1, :, :3]
+    shown = viewport.display_rgba(linear, exposure, gamma)
+    assert shown.shape == (8, 8, 4) and np.all(shown[..., 3] == 1.0)
+    assert np.abs(shown[::-1, :, :3] - blender).max() <= 0.6 / 255  # Blender's 8-bit rounding

@@ -1,0 +1,145 @@
+"""A scene -> its image coarse to fine, traced on a thread of its own: what an interactive view (Blender's Rendered
+shading) shows while the user works.
+
+Each scene is traced at LEVELS: 1/8 of the image's width and height first (1/64 of its pixels, one sample each),
+then 1/4, 1/2 and the full size with the scene's own samples. A newer scene supersedes the one being traced at the
+next finished band, so an edit is answered by a coarse image within about one coarse level's time, never after the
+rest of an old image. The caller's thread only hands scenes over and reads the latest image: it never waits.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import scene as sc
+from .parallel import Renderer
+
+LEVELS = (8, 4, 2, 1)  # divisors of the image's width and height, coarse to fine
+
+
+class _SupersededError(Exception):
+    pass
+
+
+@dataclass(frozen=True)
+class Level:
+    """One finished level: image (height / divisor, width / divisor, 3) linear floats, rows from the top."""
+
+    image: np.ndarray
+    divisor: int
+    generation: int  # which scene (counted from 1 as scenes are handed over)
+    seconds: float  # from the scene's hand-over to this level's last band
+
+
+def level_scene(scene: sc.Scene, divisor: int) -> sc.Scene:
+    """The scene at 1/divisor of its width and height (at least 1 pixel), one sample per pixel but at full size."""
+    if divisor == 1:
+        return scene
+    settings = scene.render
+    return scene.with_render(
+        width=max(1, round(settings.width / divisor)), height=max(1, round(settings.height / divisor)), samples=1
+    )
+
+
+class ProgressiveRender:
+    """Traces the latest scene handed to show() at LEVELS on a background thread with a worker pool of its own.
+
+    on_level(level) is called on that thread after each finished level (e.g. to ask the UI for a redraw); latest()
+    returns the newest finished level of the newest scene, or of an older scene until the newer one has one."""
+
+    def __init__(
+        self,
+        workers: int = 0,
+        start_method: str | None = None,
+        on_level: Callable[[Level], None] | None = None,
+        levels: tuple[int, ...] = LEVELS,
+    ) -> None:
+        self._workers, self._start_method = workers, start_method
+        self._on_level = on_level
+        self._levels = levels
+        self._condition = threading.Condition()
+        self._pending: tuple[sc.Scene, int, float] | None = None
+        self._generation = 0
+        self._latest: Level | None = None
+        self._busy = False
+        self._closed = False
+        self.error: str | None = None  # the last scene's failure, one line (not enough memory, a worker lost)
+        self._thread = threading.Thread(target=self._run, daemon=True, name="weathervane-progressive")
+        self._thread.start()
+
+    def show(self, scene: sc.Scene) -> int:
+        """Trace scene from its coarsest level, dropping the scene being traced; returns its generation."""
+        with self._condition:
+            self._generation += 1
+            self._pending = (scene, self._generation, time.perf_counter())
+            self._busy = True
+            self._condition.notify()
+            return self._generation
+
+    def latest(self) -> Level | None:
+        with self._condition:
+            return self._latest
+
+    @property
+    def busy(self) -> bool:
+        """Whether a scene is waiting or being traced."""
+        with self._condition:
+            return self._busy
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until the newest scene is traced to full size (or failed); False on timeout (tests, benchmarks)."""
+        with self._condition:
+            return self._condition.wait_for(lambda: not self._busy, timeout)
+
+    def close(self) -> None:
+        """Stop tracing and stop the worker pool (returns at once; the thread ends after its current band)."""
+        with self._condition:
+            self._closed = True
+            self._generation += 1
+            self._condition.notify_all()
+
+    def _run(self) -> None:
+        renderer = Renderer(self._workers, start_method=self._start_method)
+        try:
+            while True:
+                with self._condition:
+                    self._condition.wait_for(lambda: self._pending is not None or self._closed)
+                    if self._closed:
+                        return
+                    scene, generation, handed_over = self._pending
+                    self._pending = None
+
+                def check(_done: int, _total: int, generation: int = generation) -> None:
+                    if self._generation != generation:
+                        raise _SupersededError
+
+                try:
+                    for divisor in self._levels:
+                        result = renderer.render(level_scene(scene, divisor), progress=check)
+                        level = Level(result.image, divisor, generation, time.perf_counter() - handed_over)
+                        with self._condition:
+                            if self._generation != generation:
+                                raise _SupersededError
+                            self._latest = level
+                        if self._on_level is not None:
+                            self._on_level(level)
+                    error = None
+                except _SupersededError:
+                    continue
+                except Exception as failure:  # shown to the user as one line, the thread goes on
+                    error = f"{type(failure).__name__}: {failure}" if not str(failure) else str(failure)
+                with self._condition:
+                    if self._generation == generation:
+                        self.error = error
+                        self._busy = False
+                        self._condition.notify_all()
+        finally:
+            renderer.close()
+            with self._condition:
+                self._busy = False
+                self._condition.notify_all()
