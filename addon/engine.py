@@ -94,8 +94,8 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             session = self._viewport_session(blender_scene)
             if session.document is None and session.error is None:
                 session.update_scene(context, depsgraph)
-            session.show(context.region, context.region_data, blender_scene.view_settings)
-            status = session.draw(context.region, blender_scene.view_settings)
+            session.show(context.region, context.region_data)
+            status = session.draw(context.region)
         except Exception as failure:  # one line in the view; the console has the traceback
             import traceback
 

@@ -68,15 +68,12 @@ def view_camera(view_matrix, window_matrix, width: int, height: int) -> dict:
     return section
 
 
-def display_rgba(image: np.ndarray, exposure: float = 0.0, gamma: float = 1.0) -> np.ndarray:
-    """(H, W, 3) linear floats, rows from the top -> (H, W, 4) float32 display values with rows from the bottom (as
-    a texture is laid out): exposure, clamp, the sRGB curve, gamma; what the Standard view transform shows."""
-    shown = np.clip(np.nan_to_num(image[::-1].astype(np.float64) * 2.0**exposure), 0.0, 1.0)
-    shown = np.where(shown <= 0.0031308, shown * 12.92, 1.055 * np.power(shown, 1.0 / 2.4) - 0.055)
-    if gamma != 1.0:
-        shown = np.power(shown, 1.0 / gamma)
-    rgba = np.ones((*shown.shape[:2], 4), dtype=np.float32)
-    rgba[..., :3] = shown
+def texture_rgba(image: np.ndarray) -> np.ndarray:
+    """(H, W, 3) linear floats, rows from the top -> (H, W, 4) float32 with rows from the bottom, as a texture is
+    laid out. The values stay scene-linear: Blender's viewport applies the scene's colour management (view
+    transform, look, exposure, gamma) to what a render engine draws, as it does to F12's image."""
+    rgba = np.ones((*image.shape[:2], 4), dtype=np.float32)
+    rgba[..., :3] = np.nan_to_num(image[::-1])
     return rgba
 
 
@@ -116,7 +113,7 @@ class ViewportSession:
         document.pop("camera", None)
         self.document, self.error = document, None
 
-    def show(self, region, view, view_settings) -> None:
+    def show(self, region, view) -> None:
         """Hand the scene as seen from this view to the tracing thread, if it differs from the one shown."""
         if self.document is None:
             return
@@ -137,13 +134,13 @@ class ViewportSession:
         self.progressive.show(scene)
         _keep_redrawing()
 
-    def draw(self, region, view_settings) -> str:
+    def draw(self, region) -> str:
         """Draw the newest level over the region; returns the status line to show."""
         level = self.progressive.latest()
         if level is None:
             return self.error or self.progressive.error or "Weathervane Tracer: starting"
         if self._texture_level is not level:
-            self._texture = _texture(display_rgba(level.image, view_settings.exposure, view_settings.gamma))
+            self._texture = _texture(texture_rgba(level.image))
             self._texture_level = level
         from gpu_extras.presets import draw_texture_2d
 
@@ -160,7 +157,7 @@ def _texture(rgba: np.ndarray):
 
     height, width = rgba.shape[:2]
     buffer = gpu.types.Buffer("FLOAT", width * height * 4, np.ascontiguousarray(rgba).ravel())
-    return gpu.types.GPUTexture((width, height), format="RGBA16F", data=buffer)
+    return gpu.types.GPUTexture((width, height), format="RGBA32F", data=buffer)
 
 
 _sessions: weakref.WeakSet[ViewportSession] = weakref.WeakSet()

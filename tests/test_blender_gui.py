@@ -1,13 +1,17 @@
-"""Blender 3.4.1 in a real window under Xvfb: the add-on enabled, the Weathervane tab open beside the built vane, a
-screenshot in out/, and no Python error from any draw or operator in Blender's log."""
+"""Blender 3.4.1 in a real window under Xvfb: the add-on enabled, the Weathervane tab open beside the built vane, the
+tracer as the render engine (its Render and Output Properties, F12, the 3D View in Rendered shading), screenshots in
+out/, and no Python error from any draw or operator in Blender's log."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from PIL import Image
 
@@ -53,6 +57,7 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
             "--",
             str(legacy),
             str(SCREENSHOT),
+            str(tmp_path),
         ],
         env=environment,
         capture_output=True,
@@ -73,3 +78,40 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
         assert image.size == (1600, 900)
         colors = image.convert("RGB").getcolors(maxcolors=1 << 20)
         assert colors is not None and len(colors) > 1000  # a drawn window, not a blank screen
+    # Output Properties hold Blender's own Format, Frame Range and Output panels for the tracer
+    assert "WEATHERVANE-GUI output panels RENDER_PT_format RENDER_PT_frame_range RENDER_PT_output" in log
+    assert SCREENSHOT.with_name("weathervane-gui-output.png").exists()
+    check_f12_is_the_command_lines_png(tmp_path)
+    check_rendered_view_is_the_tracers_image(tmp_path, SCREENSHOT.with_name("weathervane-gui-rendered.png"))
+
+
+def check_f12_is_the_command_lines_png(work: Path) -> None:
+    """F12's image, saved by Blender as PNG, against `python -m tracer render --srgb` of the scene exported then."""
+    cli = work / "cli.png"
+    command = [sys.executable, "-m", "tracer", "render", str(work / "f12-scene.json"), "-o", str(cli), "--srgb"]
+    subprocess.run(command, cwd=ROOT, check=True, capture_output=True, timeout=300)
+    with Image.open(work / "f12.png") as f12, Image.open(cli) as expected:
+        difference = np.abs(np.asarray(f12.convert("RGB"), int) - np.asarray(expected.convert("RGB"), int))
+    assert difference.shape == (48, 64, 3) and difference.max() <= 1, difference.max()
+
+
+def check_rendered_view_is_the_tracers_image(work: Path, screenshot: Path) -> None:
+    """The view's pixels on screen against the tracer's own render of the scene from that view at that size."""
+    from skimage.metrics import peak_signal_noise_ratio
+
+    from tracer.images import to_8bit
+    from tracer.loader import load_scene
+    from tracer.parallel import render
+
+    place = json.loads((work / "rendered-region.json").read_text())
+    top = place["window"] - place["y"] - place["height"]  # Blender counts window rows from the bottom
+    with Image.open(screenshot) as image:
+        shown = np.asarray(image.convert("RGB"))[top : top + place["height"], place["x"] : place["x"] + place["width"]]
+    expected = to_8bit(render(load_scene(work / "rendered-scene.json"), workers=2).image, srgb=True)
+    assert shown.shape == expected.shape
+    # Blender draws the area's border and rounded corners (and the corners' split widgets) over the view's edge
+    margin = 10
+    shown, expected = shown[margin:-margin, margin:-margin], expected[margin:-margin, margin:-margin]
+    psnr = peak_signal_noise_ratio(expected, shown, data_range=255)
+    print(f"WEATHERVANE-GUI rendered view {place['width']}x{place['height']}: PSNR {psnr:.1f} dB against the tracer")
+    assert psnr >= 30.0

@@ -1,7 +1,12 @@
 """A real Blender window (run under Xvfb by tests/test_blender_gui.py): install and enable the add-on, open the
 sidebar on the Weathervane tab, build the vane, take a screenshot, quit.
 
-    blender --factory-startup --python tests/addon/gui_session.py -- ADDON_ZIP SCREENSHOT.png
+    blender --factory-startup --python tests/addon/gui_session.py -- ADDON_ZIP SCREENSHOT.png WORK_FOLDER
+
+Beside SCREENSHOT it writes SCREENSHOT-output.png (Output Properties with the tracer as the engine),
+SCREENSHOT-rendered.png (the 3D View in Rendered shading) and SCREENSHOT-export-menu.png; in WORK_FOLDER, f12.png
+(F12's image saved as PNG), f12-scene.json (the scene exported at that moment), rendered-scene.json (the scene seen
+from the Rendered view, for the test to trace) and the view region's place in the window (rendered-region.json).
 
 Blender 3.4 has no API to choose a sidebar tab (Region.active_panel_category came later); the sidebar opens on
 its first category. The built-in panels of "Item" are written in C and registered first, but they only show with
@@ -13,7 +18,8 @@ import sys
 
 import bpy
 
-ADDON_ZIP, SCREENSHOT = sys.argv[sys.argv.index("--") + 1 :][:2]
+ADDON_ZIP, SCREENSHOT, WORK = sys.argv[sys.argv.index("--") + 1 :][:3]
+RENDERED_WAIT_SECONDS = 120.0
 
 
 def view3d():
@@ -195,6 +201,110 @@ def capture() -> float | None:
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.screen.screenshot(filepath=SCREENSHOT)
     print("WEATHERVANE-GUI screenshot", SCREENSHOT)
+    return guarded(show_output_properties)
+
+
+def guarded(step) -> float | None:
+    """Run the next step from a timer; an exception is printed and ends the session (the test then fails)."""
+
+    def run() -> float | None:
+        try:
+            return step()
+        except Exception:
+            import traceback
+
+            traceback.print_exc()
+            bpy.ops.wm.quit_blender()
+            return None
+
+    bpy.app.timers.register(run, first_interval=0.5)
+    return None
+
+
+def show_output_properties() -> float | None:
+    """Output Properties with the tracer as the engine: Blender's own Format, Frame Range and Output panels."""
+    window, _, _ = view3d()
+    shown = []
+    for name in ("RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_output", "RENDER_PT_color_management"):
+        panel = getattr(bpy.types, name)
+        assert "WEATHERVANE_TRACER" in panel.COMPAT_ENGINES, name
+        assert panel.poll(bpy.context), name
+        shown.append(name)
+    print("WEATHERVANE-GUI output panels", " ".join(shown))
+    for properties in (a for a in window.screen.areas if a.type == "PROPERTIES"):
+        properties.spaces.active.context = "OUTPUT"
+    return guarded(capture_output_properties)
+
+
+def capture_output_properties() -> float | None:
+    window, area, region = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        bpy.ops.screen.screenshot(filepath=SCREENSHOT.replace(".png", "-output.png"))
+    print("WEATHERVANE-GUI output screenshot")
+    return guarded(render_f12)
+
+
+def render_f12() -> float | None:
+    """F12 as the window runs it, its image saved as PNG through the scene's colour management, and the scene
+    exported for the test to render with the command line."""
+    import os
+
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+    scene.render.image_settings.file_format, scene.render.image_settings.color_depth = "PNG", "8"
+    scene.render.filepath = os.path.join(WORK, "f12.png")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    assert bpy.ops.weathervane.export(filepath=os.path.join(WORK, "f12-scene.json")) == {"FINISHED"}
+    print("WEATHERVANE-GUI f12 rendered")
+    return guarded(show_rendered)
+
+
+def show_rendered() -> float | None:
+    """The 3D View in Rendered shading, nothing drawn over it (overlays, gizmos, headers, sidebar, toolbar, the
+    camera view's darkened margin)."""
+    import time
+
+    _, area, _ = view3d()
+    space = area.spaces.active
+    space.show_region_ui = space.show_region_toolbar = False
+    space.show_region_header = space.show_region_tool_header = False
+    space.overlay.show_overlays = False
+    space.show_gizmo = False
+    bpy.context.scene.camera.data.show_passepartout = False
+    space.shading.type = "RENDERED"
+    started = time.perf_counter()
+
+    def wait_for_the_full_image() -> float | None:
+        sessions = list(sys.modules["weathervane.viewport"]._sessions)
+        level = sessions[0].progressive.latest() if sessions else None
+        if level is None or level.divisor != 1 or sessions[0].progressive.busy:
+            assert time.perf_counter() - started < RENDERED_WAIT_SECONDS, "the Rendered view did not finish"
+            return 0.5
+        print(f"WEATHERVANE-GUI rendered view traced in {level.seconds:.2f} s")
+        return guarded(capture_rendered)
+
+    return guarded(wait_for_the_full_image)
+
+
+def capture_rendered() -> float | None:
+    import json
+    import os
+
+    window, area, region = view3d()
+    viewport = sys.modules["weathervane.viewport"]
+    (session,) = list(viewport._sessions)
+    view = area.spaces.active.region_3d
+    document = dict(session.document)
+    document["camera"] = viewport.view_camera(view.view_matrix, view.window_matrix, region.width, region.height)
+    document["render"] = {**document["render"], "width": region.width, "height": region.height}
+    with open(os.path.join(WORK, "rendered-scene.json"), "w") as file:
+        json.dump(document, file)
+    place = {"x": region.x, "y": region.y, "width": region.width, "height": region.height, "window": window.height}
+    with open(os.path.join(WORK, "rendered-region.json"), "w") as file:
+        json.dump(place, file)
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        bpy.ops.screen.screenshot(filepath=SCREENSHOT.replace(".png", "-rendered.png"))
+    print("WEATHERVANE-GUI rendered screenshot")
     # File > Export, opened as a click on the menu would: the add-on's entry is in it
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.wm.call_menu(name="TOPBAR_MT_file_export")
