@@ -120,6 +120,23 @@ def test_addon_suite_passes_in_the_bpy_wheel(version: str) -> None:
     assert " passed" in result.stdout and " failed" not in result.stdout
 
 
+@pytest.mark.parametrize("blender", ["bpy 5.0.1", "Debian 3.4.1"])
+def test_two_hundred_f12_renders_in_a_row_with_the_pool_kept_do_not_crash_blender(blender: str) -> None:
+    """scripts/stress_engine.py: 200 F12 renders alternating two scenes, each image equal to its scene's first."""
+    script = str(ROOT / "scripts" / "stress_engine.py")
+    if blender == "Debian 3.4.1":
+        if BLENDER is None:
+            pytest.skip("Debian's blender (3.4.1) is not installed: `make test` installs it with apt-get as root")
+        command = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python", script, "--"]
+    else:
+        pytest.importorskip("bpy", reason="Blender's Python module: make test installs the bpy wheel")
+        command = [sys.executable, script]
+    result = subprocess.run([*command, "--renders", "200"], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]  # a crash: killed by a signal
+    assert "STRESS renders=200 crashes=0" in result.stdout and "start=spawn pool=kept" in result.stdout
+    assert f"STRESS blender={blender.split()[1]}" in result.stdout
+
+
 @needs_blender_34
 def test_command_line_render_with_the_tracer_engine_in_blender_34(dist: Path, tmp_path: Path) -> None:
     """`blender -b file.blend -E WEATHERVANE_TRACER -f 1`: the frame Blender writes is the tracer's image."""
