@@ -91,6 +91,11 @@ class ProgressiveRender:
         with self._condition:
             return self._busy
 
+    @property
+    def closed(self) -> bool:
+        with self._condition:
+            return self._closed
+
     def wait(self, timeout: float | None = None) -> bool:
         """Block until the newest scene is traced to full size (or failed); False on timeout (tests, benchmarks)."""
         with self._condition:

@@ -305,6 +305,21 @@ def capture_rendered() -> float | None:
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.screen.screenshot(filepath=SCREENSHOT.replace(".png", "-rendered.png"))
     print("WEATHERVANE-GUI rendered screenshot")
+    # back to Solid shading: Blender frees the view's engine, which stops its thread and workers
+    area.spaces.active.shading.type = "SOLID"
+    area.tag_redraw()
+    return guarded(check_rendered_view_stopped)
+
+
+def check_rendered_view_stopped(waited: list = [0]) -> float | None:  # noqa: B006 - counts this step's polls
+    import threading
+
+    if any(thread.name == "weathervane-progressive" for thread in threading.enumerate()):
+        waited[0] += 1
+        assert waited[0] < 40, "the Rendered view's tracing thread outlived the view's Rendered shading"
+        return 0.25
+    print("WEATHERVANE-GUI rendered view stopped with Solid shading")
+    window, area, region = view3d()
     # File > Export, opened as a click on the menu would: the add-on's entry is in it
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.wm.call_menu(name="TOPBAR_MT_file_export")
