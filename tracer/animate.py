@@ -72,6 +72,52 @@ class AnimationResult:
     frames: int
 
 
+@dataclass
+class FramePlan:
+    """Which frames of first..last to render and which are already there, and the headings of those to render."""
+
+    rendered: list[int]
+    skipped: list[int]
+    wanted: Iterator[tuple[int, float]]  # (frame, heading) of the frames to render, simulated as they are asked for
+    count_keys: Callable[[], int]  # keyframes of frames first..last (call after wanted is used up)
+
+
+def plan_frames(
+    scene: sc.Scene, folder: Path, first: int, last: int, fps: float | None = None, overwrite: bool = False
+) -> FramePlan:
+    """What a run of frames first..last into folder has to do: a frame whose file is a whole PNG of the right size
+    stays (unless overwrite), so a stopped run resumes."""
+    if scene.vane is None:
+        raise ValueError("the scene has no vane to turn (add a 'vane' section naming its parts)")
+    rendered, skipped = [], []
+    width, height = scene.render.width, scene.render.height
+    for frame in range(first, last + 1):
+        path = frame_path(folder, frame)
+        keep = not overwrite and path.exists() and frame_is_complete(path, width, height)
+        (skipped if keep else rendered).append(frame)
+    span: list[np.ndarray] = []  # headings of frames first..last, for the keyframe count
+
+    def frame_headings() -> Iterator[tuple[int, float]]:
+        """(frame, heading) for frames 1..last, simulated a piece at a time as the renderer asks for them."""
+        frame = 1
+        for piece in _heading_pieces(scene, last, fps):
+            span.append(piece[max(0, first - frame) : max(0, last + 1 - frame)])
+            for heading in piece.tolist():
+                yield frame, heading
+                frame += 1
+
+    to_render = set(rendered)
+    stream = frame_headings()
+
+    def count_keys() -> int:
+        for _ in stream:
+            pass  # the frames after the last rendered one
+        return int(reduce_keys(np.concatenate(span)).size)
+
+    wanted = ((frame, heading) for frame, heading in stream if frame in to_render)
+    return FramePlan(rendered, skipped, wanted, count_keys)
+
+
 def animate(
     scene: sc.Scene,
     folder: Path,
@@ -88,42 +134,21 @@ def animate(
 
     incremental: trace again only the pixels the vane can change (tracer/incremental.py; the same bytes); False
     traces every frame whole."""
-    if scene.vane is None:
-        raise ValueError("the scene has no vane to turn (add a 'vane' section naming its parts)")
+    plan = plan_frames(scene, folder, first, last, fps, overwrite)
     folder.mkdir(parents=True, exist_ok=True)
-    rendered, skipped = [], []
     rays = RayCounts()
     started = time.perf_counter()
     total = last - first + 1
-    width, height = scene.render.width, scene.render.height
-    for frame in range(first, last + 1):
-        path = frame_path(folder, frame)
-        keep = not overwrite and path.exists() and frame_is_complete(path, width, height)
-        (skipped if keep else rendered).append(frame)
-    done = len(skipped)
+    done = len(plan.skipped)
     if progress is not None and done:
         progress(done, total)
-    span: list[np.ndarray] = []  # headings of frames first..last, for the keyframe count
-
-    def frame_headings() -> Iterator[tuple[int, float]]:
-        """(frame, heading) for frames 1..last, simulated a piece at a time as the renderer asks for them."""
-        frame = 1
-        for piece in _heading_pieces(scene, last, fps):
-            span.append(piece[max(0, first - frame) : max(0, last + 1 - frame)])
-            for heading in piece.tolist():
-                yield frame, heading
-                frame += 1
-
-    to_render = set(rendered)
-    stream = frame_headings()
-    wanted = ((frame, heading) for frame, heading in stream if frame in to_render)
     # a frame is encoded and written on a thread while the pool traces the next one (about a fifth of a frame's
     # time at 640x480, which the pool would otherwise wait for); one write at a time keeps memory to two images
     with (
         Renderer(scene.render.workers) as renderer,
         ThreadPoolExecutor(1, "weathervane-writer") as writer,
-        contextlib.closing(_frames(renderer, scene, wanted, incremental)) as results,  # closed before the pool stops
-    ):
+        contextlib.closing(frame_results(renderer, scene, plan.wanted, incremental)) as results,
+    ):  # the results are closed before the pool stops
         pending: Future | None = None
         for frame, result in results:
             if pending is not None:
@@ -136,13 +161,11 @@ def animate(
                 progress(done, total)
         if pending is not None:
             pending.result()
-    for _ in stream:
-        pass  # the frames after the last rendered one, for the keyframe count
-    keys = int(reduce_keys(np.concatenate(span)).size)
-    return AnimationResult(rendered, skipped, time.perf_counter() - started, rays, keys, total)
+    keys = plan.count_keys()
+    return AnimationResult(plan.rendered, plan.skipped, time.perf_counter() - started, rays, keys, total)
 
 
-def _frames(
+def frame_results(
     renderer: Renderer, scene: sc.Scene, wanted: Iterator[tuple[int, float]], incremental: bool
 ) -> Iterator[tuple[int, RenderResult]]:
     """(frame, image) for the (frame, heading) pairs, in order."""
@@ -177,4 +200,14 @@ def write_gif(folder: Path, first: int, last: int, fps: float, target: Path) -> 
     return target
 
 
-__all__ = ["DEFAULT_TOLERANCE", "AnimationResult", "animate", "frame_path", "headings", "write_gif"]
+__all__ = [
+    "DEFAULT_TOLERANCE",
+    "AnimationResult",
+    "FramePlan",
+    "animate",
+    "frame_path",
+    "frame_results",
+    "headings",
+    "plan_frames",
+    "write_gif",
+]

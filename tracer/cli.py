@@ -12,6 +12,7 @@ from pathlib import Path
 
 from . import scene as sc
 from .animate import DEFAULT_TOLERANCE, animate, write_gif
+from .cluster import ClusterError
 from .images import SUFFIXES, write_image
 from .loader import SceneError, check_samples, default_scene, load_scene
 from .parallel import Renderer, worker_count
@@ -115,6 +116,19 @@ def build_parser() -> argparse.ArgumentParser:
     animate.add_argument("--fps", type=_positive_number, help="frames per second (default: the scene's motion.fps)")
     animate.add_argument("--overwrite", action="store_true", help="render frames again even where files exist")
     animate.add_argument("--gif", type=_gif, metavar="OUT.gif", help="also assemble the frames into a looping GIF")
+    animate.add_argument(
+        "--scheduler",
+        type=_scheduler,
+        metavar="tcp://HOST:PORT",
+        help="trace the frames on a Dask cluster (needs dask[distributed]); this machine writes the files",
+    )
+    animate.add_argument(
+        "--chunk",
+        type=_integer(1, 10000),
+        default=None,
+        metavar="N",
+        help="with --scheduler: consecutive frames per task (default 8; more reuses more between frames)",
+    )
     return parser
 
 
@@ -166,6 +180,16 @@ def _gif(text: str) -> Path:
     if path.suffix.lower() != ".gif":
         raise argparse.ArgumentTypeError(f"must end in .gif, got {text!r}")
     return path
+
+
+def _scheduler(text: str) -> str:
+    """A Dask scheduler's address: tcp://HOST:PORT (or tls://, ws://, wss://); HOST:PORT means tcp://."""
+    address = text if "://" in text else f"tcp://{text}"
+    scheme, _, rest = address.partition("://")
+    host, colon, port = rest.rpartition(":")
+    if scheme not in ("tcp", "tls", "ws", "wss") or not colon or not host or not port.isdigit():
+        raise argparse.ArgumentTypeError(f"must be a Dask scheduler's address like tcp://HOST:PORT, got {text!r}")
+    return address
 
 
 def _frames(text: str) -> tuple[int, int]:
@@ -247,11 +271,18 @@ def run_animate(args: argparse.Namespace) -> int:
     first, last = args.frames
     fps = args.fps or (scene.motion.fps if scene.motion else 24.0)
     progress = ProgressBar("frames", enabled=None if not args.quiet else False)
-    check_resources(scene.render, worker_count(scene.render.workers), frames=3, output=".png")
     try:
-        result = animate(
-            scene, args.output, first, last, fps=fps, overwrite=args.overwrite, srgb=args.srgb, progress=progress
-        )
+        if args.scheduler is not None:
+            result = _animate_on_cluster(scene, args, fps, progress)
+        else:
+            check_resources(scene.render, worker_count(scene.render.workers), frames=3, output=".png")
+            result = animate(
+                scene, args.output, first, last, fps=fps, overwrite=args.overwrite, srgb=args.srgb, progress=progress
+            )
+    except ClusterError as error:
+        progress.close()
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_FAILED
     except OSError as error:
         progress.close()
         where = Path(error.filename) if error.filename else args.output
@@ -274,9 +305,38 @@ def run_animate(args: argparse.Namespace) -> int:
             f"{args.output}: frames {first}-{last} at {fps:g} fps: {rendered} rendered, {len(result.skipped)} "
             f"already there; {result.seconds:.2f} s, {per_frame:.1f} ms per rendered frame, {mrays:.2f} Mrays/s; "
             f"the motion needs {result.keys} keyframes of {result.frames} frames at {DEFAULT_TOLERANCE} degrees"
+            + (f"; traced on the Dask cluster at {args.scheduler}" if args.scheduler else "")
             + (f"; preview {args.gif}" if args.gif else "")
         )
     return 0
+
+
+def _animate_on_cluster(scene: sc.Scene, args: argparse.Namespace, fps: float, progress: ProgressBar):
+    """animate's frames on the Dask cluster at args.scheduler, with Dask's own log lines (connection retries and
+    their tracebacks) held back: what the user needs comes as one line of ClusterError."""
+    import logging
+
+    from .cluster import CHUNK_FRAMES, animate_on_cluster
+
+    dask_log = logging.getLogger("distributed")
+    level = dask_log.level
+    dask_log.setLevel(logging.CRITICAL + 1)
+    try:
+        first, last = args.frames
+        return animate_on_cluster(
+            scene,
+            args.output,
+            first,
+            last,
+            args.scheduler,
+            fps=fps,
+            overwrite=args.overwrite,
+            srgb=args.srgb,
+            progress=progress,
+            chunk_frames=args.chunk or CHUNK_FRAMES,
+        )
+    finally:
+        dask_log.setLevel(level)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -1,0 +1,150 @@
+"""An animation's frames -> PNG files, traced on a Dask cluster (`dask.distributed`, the optional `cluster` extra).
+
+The client plans the run as `animate` does (frames already written stay, so a stopped run resumes), simulates the
+vane's motion, and sends runs of up to CHUNK_FRAMES consecutive frames to the cluster as tasks: a worker traces a
+run incrementally (its frames share what the vane cannot change; tracer/incremental.py) and answers with the
+frames' PNG bytes, which the client writes atomically itself, so workers need no shared disk. A frame is a pure
+function of the scene and its heading, so a task run again elsewhere (its worker died) gives the same bytes, and
+the client writes each frame once, from the first answer it receives.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import scene as sc
+from .animate import (
+    FRAME_COMPRESSION,
+    AnimationResult,
+    FrameProgress,
+    frame_path,
+    frame_results,
+    plan_frames,
+)
+from .images import atomic_path, encode_png
+from .parallel import Renderer
+from .wavefront import RayCounts
+
+CHUNK_FRAMES = 8  # frames per task: long enough for the incremental renderer's reuse, short enough to spread
+CONNECT_SECONDS = 10.0  # how long to try reaching the scheduler before saying so
+INSTALL_HINT = "pip install 'dask[distributed]' (or the project's extra: pip install -e '.[cluster]')"
+
+
+class ClusterError(Exception):
+    """The cluster cannot take or finish the work: one line for the user, saying what was kept."""
+
+
+@dataclass(frozen=True)
+class ChunkResult:
+    frames: list[tuple[int, bytes]]  # (frame, PNG bytes)
+    rays: RayCounts
+    seconds: float  # tracing and encoding on the worker
+
+
+def render_chunk(scene: sc.Scene, frames: list[tuple[int, float]], srgb: bool, incremental: bool) -> ChunkResult:
+    """Runs on a Dask worker: (frame, heading) pairs traced in this process, in order, encoded as the frames'
+    PNG files (the same bytes `animate` writes)."""
+    started = time.perf_counter()
+    rays = RayCounts()
+    encoded = []
+    with Renderer(1) as renderer:
+        for frame, result in frame_results(renderer, scene, iter(frames), incremental):
+            encoded.append((frame, encode_png(result.image, srgb, FRAME_COMPRESSION)))
+            rays.add(result.rays)
+    return ChunkResult(encoded, rays, time.perf_counter() - started)
+
+
+def chunks(wanted: Iterator[tuple[int, float]], size: int = CHUNK_FRAMES) -> Iterator[list[tuple[int, float]]]:
+    """Runs of at most size frames, each of consecutive frame numbers (a gap starts a new run)."""
+    run: list[tuple[int, float]] = []
+    for frame, heading in wanted:
+        if run and (len(run) == size or frame != run[-1][0] + 1):
+            yield run
+            run = []
+        run.append((frame, heading))
+    if run:
+        yield run
+
+
+def _distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise ClusterError(
+            f"--scheduler needs Dask's distributed scheduler, which is not installed: {INSTALL_HINT}"
+        ) from None
+    return distributed
+
+
+def animate_on_cluster(
+    scene: sc.Scene,
+    folder: Path,
+    first: int,
+    last: int,
+    scheduler: str,
+    *,
+    fps: float | None = None,
+    overwrite: bool = False,
+    srgb: bool = False,
+    progress: FrameProgress | None = None,
+    incremental: bool = True,
+    chunk_frames: int = CHUNK_FRAMES,
+) -> AnimationResult:
+    """Render frames first..last of scene into folder on the Dask cluster at scheduler (e.g. tcp://host:8786);
+    the same files as animate(). Raises ClusterError when the scheduler cannot be reached or goes away (the frames
+    written so far stay; running again resumes)."""
+    distributed = _distributed()
+    plan = plan_frames(scene, folder, first, last, fps, overwrite)
+    folder.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    total, done = last - first + 1, len(plan.skipped)
+    if progress is not None and done:
+        progress(done, total)
+    try:
+        client = distributed.Client(scheduler, timeout=CONNECT_SECONDS, set_as_default=False)
+    except (OSError, TimeoutError) as error:
+        raise ClusterError(f"cannot reach the Dask scheduler at {scheduler}: {_reason(error)}") from None
+    rays, written = RayCounts(), set()
+    try:
+        shared = client.scatter(scene, broadcast=True, hash=False)
+        futures = [
+            client.submit(render_chunk, shared, run, srgb, incremental, pure=False, retries=0)
+            for run in chunks(plan.wanted, chunk_frames)
+        ]
+        for future in distributed.as_completed(futures, loop=client.loop):
+            result = _result(future, scheduler, distributed, done, total)
+            for frame, png in result.frames:
+                if frame in written:
+                    continue
+                with atomic_path(frame_path(folder, frame)) as temporary:
+                    temporary.write_bytes(png)
+                written.add(frame)
+                done += 1
+                if progress is not None:
+                    progress(done, total)
+            rays.add(result.rays)
+    finally:
+        client.close(timeout=CONNECT_SECONDS)
+    keys = plan.count_keys()
+    return AnimationResult(plan.rendered, plan.skipped, time.perf_counter() - started, rays, keys, total)
+
+
+def _result(future, scheduler: str, distributed, done: int, total: int) -> ChunkResult:
+    """A finished task's answer; a lost scheduler or a task that kept killing workers becomes a ClusterError."""
+    kept = f"{done} of {total} frames are written; run the same command again to render the rest"
+    try:
+        return future.result()
+    except distributed.client.FutureCancelledError:
+        raise ClusterError(f"lost the Dask scheduler at {scheduler}; {kept}") from None
+    except distributed.scheduler.KilledWorker as error:
+        raise ClusterError(f"frames kept killing the cluster's workers ({_reason(error)}); {kept}") from None
+    except (OSError, TimeoutError) as error:
+        raise ClusterError(f"lost the Dask scheduler at {scheduler}: {_reason(error)}; {kept}") from None
+
+
+def _reason(error: BaseException) -> str:
+    text = str(error).strip().splitlines()
+    return text[0] if text else type(error).__name__
