@@ -137,16 +137,10 @@ def test_two_hundred_f12_renders_in_a_row_with_the_pool_kept_do_not_crash_blende
     assert f"STRESS blender={blender.split()[1]}" in result.stdout
 
 
-@needs_blender_34
-def test_command_line_render_with_the_tracer_engine_in_blender_34(dist: Path, tmp_path: Path) -> None:
-    """`blender -b file.blend -E WEATHERVANE_TRACER -f 1`: the frame Blender writes is the tracer's image."""
-    import numpy as np
-    from PIL import Image
-
-    from tracer.images import to_8bit
-    from tracer.loader import default_scene
-    from tracer.parallel import render
-
+def vane_blend(dist: Path, tmp_path: Path, *, bake_to: int = 0) -> tuple[Path, dict]:
+    """A .blend of the built vane at 64x48 (Standard view, no dither) saved by Blender 3.4.1 with the legacy zip
+    installed in a user scripts folder of its own; bake_to: also bake the motion over frames 1..bake_to.
+    Returns the file and the environment that finds the add-on."""
     (legacy,) = dist.glob("weathervane-*-blender-3.4.zip")
     blend = tmp_path / "vane.blend"
     environment = {**os.environ, "BLENDER_USER_SCRIPTS": str(tmp_path / "scripts")}
@@ -160,6 +154,9 @@ def test_command_line_render_with_the_tracer_engine_in_blender_34(dist: Path, tm
         scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
         scene.view_settings.view_transform = "Standard"  # 3.4 defaults to Filmic
         scene.render.dither_intensity = 0.0
+        if {bake_to}:
+            scene.frame_start, scene.frame_end = 1, {bake_to}
+            assert bpy.ops.weathervane.bake() == {{"FINISHED"}}
         bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
     """)
     result = subprocess.run(
@@ -170,6 +167,49 @@ def test_command_line_render_with_the_tracer_engine_in_blender_34(dist: Path, tm
         timeout=300,
     )
     assert result.returncode == 0, result.stdout + result.stderr
+    return blend, environment
+
+
+@needs_blender_34
+def test_a_render_farms_two_frame_ranges_make_the_same_frames_as_one_run(dist: Path, tmp_path: Path) -> None:
+    """Blender's own farm path, as a farm manager (Flamenco) splits a job: `blender -b FILE --addons weathervane -E
+    WEATHERVANE_TRACER -s A -e B -a` on two machines, frames 1-6 and 7-12, against one run of 1-12."""
+    from PIL import Image
+
+    blend, environment = vane_blend(dist, tmp_path, bake_to=12)
+
+    def farm(first: int, last: int, folder: Path) -> None:
+        command = [BLENDER, "-b", str(blend), "--addons", "weathervane", "-E", "WEATHERVANE_TRACER"]
+        command += ["-o", str(folder / "frame_####"), "-F", "PNG", "-s", str(first), "-e", str(last), "-a"]
+        result = subprocess.run(command, capture_output=True, text=True, env=environment, timeout=300)
+        assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+
+    farm(1, 6, tmp_path / "machines")
+    farm(7, 12, tmp_path / "machines")
+    farm(1, 12, tmp_path / "one")
+
+    def pixels(path: Path):
+        with Image.open(path) as image:
+            return image.convert("RGB").tobytes()  # Blender's PNG metadata holds the render time: pixels only
+
+    split = {path.name: pixels(path) for path in sorted((tmp_path / "machines").glob("frame_*.png"))}
+    whole = {path.name: pixels(path) for path in sorted((tmp_path / "one").glob("frame_*.png"))}
+    assert list(whole) == [f"frame_{frame:04d}.png" for frame in range(1, 13)]
+    assert split == whole
+    assert whole["frame_0001.png"] != whole["frame_0012.png"]  # the vane turned
+
+
+@needs_blender_34
+def test_command_line_render_with_the_tracer_engine_in_blender_34(dist: Path, tmp_path: Path) -> None:
+    """`blender -b file.blend -E WEATHERVANE_TRACER -f 1`: the frame Blender writes is the tracer's image."""
+    import numpy as np
+    from PIL import Image
+
+    from tracer.images import to_8bit
+    from tracer.loader import default_scene
+    from tracer.parallel import render
+
+    blend, environment = vane_blend(dist, tmp_path)
     result = subprocess.run(
         [
             BLENDER,
