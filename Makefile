@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
 SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
-.PHONY: demo test test-slow lint bench bench-reliability bench-viewport docs study addon system-deps blender-wheels clean
+.PHONY: demo test test-slow lint bench bench-reliability bench-viewport bench-cluster docs study addon system-deps blender-wheels clean
 
 # Blender versions as bpy wheels besides 5.0.1 (tests/addon/wheels.txt): one virtual environment each
 BPY_WHEELS := $(shell sed -e 's/\#.*//' tests/addon/wheels.txt)
@@ -64,6 +64,9 @@ bench-reliability: $(STAMP)
 
 bench-viewport: $(STAMP)
 	$(BIN)/python scripts/bench_viewport.py --repeats 5
+
+bench-cluster: $(STAMP)
+	$(BIN)/python scripts/bench_cluster.py --repeats 3
 
 docs: $(STAMP)
 	$(BIN)/python scripts/plot_step_response.py
