@@ -11,9 +11,11 @@ the client writes each frame once, from the first answer it receives.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
+from typing import TypeVar
 
 from . import scene as sc
 from .animate import (
@@ -30,6 +32,7 @@ from .wavefront import RayCounts
 
 CHUNK_FRAMES = 8  # frames per task: long enough for the incremental renderer's reuse, short enough to spread
 CONNECT_SECONDS = 10.0  # how long to try reaching the scheduler before saying so
+T = TypeVar("T")
 INSTALL_HINT = "pip install 'dask[distributed]' (or the project's extra: pip install -e '.[cluster]')"
 
 
@@ -79,6 +82,31 @@ def _distributed():
     return distributed
 
 
+def run_on_cluster(
+    scheduler: str,
+    task: Callable[..., T],
+    shared: object,
+    runs: Iterable[object],
+    on_result: Callable[[T], None],
+    kept: Callable[[], str],
+) -> None:
+    """task(shared, run) for each run on the Dask cluster at scheduler, on_result(answer) on this thread as
+    each answer comes (in the order they finish). shared is sent to each worker once. A lost scheduler, an
+    unreachable one or a task that kept killing workers raises ClusterError, ending with kept() (what stays)."""
+    distributed = _distributed()
+    try:
+        client = distributed.Client(scheduler, timeout=CONNECT_SECONDS, set_as_default=False)
+    except (OSError, TimeoutError) as error:
+        raise ClusterError(f"cannot reach the Dask scheduler at {scheduler}: {_reason(error)}") from None
+    try:
+        sent = client.scatter(shared, broadcast=True, hash=False)
+        futures = [client.submit(task, sent, run, pure=False, retries=0) for run in runs]
+        for future in distributed.as_completed(futures, loop=client.loop):
+            on_result(_result(future, scheduler, distributed, kept))
+    finally:
+        client.close(timeout=CONNECT_SECONDS)
+
+
 def animate_on_cluster(
     scene: sc.Scene,
     folder: Path,
@@ -96,53 +124,45 @@ def animate_on_cluster(
     """Render frames first..last of scene into folder on the Dask cluster at scheduler (e.g. tcp://host:8786);
     the same files as animate(). Raises ClusterError when the scheduler cannot be reached or goes away (the frames
     written so far stay; running again resumes)."""
-    distributed = _distributed()
+    _distributed()  # before anything is planned or made: says how to install it
     plan = plan_frames(scene, folder, first, last, fps, overwrite)
     folder.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
-    total, done = last - first + 1, len(plan.skipped)
-    if progress is not None and done:
-        progress(done, total)
-    try:
-        client = distributed.Client(scheduler, timeout=CONNECT_SECONDS, set_as_default=False)
-    except (OSError, TimeoutError) as error:
-        raise ClusterError(f"cannot reach the Dask scheduler at {scheduler}: {_reason(error)}") from None
-    rays, written = RayCounts(), set()
-    try:
-        shared = client.scatter(scene, broadcast=True, hash=False)
-        futures = [
-            client.submit(render_chunk, shared, run, srgb, incremental, pure=False, retries=0)
-            for run in chunks(plan.wanted, chunk_frames)
-        ]
-        for future in distributed.as_completed(futures, loop=client.loop):
-            result = _result(future, scheduler, distributed, done, total)
-            for frame, png in result.frames:
-                if frame in written:
-                    continue
-                with atomic_path(frame_path(folder, frame)) as temporary:
-                    temporary.write_bytes(png)
-                written.add(frame)
-                done += 1
-                if progress is not None:
-                    progress(done, total)
-            rays.add(result.rays)
-    finally:
-        client.close(timeout=CONNECT_SECONDS)
+    total, written = last - first + 1, set(plan.skipped)
+    rays = RayCounts()
+    if progress is not None and written:
+        progress(len(written), total)
+
+    def write(result: ChunkResult) -> None:
+        for frame, png in result.frames:
+            if frame in written:
+                continue
+            with atomic_path(frame_path(folder, frame)) as temporary:
+                temporary.write_bytes(png)
+            written.add(frame)
+            if progress is not None:
+                progress(len(written), total)
+        rays.add(result.rays)
+
+    def kept() -> str:
+        return f"{len(written)} of {total} frames are written; run the same command again to render the rest"
+
+    task = partial(render_chunk, srgb=srgb, incremental=incremental)
+    run_on_cluster(scheduler, task, scene, chunks(plan.wanted, chunk_frames), write, kept)
     keys = plan.count_keys()
     return AnimationResult(plan.rendered, plan.skipped, time.perf_counter() - started, rays, keys, total)
 
 
-def _result(future, scheduler: str, distributed, done: int, total: int) -> ChunkResult:
+def _result(future, scheduler: str, distributed, kept: Callable[[], str]):
     """A finished task's answer; a lost scheduler or a task that kept killing workers becomes a ClusterError."""
-    kept = f"{done} of {total} frames are written; run the same command again to render the rest"
     try:
         return future.result()
     except distributed.client.FutureCancelledError:
-        raise ClusterError(f"lost the Dask scheduler at {scheduler}; {kept}") from None
+        raise ClusterError(f"lost the Dask scheduler at {scheduler}; {kept()}") from None
     except distributed.scheduler.KilledWorker as error:
-        raise ClusterError(f"frames kept killing the cluster's workers ({_reason(error)}); {kept}") from None
+        raise ClusterError(f"work kept killing the cluster's workers ({_reason(error)}); {kept()}") from None
     except (OSError, TimeoutError) as error:
-        raise ClusterError(f"lost the Dask scheduler at {scheduler}: {_reason(error)}; {kept}") from None
+        raise ClusterError(f"lost the Dask scheduler at {scheduler}: {_reason(error)}; {kept()}") from None
 
 
 def _reason(error: BaseException) -> str:
