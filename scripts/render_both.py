@@ -17,6 +17,7 @@ import os
 import subprocess
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,7 +41,19 @@ def parse(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--eevee-samples", type=int, default=64)
     parser.add_argument("--tracer-samples", type=int, default=16, help="a perfect square: 16 is 4 x 4")
     parser.add_argument("--frames", help="A-B: render every frame of the baked motion")
+    parser.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:PORT",
+        help="with --frames: render the frames on a Dask cluster whose workers have this project with bpy and the "
+        "report extra; this machine writes the files, and frames already complete are kept",
+    )
+    parser.add_argument("--chunk", type=int, default=1, help="with --scheduler: frames per task (default 1)")
+    parser.add_argument("--no-bake", action="store_true", help="render the file's keyed motion as it is")
     args = parser.parse_args(argv)
+    if args.scheduler and not args.frames:
+        parser.error("--scheduler: needs --frames A-B (the frames are what goes to the cluster)")
+    if args.chunk < 1:
+        parser.error(f"--chunk: must be at least 1, got {args.chunk}")
     engines = [name.strip() for name in args.engines.split(",") if name.strip()]
     unknown = [name for name in engines if name not in ENGINES]
     if unknown or not engines:
@@ -150,6 +163,85 @@ def compare(folder: Path) -> dict | None:
         return json.loads((folder / "metrics.json").read_text())
 
 
+def frames_on_cluster(args: argparse.Namespace, frames: range) -> dict[int, dict | None]:
+    """Each run of --chunk frames rendered by a Dask worker (this script in the worker's Python, from this .blend
+    with its keys as baked here); the frames' files come back and are written here, metrics.json last, so a frame
+    folder with metrics.json is complete and a run again keeps it."""
+    import tempfile
+
+    from tracer.cluster import ClusterError, run_on_cluster
+    from tracer.images import atomic_path
+
+    results: dict[int, dict | None] = {}
+    wanted = []
+    for frame in frames:
+        done = args.out / f"frame_{frame:04d}" / "metrics.json"
+        if done.exists():
+            results[frame] = json.loads(done.read_text())
+        else:
+            wanted.append(frame)
+    with tempfile.TemporaryDirectory(prefix="weathervane-cluster-") as folder:
+        blend = Path(folder) / "scene.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
+        options = ["--width", str(args.width), "--height", str(args.height), "--engines", ",".join(args.engines)]
+        options += ["--cycles-samples", str(args.cycles_samples), "--eevee-samples", str(args.eevee_samples)]
+        options += ["--tracer-samples", str(args.tracer_samples)]
+        runs: list[list[int]] = []  # runs of consecutive frames, --chunk at most
+        for frame in wanted:
+            if runs and len(runs[-1]) < args.chunk and runs[-1][-1] == frame - 1:
+                runs[-1].append(frame)
+            else:
+                runs.append([frame])
+
+        def write(answer: dict[str, bytes]) -> None:
+            names = sorted(answer, key=lambda name: name.endswith("metrics.json"))  # metrics.json last
+            for name in names:
+                with atomic_path(args.out / name) as temporary:
+                    temporary.write_bytes(answer[name])
+                if name.endswith("metrics.json"):
+                    frame = int(Path(name).parent.name.removeprefix("frame_"))
+                    results[frame] = json.loads(answer[name])
+                    print(f"frame {frame}: written ({len(results)} of {len(frames)})", flush=True)
+
+        def kept() -> str:
+            return f"{len(results)} of {len(frames)} frames are written; run the same command again for the rest"
+
+        try:
+            run_on_cluster(args.scheduler, partial(render_frames_on_worker, options=options), blend.read_bytes(),
+                           runs, write, kept)  # fmt: skip
+        except ClusterError as error:
+            print(f"error: {error}", file=sys.stderr)
+            sys.exit(1)
+    return dict(sorted(results.items()))
+
+
+def render_frames_on_worker(blend: bytes, frames: list[int], options: list[str]) -> dict[str, bytes]:
+    """Runs on a Dask worker: this script, in the worker's own Python, renders frames of blend into a folder of
+    its own; returns every file it wrote (by path under the output folder). Only the standard library and the
+    project's installed tracer are named here: the function travels to the worker by value."""
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    import tracer
+
+    script = Path(tracer.__file__).resolve().parents[1] / "scripts" / "render_both.py"
+    with tempfile.TemporaryDirectory(prefix="weathervane-frames-") as folder:
+        (Path(folder) / "scene.blend").write_bytes(blend)
+        out = Path(folder) / "out"
+        command = [sys.executable, str(script), str(Path(folder) / "scene.blend"), "--no-bake", "--out", str(out)]
+        command += ["--frames", f"{frames[0]}-{frames[-1]}", *options]
+        finished = subprocess.run(command, capture_output=True, text=True)
+        if finished.returncode != 0:
+            raise RuntimeError(f"render_both.py failed on the worker: {finished.stderr.strip()[-500:]}")
+        return {
+            str(path.relative_to(out)): path.read_bytes()
+            for frame in frames
+            for path in sorted((out / f"frame_{frame:04d}").iterdir())
+        }
+
+
 def main() -> None:
     from script_args import script_arguments
 
@@ -159,15 +251,18 @@ def main() -> None:
     if args.frames:
         first, _, last = args.frames.partition("-")
         frames = range(int(first), int(last or first) + 1)
-        if scene.weathervane and bpy.data.objects.get("WV Turn") is not None:
+        if not args.no_bake and scene.weathervane and bpy.data.objects.get("WV Turn") is not None:
             scene.frame_start, scene.frame_end = frames.start, frames.stop - 1
             bpy.ops.weathervane.bake()
-        results = {}
-        for frame in frames:
-            scene.frame_set(frame)
-            folder = args.out / f"frame_{frame:04d}"
-            render_frame(args, folder)
-            results[frame] = compare(folder)
+        if args.scheduler:
+            results = frames_on_cluster(args, frames)
+        else:
+            results = {}
+            for frame in frames:
+                scene.frame_set(frame)
+                folder = args.out / f"frame_{frame:04d}"
+                render_frame(args, folder)
+                results[frame] = compare(folder)
         summary = {str(frame): (result or {}).get("pairs") for frame, result in results.items()}
         (args.out / "metrics.json").write_text(json.dumps(summary, indent=2))
         print(f"report: {args.out}/frame_*/report.html")

@@ -88,3 +88,34 @@ def test_frames_render_both_paths_over_the_baked_motion(tmp_path: Path) -> None:
         first = np.load(tmp_path / "frame_0020" / f"{engine}.npy")
         second = np.load(tmp_path / "frame_0021" / f"{engine}.npy")
         assert np.abs(first - second).max() > 0.01
+
+
+def test_frames_on_a_dask_cluster_are_the_local_runs_and_a_second_run_keeps_them(tmp_path: Path) -> None:
+    pytest.importorskip("distributed", reason="the cluster extra: make test installs dask[distributed]")
+    import numpy as np
+
+    from tests.dask_cluster import LocalCluster
+
+    template = str(ROOT / "blend_templates" / "gusty_day.blend")
+    small = ["--frames", "20-22", "--width", "48", "--height", "36", "--cycles-samples", "8"]
+    local = run_python(template, *small, "--out", str(tmp_path / "local"))
+    assert local.returncode == 0, local.stdout + local.stderr
+    with LocalCluster(workers=2) as dask:
+        cluster = run_python(template, *small, "--out", str(tmp_path / "cluster"), "--scheduler", dask.address)
+        assert cluster.returncode == 0, cluster.stdout + cluster.stderr
+        assert cluster.stdout.count("written (") == 3
+        again = run_python(template, *small, "--out", str(tmp_path / "cluster"), "--scheduler", dask.address)
+        assert again.returncode == 0 and "written (" not in again.stdout  # every frame was complete: kept
+    for frame in (20, 21, 22):
+        for engine in ("tracer", "cycles"):
+            on_cluster = np.load(tmp_path / "cluster" / f"frame_{frame:04d}" / f"{engine}.npy")
+            assert np.array_equal(on_cluster, np.load(tmp_path / "local" / f"frame_{frame:04d}" / f"{engine}.npy"))
+    summary = json.loads((tmp_path / "cluster" / "metrics.json").read_text())
+    assert summary == json.loads((tmp_path / "local" / "metrics.json").read_text())
+    assert not list((tmp_path / "cluster").rglob(".*.partial"))
+
+
+def test_scheduler_without_frames_is_refused(tmp_path: Path) -> None:
+    result = run_python("--out", str(tmp_path), "--scheduler", "tcp://127.0.0.1:9")
+    assert result.returncode == 2 and "--scheduler: needs --frames A-B" in result.stderr
+    assert not any(tmp_path.iterdir())
