@@ -25,15 +25,20 @@ _turning: dict[int, object] = {}  # per pool: the last scene's pixels that the v
 
 
 def _renderer(workers: int):
-    """The pool for a worker count. Its workers are started afresh with Blender's Python ("spawn"), never forked
-    from Blender's own process: a fork copies a process with threads running (Blender's, Python's) and can crash
-    in the child; a crash of Blender loses the artist's unsaved work."""
+    """The pool for a worker count, kept across frames."""
     if workers not in _renderers:
-        import multiprocessing
-
-        multiprocessing.set_executable(_python())
-        _renderers[workers] = module("parallel").Renderer(workers, start_method="spawn")
+        _renderers[workers] = module("parallel").Renderer(workers, start_method=spawn_with_blenders_python())
     return _renderers[workers]
+
+
+def spawn_with_blenders_python() -> str:
+    """The start method for worker processes inside Blender: "spawn", with Blender's Python as the interpreter.
+    Workers are started afresh, never forked from Blender's own process: a fork copies a process with threads
+    running (Blender's, Python's) and can crash in the child; a crash of Blender loses the artist's unsaved work."""
+    import multiprocessing
+
+    multiprocessing.set_executable(_python())
+    return "spawn"
 
 
 def _python() -> str:

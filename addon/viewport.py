@@ -81,13 +81,10 @@ class ViewportSession:
     """One Rendered view's state: the scene it shows, the tracing thread, the texture of the newest level."""
 
     def __init__(self, workers: int) -> None:
-        import multiprocessing
+        from .engine import spawn_with_blenders_python
 
-        from .engine import _python
-
-        multiprocessing.set_executable(_python())
         self.workers = workers
-        self.progressive = module("progressive").ProgressiveRender(workers, start_method="spawn")
+        self.progressive = module("progressive").ProgressiveRender(workers, start_method=spawn_with_blenders_python())
         self.document: dict | None = None  # the scene without its camera (set by view_update)
         self.error: str | None = None  # why the scene cannot be traced (a bad scene), shown in the view
         self._shown_key: str | None = None
