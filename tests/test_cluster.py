@@ -122,3 +122,10 @@ def test_without_dask_the_flag_says_how_to_install_it(tmp_path: Path) -> None:
         f"error: --scheduler needs Dask's distributed scheduler, which is not installed: {cluster.INSTALL_HINT}"
     ]
     assert not list(tmp_path.iterdir())
+
+
+def test_chunk_without_a_scheduler_is_refused(tmp_path: Path) -> None:
+    from tracer.cli import main
+
+    assert main(["animate", "--frames", "1-2", "-o", str(tmp_path), "--chunk", "4", "--quiet"]) == 2
+    assert not list(tmp_path.iterdir())

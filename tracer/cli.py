@@ -268,6 +268,9 @@ def run_animate(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return EXIT_BAD_INPUT
+    if args.chunk is not None and args.scheduler is None:
+        print("error: --chunk: only with --scheduler (it sets how many frames go to a cluster's task)", file=sys.stderr)
+        return EXIT_BAD_INPUT
     first, last = args.frames
     fps = args.fps or (scene.motion.fps if scene.motion else 24.0)
     progress = ProgressBar("frames", enabled=None if not args.quiet else False)
