@@ -105,10 +105,15 @@ def test_the_views_image_is_the_tracers_render_from_that_view_and_edits_trace_ag
         session.show(view.region, view.data)
         assert not session.progressive.busy and session.progressive.latest().generation == first
 
-        # a material edited, the view orbited, the frame changed: each traces again, coarse first
-        for change in ("material", "view", "frame"):
+        # a material edited, a light edited, an object moved, the view orbited, the frame changed: each traces
+        # again, to the full image
+        for change in ("material", "light", "object", "view", "frame"):
             if change == "material":
                 scene.weathervane.materials[0].color = (0.9, 0.1, 0.1)
+            elif change == "light":
+                scene.weathervane.lights[-1].intensity *= 0.3
+            elif change == "object":
+                bpy.data.objects["WV ball"].location.z += 0.5
             elif change == "view":
                 view.data.view_matrix = Matrix.Rotation(0.2, 4, "Z") @ view.data.view_matrix
             else:
