@@ -4,7 +4,8 @@ sidebar on the Weathervane tab, build the vane, take a screenshot, quit.
     blender --factory-startup --python tests/addon/gui_session.py -- ADDON_ZIP SCREENSHOT.png WORK_FOLDER
 
 Beside SCREENSHOT it writes SCREENSHOT-output.png (Output Properties with the tracer as the engine),
-SCREENSHOT-rendered.png (the 3D View in Rendered shading) and SCREENSHOT-export-menu.png; in WORK_FOLDER, f12.png
+SCREENSHOT-rendered.png (the 3D View in Rendered shading, nothing over it), SCREENSHOT-rendered-ui.png (the same
+with the interface) and SCREENSHOT-export-menu.png; in WORK_FOLDER, f12.png
 (F12's image saved as PNG), f12-scene.json (the scene exported at that moment), rendered-scene.json (the scene seen
 from the Rendered view, for the test to trace) and the view region's place in the window (rendered-region.json).
 
@@ -262,7 +263,6 @@ def render_f12() -> float | None:
 def show_rendered() -> float | None:
     """The 3D View in Rendered shading, nothing drawn over it (overlays, gizmos, headers, sidebar, toolbar, the
     camera view's darkened margin)."""
-    import time
 
     _, area, _ = view3d()
     space = area.spaces.active
@@ -272,18 +272,31 @@ def show_rendered() -> float | None:
     space.show_gizmo = False
     bpy.context.scene.camera.data.show_passepartout = False
     space.shading.type = "RENDERED"
+    return full_image_then(capture_rendered)
+
+
+def full_image_then(step) -> float | None:
+    """Wait until the Rendered view shows its full image at the view's size, then run step."""
+    import time
+
     started = time.perf_counter()
 
-    def wait_for_the_full_image() -> float | None:
+    def wait() -> float | None:
+        _, _, region = view3d()
         sessions = list(sys.modules["weathervane.viewport"]._sessions)
         level = sessions[0].progressive.latest() if sessions else None
-        if level is None or level.divisor != 1 or sessions[0].progressive.busy:
+        if (
+            level is None
+            or level.divisor != 1
+            or level.image.shape[:2] != (region.height, region.width)
+            or sessions[0].progressive.busy
+        ):
             assert time.perf_counter() - started < RENDERED_WAIT_SECONDS, "the Rendered view did not finish"
             return 0.5
-        print(f"WEATHERVANE-GUI rendered view traced in {level.seconds:.2f} s")
-        return guarded(capture_rendered)
+        print(f"WEATHERVANE-GUI rendered view {region.width}x{region.height} traced in {level.seconds:.2f} s")
+        return guarded(step)
 
-    return guarded(wait_for_the_full_image)
+    return guarded(wait)
 
 
 def capture_rendered() -> float | None:
@@ -305,6 +318,19 @@ def capture_rendered() -> float | None:
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.screen.screenshot(filepath=SCREENSHOT.replace(".png", "-rendered.png"))
     print("WEATHERVANE-GUI rendered screenshot")
+    # as an artist sees it: headers, overlays and the engine's status text back on (the image is not traced again)
+    space = area.spaces.active
+    space.show_region_header = space.show_region_tool_header = True
+    space.overlay.show_overlays = space.show_gizmo = True
+    area.tag_redraw()  # the headers take room: a new view size, traced again
+    return full_image_then(capture_rendered_with_the_interface)
+
+
+def capture_rendered_with_the_interface() -> float | None:
+    window, area, region = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        bpy.ops.screen.screenshot(filepath=SCREENSHOT.replace(".png", "-rendered-ui.png"))
+    print("WEATHERVANE-GUI rendered screenshot with the interface")
     # back to Solid shading: Blender frees the view's engine, which stops its thread and workers
     area.spaces.active.shading.type = "SOLID"
     area.tag_redraw()
