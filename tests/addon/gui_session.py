@@ -1,13 +1,14 @@
 """A real Blender window (run under Xvfb by tests/test_blender_gui.py): install and enable the add-on, open the
-sidebar on the Weathervane tab, build the vane, take a screenshot, quit.
+sidebar on the Weathervane tab, build the vane, take a screenshot; then, with the tracer as the engine, Output
+Properties, F12 and the 3D View in Rendered shading; quit.
 
     blender --factory-startup --python tests/addon/gui_session.py -- ADDON_ZIP SCREENSHOT.png WORK_FOLDER
 
 Beside SCREENSHOT it writes SCREENSHOT-output.png (Output Properties with the tracer as the engine),
 SCREENSHOT-rendered.png (the 3D View in Rendered shading, nothing over it), SCREENSHOT-rendered-ui.png (the same
-with the interface) and SCREENSHOT-export-menu.png; in WORK_FOLDER, f12.png
-(F12's image saved as PNG), f12-scene.json (the scene exported at that moment), rendered-scene.json (the scene seen
-from the Rendered view, for the test to trace) and the view region's place in the window (rendered-region.json).
+with the interface) and SCREENSHOT-export-menu.png; in WORK_FOLDER, f12.png (F12's image saved as PNG),
+f12-scene.json (the scene exported at that moment), rendered-scene.json (the scene seen from the Rendered view, for
+the test to trace) and the view region's place in the window (rendered-region.json).
 
 Blender 3.4 has no API to choose a sidebar tab (Region.active_panel_category came later); the sidebar opens on
 its first category. The built-in panels of "Item" are written in C and registered first, but they only show with
