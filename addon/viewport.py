@@ -144,6 +144,9 @@ class ViewportSession:
         draw_texture_2d(self._texture, (0, 0), region.width, region.height)
         if self.error or self.progressive.error:
             return self.error or self.progressive.error
+        whole = level.image.shape[0] * level.image.shape[1]
+        if level.divisor == 1 and level.traced < whole:
+            return f"Weathervane Tracer: edit, {level.traced} of {whole} pixels traced again in {level.seconds:.2f} s"
         if level.divisor == 1 and not self.progressive.busy:
             return f"Weathervane Tracer: done in {level.seconds:.2f} s"
         return f"Weathervane Tracer: 1/{level.divisor} resolution ({level.seconds:.2f} s)"

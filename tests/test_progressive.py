@@ -5,14 +5,18 @@ from __future__ import annotations
 
 import multiprocessing
 import threading
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from tracer import progressive as progressive_module
 from tracer import resources
+from tracer import scene as sc
+from tracer.edits import edits_between
 from tracer.loader import default_scene
 from tracer.parallel import render
-from tracer.progressive import LEVELS, Level, ProgressiveRender, level_scene
+from tracer.progressive import EDIT_SHARE, LEVELS, Level, ProgressiveRender, level_scene
 
 
 def small_scene(heading: float = 0.0, width: int = 96, height: int = 64):
@@ -81,3 +85,89 @@ def test_close_ends_the_thread_and_its_workers() -> None:
     assert not progressive._thread.is_alive()
     assert multiprocessing.active_children() == []
     assert not any(thread.name == "weathervane-progressive" for thread in threading.enumerate())
+
+
+def edits():
+    """(change, scene -> the scene edited, whether the edit is small): a material of a few pixels (the tail fin's)
+    and of most (the ground's), a light's intensity (it reaches most pixels), an object moved (the plinth)."""
+
+    def material(name: str):
+        return lambda scene: replace(
+            scene, materials={**scene.materials, name: replace(scene.materials[name], color=(0.9, 0.1, 0.1))}
+        )
+
+    def dimmer(scene):
+        lights = [replace(light, intensity=light.intensity * 0.3) if isinstance(light, sc.PointLight) else light
+                  for light in scene.lights]  # fmt: skip
+        return replace(scene, lights=tuple(lights))
+
+    def moved(scene):
+        objects = [replace(obj, location=(obj.location[0] + 0.1, *obj.location[1:])) if obj.name == "plinth" else obj
+                   for obj in scene.objects]  # fmt: skip
+        return replace(scene, objects=tuple(objects))
+
+    return [("tail fin material", material("verdigris"), True), ("ground material", material("tiles"), False),
+            ("point light", dimmer, False), ("plinth moved", moved, True)]  # fmt: skip
+
+
+def test_small_edits_after_the_full_level_trace_only_what_they_change_at_full_size() -> None:
+    levels: list[Level] = []
+    progressive = ProgressiveRender(1, on_level=levels.append)
+    try:
+        scene = small_scene()
+        progressive.show(scene)
+        assert progressive.wait(120)
+        for change, edit, small in edits():
+            edited = edit(scene)
+            levels.clear()
+            generation = progressive.show(edited)
+            assert progressive.wait(120) and progressive.error is None
+            if small:  # one level at full size, a few pixels traced
+                assert [(level.divisor, level.generation) for level in levels] == [(1, generation)], change
+                assert 0 < levels[0].traced < EDIT_SHARE * 96 * 64, change
+            else:  # the pool's coarse levels first, as for any other change
+                assert [level.divisor for level in levels] == list(LEVELS), change
+            # the same bytes as a whole render of the edited scene
+            assert np.array_equal(levels[-1].image, render(edited, workers=1).image), change
+            scene = edited
+        # the vane turned (a frame changed) is not an edit: coarse to fine again
+        levels.clear()
+        progressive.show(scene.with_heading(150.0))
+        assert progressive.wait(120)
+        assert [level.divisor for level in levels] == list(LEVELS)
+        assert np.array_equal(levels[-1].image, render(scene.with_heading(150.0), workers=1).image)
+    finally:
+        progressive.close()
+
+
+def test_scenes_over_the_kept_size_go_coarse_to_fine_after_an_edit(monkeypatch) -> None:
+    monkeypatch.setattr(progressive_module, "EDITABLE_SAMPLES", 96 * 64 * 4 - 1)
+    levels: list[Level] = []
+    progressive = ProgressiveRender(1, on_level=levels.append)
+    try:
+        scene = small_scene()
+        progressive.show(scene)
+        assert progressive.wait(120)
+        levels.clear()
+        edited = edits()[0][1](scene)
+        progressive.show(edited)
+        assert progressive.wait(120)
+        assert [level.divisor for level in levels] == list(LEVELS)
+        assert np.array_equal(levels[-1].image, render(edited, workers=1).image)
+    finally:
+        progressive.close()
+
+
+def test_the_edits_between_two_scenes_are_found_or_refused() -> None:
+    scene = small_scene()
+    for change, edit, _ in edits():
+        found = edits_between(scene, edit(scene))
+        assert found is not None and len(found) == 1, change
+    assert edits_between(scene, scene) == []
+    # anything else is not an edit: the vane turned, the camera moved, a sphere grew, the render settings
+    assert edits_between(scene, scene.with_heading(10.0)) is None
+    assert edits_between(scene, replace(scene, camera=replace(scene.camera, lens=20.0))) is None
+    assert edits_between(scene, scene.with_render(samples=9)) is None
+    sphere = next(obj for obj in scene.objects if isinstance(obj, sc.Sphere))
+    grown = tuple(replace(obj, radius=obj.radius * 2) if obj is sphere else obj for obj in scene.objects)
+    assert edits_between(scene, replace(scene, objects=grown)) is None

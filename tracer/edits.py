@@ -18,6 +18,7 @@ float64), for an interactive session (the viewport), not for a farm.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -115,6 +116,30 @@ class TransformEdit:
 
 
 Edit = MaterialEdit | LightEdit | TransformEdit
+BUILD_PIECE_SAMPLES = 65536  # camera samples per piece of the first trace: about 60 ms here, between interruptions
+
+
+def edits_between(old: sc.Scene, new: sc.Scene) -> list[Edit] | None:
+    """The edits that turn old into new (materials, lights' intensities, objects' locations and rotations), or
+    None where new differs in anything else (camera, render settings, background, the vane, an object's shape)."""
+    edits: list[Edit] = []
+    if old.materials.keys() != new.materials.keys() or len(old.lights) != len(new.lights):
+        return None
+    if [obj.name for obj in old.objects] != [obj.name for obj in new.objects]:
+        return None
+    edits += [
+        MaterialEdit(name, new.materials[name]) for name in old.materials if old.materials[name] != new.materials[name]
+    ]
+    for index, (before, after) in enumerate(zip(old.lights, new.lights, strict=True)):
+        if before != after and hasattr(after, "intensity") and type(before) is type(after):
+            edits.append(LightEdit(index, after.intensity))
+    for before, after in zip(old.objects, new.objects, strict=True):
+        if before != after and type(before) is type(after):
+            edits.append(TransformEdit(after.name, after.location, after.rotation))
+    edited = old
+    for edit in edits:
+        edited = _edited(edited, edit)
+    return edits if edited == new else None
 
 
 class EditableImage:
@@ -124,7 +149,10 @@ class EditableImage:
     notes the pixel's generation it was traced in), so an edit costs its own segments, not a copy of all of them;
     the chunks are compacted when stale segments are more than half."""
 
-    def __init__(self, scene: sc.Scene) -> None:
+    def __init__(self, scene: sc.Scene, between_pieces: Callable[[], None] | None = None) -> None:
+        """Trace the scene whole, keeping its segments. between_pieces: called after each piece of about
+        BUILD_PIECE_SAMPLES camera samples (an exception from it stops the build: a caller that can be
+        interrupted); the pieces are the same bytes as one trace."""
         self.scene = scene
         settings = scene.render
         self.pixels = settings.width * settings.height
@@ -132,7 +160,11 @@ class EditableImage:
         self.chunks: list[tuple[Segments, np.ndarray]] = []  # segments and the generation they belong to
         self.image = np.empty((settings.height, settings.width, 3), dtype=settings.dtype)
         self.rays = RayCounts()
-        self._trace(scene, np.arange(self.pixels))
+        pieces = max(1, self.pixels * settings.samples // BUILD_PIECE_SAMPLES)
+        for piece in np.array_split(np.arange(self.pixels), pieces):
+            self._trace(scene, piece)
+            if between_pieces is not None:
+                between_pieces()
 
     @property
     def segments(self) -> Segments:
@@ -140,10 +172,15 @@ class EditableImage:
         live = [chunk.take(self._live(chunk, generation)) for chunk, generation in self.chunks]
         return Segments.empty() if not live else live[0].joined(*live[1:])
 
-    def apply(self, edit: Edit) -> np.ndarray:
-        """The edited scene's image (height, width, 3); self.scene becomes the edited scene."""
+    def affected(self, edit: Edit) -> np.ndarray:
+        """The flat pixels (P,) that apply(edit) would trace again, ascending."""
+        return self._affected(edit, _edited(self.scene, edit))
+
+    def apply(self, edit: Edit, pixels: np.ndarray | None = None) -> np.ndarray:
+        """The edited scene's image (height, width, 3); self.scene becomes the edited scene. pixels: affected(edit)
+        where the caller has it already."""
         edited = _edited(self.scene, edit)
-        pixels = self._affected(edit, edited)
+        pixels = self._affected(edit, edited) if pixels is None else pixels
         self.generation[pixels] += 1
         self._trace(edited, pixels)
         self.scene = edited
@@ -207,4 +244,4 @@ def _edited(scene: sc.Scene, edit: Edit) -> sc.Scene:
     return replace(scene, objects=objects)
 
 
-__all__ = ["Edit", "EditableImage", "LightEdit", "MaterialEdit", "TransformEdit"]
+__all__ = ["Edit", "EditableImage", "LightEdit", "MaterialEdit", "TransformEdit", "edits_between"]
