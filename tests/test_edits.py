@@ -80,3 +80,20 @@ def test_moving_an_unbounded_plane_traces_everything_again() -> None:
     edited = image.apply(edits.TransformEdit("floor", (0.0, 0.0, -0.2), (0.0, 0.0, 0.0)))
     assert image.last_traced == 40 * 30
     assert np.array_equal(edited, render(image.scene, workers=1).image)
+
+
+def test_an_editable_image_built_in_pieces_is_the_whole_render_and_can_be_stopped_between_them() -> None:
+    scene = default_scene().with_render(width=320, height=240, samples=4)
+    calls = []
+    editable = edits.EditableImage(scene, between_pieces=lambda: calls.append(1))
+    assert len(calls) == 320 * 240 * 4 // edits.BUILD_PIECE_SAMPLES == 4
+    assert np.array_equal(editable.image, render(scene, workers=1).image)
+
+    class StopError(Exception):
+        pass
+
+    def stop() -> None:
+        raise StopError
+
+    with pytest.raises(StopError):
+        edits.EditableImage(scene, between_pieces=stop)  # after its first piece
