@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import multiprocessing
 import threading
+from contextlib import contextmanager
 from dataclasses import replace
 
 import numpy as np
@@ -110,13 +111,24 @@ def edits():
             ("point light", dimmer, False), ("plinth moved", moved, True)]  # fmt: skip
 
 
-def test_small_edits_after_the_full_level_trace_only_what_they_change_at_full_size() -> None:
+@contextmanager
+def shown(scene):
+    """A one-worker ProgressiveRender that has shown scene to the end (its ray trees kept), and the levels it
+    delivers from then on; closed after."""
     levels: list[Level] = []
     progressive = ProgressiveRender(1, on_level=levels.append)
     try:
-        scene = small_scene()
         progressive.show(scene)
         assert progressive.wait(120)
+        levels.clear()
+        yield progressive, levels
+    finally:
+        progressive.close()
+
+
+def test_small_edits_after_the_full_level_trace_only_what_they_change_at_full_size() -> None:
+    scene = small_scene()
+    with shown(scene) as (progressive, levels):
         for change, edit, small in edits():
             edited = edit(scene)
             levels.clear()
@@ -136,26 +148,17 @@ def test_small_edits_after_the_full_level_trace_only_what_they_change_at_full_si
         assert progressive.wait(120)
         assert [level.divisor for level in levels] == list(LEVELS)
         assert np.array_equal(levels[-1].image, render(scene.with_heading(150.0), workers=1).image)
-    finally:
-        progressive.close()
 
 
 def test_scenes_over_the_kept_size_go_coarse_to_fine_after_an_edit(monkeypatch) -> None:
     monkeypatch.setattr(progressive_module, "EDITABLE_SAMPLES", 96 * 64 * 4 - 1)
-    levels: list[Level] = []
-    progressive = ProgressiveRender(1, on_level=levels.append)
-    try:
-        scene = small_scene()
-        progressive.show(scene)
-        assert progressive.wait(120)
-        levels.clear()
+    scene = small_scene()
+    with shown(scene) as (progressive, levels):
         edited = edits()[0][1](scene)
         progressive.show(edited)
         assert progressive.wait(120)
         assert [level.divisor for level in levels] == list(LEVELS)
         assert np.array_equal(levels[-1].image, render(edited, workers=1).image)
-    finally:
-        progressive.close()
 
 
 def test_the_edits_between_two_scenes_are_found_or_refused() -> None:

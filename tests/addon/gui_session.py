@@ -31,6 +31,15 @@ def view3d():
     return window, area, region
 
 
+def screenshot(suffix: str = "") -> str:
+    """The whole window as SCREENSHOT with suffix before its extension; returns the path."""
+    window, area, region = view3d()
+    target = SCREENSHOT.replace(".png", f"{suffix}.png")
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        bpy.ops.screen.screenshot(filepath=target)
+    return target
+
+
 def bring_tab_forward() -> None:
     panels = {cls.__name__: cls for cls in bpy.types.Panel.__subclasses__() if cls.is_registered}
 
@@ -199,9 +208,7 @@ def measure_labels() -> None:
 
 def capture() -> float | None:
     measure_labels()
-    window, area, region = view3d()
-    with bpy.context.temp_override(window=window, area=area, region=region):
-        bpy.ops.screen.screenshot(filepath=SCREENSHOT)
+    screenshot()
     print("WEATHERVANE-GUI screenshot", SCREENSHOT)
     return guarded(show_output_properties)
 
@@ -239,9 +246,7 @@ def show_output_properties() -> float | None:
 
 
 def capture_output_properties() -> float | None:
-    window, area, region = view3d()
-    with bpy.context.temp_override(window=window, area=area, region=region):
-        bpy.ops.screen.screenshot(filepath=SCREENSHOT.replace(".png", "-output.png"))
+    screenshot("-output")
     print("WEATHERVANE-GUI output screenshot")
     return guarded(render_f12)
 
@@ -316,8 +321,7 @@ def capture_rendered() -> float | None:
     place = {"x": region.x, "y": region.y, "width": region.width, "height": region.height, "window": window.height}
     with open(os.path.join(WORK, "rendered-region.json"), "w") as file:
         json.dump(place, file)
-    with bpy.context.temp_override(window=window, area=area, region=region):
-        bpy.ops.screen.screenshot(filepath=SCREENSHOT.replace(".png", "-rendered.png"))
+    screenshot("-rendered")
     print("WEATHERVANE-GUI rendered screenshot")
     # as an artist sees it: headers, overlays and the engine's status text back on (the image is not traced again)
     space = area.spaces.active
@@ -328,9 +332,8 @@ def capture_rendered() -> float | None:
 
 
 def capture_rendered_with_the_interface() -> float | None:
-    window, area, region = view3d()
-    with bpy.context.temp_override(window=window, area=area, region=region):
-        bpy.ops.screen.screenshot(filepath=SCREENSHOT.replace(".png", "-rendered-ui.png"))
+    _, area, _ = view3d()
+    screenshot("-rendered-ui")
     print("WEATHERVANE-GUI rendered screenshot with the interface")
     # back to Solid shading: Blender frees the view's engine, which stops its thread and workers
     area.spaces.active.shading.type = "SOLID"
@@ -355,10 +358,7 @@ def check_rendered_view_stopped(waited: list = [0]) -> float | None:  # noqa: B0
 
 
 def capture_menu() -> float | None:
-    window, area, region = view3d()
-    target = SCREENSHOT.replace(".png", "-export-menu.png")
-    with bpy.context.temp_override(window=window, area=area, region=region):
-        bpy.ops.screen.screenshot(filepath=target)
+    target = screenshot("-export-menu")
     print("WEATHERVANE-GUI export menu", target)
     bpy.app.timers.register(lambda: bpy.ops.wm.quit_blender() and None, first_interval=0.5)
     return None
