@@ -61,8 +61,12 @@ class LocalCluster:
         ]
         from distributed import Client
 
-        with Client(self.address, timeout=START_SECONDS) as client:
-            client.wait_for_workers(self.workers, timeout=START_SECONDS)
+        try:
+            with Client(self.address, timeout=START_SECONDS) as client:
+                client.wait_for_workers(self.workers, timeout=START_SECONDS)
+        except Exception:
+            self.__exit__()  # no process outlives a cluster that did not start
+            raise
         return self
 
     def kill_worker(self, index: int) -> None:
