@@ -19,6 +19,13 @@ from bpy.props import (
 from . import lights, materials
 
 
+def _color(name: str, default: tuple[float, float, float], description: str, **extra):
+    """A linear RGB color property in [0, 1] (the tracer's colors)."""
+    return FloatVectorProperty(
+        name=name, subtype="COLOR", size=3, min=0.0, max=1.0, default=default, description=description, **extra
+    )
+
+
 def _material_changed(part, context) -> None:
     materials.refresh_all(context.scene)
 
@@ -36,16 +43,7 @@ def _model_changed(settings, context) -> None:
 class WEATHERVANE_PG_material(bpy.types.PropertyGroup):
     """One tracer material: the documented model's color, specular exponent and reflectivity."""
 
-    color: FloatVectorProperty(
-        name="Color",
-        subtype="COLOR",
-        size=3,
-        min=0.0,
-        max=1.0,
-        default=(0.8, 0.8, 0.8),
-        description="Linear RGB color",
-        update=_material_changed,
-    )
+    color: _color("Color", (0.8, 0.8, 0.8), "Linear RGB color", update=_material_changed)
     specular: FloatProperty(
         name="Specular Exponent",
         min=0.0,
@@ -263,33 +261,9 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         ],
         default="sky",
     )
-    background_color: FloatVectorProperty(
-        name="Color",
-        subtype="COLOR",
-        size=3,
-        min=0.0,
-        max=1.0,
-        default=(0.05, 0.05, 0.05),
-        description="The solid background's color",
-    )
-    horizon: FloatVectorProperty(
-        name="Horizon",
-        subtype="COLOR",
-        size=3,
-        min=0.0,
-        max=1.0,
-        default=(0.75, 0.82, 0.9),
-        description="The sky's color at the horizon and below",
-    )
-    zenith: FloatVectorProperty(
-        name="Zenith",
-        subtype="COLOR",
-        size=3,
-        min=0.0,
-        max=1.0,
-        default=(0.25, 0.45, 0.8),
-        description="The sky's color straight up",
-    )
+    background_color: _color("Color", (0.05, 0.05, 0.05), "The solid background's color")
+    horizon: _color("Horizon", (0.75, 0.82, 0.9), "The sky's color at the horizon and below")
+    zenith: _color("Zenith", (0.25, 0.45, 0.8), "The sky's color straight up")
     workers: IntProperty(name="Workers", min=0, max=64, default=0, description="Worker processes; 0: all cores")
     numerics: EnumProperty(
         name="Numerics",
