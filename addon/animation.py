@@ -1,8 +1,8 @@
 """The panel's wind and vane settings (keyframed or not) -> the motion code -> the fewest keys on the vane.
 
 The wind properties are sampled at every frame from their F-curves (so an artist may key them on the timeline),
-turned into a tracer Motion, simulated by tracer.motion exactly as the tracer's own animations are, reduced by
-tracer.keyframes to the fewest LINEAR keys within the tolerance, and written on the turning empty's Z rotation.
+turned into a tracer Motion, simulated by tracer.scene.motion exactly as the tracer's own animations are, reduced by
+tracer.scene.keyframes to the fewest LINEAR keys within the tolerance, and written on the turning empty's Z rotation.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ def _sampled(blender_scene, name: str, frames: np.ndarray) -> np.ndarray:
 
 def motion_for(blender_scene, last_frame: int):
     """The tracer Motion that the settings describe, frame 1 at time 0, over frames 1..last_frame."""
-    wind_module, motion_module = module("wind"), module("motion")
+    wind_module, motion_module = module("scene.wind"), module("scene.motion")
     settings = blender_scene.weathervane
     fps = blender_scene.render.fps / blender_scene.render.fps_base
     frames = np.arange(1, last_frame + 1, dtype=np.float64)
@@ -66,7 +66,7 @@ def motion_for(blender_scene, last_frame: int):
 
 def headings(blender_scene, last_frame: int, initial_heading: float) -> np.ndarray:
     """Degrees (last_frame,) at frames 1..last_frame."""
-    return module("motion").simulate(motion_for(blender_scene, last_frame), last_frame, initial_heading)
+    return module("scene.motion").simulate(motion_for(blender_scene, last_frame), last_frame, initial_heading)
 
 
 WIND_PROPERTIES = ("wind_direction", "wind_speed")
@@ -118,7 +118,7 @@ def bake(context, progress=None) -> tuple[int, int]:
         progress(0.7)
     span = angles[max(first, 1) - 1 : last]
     frames = np.arange(max(first, 1), last + 1)
-    keys = module("keyframes").reduce_keys(span, blender_scene.weathervane.tolerance)
+    keys = module("scene.keyframes").reduce_keys(span, blender_scene.weathervane.tolerance)
     compat.replace_fcurve(
         turn, "rotation_euler", 2, [float(frames[k]) for k in keys], [math.radians(float(span[k])) for k in keys]
     )

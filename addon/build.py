@@ -40,7 +40,7 @@ def segments_for(radius: float, distance: float, focal_pixels: float, max_error_
 def focal_pixels(scene) -> float:
     """The camera's focal length in pixels of the scene's render width (tracer's sensor fit)."""
     width, height = scene.render.width, scene.render.height
-    sensor_x, _ = module("camera").sensor_size(scene.camera, width, height)
+    sensor_x, _ = module("geometry.camera").sensor_size(scene.camera, width, height)
     return scene.camera.lens / sensor_x * width
 
 
@@ -88,8 +88,8 @@ def cylinder_mesh(name: str, radius: float, height: float, segments: int):
 
 def primitive_mesh(scene, obj, world):
     """The mesh of one tracer object, in its local frame."""
-    transforms = module("transforms")
-    sc = module("scene")
+    transforms = module("geometry.transforms")
+    sc = module("scene.scene")
     name = f"WV {obj.name}"
     if isinstance(obj, sc.Sphere):
         segments = segments_for(obj.radius, _distance(scene, world.center) - obj.radius, focal_pixels(scene))
@@ -208,7 +208,7 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
             collection.objects.link(obj)
             context.scene.collection.objects.unlink(obj)
     settings.built_from = source
-    transforms = module("transforms")
+    transforms = module("geometry.transforms")
     if keep:
         scene = _with_kept_materials(scene, kept_colors)
     ambient = sum(light.intensity for light in scene.lights if type(light).__name__ == "AmbientLight")

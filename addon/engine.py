@@ -14,6 +14,7 @@ import numpy as np
 
 from . import camera, viewport
 from ._tracer import module
+from .workers import spawn_with_blenders_python
 
 
 class RenderCancelledError(Exception):
@@ -21,39 +22,16 @@ class RenderCancelledError(Exception):
 
 
 _renderers: dict[int, object] = {}  # one worker pool per worker count, kept across frames of an animation
-_turning: dict[int, object] = {}  # per pool: the last scene's pixels that the vane can change (tracer/incremental.py)
+_turning: dict[
+    int, object
+] = {}  # per pool: the last scene's pixels that the vane can change (tracer/frames/incremental.py)
 
 
 def _renderer(workers: int):
     """The pool for a worker count, kept across frames."""
     if workers not in _renderers:
-        _renderers[workers] = module("parallel").Renderer(workers, start_method=spawn_with_blenders_python())
+        _renderers[workers] = module("workers.parallel").Renderer(workers, start_method=spawn_with_blenders_python())
     return _renderers[workers]
-
-
-def spawn_with_blenders_python() -> str:
-    """The start method for worker processes inside Blender: "spawn", with Blender's Python as the interpreter.
-    Workers are started afresh, never forked from Blender's own process: a fork copies a process with threads
-    running (Blender's, Python's) and can crash in the child; a crash of Blender loses the artist's unsaved work."""
-    import multiprocessing
-
-    multiprocessing.set_executable(_python())
-    return "spawn"
-
-
-def _python() -> str:
-    """The Python interpreter Blender runs (its sys.executable may be the Blender binary or another Python on the
-    PATH): a virtual environment's own (the bpy wheel), else the interpreter under Blender's Python prefix."""
-    import sys
-    from pathlib import Path
-
-    if sys.prefix != sys.base_prefix:
-        return sys.executable
-    version = f"{sys.version_info.major}.{sys.version_info.minor}"
-    for candidate in (Path(sys.base_prefix) / "bin" / f"python{version}", Path(sys.base_prefix) / "bin" / "python3"):
-        if candidate.exists():
-            return str(candidate)
-    return sys.executable
 
 
 def close_renderers() -> None:
@@ -112,7 +90,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         from .export import scene_document
 
         blender_scene = depsgraph.scene
-        loader = module("loader")
+        loader = module("scene.loader")
         try:
             document = scene_document(bpy.context, depsgraph, blender_scene)
             scene = loader.scene_from_dict(json.loads(json.dumps(document)), "scene")
@@ -141,10 +119,10 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             _write(render_result, shown)
             self.update_result(render_result)
 
-        pool, resources = module("pool"), module("resources")
+        pool, resources = module("workers.pool"), module("workers.resources")
         try:
             workers = scene.render.workers
-            turning = _turning.setdefault(workers, module("incremental").TurningFrames())
+            turning = _turning.setdefault(workers, module("frames.incremental").TurningFrames())
             result = turning.render(_renderer(workers), scene, progress, band_done)
         except RenderCancelledError:
             self.end_result(render_result)  # the bands finished before the cancel

@@ -34,7 +34,7 @@ def reports_errors(execute):
 
 
 def _load_scene(path: str):
-    loader = module("loader")
+    loader = module("scene.loader")
     if not path:
         return loader.default_scene()
     return loader.load_scene(bpy.path.abspath(path))
@@ -65,7 +65,7 @@ def _build_from(operator: bpy.types.Operator, context, path: str, reset: bool = 
     keeps the user's settings unless reset."""
     try:
         scene = _load_scene(path)
-    except module("loader").SceneError as error:
+    except module("scene.loader").SceneError as error:
         for problem in error.problems[:8]:
             operator.report({"ERROR"}, f"{error.source}: {problem}")
         return {"CANCELLED"}
@@ -203,14 +203,14 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
 
         document = scene_document(context)
         try:
-            module("loader").scene_from_dict(json.loads(json.dumps(document)), "export")
-        except module("loader").SceneError as error:
+            module("scene.loader").scene_from_dict(json.loads(json.dumps(document)), "export")
+        except module("scene.loader").SceneError as error:
             for problem in error.problems[:8]:
                 self.report({"ERROR"}, f"cannot export: {problem}")
             return {"CANCELLED"}
         target = Path(bpy.path.abspath(self.filepath))
         try:
-            with module("images").atomic_path(target) as temporary:  # nothing is left behind if it fails
+            with module("tracing.images").atomic_path(target) as temporary:  # nothing is left behind if it fails
                 temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
         except OSError as error:
             self.report({"ERROR"}, f"cannot write {target}: {error.strerror or error}")

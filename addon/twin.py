@@ -75,13 +75,13 @@ def _flat_color(blender_scene) -> tuple[float, float, float]:
     from . import camera as camera_module
     from ._tracer import module
 
-    sc = module("scene")
+    sc = module("scene.scene")
     render = blender_scene.render
     scale = render.resolution_percentage / 100.0
     size = sc.RenderSettings(
         width=max(1, round(render.resolution_x * scale)), height=max(1, round(render.resolution_y * scale))
     )
-    direction = module("camera").documented_background_direction(
+    direction = module("geometry.camera").documented_background_direction(
         sc.Camera(**camera_module.to_tracer(blender_scene.camera)), size
     )
     background = sc.Background(horizon=tuple(settings.horizon), zenith=tuple(settings.zenith))

@@ -1,5 +1,5 @@
 """The 3D View's Rendered shading with the tracer: the viewport's view -> a tracer camera, the scene traced coarse to
-fine on a thread (tracer/progressive.py), the newest image drawn with the gpu module over the whole view.
+fine on a thread (tracer/frames/progressive.py), the newest image drawn with the gpu module over the whole view.
 
 Blender calls view_update() when the depsgraph changes (an object moved, a material or light edited, the frame
 changed) and view_draw() whenever the view is drawn (also when it is orbited or zoomed). Both only hand a new scene
@@ -16,6 +16,7 @@ import bpy
 import numpy as np
 
 from ._tracer import module
+from .workers import spawn_with_blenders_python
 
 SENSOR = 36.0  # millimetres: any width serves, the lens is derived from it
 REDRAW_SECONDS = 0.1  # how often the main thread looks for finished levels while a view is tracing
@@ -36,7 +37,7 @@ def view_camera(view_matrix, window_matrix, width: int, height: int) -> dict:
     camera_to_world = np.linalg.inv(np.array(view_matrix, dtype=np.float64))
     location, axes = camera_to_world[:3, 3], camera_to_world[:3, :3]
     section = {
-        "rotation": list(module("transforms").euler_xyz_from_matrix(axes.tolist())),
+        "rotation": list(module("geometry.transforms").euler_xyz_from_matrix(axes.tolist())),
         "sensor_width": SENSOR,
         "sensor_height": SENSOR * height / width,
         "sensor_fit": "HORIZONTAL",
@@ -81,10 +82,10 @@ class ViewportSession:
     """One Rendered view's state: the scene it shows, the tracing thread, the texture of the newest level."""
 
     def __init__(self, workers: int) -> None:
-        from .engine import spawn_with_blenders_python
-
         self.workers = workers
-        self.progressive = module("progressive").ProgressiveRender(workers, start_method=spawn_with_blenders_python())
+        self.progressive = module("frames.progressive").ProgressiveRender(
+            workers, start_method=spawn_with_blenders_python()
+        )
         self.document: dict | None = None  # the scene without its camera (set by view_update)
         self.error: str | None = None  # why the scene cannot be traced (a bad scene), shown in the view
         self._shown_key: str | None = None
@@ -121,7 +122,7 @@ class ViewportSession:
         key = json.dumps(document, sort_keys=True)
         if key == self._shown_key:
             return
-        loader = module("loader")
+        loader = module("scene.loader")
         try:
             scene = loader.scene_from_dict(json.loads(key), "viewport")
         except loader.SceneError as error:

@@ -23,9 +23,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from tests.dask_cluster import LocalCluster  # noqa: E402
-from tracer.animate import animate, frame_path  # noqa: E402
-from tracer.cluster import animate_on_cluster  # noqa: E402
-from tracer.loader import default_scene  # noqa: E402
+from tracer.frames.animate import animate, frame_path  # noqa: E402
+from tracer.frames.cluster import animate_on_cluster  # noqa: E402
+from tracer.scene.loader import default_scene  # noqa: E402
 
 
 def main() -> int:

@@ -21,9 +21,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from tracer import default_scene  # noqa: E402
-from tracer.loader import default_scene_dict, scene_from_dict  # noqa: E402
-from tracer.motion import Motion, iter_headings, simulate  # noqa: E402
-from tracer.parallel import Renderer  # noqa: E402
+from tracer.scene.loader import default_scene_dict, scene_from_dict  # noqa: E402
+from tracer.scene.motion import Motion, iter_headings, simulate  # noqa: E402
+from tracer.workers.parallel import Renderer  # noqa: E402
 
 
 def kill_recovery(repeats: int) -> dict[str, float]:
@@ -68,7 +68,7 @@ def ctrl_c_exit(repeats: int) -> float:
 def peak_memory_mb(samples: int) -> float:
     """Peak resident memory (MB) of a 1-worker render of 160x32 at this many samples per pixel."""
     code = (
-        "import resource; from tracer import default_scene; from tracer.parallel import render; "
+        "import resource; from tracer import default_scene; from tracer.workers.parallel import render; "
         f"render(default_scene().with_render(width=160, height=32, samples={samples}), workers=1); "
         "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
     )

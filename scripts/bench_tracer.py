@@ -17,9 +17,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tracer.loader import default_scene
-from tracer.parallel import Renderer
-from tracer.reference import render_reference
+from tracer.scene.loader import default_scene
+from tracer.tracing.reference import render_reference
+from tracer.workers.parallel import Renderer
 
 
 def bench(scene, workers: int, repeats: int) -> dict:
@@ -41,8 +41,8 @@ def bench(scene, workers: int, repeats: int) -> dict:
 HD_SCRIPT = """
 import json, os, sys, threading, time
 sys.path.insert(0, {root!r})
-from tracer.loader import default_scene
-from tracer.parallel import Renderer
+from tracer.scene.loader import default_scene
+from tracer.workers.parallel import Renderer
 
 def field_mb(path, name):
     try:
@@ -85,7 +85,7 @@ print(json.dumps({{"ms": round(times[1] * 1000, 1), "peak_mb_total_pss": peak["t
 
 MESH_SCRIPT = (
     HD_SCRIPT.replace(
-        "from tracer.loader import default_scene\n",
+        "from tracer.scene.loader import default_scene\n",
         "sys.path.insert(0, {scripts!r})\nfrom study import triangles\n",
     )
     .replace(
@@ -129,9 +129,9 @@ def animation(repeats: int) -> dict:
     import statistics
     import tempfile
 
-    from tracer import incremental
-    from tracer.animate import animate, headings
-    from tracer.parallel import Renderer
+    from tracer.frames import incremental
+    from tracer.frames.animate import animate, headings
+    from tracer.workers.parallel import Renderer
 
     scene = default_scene().with_render(width=640, height=480, workers=2)
     seconds: dict[str, list[float]] = {"whole": [], "incremental": []}
@@ -166,10 +166,10 @@ def animation(repeats: int) -> dict:
 
 
 def edits(repeats: int = 5) -> dict:
-    """tracer/edits.py on the default scene at 640x480 in one process: the editable image against a plain render,
+    """tracer/frames/edits.py on the default scene at 640x480 in one process: the editable image against a plain render,
     and four edits (medians of repeats): the share of pixels each traces again and its time."""
-    from tracer import edits as editing
-    from tracer import scene as sc
+    from tracer.frames import edits as editing
+    from tracer.scene import scene as sc
 
     scene = default_scene().with_render(width=640, height=480)
     with Renderer(1) as renderer:
@@ -225,7 +225,7 @@ def main() -> None:
     parser.add_argument(
         "--meshes-only", action="store_true", help="only the mesh scaling (1,000 to 1,000,000 triangles)"
     )
-    parser.add_argument("--edits-only", action="store_true", help="only the edits (tracer/edits.py)")
+    parser.add_argument("--edits-only", action="store_true", help="only the edits (tracer/frames/edits.py)")
     args = parser.parse_args()
     if args.animation_only:
         print(json.dumps(animation(args.animation_repeats)))

@@ -18,8 +18,8 @@ sys.path.insert(0, str(ROOT))
 import numpy as np  # noqa: E402
 
 from tests import cgfs_peer as peer  # noqa: E402
-from tracer.images import atomic_path  # noqa: E402
-from tracer.parallel import render  # noqa: E402
+from tracer.tracing.images import atomic_path  # noqa: E402
+from tracer.workers.parallel import render  # noqa: E402
 
 CHANGES = {
     "weighted_last_bounce": "last bounce's local colour x (1 - r)",

@@ -52,7 +52,7 @@ def compare(reference: np.ndarray, test: np.ndarray) -> tuple[dict, np.ndarray]:
 def _save_png(pixels: np.ndarray, path: Path) -> None:
     from PIL import Image
 
-    from tracer.images import atomic_path
+    from tracer.tracing.images import atomic_path
 
     with atomic_path(path) as temporary:
         Image.fromarray(np.clip(pixels * 255.0 + 0.5, 0, 255).astype(np.uint8)).save(temporary, format="PNG")
@@ -60,7 +60,7 @@ def _save_png(pixels: np.ndarray, path: Path) -> None:
 
 def write_report(folder: Path, reference: str = "tracer") -> dict:
     """Compare every pair of `<engine>.npy` in folder; write heat maps, metrics.json and report.html."""
-    from tracer.images import atomic_path
+    from tracer.tracing.images import atomic_path
 
     images = {path.stem: np.load(path) for path in sorted(folder.glob("*.npy"))}
     order = sorted(images, key=lambda name: name != reference)  # the reference first

@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 import bpy  # noqa: E402
 
-from tracer.loader import default_scene_dict  # noqa: E402
+from tracer.scene.loader import default_scene_dict  # noqa: E402
 
 
 def default_vane() -> dict:

@@ -1,7 +1,7 @@
 """The vane's response to a step in wind direction -> docs/motion-step-response.png (and a table on stdout).
 
 Usage: python scripts/plot_step_response.py [--out docs/motion-step-response.png]
-Simulates tracer.motion at 240 fps for three damping ratios and three wind speeds, and draws the closed form
+Simulates tracer.scene.motion at 240 fps for three damping ratios and three wind speeds, and draws the closed form
 over the samples, so the page shows the model and the integrator's agreement with it at once.
 """
 
@@ -20,9 +20,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tracer.images import atomic_path
-from tracer.motion import Motion, frame_times, heading_into_wind, simulate
-from tracer.wind import Wind, WindKey
+from tracer.scene.motion import Motion, frame_times, heading_into_wind, simulate
+from tracer.scene.wind import Wind, WindKey
+from tracer.tracing.images import atomic_path
 
 WAVELENGTH = 7.0
 STEP_FROM = 30.0  # the wind comes from 30 degrees: the vane at heading 0 is pulled to 60

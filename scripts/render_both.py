@@ -88,8 +88,8 @@ def prepare(args: argparse.Namespace) -> None:
 
 def render_tracer(samples: int) -> np.ndarray:
     from addon.export import scene_document
-    from tracer.loader import scene_from_dict
-    from tracer.parallel import render
+    from tracer.scene.loader import scene_from_dict
+    from tracer.workers.parallel import render
 
     document = scene_document(bpy.context)
     document["render"]["samples"] = samples
@@ -169,8 +169,8 @@ def frames_on_cluster(args: argparse.Namespace, frames: range) -> dict[int, dict
     folder with metrics.json is complete and a run again keeps it."""
     import tempfile
 
-    from tracer.cluster import ClusterError, run_on_cluster
-    from tracer.images import atomic_path
+    from tracer.frames.cluster import ClusterError, run_on_cluster
+    from tracer.tracing.images import atomic_path
 
     results: dict[int, dict | None] = {}
     wanted = []

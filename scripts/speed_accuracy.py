@@ -37,7 +37,7 @@ def errors(image: np.ndarray, reference: np.ndarray) -> dict:
 
 def tracer_image(samples: int, depth: int, dtype: str, renderer, seed: int = 0) -> tuple[np.ndarray, float]:
     from addon.export import scene_document
-    from tracer.loader import scene_from_dict
+    from tracer.scene.loader import scene_from_dict
 
     document = scene_document(bpy.context)
     document["render"].update(samples=samples, depth=depth, dtype=dtype, seed=seed)
@@ -76,7 +76,7 @@ def main() -> None:
     args = parser.parse_args(script_arguments())
     render_both.prepare(argparse.Namespace(scene=None, width=args.width, height=args.height))
     from addon import twin
-    from tracer.parallel import Renderer
+    from tracer.workers.parallel import Renderer
 
     scene = bpy.context.scene
     folder = args.out / ".speed-accuracy"
@@ -137,7 +137,7 @@ def chart(runs: list[dict], target: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from tracer.images import atomic_path
+    from tracer.tracing.images import atomic_path
 
     colors = {"tracer": "tab:blue", "cycles": "tab:orange", "eevee": "tab:green", "workbench": "tab:red"}
     figure, axes = plt.subplots(2, 2, figsize=(12, 9), dpi=100)

@@ -17,9 +17,9 @@ sys.path.insert(0, str(ROOT))
 import numpy as np  # noqa: E402
 from PIL import Image, ImageDraw  # noqa: E402
 
-from tracer import scene as sc  # noqa: E402
-from tracer.images import atomic_path, to_8bit  # noqa: E402
-from tracer.parallel import render  # noqa: E402
+from tracer.scene import scene as sc  # noqa: E402
+from tracer.tracing.images import atomic_path, to_8bit  # noqa: E402
+from tracer.workers.parallel import render  # noqa: E402
 
 
 def ball_on_floor(scale: float, numerics: str, dtype: str) -> np.ndarray:
@@ -77,7 +77,7 @@ def faceting_chart(target: Path) -> None:
     import matplotlib.pyplot as plt
 
     sys.path.insert(0, str(ROOT))
-    from tracer.loader import default_scene
+    from tracer.scene.loader import default_scene
 
     scene = default_scene()
     width = scene.render.width

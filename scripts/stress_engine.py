@@ -46,7 +46,7 @@ def main() -> int:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon.register()
     if options.start_method == "fork":
-        from tracer.parallel import Renderer
+        from tracer.workers.parallel import Renderer
 
         def forked(workers: int):
             if workers not in engine._renderers:

@@ -23,10 +23,10 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 
-from tracer import scene as sc  # noqa: E402
-from tracer.loader import default_scene  # noqa: E402
-from tracer.parallel import Renderer  # noqa: E402
-from tracer.reference import render_reference  # noqa: E402
+from tracer.scene import scene as sc  # noqa: E402
+from tracer.scene.loader import default_scene  # noqa: E402
+from tracer.tracing.reference import render_reference  # noqa: E402
+from tracer.workers.parallel import Renderer  # noqa: E402
 
 MARK_START, MARK_END = "<!-- STUDY:START -->", "<!-- STUDY:END -->"
 
@@ -164,7 +164,7 @@ def chart(data: dict, target: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from tracer.images import atomic_path
+    from tracer.tracing.images import atomic_path
 
     figure, axes = plt.subplots(2, 4, figsize=(18, 8), dpi=100)
     panels = [

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tracer import scene as sc
+from tracer.scene import scene as sc
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ import json
 import random
 from typing import Any
 
-from tracer import loader
+from tracer.scene import loader
 
 EXTREME_LENGTHS = (loader.LENGTH_RANGE[0], 1e-3, 1.0, 1e3, 1e6, loader.LENGTH_RANGE[1])
 EXTREME_COORDINATES = (0.0, 1e-9, 1.0, 1e6, loader.COORDINATE_LIMIT, -loader.COORDINATE_LIMIT)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from tracer import scene as sc
+from tracer.scene import scene as sc
 
 INF = math.inf
 S2 = math.sqrt(2.0)

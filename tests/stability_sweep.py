@@ -21,11 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tracer import scene as sc
-from tracer import transforms as tf
-from tracer.camera import band_directions
-from tracer.parallel import render
-from tracer.wavefront import PreparedScene
+from tracer.geometry import transforms as tf
+from tracer.geometry.camera import band_directions
+from tracer.scene import scene as sc
+from tracer.tracing.wavefront import PreparedScene
+from tracer.workers.parallel import render
 
 KINDS = ("sphere", "cylinder", "box", "plane")
 SIZES = tuple(10.0**k for k in range(-3, 7))

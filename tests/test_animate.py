@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from tracer.animate import headings
-from tracer.images import to_8bit
-from tracer.loader import default_scene, default_scene_dict
-from tracer.parallel import render
+from tracer.frames.animate import headings
+from tracer.scene.loader import default_scene, default_scene_dict
+from tracer.tracing.images import to_8bit
+from tracer.workers.parallel import render
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ["--width", "32", "--height", "24", "--quiet"]

@@ -205,9 +205,9 @@ def test_command_line_render_with_the_tracer_engine_in_blender_34(dist: Path, tm
     import numpy as np
     from PIL import Image
 
-    from tracer.images import to_8bit
-    from tracer.loader import default_scene
-    from tracer.parallel import render
+    from tracer.scene.loader import default_scene
+    from tracer.tracing.images import to_8bit
+    from tracer.workers.parallel import render
 
     blend, environment = vane_blend(dist, tmp_path)
     result = subprocess.run(

@@ -100,9 +100,9 @@ def check_rendered_view_is_the_tracers_image(work: Path, screenshot: Path) -> No
     """The view's pixels on screen against the tracer's own render of the scene from that view at that size."""
     from skimage.metrics import peak_signal_noise_ratio
 
-    from tracer.images import to_8bit
-    from tracer.loader import load_scene
-    from tracer.parallel import render
+    from tracer.scene.loader import load_scene
+    from tracer.tracing.images import to_8bit
+    from tracer.workers.parallel import render
 
     place = json.loads((work / "rendered-region.json").read_text())
     top = place["window"] - place["y"] - place["height"]  # Blender counts window rows from the bottom

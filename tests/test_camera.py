@@ -9,12 +9,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from tracer import camera as cam
-from tracer import scene as sc
-from tracer import transforms as tf
-from tracer.loader import default_scene
-from tracer.parallel import render
-from tracer.reference import render_reference
+from tracer.geometry import camera as cam
+from tracer.geometry import transforms as tf
+from tracer.scene import scene as sc
+from tracer.scene.loader import default_scene
+from tracer.tracing.reference import render_reference
+from tracer.workers.parallel import render
 
 
 def blender_world_to_camera_view(

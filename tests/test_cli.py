@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from tracer.images import to_8bit
-from tracer.loader import default_scene, default_scene_dict
-from tracer.parallel import render
+from tracer.scene.loader import default_scene, default_scene_dict
+from tracer.tracing.images import to_8bit
+from tracer.workers.parallel import render
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -194,7 +194,7 @@ def test_shared_images_outlive_later_frames_and_leave_no_files() -> None:
     import glob
     import tempfile
 
-    from tracer.parallel import Renderer
+    from tracer.workers.parallel import Renderer
 
     pattern = "weathervane-image-*"
     before = set(glob.glob(f"/dev/shm/{pattern}")) | set(glob.glob(f"{tempfile.gettempdir()}/{pattern}"))
@@ -214,7 +214,7 @@ def test_render_frames_gives_each_frame_in_order_and_cleans_up_when_stopped_earl
     import glob
     import tempfile
 
-    from tracer.parallel import Renderer
+    from tracer.workers.parallel import Renderer
 
     def leftovers() -> set[str]:
         pattern = "weathervane-image-*"

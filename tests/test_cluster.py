@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from tracer import cluster
-from tracer.animate import animate, frame_path
-from tracer.loader import default_scene
+from tracer.frames import cluster
+from tracer.frames.animate import animate, frame_path
+from tracer.scene.loader import default_scene
 
 pytest.importorskip("distributed", reason="the cluster extra: make test installs dask[distributed]")
 from tests.dask_cluster import LocalCluster

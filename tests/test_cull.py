@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from tests.random_scenes import random_scene_document
-from tracer.cull import CoverageGrid, ScreenRectangles
-from tracer.loader import default_scene, scene_from_dict
-from tracer.wavefront import PreparedScene
+from tracer.geometry.cull import CoverageGrid, ScreenRectangles
+from tracer.scene.loader import default_scene, scene_from_dict
+from tracer.tracing.wavefront import PreparedScene
 
 SEEDS = range(30)
 MODES = [("float64", "documented"), ("float32", "documented"), ("float64", "robust"), ("float32", "robust")]
@@ -64,7 +64,7 @@ def test_screen_rectangles_hold_every_pixel_that_sees_a_sphere() -> None:
     document["render"]["samples"] = 1
     scene = scene_from_dict(document)
     prepared = PreparedScene(scene)
-    from tracer.camera import band_directions
+    from tracer.geometry.camera import band_directions
 
     rows = np.arange(120)
     D = band_directions(scene.camera, scene.render, rows)
@@ -81,7 +81,7 @@ def test_screen_rectangles_hold_every_pixel_that_sees_a_sphere() -> None:
 
 
 def test_a_camera_among_the_objects_gets_no_screen_rectangles() -> None:
-    from tracer import scene as sc
+    from tracer.scene import scene as sc
 
     boxes = ([0], np.array([[-1.0, -1.0, -1.0]]), np.array([[1.0, 1.0, 1.0]]))
     camera = sc.Camera(location=(0.0, 0.0, 0.0), rotation=(0.0, 0.0, 0.0), lens=50.0)  # looks down -z

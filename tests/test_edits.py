@@ -1,5 +1,5 @@
-"""Edits (tracer/edits.py) re-trace what they touch, and the image is the whole render of the edited scene, bit for
-bit."""
+"""Edits (tracer/frames/edits.py) re-trace what they touch, and the image is the whole render of the edited scene, bit
+for bit."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from tests.random_scenes import random_scene_document
-from tracer import edits
-from tracer import scene as sc
-from tracer.loader import default_scene, scene_from_dict
-from tracer.parallel import render
+from tracer.frames import edits
+from tracer.scene import scene as sc
+from tracer.scene.loader import default_scene, scene_from_dict
+from tracer.workers.parallel import render
 
 
 def random_edit(scene: sc.Scene, rng: random.Random) -> edits.Edit:

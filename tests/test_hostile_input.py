@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 from tests.hostile_scenes import extreme_scene, hostile_text
-from tracer import cli, loader
-from tracer.animate import animate, frame_path
-from tracer.loader import SceneError, default_scene_dict, load_scene, scene_from_dict
-from tracer.parallel import render
+from tracer import cli
+from tracer.frames.animate import animate, frame_path
+from tracer.scene import loader
+from tracer.scene.loader import SceneError, default_scene_dict, load_scene, scene_from_dict
+from tracer.workers.parallel import render
 
 ROOT = Path(__file__).resolve().parents[1]
 

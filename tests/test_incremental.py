@@ -1,4 +1,4 @@
-"""Incremental frames (tracer/footprint.py, tracer/incremental.py) are the whole frames, bit for bit."""
+"""Incremental frames (tracer/geometry/footprint.py, tracer/frames/incremental.py) are the whole frames, bit for bit."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from tests.random_scenes import random_scene_document
-from tracer import incremental
-from tracer import scene as sc
-from tracer.animate import headings
-from tracer.loader import default_scene, scene_from_dict
-from tracer.parallel import Renderer
+from tracer.frames import incremental
+from tracer.frames.animate import headings
+from tracer.scene import scene as sc
+from tracer.scene.loader import default_scene, scene_from_dict
+from tracer.workers.parallel import Renderer
 
 
 def turning_scene(seed: int, dtype: str, numerics: str) -> sc.Scene:

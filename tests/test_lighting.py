@@ -8,9 +8,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from tracer import scene as sc
-from tracer.parallel import render
-from tracer.reference import render_reference
+from tracer.scene import scene as sc
+from tracer.tracing.reference import render_reference
+from tracer.workers.parallel import render
 
 COLOR = (0.5, 0.25, 0.1)
 # a 3 x 3 image from (0, -5, 0) looking along +Y: the centre pixel's ray hits the unit sphere at P = (0, -1, 0)

@@ -10,8 +10,8 @@ from typing import Any
 import jsonschema
 import pytest
 
-from tracer import scene as sc
-from tracer.loader import SceneError, default_scene, default_scene_dict, load_scene, scene_from_dict
+from tracer.scene import scene as sc
+from tracer.scene.loader import SceneError, default_scene, default_scene_dict, load_scene, scene_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = json.loads((ROOT / "docs" / "scene.schema.json").read_text())

@@ -1,4 +1,4 @@
-"""Large meshes (tracer/meshbvh.py): their own hierarchy finds exactly the hits of the whole-mesh test."""
+"""Large meshes (tracer/geometry/meshbvh.py): their own hierarchy finds exactly the hits of the whole-mesh test."""
 
 from __future__ import annotations
 
@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tracer import scene as sc
-from tracer import transforms as tf
-from tracer.kernels import make_kernel, quiet
-from tracer.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
-from tracer.parallel import render
-from tracer.reference import render_reference
-from tracer.robust import make_robust_kernel
+from tracer.geometry import transforms as tf
+from tracer.geometry.kernels import make_kernel, quiet
+from tracer.geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
+from tracer.geometry.robust import make_robust_kernel
+from tracer.scene import scene as sc
+from tracer.tracing.reference import render_reference
+from tracer.workers.parallel import render
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 from study import triangles as uv_sphere

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from tracer.keyframes import interpolate, reduce_keys
-from tracer.motion import Motion, Spin, frame_times, heading_into_wind, simulate, transition
-from tracer.wind import Gusts, Wind, WindKey, sample
+from tracer.scene.keyframes import interpolate, reduce_keys
+from tracer.scene.motion import Motion, Spin, frame_times, heading_into_wind, simulate, transition
+from tracer.scene.wind import Gusts, Wind, WindKey, sample
 
 
 def steady(direction: float, speed: float, **motion: object) -> Motion:

@@ -6,7 +6,7 @@ import pytest
 
 from tests.primitive_cases import CASES, INF
 from tests.tracing import first_hit, one_object_scene
-from tracer import scene as sc
+from tracer.scene import scene as sc
 
 
 @pytest.mark.parametrize(("label", "obj", "origin", "direction", "expected"), CASES, ids=[c[0] for c in CASES])
@@ -28,7 +28,7 @@ def test_pyramid_side_height_matches_its_slope() -> None:
 
 
 def test_box_and_pyramid_normals_point_outward() -> None:
-    from tracer import transforms as tf
+    from tracer.geometry import transforms as tf
 
     for obj in (
         sc.Box(name="b", material="m", rotation=(10, 20, 30), size=(1, 2, 3)),
@@ -46,7 +46,7 @@ def test_vane_heading_turns_parts_about_the_pivot() -> None:
     still = sc.Sphere(name="ball", material="m", location=(1, 0, 3), radius=0.05)
     vane = sc.Vane(parts=("arm",), pivot=(0, 0, 3), axis=(0, 0, 1), heading=90)
     scene = sc.Scene(materials={"m": sc.Material()}, objects=(arm, still), lights=(), vane=vane)
-    from tracer import transforms as tf
+    from tracer.geometry import transforms as tf
 
     box = tf.world_primitive(arm, vane)
     centre = [sum(v[i] for tri in box.triangles for v in tri) / (3 * len(box.triangles)) for i in range(3)]

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import io
 
-from tracer.loader import default_scene
-from tracer.parallel import bands, render
 from tracer.progress import ProgressBar
+from tracer.scene.loader import default_scene
+from tracer.workers.parallel import bands, render
 
 
 class Terminal(io.StringIO):

@@ -11,13 +11,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from tracer import progressive as progressive_module
-from tracer import resources
-from tracer import scene as sc
-from tracer.edits import edits_between
-from tracer.loader import default_scene
-from tracer.parallel import render
-from tracer.progressive import EDIT_SHARE, LEVELS, Level, ProgressiveRender, level_scene
+from tracer.frames import progressive as progressive_module
+from tracer.frames.edits import edits_between
+from tracer.frames.progressive import EDIT_SHARE, LEVELS, Level, ProgressiveRender, level_scene
+from tracer.scene import scene as sc
+from tracer.scene.loader import default_scene
+from tracer.workers import resources
+from tracer.workers.parallel import render
 
 
 def small_scene(heading: float = 0.0, width: int = 96, height: int = 64):

@@ -9,9 +9,9 @@ import pytest
 
 from tests import cgfs_peer
 from tests.random_scenes import random_scene_document
-from tracer.loader import default_scene, scene_from_dict
-from tracer.parallel import render
-from tracer.reference import ReferenceTracer, render_reference
+from tracer.scene.loader import default_scene, scene_from_dict
+from tracer.tracing.reference import ReferenceTracer, render_reference
+from tracer.workers.parallel import render
 
 SEEDS = range(60)
 
@@ -81,7 +81,7 @@ def test_single_ray_bands_match_reference(seed: int, width: int, height: int) ->
 def test_large_mesh_split_into_clusters_matches_reference() -> None:
     import math
 
-    from tracer import scene as sc
+    from tracer.scene import scene as sc
 
     # a UV sphere of 8 x 12 quads (192 triangles): its triangles go into the hierarchy in clusters
     rings, segments = 8, 12

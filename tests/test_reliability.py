@@ -14,11 +14,12 @@ import numpy as np
 import pytest
 
 from tracer import cli, default_scene
-from tracer import resources as rs
-from tracer.images import write_image
-from tracer.parallel import Renderer, band_samples, bands, render
-from tracer.pool import MAX_ATTEMPTS, TaskFailedError, WorkerLostError, WorkerPool
-from tracer.wavefront import PreparedScene
+from tracer.tracing.images import write_image
+from tracer.tracing.wavefront import PreparedScene
+from tracer.workers import resources as rs
+from tracer.workers.parallel import Renderer, bands, render
+from tracer.workers.pool import MAX_ATTEMPTS, TaskFailedError, WorkerLostError, WorkerPool
+from tracer.workers.resources import band_samples
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -100,7 +101,7 @@ def _echo_doubled(values: np.ndarray) -> np.ndarray:
 
 LARGE_MESSAGES_SCRIPT = """
 import numpy as np
-from tracer.pool import WorkerPool
+from tracer.workers.pool import WorkerPool
 pool = WorkerPool(2)
 values = np.arange(1_000_000, dtype=np.float64)  # 8 MB each way: far more than a pipe holds
 from tests.test_reliability import _echo_doubled
@@ -264,11 +265,11 @@ def test_every_piece_traced_stays_within_the_band_budget_at_any_sample_count(mon
         return original(self, D, counts, *rest)
 
     monkeypatch.setattr(PreparedScene, "trace", recording)
-    monkeypatch.setattr("tracer.parallel.BAND_BYTES", 4096 * 8)
+    monkeypatch.setattr("tracer.workers.resources.BAND_BYTES", 4096 * 8)
     image = render(scene, workers=1).image
     assert band_samples(scene.render) == 4096 < 64 * 256  # less than one row
     assert max(traced) <= 4096 and sum(traced) >= 64 * 4 * 256
-    monkeypatch.setattr("tracer.parallel.BAND_BYTES", 1 << 24)
+    monkeypatch.setattr("tracer.workers.resources.BAND_BYTES", 1 << 24)
     traced.clear()
     assert np.array_equal(render(scene, workers=1).image, image)
     assert max(traced) == 64 * 4 * 256
@@ -301,7 +302,7 @@ class _Usage:
 def test_a_full_disk_says_so_for_the_users_path() -> None:
     image = np.zeros((4, 4, 3))
     with pytest.raises(OSError) as raised:
-        from tracer.images import _write_npy
+        from tracer.tracing.images import _write_npy
 
         _write_npy(image, Path("/dev/full"))
     assert raised.value.errno == errno.ENOSPC

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from tests.scripts_run import BLENDER, in_blender, in_python
-from tracer.loader import default_scene_dict
+from tracer.scene.loader import default_scene_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ["--width", "96", "--height", "72", "--cycles-samples", "64"]

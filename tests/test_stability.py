@@ -14,12 +14,12 @@ import pytest
 from tests import stability_sweep as sweep
 from tests.primitive_cases import CASES
 from tests.random_scenes import random_scene_document
-from tracer import scene as sc
-from tracer.kernels import quiet
-from tracer.loader import scene_from_dict
-from tracer.parallel import render
-from tracer.robust import offset_origins
-from tracer.wavefront import PreparedScene
+from tracer.geometry.kernels import quiet
+from tracer.geometry.robust import offset_origins
+from tracer.scene import scene as sc
+from tracer.scene.loader import scene_from_dict
+from tracer.tracing.wavefront import PreparedScene
+from tracer.workers.parallel import render
 
 INF = math.inf
 
@@ -112,7 +112,7 @@ def acne_and_leaks(scale: float, numerics: str, dtype: str) -> tuple[float, floa
         render=sc.RenderSettings(width=128, height=96, depth=0, numerics=numerics, dtype=dtype),
     )
     lit = render(scene, workers=1).image[..., 0].reshape(-1) > 0.0
-    from tracer.camera import band_directions
+    from tracer.geometry.camera import band_directions
 
     exact = PreparedScene(scene.with_render(dtype="float64", numerics="robust"))
     D = band_directions(scene.camera, scene.render, np.arange(96))

@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 
-from tracer import scene as sc
-from tracer.reference import ReferenceTracer
-from tracer.wavefront import PreparedScene
+from tracer.scene import scene as sc
+from tracer.tracing.reference import ReferenceTracer
+from tracer.tracing.wavefront import PreparedScene
 
 MATERIALS = {"m": sc.Material(color=(0.5, 0.25, 0.1), specular=10.0, reflective=0.0)}
 

@@ -3,7 +3,7 @@
 No Blender import anywhere in this package: it runs in any Python 3.11 with NumPy, and inside Blender.
 """
 
-from .loader import SceneError, default_scene, load_scene, scene_from_dict
-from .parallel import Renderer, RenderResult, render
+from .scene.loader import SceneError, default_scene, load_scene, scene_from_dict
+from .workers.parallel import Renderer, RenderResult, render
 
 __all__ = ["RenderResult", "Renderer", "SceneError", "default_scene", "load_scene", "render", "scene_from_dict"]

@@ -10,15 +10,15 @@ import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from . import scene as sc
-from .animate import DEFAULT_TOLERANCE, animate, write_gif
-from .cluster import ClusterError
-from .images import SUFFIXES, write_image
-from .loader import SceneError, check_samples, default_scene, load_scene
-from .parallel import Renderer, worker_count
-from .pool import TaskFailedError, WorkerLostError
+from .frames.animate import DEFAULT_TOLERANCE, animate, write_gif
+from .frames.cluster import ClusterError
 from .progress import ProgressBar
-from .resources import ResourceError, check_disk, check_resources, output_bytes
+from .scene import scene as sc
+from .scene.loader import SceneError, check_samples, default_scene, load_scene
+from .tracing.images import SUFFIXES, write_image
+from .workers.parallel import Renderer, worker_count
+from .workers.pool import TaskFailedError, WorkerLostError
+from .workers.resources import ResourceError, check_disk, check_resources, output_bytes
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
@@ -319,7 +319,7 @@ def _animate_on_cluster(scene: sc.Scene, args: argparse.Namespace, fps: float, p
     their tracebacks) held back: what the user needs comes as one line of ClusterError."""
     import logging
 
-    from .cluster import CHUNK_FRAMES, animate_on_cluster
+    from .frames.cluster import CHUNK_FRAMES, animate_on_cluster
 
     dask_log = logging.getLogger("distributed")
     level = dask_log.level

@@ -13,11 +13,11 @@ from mathutils import Vector
 
 from addon import build, compat
 from addon.animation import motion_for
-from tracer import motion as motion_module
-from tracer import transforms
-from tracer.keyframes import DEFAULT_TOLERANCE
-from tracer.loader import default_scene, default_scene_dict, scene_from_dict
-from tracer.wind import Wind, WindKey
+from tracer.geometry import transforms
+from tracer.scene import motion as motion_module
+from tracer.scene.keyframes import DEFAULT_TOLERANCE
+from tracer.scene.loader import default_scene, default_scene_dict, scene_from_dict
+from tracer.scene.wind import Wind, WindKey
 
 
 def built() -> bpy.types.Collection:
@@ -362,7 +362,7 @@ def _exported(tmp_path: Path) -> dict:
 
 
 def test_other_lights_are_left_out_until_asked_for_and_build_says_so(tmp_path: Path, capfd) -> None:
-    from tracer.parallel import render
+    from tracer.workers.parallel import render
 
     # the startup file's Light: 1000 W at (4.1, 1.0, 5.9)
     data = bpy.data.lights.new("Light", type="POINT")

@@ -14,8 +14,8 @@ from bpy_extras.object_utils import world_to_camera_view
 from mathutils import Vector
 
 from addon.camera import unsupported
-from tracer import camera as cam
-from tracer.loader import scene_from_dict
+from tracer.geometry import camera as cam
+from tracer.scene.loader import scene_from_dict
 
 # (camera data settings, render resolution, pixel aspect)
 CAMERAS = [
@@ -102,7 +102,7 @@ def test_export_names_what_the_tracer_does_not_render(tmp_path: Path, capfd: pyt
 
 
 def test_a_scene_files_camera_builds_and_exports_unchanged(tmp_path: Path) -> None:
-    from tracer.loader import default_scene_dict
+    from tracer.scene.loader import default_scene_dict
 
     document = default_scene_dict()
     camera = {"type": "ORTHO", "ortho_scale": 8.5, "shift_x": 0.25, "shift_y": -0.1, "clip_start": 0.3, "clip_end": 60}

@@ -8,8 +8,8 @@ import bpy
 import numpy as np
 import pytest
 
-from tracer.loader import default_scene
-from tracer.parallel import render
+from tracer.scene.loader import default_scene
+from tracer.workers.parallel import render
 
 
 def engine_scene(workers: int | None = None):
@@ -68,7 +68,7 @@ def test_engine_follows_the_baked_motion(tmp_path: Path) -> None:
 def test_a_render_too_large_for_memory_is_reported_in_one_line_not_raised(tmp_path: Path, monkeypatch) -> None:
     from addon._tracer import module
 
-    monkeypatch.setattr(module("resources"), "available_memory", lambda: 10**6)  # 1 MB free
+    monkeypatch.setattr(module("workers.resources"), "available_memory", lambda: 10**6)  # 1 MB free
     assert bpy.ops.weathervane.build() == {"FINISHED"}
     scene = bpy.context.scene
     scene.render.engine = "WEATHERVANE_TRACER"
@@ -89,7 +89,7 @@ def test_engine_renders_blenders_orthographic_shifted_clipped_camera(
     import json
     from dataclasses import replace
 
-    from tracer.loader import scene_from_dict
+    from tracer.scene.loader import scene_from_dict
 
     assert bpy.ops.weathervane.build() == {"FINISHED"}
     scene = bpy.context.scene
@@ -125,8 +125,8 @@ def test_engine_renders_blenders_orthographic_shifted_clipped_camera(
 def test_f12_png_equals_the_tracers_srgb_png_and_the_properties_show_the_engine(tmp_path: Path) -> None:
     import json
 
-    from tracer.images import to_8bit
-    from tracer.loader import scene_from_dict
+    from tracer.scene.loader import scene_from_dict
+    from tracer.tracing.images import to_8bit
 
     assert bpy.ops.weathervane.build() == {"FINISHED"}
     scene = bpy.context.scene
@@ -170,7 +170,7 @@ def test_f12_png_equals_the_tracers_srgb_png_and_the_properties_show_the_engine(
 def test_numerics_and_precision_set_in_render_properties_reach_the_tracer(tmp_path: Path) -> None:
     import json
 
-    from tracer.loader import scene_from_dict
+    from tracer.scene.loader import scene_from_dict
 
     assert bpy.ops.weathervane.build() == {"FINISHED"}
     settings = bpy.context.scene.weathervane
@@ -185,7 +185,7 @@ def test_a_cancelled_render_keeps_the_bands_finished_before_the_cancel(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from addon import engine
-    from tracer.parallel import bands
+    from tracer.workers.parallel import bands
 
     engine_scene(workers=1)  # bands one after another: the cancel comes after the first
     monkeypatch.setattr(engine, "cancelled", lambda _engine: True)  # Esc, as soon as the engine asks

@@ -15,10 +15,10 @@ import pytest
 from mathutils import Matrix
 
 from addon import viewport
-from tracer import camera as cam
-from tracer import scene as sc
-from tracer.loader import scene_from_dict
-from tracer.parallel import render
+from tracer.geometry import camera as cam
+from tracer.scene import scene as sc
+from tracer.scene.loader import scene_from_dict
+from tracer.workers.parallel import render
 
 VIEWS = [
     ({"lens": 35.0}, (64, 48), 0.0),

@@ -10,22 +10,19 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import camera as cam
-from . import scene as sc
-from . import transforms as tf
-from .bvh import Hierarchy
-from .cull import CoverageGrid, ScreenRectangles, kernel_sets
-from .footprint import Footprint, Volume
-
-if TYPE_CHECKING:
-    from .edits import RayStore
-from .kernels import Kernel, PlaneKernel, column, dot, indices, make_kernel, quiet, take
-from .meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
-from .robust import make_robust_kernel, offset_origins
+from ..geometry import camera as cam
+from ..geometry import transforms as tf
+from ..geometry.bvh import Hierarchy
+from ..geometry.cull import CoverageGrid, ScreenRectangles, kernel_sets
+from ..geometry.footprint import Footprint, Volume
+from ..geometry.kernels import Kernel, PlaneKernel, column, dot, indices, make_kernel, quiet, take
+from ..geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
+from ..geometry.robust import make_robust_kernel, offset_origins
+from ..scene import scene as sc
+from .raystore import RayStore
 
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0
 SHADOW_T_MIN = 0.001  # listing 3.2

@@ -18,8 +18,8 @@ import math
 
 import numpy as np
 
+from ..scene import scene as sc
 from . import camera as cam
-from . import scene as sc
 
 CELLS = 128  # along the picture's longer side
 DEPTH_MARGIN = 1e-3  # of the scene's size: a perspective picture needs every box at least this far in front

@@ -16,13 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import scene as sc
-from .images import atomic_path, write_image
+from ..scene import scene as sc
+from ..scene.keyframes import DEFAULT_TOLERANCE, reduce_keys
+from ..scene.motion import Motion, iter_headings
+from ..tracing.images import atomic_path, write_image
+from ..tracing.wavefront import RayCounts
+from ..workers.parallel import Renderer, RenderResult
 from .incremental import render_frames as incremental_frames
-from .keyframes import DEFAULT_TOLERANCE, reduce_keys
-from .motion import Motion, iter_headings
-from .parallel import Renderer, RenderResult
-from .wavefront import RayCounts
 
 FrameProgress = Callable[[int, int], None]
 FRAME_COMPRESSION = 3  # zlib level for frames: 7.8 ms and 38 KB a 640x480 frame here, against 13.4 ms and 27 KB at 6
@@ -132,7 +132,7 @@ def animate(
 ) -> AnimationResult:
     """Render frames first..last (inclusive, 1-based) into folder; returns what was rendered and skipped.
 
-    incremental: trace again only the pixels the vane can change (tracer/incremental.py; the same bytes); False
+    incremental: trace again only the pixels the vane can change (tracer/frames/incremental.py; the same bytes); False
     traces every frame whole."""
     plan = plan_frames(scene, folder, first, last, fps, overwrite)
     folder.mkdir(parents=True, exist_ok=True)

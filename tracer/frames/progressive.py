@@ -22,9 +22,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from . import scene as sc
+from ..scene import scene as sc
+from ..workers.parallel import Renderer
 from .edits import Edit, EditableImage, edits_between
-from .parallel import Renderer
 
 LEVELS = (8, 4, 2, 1)  # divisors of the image's width and height, coarse to fine
 # Up to this many camera samples (width x height x samples) the full level's ray trees are kept afterwards (234

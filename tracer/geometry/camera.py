@@ -18,7 +18,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from . import scene as sc
+from ..scene import scene as sc
 from . import transforms as tf
 
 MASK64 = (1 << 64) - 1

@@ -12,14 +12,30 @@ from pathlib import Path
 
 import numpy as np
 
-from . import scene as sc
+from ..scene import scene as sc
 
 # A band's arrays peak at about 35 coordinates per camera sample (measured: docs/performance.md); the worker's
 # interpreter, NumPy and prepared scene add about WORKER_BASE_BYTES.
 BAND_PEAK_COORDINATES = 40
 WORKER_BASE_BYTES = 60 << 20
+# One coordinate of every camera sample of a band, in bytes. A band's arrays peak at about 35 such coordinates per
+# sample. Small frames go in few large bands (each band costs fixed NumPy overhead: at 640x480 in float64, 2 bands
+# were 9% faster than 4); a large image leaves less room beside it, so its bands are smaller: 1920x1080 in float64
+# took 197-211 MB for the parent and two workers together with bands of 148,000 samples, 155-165 MB with 80,000.
+BAND_BYTES = 1_280_000  # 160,000 samples in float64, 320,000 in float32
+LARGE_IMAGE_BYTES = 16 << 20
+LARGE_IMAGE_BAND_BYTES = 480_000  # 60,000 samples in float64, 120,000 in float32
 # Beyond the tracer's own estimate, room left for everything else on the machine.
 HEADROOM = 1.1
+
+
+def band_samples(settings: sc.RenderSettings) -> int:
+    """The most camera samples traced at once: about BAND_BYTES / itemsize (LARGE_IMAGE_BAND_BYTES for an image of
+    more than LARGE_IMAGE_BYTES). A band of more samples (a block of rows at many samples per pixel) is traced in
+    pieces of this size, so memory stays bounded at any sample count."""
+    itemsize = np.dtype(settings.dtype).itemsize
+    large = settings.height * settings.width * 3 * itemsize > LARGE_IMAGE_BYTES
+    return (LARGE_IMAGE_BAND_BYTES if large else BAND_BYTES) // itemsize
 
 
 class ResourceError(RuntimeError):
@@ -33,8 +49,6 @@ def image_bytes(settings: sc.RenderSettings) -> int:
 def memory_needed(settings: sc.RenderSettings, workers: int, frames: int = 1, output: str | None = None) -> int:
     """Bytes a render needs at its peak: frames images, each worker's band arrays, and the output's buffers
     (output: '.png' or '.npy', the file's suffix, or None when no file is written)."""
-    from .parallel import band_samples  # parallel imports this module
-
     itemsize = np.dtype(settings.dtype).itemsize
     pixels = settings.width * settings.height
     at_once = min(band_samples(settings), pixels * settings.samples)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from . import scene as sc
+from ..scene import scene as sc
 
 Matrix3 = tuple[sc.Vec3, sc.Vec3, sc.Vec3]
 

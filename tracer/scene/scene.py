@@ -175,7 +175,7 @@ class RenderSettings:
     dtype: Literal["float32", "float64"] = "float64"
     seed: int = 0
     gate_specular: bool = False
-    numerics: Literal["documented", "robust"] = "documented"  # tracer/robust.py
+    numerics: Literal["documented", "robust"] = "documented"  # tracer/geometry/robust.py
     pixel_aspect: tuple[float, float] = (1.0, 1.0)  # Blender's pixel_aspect_x, pixel_aspect_y
 
 

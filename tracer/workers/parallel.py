@@ -21,19 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import scene as sc
-from .footprint import Volume
+from ..geometry.footprint import Volume
+from ..scene import scene as sc
+from ..tracing.wavefront import PreparedScene, RayCounts
 from .pool import Task, WorkerPool
-from .resources import check_resources
-from .wavefront import PreparedScene, RayCounts
+from .resources import band_samples, check_resources
 
-# One coordinate of every camera sample of a band, in bytes. A band's arrays peak at about 35 such coordinates per
-# sample. Small frames go in few large bands (each band costs fixed NumPy overhead: at 640x480 in float64, 2 bands
-# were 9% faster than 4); a large image leaves less room beside it, so its bands are smaller: 1920x1080 in float64
-# took 197-211 MB for the parent and two workers together with bands of 148,000 samples, 155-165 MB with 80,000.
-BAND_BYTES = 1_280_000  # 160,000 samples in float64, 320,000 in float32
-LARGE_IMAGE_BYTES = 16 << 20
-LARGE_IMAGE_BAND_BYTES = 480_000  # 60,000 samples in float64, 120,000 in float32
 BLOCK_ROWS = 16
 
 Progress = Callable[[int, int], None]
@@ -50,15 +43,6 @@ def default_workers() -> int:
 def worker_count(requested: int) -> int:
     """The processes a render uses for a requested count (0: all cores)."""
     return requested if requested > 0 else default_workers()
-
-
-def band_samples(settings: sc.RenderSettings) -> int:
-    """The most camera samples traced at once: about BAND_BYTES / itemsize (LARGE_IMAGE_BAND_BYTES for an image of
-    more than LARGE_IMAGE_BYTES). A band of more samples (a block of rows at many samples per pixel) is traced in
-    pieces of this size, so memory stays bounded at any sample count."""
-    itemsize = np.dtype(settings.dtype).itemsize
-    large = settings.height * settings.width * 3 * itemsize > LARGE_IMAGE_BYTES
-    return (LARGE_IMAGE_BAND_BYTES if large else BAND_BYTES) // itemsize
 
 
 def bands(settings: sc.RenderSettings) -> list[np.ndarray]:
@@ -168,7 +152,7 @@ class Renderer:
     workers map and write their bands into and that the returned array maps in turn: bands are not copied through
     pipes, the image is never copied at all (at 1920x1080 in float64 that is 50 MB less at the peak), and the file
     has no name, so nothing outlives the processes however they end. Elsewhere bands come back pickled.
-    A worker that dies (killed, out of memory) has its bands traced again by a fresh one (tracer/pool.py).
+    A worker that dies (killed, out of memory) has its bands traced again by a fresh one (tracer/workers/pool.py).
     """
 
     def __init__(self, workers: int = 0, start_method: str | None = None) -> None:

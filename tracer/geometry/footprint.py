@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from . import scene as sc
+from ..scene import scene as sc
 from . import transforms as tf
 from .kernels import indices, make_kernel, padded_box, quiet, slab, take
 

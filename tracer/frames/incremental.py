@@ -15,9 +15,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from . import scene as sc
-from .footprint import swept_volume
-from .parallel import BandDone, Progress, Renderer, RenderResult
+from ..geometry.footprint import swept_volume
+from ..scene import scene as sc
+from ..workers.parallel import BandDone, Progress, Renderer, RenderResult
 
 # Runs: tighter boxes mean fewer pixels to trace again, a longer run fewer whole frames. On the default scene the
 # parts' boxes hold the ray trees of 3.6% of the pixels for one heading, 5% over 15 degrees, 6.2% over 30 and 7.9%

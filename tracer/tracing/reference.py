@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import math
 
-from . import camera as cam
-from . import scene as sc
-from . import transforms as tf
-from .transforms import add, cross, dot, length, scale, sub
+from ..geometry import camera as cam
+from ..geometry import transforms as tf
+from ..geometry.transforms import add, cross, dot, length, scale, sub
+from ..scene import scene as sc
 
 INF = math.inf
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0, hits behind the camera are dropped

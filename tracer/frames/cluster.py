@@ -2,7 +2,7 @@
 
 The client plans the run as `animate` does (frames already written stay, so a stopped run resumes), simulates the
 vane's motion, and sends runs of up to CHUNK_FRAMES consecutive frames to the cluster as tasks: a worker traces a
-run incrementally (its frames share what the vane cannot change; tracer/incremental.py) and answers with the
+run incrementally (its frames share what the vane cannot change; tracer/frames/incremental.py) and answers with the
 frames' PNG bytes, which the client writes atomically itself, so workers need no shared disk. A frame is a pure
 function of the scene and its heading, so a task run again elsewhere (its worker died) gives the same bytes, and
 the client writes each frame once, from the first answer it receives.
@@ -17,7 +17,10 @@ from functools import partial
 from pathlib import Path
 from typing import TypeVar
 
-from . import scene as sc
+from ..scene import scene as sc
+from ..tracing.images import atomic_path, encode_png
+from ..tracing.wavefront import RayCounts
+from ..workers.parallel import Renderer
 from .animate import (
     FRAME_COMPRESSION,
     AnimationResult,
@@ -26,9 +29,6 @@ from .animate import (
     frame_results,
     plan_frames,
 )
-from .images import atomic_path, encode_png
-from .parallel import Renderer
-from .wavefront import RayCounts
 
 CHUNK_FRAMES = 8  # frames per task: long enough for the incremental renderer's reuse, short enough to spread
 CONNECT_SECONDS = 10.0  # how long to try reaching the scheduler before saying so
