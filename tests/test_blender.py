@@ -32,7 +32,7 @@ def test_extension_zip_installs_and_builds_in_blender_5(dist: Path, tmp_path: Pa
         assert bpy.ops.weathervane.build() == {{"FINISHED"}}
         print("OBJECTS", len(bpy.data.collections["Weathervane"].objects))
         # its own copy, as a top-level package from the extension's folder (worker processes import it by name)
-        copy = sys.modules["weathervane_tracer.loader"].__file__
+        copy = sys.modules["weathervane_tracer.scene.loader"].__file__
         assert "extensions" in copy and "weathervane" in copy, copy
     """)
     environment = {**os.environ, "BLENDER_USER_RESOURCES": str(tmp_path)}

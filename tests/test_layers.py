@@ -163,3 +163,13 @@ def test_the_addons_tracer_lookups_name_existing_modules():
                 argument = node.args[0]
                 if isinstance(argument, ast.Constant):
                     assert argument.value in known, f"{path.name}: module({argument.value!r}) is not a tracer module"
+
+
+def test_every_module_is_on_the_map():
+    """docs/architecture.md names every module with what it turns into what: a new module is added there too."""
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    tracer_modules = [path.relative_to(ROOT / "tracer").as_posix() for path in (ROOT / "tracer").rglob("*.py")]
+    tracer_modules = [name for name in tracer_modules if not name.endswith("/__init__.py") and name != "__main__.py"]
+    addon_modules = [path.name for path in (ROOT / "addon").glob("*.py")]
+    missing = [name for name in tracer_modules + addon_modules if f"`{name}`" not in text]
+    assert not missing, f"docs/architecture.md does not name: {missing}"
