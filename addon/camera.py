@@ -79,6 +79,6 @@ def unsupported(blender_scene, exporting: bool = True) -> list[str]:
     render = blender_scene.render
     if render.use_motion_blur:
         problems.append("motion blur")
-    if render.use_border:
-        problems.append("render border (the whole frame is rendered)")
+    if exporting and render.use_border:
+        problems.append("render border (a scene file holds the whole frame; F12 renders only the border)")
     return problems

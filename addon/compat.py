@@ -70,6 +70,13 @@ def replace_fcurve(owner: bpy.types.ID, data_path: str, index: int, frames: list
     return fcurve
 
 
+def calc_split_normals(mesh: bpy.types.Mesh) -> None:
+    """Make loop_triangles' split_normals valid: 3.4-4.0 compute them on request (calc_normals_split), 4.1 and
+    later keep corner normals up to date themselves and have no such call."""
+    if hasattr(mesh, "calc_normals_split"):
+        mesh.calc_normals_split()
+
+
 def principled_socket(node: bpy.types.Node, role: str) -> bpy.types.NodeSocket:
     """A Principled BSDF input by role: 'specular' and 'emission' were renamed in 4.0."""
     names = {

@@ -87,20 +87,26 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         self.update_stats("", status)
 
     def render(self, depsgraph) -> None:
-        from .export import scene_document
+        from .export import ExportNotes, scene_document
 
         blender_scene = depsgraph.scene
         loader = module("scene.loader")
+        notes = ExportNotes()
         try:
-            document = scene_document(bpy.context, depsgraph, blender_scene)
+            document = scene_document(bpy.context, depsgraph, blender_scene, notes)
             scene = loader.scene_from_dict(json.loads(json.dumps(document)), "scene")
         except loader.SceneError as error:
             self.report({"ERROR"}, "; ".join(error.problems[:4]))
             return
         width, height = scene.render.width, scene.render.height
         left_out = camera.unsupported(blender_scene, exporting=False)
-        if left_out:
-            self.report({"WARNING"}, f"Weathervane Tracer does not render: {', '.join(left_out)}")
+        if left_out or notes.line():
+            said = [f"does not render: {', '.join(left_out)}"] if left_out else []
+            self.report({"WARNING"}, f"Weathervane Tracer {'; '.join([*said, notes.line()] if notes.line() else said)}")
+        region = border_region(blender_scene.render, width, height)
+        if region is not None:
+            self._render_region(scene, region)
+            return
 
         def progress(done: int, total: int) -> None:
             self.update_progress(done / total)
@@ -132,9 +138,49 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             self.report({"ERROR"}, str(error))  # not enough memory, workers lost: one line, the pool stays usable
             return
         shown[..., :3] = np.flipud(result.image)  # Blender's rows go bottom-up
+        alpha = getattr(result, "alpha", None)
+        if alpha is not None:
+            shown[..., 3] = np.flipud(alpha)
         _write(render_result, shown)
         self.end_result(render_result)
         self.update_stats("Weathervane Tracer", f"{result.seconds * 1000:.0f} ms, {result.rays.total} rays")
+
+    def _render_region(self, scene, region: tuple[int, int, int, int]) -> None:
+        """Only the render border's pixels traced; Blender's result is the border's size (it places the region in
+        the frame itself unless Crop to Render Region is on)."""
+        x0, y0, x1, y1 = region
+        width, height = scene.render.width, scene.render.height
+        render_result = self.begin_result(0, 0, x1 - x0, y1 - y0)
+        rows = np.arange(height - y1, height - y0)  # Blender counts rows from the bottom, the tracer from the top
+        pixels = (rows[:, None] * width + np.arange(x0, x1)[None, :]).ravel()
+        pool, resources = module("workers.pool"), module("workers.resources")
+        try:
+            base = np.zeros((height, width, 3), dtype=np.dtype(scene.render.dtype))
+            result = _renderer(scene.render.workers).render_pixels(scene, pixels, base)
+        except (resources.ResourceError, pool.WorkerLostError, pool.TaskFailedError) as error:
+            self.end_result(render_result, cancel=True)
+            self.report({"ERROR"}, str(error))
+            return
+        shown = np.ones((y1 - y0, x1 - x0, 4), dtype=np.float32)
+        shown[..., :3] = np.flipud(result.image[height - y1 : height - y0, x0:x1])
+        alpha = getattr(result, "alpha", None)
+        if alpha is not None:
+            shown[..., 3] = np.flipud(alpha[height - y1 : height - y0, x0:x1])
+        _write(render_result, shown)
+        self.end_result(render_result)
+        self.update_stats("Weathervane Tracer", f"{result.seconds * 1000:.0f} ms, render border {x1 - x0}x{y1 - y0}")
+
+
+def border_region(render, width: int, height: int) -> tuple[int, int, int, int] | None:
+    """The render border as Blender's render pipeline cuts it: (x0, y0, x1, y1) in pixels, y up from the bottom,
+    each border fraction times the size truncated to a whole pixel; None without a border (or a border over the
+    whole frame)."""
+    if not render.use_border:
+        return None
+    x0, x1 = int(render.border_min_x * width), int(render.border_max_x * width)
+    y0, y1 = int(render.border_min_y * height), int(render.border_max_y * height)
+    x0, x1, y0, y1 = max(0, x0), min(width, max(x1, x0 + 1)), max(0, y0), min(height, max(y1, y0 + 1))
+    return None if (x0, y0, x1, y1) == (0, 0, width, height) else (x0, y0, x1, y1)
 
 
 def cancelled(engine) -> bool:

@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass, field
 
 import bpy
+import numpy as np
 from mathutils import Vector
 
-from . import build, lights
+from . import build, lights, mesh_export
 from . import camera as camera_module
 from .animation import motion_for
 
@@ -34,39 +36,142 @@ def _unturned(obj, turn):
     return base @ obj.matrix_parent_inverse @ obj.matrix_basis
 
 
-def _foreign_mesh(obj, depsgraph, materials: dict) -> dict | None:
-    evaluated = obj.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh()
-    try:
-        mesh.calc_loop_triangles()
-        if not mesh.loop_triangles:
-            return None
-        matrix = obj.matrix_world
-        vertices = [list(matrix @ vertex.co) for vertex in mesh.vertices]
-        triangles = [list(triangle.vertices) for triangle in mesh.loop_triangles]
-    finally:
-        evaluated.to_mesh_clear()
-    material = obj.active_material
-    name = f"blender:{material.name}" if material else "blender:default"
-    color = list(material.diffuse_color[:3]) if material else [0.8, 0.8, 0.8]
-    materials.setdefault(name, {"color": [min(1.0, max(0.0, c)) for c in color], "specular": 0, "reflective": 0})
-    return {"name": obj.name, "type": "mesh", "material": name, "vertices": vertices, "triangles": triangles}
+# Object types Blender renders that the tracer cannot: named and counted in the warning line
+NOT_TRACED = {
+    "POINTCLOUD": "point cloud",
+    "VOLUME": "volume",
+    "GPENCIL": "grease pencil",
+    "GREASEPENCIL": "grease pencil",
+    "CURVES": "hair curves",
+}
 
 
-def _collect(blender_scene, depsgraph, turn, materials: dict, objects: list, parts: list) -> None:
-    for obj in blender_scene.objects:
-        if obj.type != "MESH" or obj.hide_render:
+@dataclass
+class ExportNotes:
+    """What the export could not say exactly: the one warning line of F12 and `-a`, the scene file's comment."""
+
+    not_traced: dict[str, list[str]] = field(default_factory=dict)  # kind -> object names
+    dropped_triangles: dict[str, int] = field(default_factory=dict)  # object -> zero-area triangles left out
+    approximated: list[str] = field(default_factory=list)
+
+    def not_rendered(self, kind: str, name: str) -> None:
+        names = self.not_traced.setdefault(kind, [])
+        if name not in names:
+            names.append(name)
+
+    def line(self) -> str:
+        """One line for the user, empty when the export is exact."""
+        parts = []
+        for kind, names in self.not_traced.items():
+            shown = ", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+            parts.append(f"{len(names)} {kind} object{'s' if len(names) > 1 else ''} not rendered ({shown})")
+        if self.dropped_triangles:
+            total = sum(self.dropped_triangles.values())
+            names = ", ".join(list(self.dropped_triangles)[:3])
+            parts.append(f"{total} zero-area triangle{'s' if total > 1 else ''} left out ({names})")
+        parts += self.approximated
+        return "; ".join(parts)
+
+
+def _visible_in_render(obj) -> bool:
+    """For a viewport depsgraph (Export, the Rendered view), Blender's render visibility of an original object:
+    a render depsgraph has already left out what is disabled in renders."""
+    if obj.hide_render:
+        return False
+    return not any(collection.hide_render for collection in obj.users_collection)
+
+
+def _material_name(material, materials: dict) -> str:
+    """A Blender material (or None) -> the name of its scene-file material, converting it once."""
+    if material is None:
+        materials.setdefault("blender:default", {"color": [0.8, 0.8, 0.8], "specular": 0, "reflective": 0})
+        return "blender:default"
+    name = f"blender:{material.name}"
+    if name not in materials:
+        color = [min(1.0, max(0.0, c)) for c in material.diffuse_color[:3]]
+        materials[name] = {"color": color, "specular": 0, "reflective": 0}
+    return name
+
+
+def _mesh_object(name: str, obj, arrays, matrix, materials: dict, notes: ExportNotes) -> dict | None:
+    """One instance of an evaluated object's mesh as a scene-file mesh, with its materials and visibility."""
+    fields, slots, dropped = mesh_export.in_world(arrays, matrix)
+    if dropped:
+        notes.dropped_triangles[name] = notes.dropped_triangles.get(name, 0) + dropped
+    if not fields["triangles"]:
+        return None
+    slot_materials = [slot.material for slot in obj.material_slots] or [None]
+    # a face whose slot index is past the object's slots takes the last slot, as Blender's render does
+    slots = np.minimum(slots, len(slot_materials) - 1)
+    used = sorted(set(slots.tolist()))
+    body = {"name": name, "type": "mesh", "material": _material_name(slot_materials[used[0]], materials), **fields}
+    if len(used) > 1:
+        body["materials"] = [_material_name(material, materials) for material in slot_materials]
+        body["material_indices"] = slots.tolist()
+    for flag, field_name in (("visible_camera", "visible_camera"), ("visible_shadow", "visible_shadow")):
+        if not getattr(obj, flag, True):
+            body[field_name] = False
+    if not getattr(obj, "visible_glossy", True):
+        body["visible_reflection"] = False
+    if getattr(obj, "is_holdout", False):
+        body["holdout"] = True
+    return body
+
+
+@dataclass
+class _Collected:
+    objects: list = field(default_factory=list)
+    parts: list = field(default_factory=list)  # names of the vane's turning parts
+    lights: list = field(default_factory=list)  # (original light object, evaluated object, world matrix)
+
+
+def _collect(depsgraph, turn, materials: dict, notes: ExportNotes) -> _Collected:
+    """Every object instance Blender renders at the depsgraph's frame, with its evaluated world matrix."""
+    collected = _Collected()
+    viewport = depsgraph.mode == "VIEWPORT"
+    meshes: dict[tuple, object] = {}  # one read per evaluated object, however many instances
+    instance_count: dict[str, int] = {}
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        original = obj.original
+        parent = instance.parent.original if instance.is_instance and instance.parent is not None else None
+        if viewport and not _visible_in_render(parent if parent is not None else original):
             continue
-        if "weathervane_object" in obj:
-            body = json.loads(obj["weathervane_object"])
-            body.update(_transform(_unturned(obj, turn)))
-            objects.append(body)
-            if turn is not None and obj.parent == turn:
-                parts.append(body["name"])
+        if not getattr(instance, "show_self", True):
+            continue
+        matrix = instance.matrix_world.copy()
+        if obj.type == "LIGHT":
+            collected.lights.append((original, obj, matrix))
+            continue
+        if obj.type in NOT_TRACED:
+            notes.not_rendered(NOT_TRACED[obj.type], original.name)
+            continue
+        if obj.type != "MESH":
+            # empties, cameras, armatures, lattices render nothing; a text, curve, surface or metaball object's mesh
+            # comes as an instance of its own (a Mesh with the object as its parent), as Cycles reads it
+            continue
+        if not instance.is_instance and "weathervane_object" in original:
+            body = json.loads(original["weathervane_object"])
+            body.update(_transform(_unturned(original, turn)))
+            collected.objects.append(body)
+            if turn is not None and original.parent == turn:
+                collected.parts.append(body["name"])
+            continue
+        key = (obj.name, obj.data.as_pointer() if obj.data is not None else 0)
+        if key not in meshes:
+            meshes[key] = mesh_export.read(obj)
+        if meshes[key] is None:
+            continue
+        if instance.is_instance and parent is not original:  # not the mesh of a text, curve or metaball itself
+            owner = parent.name if parent is not None else "instance"
+            count = instance_count[owner] = instance_count.get(owner, 0) + 1
+            name = f"{owner}/{original.name}#{count}"
         else:
-            body = _foreign_mesh(obj, depsgraph, materials)
-            if body is not None:
-                objects.append(body)
+            name = original.name
+        body = _mesh_object(name, obj, meshes[key], matrix, materials, notes)
+        if body is not None:
+            collected.objects.append(body)
+    return collected
 
 
 def other_lights(blender_scene) -> list:
@@ -77,42 +182,72 @@ def other_lights(blender_scene) -> list:
     ]
 
 
-def scene_document(context, depsgraph=None, blender_scene=None) -> dict:
-    """The current Blender scene (or the depsgraph's, inside a render) as a tracer scene document."""
+def _direction_toward(obj, matrix) -> list[float]:
+    """A sun's direction toward the light at this world matrix: its local +Z, as long as the documented vector."""
+    axis = matrix.to_3x3() @ Vector((0.0, 0.0, 1.0))
+    return list(axis.normalized() * float(obj.get("weathervane_direction_length", 1.0)))
+
+
+def _blender_light(original, matrix) -> dict:
+    """A light the panel does not drive -> a scene-file light."""
+    if original.data.type == "SUN":
+        intensity = original.data.energy / lights.SUN_STRENGTH_PER_UNIT
+        return {"type": "directional", "direction": _direction_toward(original, matrix), "intensity": intensity}
+    intensity = original.data.energy / lights.POINT_WATTS_PER_UNIT
+    return {"type": "point", "location": list(matrix.translation), "intensity": intensity}
+
+
+def _light_documents(settings, collected: _Collected, own_vane: bool) -> list[dict]:
+    """The panel's lights (at their evaluated places), then the scene's other rendered lights: always when the
+    scene has no vane of the add-on's, else only with Other Lights on."""
+    placed = {original.name: matrix for original, _, matrix in collected.lights}
+    documents = []
+    driven = set()
+    for entry in settings.lights:
+        if entry.kind == "AMBIENT":
+            documents.append({"type": "ambient", "intensity": entry.intensity})
+            continue
+        obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
+        if obj is None:
+            continue
+        driven.add(obj.name)
+        matrix = placed.get(obj.name)
+        if matrix is None:
+            continue  # not rendered (an excluded collection, Disable in Renders)
+        if entry.kind == "POINT":
+            documents.append({"type": "point", "location": list(matrix.translation), "intensity": entry.intensity})
+        else:
+            documents.append(
+                {"type": "directional", "direction": _direction_toward(obj, matrix), "intensity": entry.intensity}
+            )
+    if settings.other_lights or not own_vane:
+        for original, _, matrix in collected.lights:
+            if original.name not in driven:
+                documents.append(_blender_light(original, matrix))
+    return documents
+
+
+def scene_document(context, depsgraph=None, blender_scene=None, notes: ExportNotes | None = None) -> dict:
+    """The Blender scene as Blender renders it at the depsgraph's frame (the current one for the context's
+    depsgraph, the frame being rendered inside a render) as a tracer scene document. notes, when given, collects
+    what is approximated or left out; the document's comment says the same in one line."""
     blender_scene = blender_scene or context.scene
     settings = blender_scene.weathervane
     depsgraph = depsgraph or context.evaluated_depsgraph_get()
+    notes = notes if notes is not None else ExportNotes()
     materials = {
         entry.name: {"color": list(entry.color), "specular": entry.specular, "reflective": entry.reflective}
         for entry in settings.materials
     }
-    objects, parts = [], []
     turn = bpy.data.objects.get(build.TURN)
     # the parts go out as modelled (heading 0) and the current turn becomes the vane's heading
     heading = math.degrees(turn.evaluated_get(depsgraph).matrix_basis.to_euler("XYZ")[2]) if turn is not None else 0.0
-    _collect(blender_scene, depsgraph, turn, materials, objects, parts)
-    light_list = []
-    for entry in settings.lights:
-        obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
-        if entry.kind == "AMBIENT":
-            light_list.append({"type": "ambient", "intensity": entry.intensity})
-        elif obj is not None and entry.kind == "POINT":
-            light_list.append(
-                {"type": "point", "location": list(obj.matrix_world.translation), "intensity": entry.intensity}
-            )
-        elif obj is not None:
-            light_list.append(
-                {"type": "directional", "direction": list(lights.direction_toward(obj)), "intensity": entry.intensity}
-            )
-    for obj in other_lights(blender_scene) if settings.other_lights else ():
-        if obj.data.type == "SUN":
-            intensity = obj.data.energy / lights.SUN_STRENGTH_PER_UNIT
-            light_list.append(
-                {"type": "directional", "direction": list(lights.direction_toward(obj)), "intensity": intensity}
-            )
-        else:
-            intensity = obj.data.energy / lights.POINT_WATTS_PER_UNIT
-            light_list.append({"type": "point", "location": list(obj.matrix_world.translation), "intensity": intensity})
+    collected = _collect(depsgraph, turn, materials, notes)
+    objects, parts = collected.objects, collected.parts
+    own_vane = any("weathervane_object" in obj for obj in bpy.data.objects)
+    light_list = _light_documents(settings, collected, own_vane)
+    if not materials:  # a scene with nothing to render still needs one material in the file
+        _material_name(None, materials)
     render = blender_scene.render
     scale = render.resolution_percentage / 100.0
     document = {
@@ -139,7 +274,11 @@ def scene_document(context, depsgraph=None, blender_scene=None) -> dict:
         },
     }
     if blender_scene.camera is not None:
-        document["camera"] = camera_module.to_tracer(blender_scene.camera)
+        document["camera"] = camera_module.to_tracer(blender_scene.camera.evaluated_get(depsgraph))
+    if render.film_transparent:
+        document["render"]["film_transparent"] = True
+    if notes.line():
+        document["comment"] = notes.line()
     pivot = bpy.data.objects.get(build.PIVOT)
     if parts and pivot is not None:
         axis = pivot.matrix_world.to_3x3() @ Vector((0.0, 0.0, 1.0))
