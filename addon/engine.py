@@ -87,7 +87,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         self.update_stats("", status)
 
     def render(self, depsgraph) -> None:
-        from .export import ExportNotes, scene_document
+        from .export import ExportNotes, named_problems, scene_document
 
         blender_scene = depsgraph.scene
         loader = module("scene.loader")
@@ -96,7 +96,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             document = scene_document(bpy.context, depsgraph, blender_scene, notes)
             scene = loader.scene_from_dict(json.loads(json.dumps(document)), "scene")
         except loader.SceneError as error:
-            self.report({"ERROR"}, "; ".join(error.problems[:4]))
+            self.report({"ERROR"}, "; ".join(named_problems(error.problems, document)[:4]))
             return
         width, height = scene.render.width, scene.render.height
         left_out = camera.unsupported(blender_scene, exporting=False)

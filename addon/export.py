@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
 
 import bpy
@@ -71,6 +72,18 @@ class ExportNotes:
             parts.append(f"{total} zero-area triangle{'s' if total > 1 else ''} left out ({names})")
         parts += self.approximated
         return "; ".join(parts)
+
+
+def named_problems(problems: list[str], document: dict) -> list[str]:
+    """The loader's problems with `objects[3]` replaced by the Blender object's name (`object "Suzanne"`), which is
+    what the user can find in the Outliner."""
+    names = [obj.get("name", "?") for obj in document.get("objects", [])]
+
+    def name(match: re.Match) -> str:
+        index = int(match.group(1))
+        return f'object "{names[index]}"' if index < len(names) else match.group(0)
+
+    return [re.sub(r"objects\[(\d+)\]", name, problem) for problem in problems]
 
 
 def _visible_in_render(obj) -> bool:

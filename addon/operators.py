@@ -199,13 +199,13 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
 
     @reports_errors
     def execute(self, context):
-        from .export import scene_document
+        from .export import named_problems, scene_document
 
         document = scene_document(context)
         try:
             module("scene.loader").scene_from_dict(json.loads(json.dumps(document)), "export")
         except module("scene.loader").SceneError as error:
-            for problem in error.problems[:8]:
+            for problem in named_problems(error.problems, document)[:8]:
                 self.report({"ERROR"}, f"cannot export: {problem}")
             return {"CANCELLED"}
         target = Path(bpy.path.abspath(self.filepath))

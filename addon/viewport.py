@@ -126,7 +126,9 @@ class ViewportSession:
         try:
             scene = loader.scene_from_dict(json.loads(key), "viewport")
         except loader.SceneError as error:
-            self.error = "; ".join(error.problems[:2])
+            from .export import named_problems
+
+            self.error = "; ".join(named_problems(error.problems, document)[:2])
             return
         self._shown_key, self.error = key, None
         self.progressive.show(scene)

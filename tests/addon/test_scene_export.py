@@ -243,3 +243,14 @@ def test_the_render_border_is_traced_alone_and_cropped_as_blender_does(tmp_path:
         outside = np.ones((48, 64), dtype=bool)
         outside[24:48, 16:48] = False
         assert np.all(pixels[outside][:, :3] == 0.0)
+
+
+def test_problems_name_the_blender_object_not_the_export_index() -> None:
+    from addon.export import named_problems
+
+    document = {"objects": [{"name": "Cube"}, {"name": "Suzanne"}]}
+    problems = ["objects[1].vertices[3]: must be 3 finite numbers", "render.width: must be >= 1"]
+    assert named_problems(problems, document) == [
+        'object "Suzanne".vertices[3]: must be 3 finite numbers',
+        "render.width: must be >= 1",
+    ]
