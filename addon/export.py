@@ -195,6 +195,15 @@ def other_lights(blender_scene) -> list:
     ]
 
 
+def entry_kind(entry) -> str:
+    """What a Lights panel entry is now: AMBIENT, or its Blender light's type as the tracer names it (POINT,
+    DIRECTIONAL for a sun, SPOT, AREA), which the Light tab may have changed since the entry was added."""
+    obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
+    if entry.kind == "AMBIENT" or obj is None or obj.type != "LIGHT":
+        return entry.kind
+    return {"SUN": "DIRECTIONAL"}.get(obj.data.type, obj.data.type)
+
+
 def _direction_toward(obj, matrix) -> list[float]:
     """A sun's direction toward the light at this world matrix: its local +Z, as long as the documented vector."""
     axis = matrix.to_3x3() @ Vector((0.0, 0.0, 1.0))
@@ -217,7 +226,8 @@ def _light_documents(settings, collected: _Collected, own_vane: bool) -> list[di
     documents = []
     driven = set()
     for entry in settings.lights:
-        if entry.kind == "AMBIENT":
+        kind = entry_kind(entry)
+        if kind == "AMBIENT":
             documents.append({"type": "ambient", "intensity": entry.intensity})
             continue
         obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
@@ -227,12 +237,14 @@ def _light_documents(settings, collected: _Collected, own_vane: bool) -> list[di
         matrix = placed.get(obj.name)
         if matrix is None:
             continue  # not rendered (an excluded collection, Disable in Renders)
-        if entry.kind == "POINT":
+        if kind == "POINT":
             documents.append({"type": "point", "location": list(matrix.translation), "intensity": entry.intensity})
-        else:
+        elif kind == "DIRECTIONAL":
             documents.append(
                 {"type": "directional", "direction": _direction_toward(obj, matrix), "intensity": entry.intensity}
             )
+        else:  # made a spot or area light in Blender's Light tab: it renders as Blender's light of that type
+            documents.append(_blender_light(obj, matrix))
     if settings.other_lights or not own_vane:
         for original, _, matrix in collected.lights:
             if original.name not in driven:

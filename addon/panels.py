@@ -9,9 +9,15 @@ from __future__ import annotations
 import bpy
 
 from . import build
-from .export import other_lights
+from .export import entry_kind, other_lights
 
-LIGHT_ICONS = {"AMBIENT": "WORLD", "POINT": "LIGHT_POINT", "DIRECTIONAL": "LIGHT_SUN"}
+LIGHT_ICONS = {
+    "AMBIENT": "WORLD",
+    "POINT": "LIGHT_POINT",
+    "DIRECTIONAL": "LIGHT_SUN",
+    "SPOT": "LIGHT_SPOT",
+    "AREA": "LIGHT_AREA",
+}
 
 
 def _prop(layout, settings, name: str, text: str | None) -> None:
@@ -151,7 +157,8 @@ class WEATHERVANE_PT_materials(WeathervanePanel, bpy.types.Panel):
 class WEATHERVANE_UL_lights(bpy.types.UIList):
     def draw_item(self, _context, layout, _data, item, _icon, _active_data, _active_property, _index):
         row = layout.row(align=True)
-        row.label(text=item.kind.title(), icon=LIGHT_ICONS[item.kind])
+        kind = entry_kind(item)
+        row.label(text=kind.title(), icon=LIGHT_ICONS.get(kind, "LIGHT"))
         row.prop(item, "intensity", text="")
 
 
@@ -171,12 +178,16 @@ class WEATHERVANE_PT_lights(WeathervanePanel, bpy.types.Panel):
         if 0 <= settings.light_index < len(settings.lights):
             entry = settings.lights[settings.light_index]
             column = layout.column()
-            # the type is chosen when the light is added: the Blender light stays the kind the tracer renders
-            column.label(text=f"Type: {entry.kind.title()}", icon=LIGHT_ICONS[entry.kind])
-            column.prop(entry, "intensity")
+            # the type is the Blender light's: changed in the Light tab, it is rendered and shown as the new one
+            kind = entry_kind(entry)
+            column.label(text=f"Type: {kind.title()}", icon=LIGHT_ICONS.get(kind, "LIGHT"))
+            if kind in ("AMBIENT", "POINT", "DIRECTIONAL"):
+                column.prop(entry, "intensity")
+            else:
+                column.label(text="Power from the Light tab", icon="INFO")
             obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
             if obj is not None:
-                if entry.kind == "POINT":
+                if kind in ("POINT", "SPOT", "AREA"):
                     column.prop(obj, "location")
                 else:
                     column.prop(obj, "rotation_euler", text="Rotation")

@@ -254,3 +254,17 @@ def test_problems_name_the_blender_object_not_the_export_index() -> None:
         'object "Suzanne".vertices[3]: must be 3 finite numbers',
         "render.width: must be >= 1",
     ]
+
+
+def test_a_panel_light_whose_type_is_changed_in_the_light_tab_exports_and_shows_as_the_new_type() -> None:
+    from addon.export import entry_kind
+
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    settings = bpy.context.scene.weathervane
+    entry = next(entry for entry in settings.lights if entry.kind == "DIRECTIONAL")
+    before = [light["type"] for light in export()["lights"]]
+    bpy.data.objects[entry.object_name].data.type = "POINT"
+    assert entry_kind(entry) == "POINT"
+    after = [light["type"] for light in export()["lights"]]
+    assert before.count("directional") - 1 == after.count("directional")
+    assert after.count("point") == before.count("point") + 1
