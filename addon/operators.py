@@ -86,16 +86,31 @@ def _build_from(operator: bpy.types.Operator, context, path: str, reset: bool = 
             f"Rebuilt the {len(scene.objects)} parts; kept your materials, wind, motion, lights, camera and render "
             "settings (Reset Weathervane starts over)"
         )
+    warnings = []
     others = [obj.name for obj in other_lights(context.scene)]
     if others and not context.scene.weathervane.other_lights:
-        operator.report(
-            {"WARNING"},
-            f"{built}; not rendered by the tracer: {', '.join(others[:3])}{' ...' if len(others) > 3 else ''} "
-            "(Lights > Other Lights renders them)",
-        )
-    else:
-        operator.report({"INFO"}, built)
+        warnings.append(f"not rendered by the tracer: {_names(others)} (Lights > Other Lights renders them)")
+    beside = _other_renderables(context.scene)
+    if beside:
+        warnings.append(f"also rendered with the vane: {_names(beside)} (hide them in renders to leave them out)")
+    operator.report({"WARNING"} if warnings else {"INFO"}, "; ".join([built, *warnings]))
     return {"FINISHED"}
+
+
+def _names(names: list[str]) -> str:
+    return ", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+
+
+def _other_renderables(blender_scene) -> list[str]:
+    """Objects outside the add-on's collection that a render shows beside the vane (the startup file's Cube)."""
+    own = bpy.data.collections.get(build.COLLECTION)
+    ours = set(own.all_objects) if own is not None else set()
+    shapes = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+    return [
+        obj.name
+        for obj in blender_scene.objects
+        if obj.type in shapes and obj not in ours and not obj.hide_render and obj.visible_get()
+    ]
 
 
 class WEATHERVANE_OT_reset(bpy.types.Operator):
@@ -106,13 +121,37 @@ class WEATHERVANE_OT_reset(bpy.types.Operator):
     bl_label = "Reset Weathervane"
     bl_options = {"REGISTER", "UNDO"}
 
-    def invoke(self, context, event):
-        return context.window_manager.invoke_confirm(self, event)
+    def invoke(self, context, _event):
+        return context.window_manager.invoke_props_dialog(self, width=260)
+
+    def draw(self, context):
+        column = self.layout.column(align=True)
+        source = context.scene.weathervane.scene_file or context.scene.weathervane.built_from or "the default vane"
+        column.label(text="Build again from " + bpy.path.basename(source), icon="LOOP_BACK")
+        column.label(text="and discard your edits to its")
+        column.label(text="materials, wind, motion, lights,")
+        column.label(text="camera and render settings?")
 
     @reports_errors
     def execute(self, context):
         settings = context.scene.weathervane
-        return _build_from(self, context, settings.scene_file or settings.built_from, reset=True)
+        through_camera = _views_through_camera(context)
+        result = _build_from(self, context, settings.scene_file or settings.built_from, reset=True)
+        for region in through_camera:  # the camera was made again: look through the new one, as before
+            region.view_perspective = "CAMERA"
+        return result
+
+
+def _views_through_camera(context) -> list:
+    """The 3D Views' regions that look through the scene camera now (none without a window)."""
+    screen = getattr(context, "screen", None)
+    if screen is None:
+        return []
+    return [
+        area.spaces.active.region_3d
+        for area in screen.areas
+        if area.type == "VIEW_3D" and area.spaces.active.region_3d.view_perspective == "CAMERA"
+    ]
 
 
 class JsonFileBrowser(ImportHelper):

@@ -124,7 +124,9 @@ class WEATHERVANE_PT_timing(WeathervanePanel, bpy.types.Panel):
         sub.active = settings.use_stop
         sub.prop(settings, "stop_frame")
         layout.prop(settings, "tolerance")
-        layout.operator("weathervane.bake", icon="KEY_HLT")
+        # the frames Bake keys are the scene's frame range (Output Properties), shown where the button is
+        scene = context.scene
+        layout.operator("weathervane.bake", icon="KEY_HLT", text=f"Bake Frames {scene.frame_start}-{scene.frame_end}")
         if bpy.data.objects.get(build.TURN) is None:
             layout.label(text="Build first, then bake", icon="INFO")
 

@@ -45,12 +45,13 @@ class WEATHERVANE_PG_material(bpy.types.PropertyGroup):
 
     color: _color("Color", (0.8, 0.8, 0.8), "Linear RGB color", update=_material_changed)
     specular: FloatProperty(
-        name="Specular Exponent",
+        name="Shininess",
         min=0.0,
         max=10000.0,
         soft_max=1000.0,
         default=0.0,
-        description="Phong exponent s (Blinn-Phong uses s * coef); 0 is matte",
+        description="The specular exponent s of the documented model: larger is a smaller, sharper highlight "
+        "(Blinn-Phong uses s times Highlight Sharpness); 0 is matte",
         update=_material_changed,
     )
     reflective: FloatProperty(
@@ -149,20 +150,20 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         description="Damping ratio zeta: the smoothness of the swing (0.3-0.7 in real vanes)",
     )
     wavelength: FloatProperty(
-        name="Wavelength",
+        name="Swing Length",
         unit="LENGTH",
         min=0.5,
         max=100.0,
         default=8.0,
-        description="Natural wavelength: metres of wind per undamped swing (6-10 m)",
+        description="Natural wavelength: metres of wind that pass during one undamped swing (6-10 m in real vanes)",
     )
     threshold: FloatProperty(
-        name="Threshold",
+        name="Starting Speed",
         unit="VELOCITY",
         min=0.0,
         max=20.0,
         default=0.5,
-        description="Below this wind speed the vane does not turn",
+        description="Threshold: below this wind speed the vane does not turn",
     )
     friction_time: FloatProperty(
         name="Friction Time",
@@ -198,12 +199,13 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         description="Seconds to spin up after start and down after stop",
     )
     tolerance: FloatProperty(
-        name="Tolerance (°)",
+        name="Key Accuracy (°)",
         min=0.001,
         max=5.0,
         default=0.05,
         precision=3,
-        description="Largest angle in degrees by which the baked keys may miss the motion",
+        description="Tolerance: the largest angle in degrees by which the baked keys may miss the simulated motion "
+        "(smaller: more keys)",
     )
     # ---- materials and lights ----
     materials: CollectionProperty(type=WEATHERVANE_PG_material)
@@ -226,8 +228,9 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         items=[
             (
                 "blinn-phong",
-                "Blinn-Phong (as documented)",
-                "Highlights from the half vector between light and view: round highlights, the course's main model",
+                "Blinn-Phong",
+                "Highlights from the half vector between light and view: round highlights (the documented model's "
+                "default)",
             ),
             (
                 "phong",
@@ -239,12 +242,12 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         update=_model_changed,
     )
     coef: FloatProperty(
-        name="Exponent Factor",
+        name="Highlight Sharpness",
         min=0.1,
         max=16.0,
         default=3.0,
-        description="Blinn-Phong's highlight exponent is each material's specular exponent times this (2-4 keeps "
-        "highlights as tight as Phong's)",
+        description="The documented model's exponent factor: Blinn-Phong's highlight exponent is each material's "
+        "Shininess times this (2-4 keeps highlights as tight as Phong's)",
         update=_model_changed,
     )
     background: EnumProperty(
@@ -254,8 +257,9 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
             ("solid", "Solid", "One color"),
             (
                 "documented",
-                "Centre Sky Color (as documented)",
-                "Every ray that misses gets the sky's color at the image centre, as the course's tracer does",
+                "Centre Sky Color",
+                "As documented: every ray that misses gets the sky's color at the image centre, as the course's "
+                "tracer does",
             ),
             ("none", "None", "Black"),
         ],
@@ -270,8 +274,8 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         items=[
             (
                 "documented",
-                "As Documented",
-                "The course's fixed epsilons and formulas (shadow acne far from the origin)",
+                "Textbook",
+                "As documented: the course's fixed epsilons and formulas (shadow acne far from the origin)",
             ),
             ("robust", "Robust", "Stable quadratics, watertight triangles, offsets from each surface's own rounding"),
         ],
@@ -279,7 +283,10 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     )
     precision: EnumProperty(
         name="Precision",
-        items=[("float64", "Double", "64-bit floats"), ("float32", "Single", "32-bit floats: faster, coarser")],
+        items=[
+            ("float64", "Accurate", "Double precision (64-bit floats)"),
+            ("float32", "Fast", "Single precision (32-bit floats): faster, coarser"),
+        ],
         default="float64",
     )
     samples: EnumProperty(

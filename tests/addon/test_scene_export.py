@@ -268,3 +268,16 @@ def test_a_panel_light_whose_type_is_changed_in_the_light_tab_exports_and_shows_
     after = [light["type"] for light in export()["lights"]]
     assert before.count("directional") - 1 == after.count("directional")
     assert after.count("point") == before.count("point") + 1
+
+
+def test_build_names_the_scenes_other_objects_that_render_beside_the_vane(capfd) -> None:
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.object
+    bpy.ops.mesh.primitive_cone_add()
+    bpy.context.object.hide_render = True
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    reported = capfd.readouterr()
+    line = next(line for line in (reported.out + reported.err).splitlines() if "Built" in line)
+    assert f"also rendered with the vane: {cube.name} (hide them in renders" in line
+    assert "Cone" not in line
+    assert cube.name in by_name(export())  # and it is rendered, as said
