@@ -79,3 +79,56 @@ def random_scene_document(seed: int, width: int = 16, height: int = 12) -> dict[
             "seed": seed,
         },
     }
+
+
+def extended_scene_document(seed: int, width: int = 16, height: int = 12) -> dict[str, Any]:
+    """random_scene_document(seed) with the optional Blender fields (docs/scene-format.md) drawn at random: material
+    emission, two_sided and specular_color; light colours, inverse-square falloff and spot lights of both models;
+    objects' ray visibility and holdouts; mesh corner normals and per-triangle materials; a transparent film."""
+    document = random_scene_document(seed, width, height)
+    rng = random.Random(10_000 + seed)
+    for material in document["materials"].values():
+        if rng.random() < 0.4:
+            material["emission"] = [rng.uniform(0.0, 0.3) for _ in range(3)]
+        if rng.random() < 0.5:
+            material["two_sided"] = True
+        if rng.random() < 0.4:
+            material["specular_color"] = [rng.uniform(0.5, 1.2) for _ in range(3)]
+    for light in document["lights"]:
+        if rng.random() < 0.6:
+            light["color"] = [rng.uniform(0.2, 1.5) for _ in range(3)]
+        if light["type"] == "point" and rng.random() < 0.5:
+            light["falloff"] = "inverse_square"
+            light["intensity"] *= 10.0
+    for _ in range(rng.randrange(0, 3)):
+        location = _vector(rng, -3, 4)
+        target = [rng.uniform(-1, 1), rng.uniform(-0.5, 1.5), rng.uniform(-0.5, 1.0)]
+        document["lights"].append(
+            {
+                "type": "spot",
+                "location": location,
+                "direction": [t - p for t, p in zip(target, location, strict=True)],
+                "intensity": rng.uniform(0.3, 1.0),
+                "color": [rng.uniform(0.3, 1.2) for _ in range(3)],
+                "falloff": rng.choice(["none", "inverse_square"]),
+                "spot_size": rng.uniform(20.0, 120.0),
+                "spot_blend": rng.choice([0.0, 0.15, 0.6, 1.0]),
+                "spot_model": rng.choice(["cycles4", "cycles3"]),
+            }
+        )
+    names = sorted(document["materials"])
+    for body in document["objects"]:
+        for flag in ("visible_camera", "visible_shadow", "visible_reflection"):
+            if rng.random() < 0.15:
+                body[flag] = False
+        if rng.random() < 0.1:
+            body["holdout"] = True
+        if body["type"] == "mesh":
+            if rng.random() < 0.7:
+                body["normals"] = [[_vector(rng, -1, 1) for _ in range(3)] for _ in body["triangles"]]
+            if rng.random() < 0.6:
+                body["materials"] = rng.sample(names, 2)
+                body["material_indices"] = [rng.randrange(2) for _ in body["triangles"]]
+    if rng.random() < 0.4:
+        document["render"]["film_transparent"] = True
+    return document

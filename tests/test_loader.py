@@ -80,7 +80,7 @@ MALFORMED = [
     ("objects/3/rotation", [90, "x", 0], 'objects[3].rotation[1]: must be a number, got string "x"'),
     ("objects/0/colour", [1, 0, 0], "objects[0].colour: is not a known field"),
     ("objects/1/name", "ground", 'objects[1].name: must be unique, got "ground" twice'),
-    ("objects", [], "objects: must be a non-empty list of objects, got a list of 0"),
+    ("objects", {}, "objects: must be a list of objects, got an object"),
     ("objects", DELETE, "objects: is required"),
     ("objects/0", 7, "objects[0]: must be an object, got number 7"),
     ("materials", DELETE, "materials: is required"),
@@ -88,7 +88,7 @@ MALFORMED = [
     ("materials/brass/color", DELETE, "materials.brass.color: is required"),
     ("materials/brass/reflective", 2, "materials.brass.reflective: must be <= 1, got 2"),
     ("materials/brass/specular", -5, "materials.brass.specular: must be >= 0, got -5"),
-    ("lights/0/type", "spot", 'lights[0].type: must be one of "ambient", "point", "directional", got "spot"'),
+    ("lights/0/type", "area", 'lights[0].type: must be one of "ambient", "point", "directional", "spot", got "area"'),
     ("lights/1/intensity", -0.5, "lights[1].intensity: must be >= 0, got -0.5"),
     ("lights/1/location", DELETE, "lights[1].location: is required"),
     ("lights/2/direction", [0, 0, 0], "lights[2].direction: must not be the zero vector, got [0, 0, 0]"),
@@ -150,7 +150,7 @@ def test_every_problem_is_reported_at_once() -> None:
     document = copy.deepcopy(default_scene_dict())
     document["objects"][2]["radius"] = -1
     document["render"]["width"] = 0
-    document["lights"][0]["type"] = "spot"
+    document["lights"][0]["type"] = "area"
     with pytest.raises(SceneError) as caught:
         scene_from_dict(document)
     assert len(caught.value.problems) == 3

@@ -99,7 +99,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=_output,
         metavar="OUT",
         help=".png: 8-bit, clamped to [0, 1] as the seed's canvas (linear values unless --srgb); "
-        ".npy: float32 linear H x W x 3",
+        ".npy: float32 linear H x W x 3 (RGBA and H x W x 4 where the scene has an alpha: film_transparent, holdouts)",
     )
     animate = commands.add_parser(
         "animate",
@@ -249,7 +249,7 @@ def run_render(args: argparse.Namespace) -> int:
         workers = renderer.workers
     progress.close()
     try:
-        write_image(result.image, args.output, srgb=args.srgb)
+        write_image(result.image, args.output, srgb=args.srgb, alpha=result.alpha)
     except OSError as error:
         print(_write_problem(args.output, error), file=sys.stderr)
         return EXIT_FAILED

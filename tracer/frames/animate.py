@@ -154,7 +154,9 @@ def animate(
             if pending is not None:
                 pending.result()  # raises here if that write failed
             target = frame_path(folder, frame)
-            pending = writer.submit(write_image, result.image, target, srgb=srgb, compress_level=FRAME_COMPRESSION)
+            pending = writer.submit(
+                write_image, result.image, target, srgb=srgb, compress_level=FRAME_COMPRESSION, alpha=result.alpha
+            )
             rays.add(result.rays)
             done += 1
             if progress is not None:

@@ -55,7 +55,7 @@ def render_chunk(scene: sc.Scene, frames: list[tuple[int, float]], srgb: bool, i
     encoded = []
     with Renderer(1) as renderer:
         for frame, result in frame_results(renderer, scene, iter(frames), incremental):
-            encoded.append((frame, encode_png(result.image, srgb, FRAME_COMPRESSION)))
+            encoded.append((frame, encode_png(result.image, srgb, FRAME_COMPRESSION, result.alpha)))
             rays.add(result.rays)
     return ChunkResult(encoded, rays, time.perf_counter() - started)
 

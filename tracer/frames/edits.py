@@ -125,7 +125,7 @@ class EditableImage:
     def _trace(self, scene: sc.Scene, pixels: np.ndarray) -> None:
         store = RayStore()
         colors, self.rays = PreparedScene(scene).render_pixels(pixels, band_samples(scene.render), store)
-        self.image.reshape(-1, 3)[pixels] = colors
+        self.image.reshape(-1, 3)[pixels] = colors[:, :3]  # colour only: a film's alpha is not kept here
         chunk = store.segments()
         self.chunks.append((chunk, self.generation.take(chunk.pixel)))
         self.last_traced = len(pixels)
@@ -148,7 +148,7 @@ class EditableImage:
         touched = []
         for segments, generation in self.chunks:  # stale segments are tested too, and left out after
             if isinstance(edit, MaterialEdit):
-                objects = [k for k, obj in enumerate(self.scene.objects) if obj.material == edit.name]
+                objects = [k for k, obj in enumerate(self.scene.objects) if _uses(obj, edit.name)]
                 hits = np.isin(segments.hit, objects)
             elif isinstance(edit, LightEdit):
                 if isinstance(self.scene.lights[edit.index], sc.AmbientLight):
@@ -159,6 +159,11 @@ class EditableImage:
                 hits = volume.meets(segments.O, segments.D, segments.start, segments.end)
             touched.append(segments.pixel[hits & (generation == self.generation.take(segments.pixel))])
         return np.unique(np.concatenate(touched))
+
+
+def _uses(obj: sc.SceneObject, material: str) -> bool:
+    """Whether an object shows the material: its own, or one of a mesh's per-triangle materials."""
+    return obj.material == material or material in (getattr(obj, "materials", None) or ())
 
 
 def _box(scene: sc.Scene, index: int) -> tuple[np.ndarray, np.ndarray] | None:

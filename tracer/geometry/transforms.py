@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..scene import scene as sc
 
 Matrix3 = tuple[sc.Vec3, sc.Vec3, sc.Vec3]
@@ -220,3 +222,13 @@ def world_primitive(obj: sc.SceneObject, vane: sc.Vane | None) -> WorldPrimitive
 
 def world_primitives(scene: sc.Scene) -> list[WorldPrimitive]:
     return [world_primitive(obj, scene.vane) for obj in scene.objects]
+
+
+def world_corner_normals(obj: sc.SceneObject, vane: sc.Vane | None) -> np.ndarray | None:
+    """A mesh's corner normals (T, 3 corners, 3) rotated into the world with the object (None: a flat mesh). One
+    array both tracers read, so that they interpolate the same numbers."""
+    normals = getattr(obj, "normals", None)
+    if normals is None:
+        return None
+    rotation, _ = object_frame(obj, vane)
+    return np.asarray(normals, dtype=np.float64) @ np.asarray(rotation, dtype=np.float64).T

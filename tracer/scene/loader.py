@@ -9,6 +9,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from . import motion as mo
 from . import scene as sc
 from . import wind as wi
@@ -259,6 +261,9 @@ def _material(reader: _Reader) -> sc.Material:
         color=reader.color("color"),
         specular=reader.number("specular", 0.0, low=0.0, high=SPECULAR_MAX),
         reflective=reader.number("reflective", 0.0, low=0.0, high=1.0),
+        emission=reader.vector("emission", sc.BLACK, low=0.0, high=INTENSITY_MAX),
+        two_sided=reader.boolean("two_sided", False),
+        specular_color=reader.vector("specular_color", None, low=0.0, high=INTENSITY_MAX),
     )
     reader.finish()
     return material
@@ -270,7 +275,12 @@ def _object(reader: _Reader, materials: dict[str, sc.Material], index: int) -> s
     if kind is None and "type" not in reader.data:
         reader.fail("type", f"is required (one of {', '.join(kinds)})")
     name = reader.string("name", f"object{index}")
-    material = reader.string("material")
+    # a mesh with materials per triangle needs no material of its own (its first is the default)
+    listed = reader.data.get("materials") if kind == "mesh" else None
+    if "material" not in reader.data and isinstance(listed, list) and listed and isinstance(listed[0], str):
+        material = listed[0]
+    else:
+        material = reader.string("material")
     if material and materials and material not in materials:
         reader.fail(
             "material", f"must name one of the materials ({', '.join(sorted(materials))}), got {_show(material)}"
@@ -280,6 +290,10 @@ def _object(reader: _Reader, materials: dict[str, sc.Material], index: int) -> s
         "material": material,
         "location": reader.position("location", (0.0, 0.0, 0.0)),
         "rotation": reader.angles("rotation", (0.0, 0.0, 0.0)),
+        "visible_camera": reader.boolean("visible_camera", True),
+        "visible_shadow": reader.boolean("visible_shadow", True),
+        "visible_reflection": reader.boolean("visible_reflection", True),
+        "holdout": reader.boolean("holdout", False),
     }
     result: sc.SceneObject | None = None
     if kind == "sphere":
@@ -298,12 +312,12 @@ def _object(reader: _Reader, materials: dict[str, sc.Material], index: int) -> s
     elif kind == "pyramid":
         result = sc.Pyramid(size=reader.lengths("size"), **common)
     elif kind == "mesh":
-        result = _mesh(reader, common)
+        result = _mesh(reader, common, materials)
     reader.finish()
     return result
 
 
-def _mesh(reader: _Reader, common: dict[str, Any]) -> sc.TriangleMesh:
+def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Material]) -> sc.TriangleMesh:
     raw_vertices = reader.raw("vertices")
     raw_triangles = reader.raw("triangles")
     vertices: list[sc.Vec3] = []
@@ -342,23 +356,125 @@ def _mesh(reader: _Reader, common: dict[str, Any]) -> sc.TriangleMesh:
         )
         if normal == (0.0, 0.0, 0.0):
             reader.fail(f"triangles[{i}]", f"must span an area (its vertices {a}, {b}, {c} are on one line)")
-    return sc.TriangleMesh(vertices=tuple(vertices), triangles=tuple(triangles), **common)
+    count = len(raw_triangles) if isinstance(raw_triangles, list) else 0
+    normals = _corner_normals(reader, count)
+    names, indices = _mesh_materials(reader, count, materials)
+    return sc.TriangleMesh(
+        vertices=tuple(vertices),
+        triangles=tuple(triangles),
+        normals=normals,
+        materials=names,
+        material_indices=indices,
+        **common,
+    )
+
+
+def _corner_normals(reader: _Reader, count: int) -> tuple | None:
+    """A mesh's "normals": one [[x, y, z] x 3] per triangle, checked as one array (large meshes)."""
+    raw = reader.raw("normals", None)
+    if raw is None:
+        return None
+    expected = f"must be a list of {count} triangles' corner normals [[x, y, z], [x, y, z], [x, y, z]]"
+    if not isinstance(raw, list) or len(raw) != count:
+        reader.fail("normals", f"{expected}, got {_show_shape(raw)}")
+        return None
+    bad = next((i for i, item in enumerate(raw) if not _is_corner_triple(item)), None)
+    if bad is not None:
+        reader.fail(
+            f"normals[{bad}]",
+            f"must be 3 corner normals [x, y, z] of numbers up to {_show(COORDINATE_LIMIT)}, got {_show(raw[bad])}",
+        )
+        return None
+    array = np.asarray(raw, dtype=np.float64).reshape(count, 3, 3)
+    short = np.sqrt((array * array).sum(axis=2)) < DIRECTION_MIN_LENGTH
+    if short.any():
+        bad, corner = (int(x) for x in np.argwhere(short)[0])
+        reader.fail(f"normals[{bad}][{corner}]", "must not be the zero vector (a normal needs a direction)")
+        return None
+    return tuple(tuple(map(tuple, triangle)) for triangle in array.tolist())
+
+
+def _is_corner_triple(item: Any) -> bool:
+    return (
+        isinstance(item, list)
+        and len(item) == 3
+        and all(
+            isinstance(c, list)
+            and len(c) == 3
+            and all(isinstance(x, int | float) and not isinstance(x, bool) and abs(x) <= COORDINATE_LIMIT for x in c)
+            for c in item
+        )
+    )
+
+
+def _mesh_materials(
+    reader: _Reader, count: int, materials: dict[str, sc.Material]
+) -> tuple[tuple[str, ...] | None, tuple[int, ...] | None]:
+    """A mesh's "materials" (names) and "material_indices" (one index into them per triangle), given together."""
+    raw_names = reader.raw("materials", None)
+    raw_indices = reader.raw("material_indices", None)
+    if raw_names is None and raw_indices is None:
+        return None, None
+    if raw_names is None or raw_indices is None:
+        missing = "materials" if raw_names is None else "material_indices"
+        reader.fail(missing, "is required with " + ("material_indices" if raw_names is None else "materials"))
+        return None, None
+    names: list[str] = []
+    if not isinstance(raw_names, list) or not raw_names:
+        reader.fail("materials", f"must be a non-empty list of material names, got {_show_shape(raw_names)}")
+        return None, None
+    for i, name in enumerate(raw_names):
+        if not isinstance(name, str) or (materials and name not in materials):
+            known = ", ".join(sorted(materials))
+            reader.fail(f"materials[{i}]", f"must name one of the materials ({known}), got {_show(name)}")
+        names.append(name if isinstance(name, str) else "")
+    if not isinstance(raw_indices, list) or len(raw_indices) != count:
+        reader.fail(
+            "material_indices", f"must be a list of {count} integers (one per triangle), got {_show_shape(raw_indices)}"
+        )
+        return None, None
+    valid = [isinstance(k, int) and not isinstance(k, bool) and 0 <= k < len(names) for k in raw_indices]
+    if not all(valid):
+        bad = valid.index(False)
+        reader.fail(
+            f"material_indices[{bad}]", f"must be an integer in 0..{len(names) - 1}, got {_show(raw_indices[bad])}"
+        )
+        return None, None
+    return tuple(names), tuple(raw_indices)
 
 
 def _light(reader: _Reader) -> sc.Light | None:
-    kind = reader.choice("type", ("ambient", "point", "directional"), None)
+    kind = reader.choice("type", ("ambient", "point", "directional", "spot"), None)
     if kind is None and "type" not in reader.data:
-        reader.fail("type", "is required (one of ambient, point, directional)")
+        reader.fail("type", "is required (one of ambient, point, directional, spot)")
     intensity = reader.number("intensity", low=0.0, high=INTENSITY_MAX)
+    color = reader.vector("color", sc.WHITE, low=0.0, high=INTENSITY_MAX)
     result: sc.Light | None = None
+    direction = {"nonzero": True, "low": -COORDINATE_LIMIT, "high": COORDINATE_LIMIT}
     if kind == "ambient":
-        result = sc.AmbientLight(intensity=intensity)
+        result = sc.AmbientLight(intensity=intensity, color=color)
     elif kind == "point":
-        result = sc.PointLight(location=reader.position("location"), intensity=intensity)
+        result = sc.PointLight(
+            location=reader.position("location"),
+            intensity=intensity,
+            color=color,
+            falloff=reader.choice("falloff", sc.FALLOFFS, "none"),
+        )
     elif kind == "directional":
         result = sc.DirectionalLight(
-            direction=reader.vector("direction", nonzero=True, low=-COORDINATE_LIMIT, high=COORDINATE_LIMIT),
+            direction=reader.vector("direction", **direction), intensity=intensity, color=color
+        )
+    elif kind == "spot":
+        base = sc.SpotLight()
+        result = sc.SpotLight(
+            location=reader.position("location"),
+            direction=reader.vector("direction", **direction),
             intensity=intensity,
+            color=color,
+            falloff=reader.choice("falloff", sc.FALLOFFS, "none"),
+            spot_size=reader.number("spot_size", base.spot_size, low=0.0, low_open=True, high=180.0),
+            spot_blend=reader.number("spot_blend", base.spot_blend, low=0.0, high=1.0),
+            spot_model=reader.choice("spot_model", sc.SPOT_MODELS, base.spot_model),
         )
     reader.finish()
     return result
@@ -442,6 +558,7 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         pixel_aspect=reader.vector(
             "pixel_aspect", base.pixel_aspect, length=2, low=PIXEL_ASPECT_RANGE[0], high=PIXEL_ASPECT_RANGE[1]
         ),
+        film_transparent=reader.boolean("film_transparent", base.film_transparent),
     )
     raw_samples = reader.data.get("samples")
     if isinstance(raw_samples, int) and not isinstance(raw_samples, bool) and 1 <= raw_samples <= 1024:
@@ -601,8 +718,8 @@ def scene_from_dict(data: Any, source: str = "scene") -> sc.Scene:
     objects: list[sc.SceneObject] = []
     raw_objects = top.raw("objects")
     if raw_objects is not ...:
-        if not isinstance(raw_objects, list) or not raw_objects:
-            top.fail("objects", f"must be a non-empty list of objects, got {_show_shape(raw_objects)}")
+        if not isinstance(raw_objects, list):  # an empty list is a scene of background only
+            top.fail("objects", f"must be a list of objects, got {_show_shape(raw_objects)}")
         else:
             for i, body in enumerate(raw_objects):
                 made = _object(_Reader(body, f"objects[{i}]", problems), materials, i)

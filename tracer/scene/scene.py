@@ -20,6 +20,10 @@ SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 CAMERA_TYPES = ("PERSP", "ORTHO")
 DTYPES = ("float32", "float64")
 NUMERICS = ("documented", "robust")
+FALLOFFS = ("none", "inverse_square")
+SPOT_MODELS = ("cycles4", "cycles3")
+WHITE = (1.0, 1.0, 1.0)
+BLACK = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -28,11 +32,18 @@ class Material:
 
     specular: the Phong exponent s (Blinn-Phong uses s * coef); 0 means matte, no specular term at all.
     reflective: r in [0, 1]; the local color is weighted by 1 - r and the mirror ray by r.
+    emission (>= 0): added to the local color, neither shadowed nor weighted by 1 - r (mirror rays see it too).
+    two_sided: a hit on the back of a surface (geometric N.D > 0) shades with the flipped normals.
+    specular_color: None, the documented rule (the whole intensity multiplies color); else the specular terms
+    multiply this color and the ambient and diffuse terms multiply color.
     """
 
     color: Color = (0.8, 0.8, 0.8)
     specular: float = 0.0
     reflective: float = 0.0
+    emission: Color = BLACK
+    two_sided: bool = False
+    specular_color: Color | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -41,6 +52,11 @@ class Primitive:
     material: str
     location: Vec3 = (0.0, 0.0, 0.0)
     rotation: Vec3 = (0.0, 0.0, 0.0)
+    # which rays see the object (Blender's ray visibility), and a holdout (a hole in the image: colour and alpha 0)
+    visible_camera: bool = True
+    visible_shadow: bool = True
+    visible_reflection: bool = True
+    holdout: bool = False
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -79,10 +95,17 @@ class Pyramid(Primitive):
 
 @dataclass(frozen=True, kw_only=True)
 class TriangleMesh(Primitive):
-    """Triangles in local coordinates (vertices and index triples), counter-clockwise seen from outside."""
+    """Triangles in local coordinates (vertices and index triples), counter-clockwise seen from outside.
+
+    normals: None (flat) or per triangle its three corner normals (local frame): the shading normal is their
+    barycentric interpolation, normalised. materials, material_indices: None (every triangle uses material) or the
+    names of the mesh's materials and each triangle's index into them."""
 
     vertices: tuple[Vec3, ...] = ()
     triangles: tuple[tuple[int, int, int], ...] = ()
+    normals: tuple[tuple[Vec3, Vec3, Vec3], ...] | None = None
+    materials: tuple[str, ...] | None = None
+    material_indices: tuple[int, ...] | None = None
 
 
 SceneObject = Sphere | Plane | Cylinder | Box | Pyramid | TriangleMesh
@@ -91,12 +114,17 @@ SceneObject = Sphere | Plane | Cylinder | Box | Pyramid | TriangleMesh
 @dataclass(frozen=True)
 class AmbientLight:
     intensity: float = 0.2
+    color: Color = WHITE  # every light's contribution is multiplied by its color, channel by channel
 
 
 @dataclass(frozen=True)
 class PointLight:
+    """falloff inverse_square: the diffuse and specular terms are divided by |L|^2 (L = location - P)."""
+
     location: Vec3 = (0.0, 0.0, 5.0)
     intensity: float = 0.6
+    color: Color = WHITE
+    falloff: Literal["none", "inverse_square"] = "none"
 
 
 @dataclass(frozen=True)
@@ -105,9 +133,28 @@ class DirectionalLight:
 
     direction: Vec3 = (0.0, 0.0, 1.0)
     intensity: float = 0.2
+    color: Color = WHITE
 
 
-Light = AmbientLight | PointLight | DirectionalLight
+@dataclass(frozen=True)
+class SpotLight:
+    """A point light whose terms are multiplied by Cycles' spot attenuation (docs/scene-format.md).
+
+    direction: the cone's axis, from the light outward; spot_size: the full cone angle in degrees; spot_blend: the
+    soft edge (0..1); spot_model: cycles4 (Blender 4.0 on: smoothstep only) or cycles3 (up to 3.6: smoothstep times
+    the cosine of the angle to the axis)."""
+
+    location: Vec3 = (0.0, 0.0, 5.0)
+    direction: Vec3 = (0.0, 0.0, -1.0)
+    intensity: float = 0.6
+    color: Color = WHITE
+    falloff: Literal["none", "inverse_square"] = "none"
+    spot_size: float = 45.0
+    spot_blend: float = 0.15
+    spot_model: Literal["cycles4", "cycles3"] = "cycles4"
+
+
+Light = AmbientLight | PointLight | DirectionalLight | SpotLight
 
 
 @dataclass(frozen=True)
@@ -177,6 +224,7 @@ class RenderSettings:
     gate_specular: bool = False
     numerics: Literal["documented", "robust"] = "documented"  # tracer/geometry/robust.py
     pixel_aspect: tuple[float, float] = (1.0, 1.0)  # Blender's pixel_aspect_x, pixel_aspect_y
+    film_transparent: bool = False  # misses of camera rays: colour 0 and alpha 0 (RenderResult.alpha)
 
 
 @dataclass(frozen=True)
@@ -193,6 +241,11 @@ class Scene:
     def with_render(self, **changes: object) -> Scene:
         """The same scene with some render settings changed (CLI flags, benchmarks)."""
         return replace(self, render=replace(self.render, **changes))
+
+    @property
+    def has_alpha(self) -> bool:
+        """Whether the render has an alpha channel: a transparent film or a holdout object."""
+        return self.render.film_transparent or any(obj.holdout for obj in self.objects)
 
     def with_heading(self, heading: float) -> Scene:
         """The same scene with the vane turned to heading degrees."""

@@ -72,27 +72,42 @@ def atomic_path(target: Path) -> Iterator[Path]:
         raise
 
 
-def encode_png(image: np.ndarray, srgb: bool = False, compress_level: int = 6) -> bytes:
-    """compress_level: zlib's, 0-9; 6 is Pillow's default, 3 about half the time for files about 40% larger."""
+def encode_png(
+    image: np.ndarray, srgb: bool = False, compress_level: int = 6, alpha: np.ndarray | None = None
+) -> bytes:
+    """compress_level: zlib's, 0-9; 6 is Pillow's default, 3 about half the time for files about 40% larger.
+    alpha (H, W): an RGBA PNG, the colours as they are (premultiplied, as rendered), alpha never sRGB-encoded."""
     from PIL import Image  # the CLI's need only; the tracer itself runs on NumPy alone
 
     buffer = io.BytesIO()
-    Image.fromarray(to_8bit(image, srgb), mode="RGB").save(buffer, format="PNG", compress_level=compress_level)
+    pixels = to_8bit(image, srgb)
+    if alpha is None:
+        made = Image.fromarray(pixels, mode="RGB")
+    else:
+        made = Image.fromarray(np.concatenate((pixels, to_8bit(alpha[..., None])), axis=2), mode="RGBA")
+    made.save(buffer, format="PNG", compress_level=compress_level)
     return buffer.getvalue()
 
 
-def write_image(image: np.ndarray, target: str | Path, srgb: bool = False, compress_level: int = 6) -> Path:
-    """Write (H, W, 3) linear floats to target (.png or .npy) atomically; returns the path."""
+def write_image(
+    image: np.ndarray,
+    target: str | Path,
+    srgb: bool = False,
+    compress_level: int = 6,
+    alpha: np.ndarray | None = None,
+) -> Path:
+    """Write (H, W, 3) linear floats to target (.png or .npy) atomically; returns the path. alpha (H, W): an RGBA
+    .png, or an H x W x 4 .npy."""
     target = Path(target)
     suffix = target.suffix.lower()
     if suffix not in SUFFIXES:
         raise ValueError(f"output must end in .png or .npy, got {target.name!r}")
-    payload = encode_png(image, srgb, compress_level) if suffix == ".png" else None
+    payload = encode_png(image, srgb, compress_level, alpha) if suffix == ".png" else None
     with atomic_path(target) as temporary:
         if payload is not None:
             temporary.write_bytes(payload)
         else:
-            _write_npy(image, temporary)
+            _write_npy(image if alpha is None else np.concatenate((image, alpha[..., None]), axis=2), temporary)
     return target
 
 

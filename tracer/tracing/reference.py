@@ -138,6 +138,44 @@ def find_normal(primitive: tf.WorldPrimitive, part: int, P: sc.Vec3) -> sc.Vec3:
     return primitive.normals[part]
 
 
+def spot_attenuation(cosine: float, spot: sc.SpotLight) -> float:
+    """Cycles' spot attenuation at a point seen from the light at this cosine to the axis (docs/scene-format.md).
+
+    cycles4 (Blender 4.0 on, intern/cycles/kernel/light/spot.h): smoothstep((c - cos_half) * spot_smooth), with
+    spot_smooth = 1 / ((1 - cos_half) * blend) and smoothstep(f) = 0 below 0, 1 above 1, else 3 f^2 - 2 f^3.
+    cycles3 (Blender 3.4-3.6): 0 where c <= cos_half; else c times smoothstep(t / ((1 - cos_half) * blend)) while
+    t = c - cos_half is below (1 - cos_half) * blend, and c beyond. Blend 0: a hard edge."""
+    cos_half = math.cos(math.radians(spot.spot_size) / 2.0)
+    width = (1.0 - cos_half) * spot.spot_blend
+    if not cosine > cos_half:
+        return 0.0
+    if width == 0.0:
+        step = 1.0
+    else:
+        f = min(max((cosine - cos_half) / width, 0.0), 1.0)
+        ff = f * f
+        step = 3.0 * ff - 2.0 * ff * f
+    return cosine * step if spot.spot_model == "cycles3" else step
+
+
+def barycentric_normal(triangle: tuple[sc.Vec3, sc.Vec3, sc.Vec3], corners: list, P: sc.Vec3) -> sc.Vec3 | None:
+    """The normalised interpolation (1 - u - v, u, v) of a triangle's corner normals at P (None if it is zero)."""
+    v0, v1, v2 = triangle
+    e1, e2, w = sub(v1, v0), sub(v2, v0), sub(P, v0)
+    d00, d01, d11 = dot(e1, e1), dot(e1, e2), dot(e2, e2)
+    d20, d21 = dot(w, e1), dot(w, e2)
+    denominator = d00 * d11 - d01 * d01
+    u = (d11 * d20 - d01 * d21) / denominator
+    v = (d00 * d21 - d01 * d20) / denominator
+    s = 1.0 - u - v
+    n0, n1, n2 = corners
+    n = tuple(n0[i] * s + n1[i] * u + n2[i] * v for i in range(3))
+    size = math.sqrt(dot(n, n))
+    if not size > 0.0:
+        return None
+    return (n[0] / size, n[1] / size, n[2] / size)
+
+
 class ReferenceTracer:
     """Traces one ray at a time exactly as the listings do; counts rays by kind."""
 
@@ -145,16 +183,33 @@ class ReferenceTracer:
         self.scene = scene
         self.settings = scene.render
         self.primitives = tf.world_primitives(scene)
-        self.materials = [scene.materials[obj.material] for obj in scene.objects]
         self.rays = {"camera": 0, "shadow": 0, "reflection": 0}
         self.documented_direction = cam.documented_background_direction(scene.camera, scene.render)
+        self.corners = [tf.world_corner_normals(obj, scene.vane) for obj in scene.objects]
+        self.corners = [None if c is None else c.tolist() for c in self.corners]
+        self.colored = any(m.specular_color is not None for m in scene.materials.values()) or any(
+            light.color != sc.WHITE or getattr(light, "falloff", "none") != "none" or isinstance(light, sc.SpotLight)
+            for light in scene.lights
+        )
 
-    def closest_intersection(self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float) -> tuple[int, int, float]:
-        """(object index or -1, part, t): the nearest hit with t_min < t < t_max, first object on ties."""
+    def material(self, index: int, part: int) -> sc.Material:
+        """The material of object index's part (a mesh's triangle may have its own)."""
+        obj = self.scene.objects[index]
+        if getattr(obj, "material_indices", None) is not None:
+            return self.scene.materials[obj.materials[obj.material_indices[part]]]
+        return self.scene.materials[obj.material]
+
+    def closest_intersection(
+        self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, seen_by: str = ""
+    ) -> tuple[int, int, float]:
+        """(object index or -1, part, t): the nearest hit with t_min < t < t_max, first object on ties. seen_by:
+        only the objects whose flag of that name is true (visible_camera, visible_shadow, visible_reflection)."""
         closest_t = INF
         closest_object = -1
         closest_part = 0
         for index, primitive in enumerate(self.primitives):
+            if seen_by and not getattr(self.scene.objects[index], seen_by):
+                continue
             for t, part in _hits(O, D, primitive):
                 if t_min < t < t_max and t < closest_t:
                     closest_t, closest_object, closest_part = t, index, part
@@ -172,75 +227,128 @@ class ReferenceTracer:
         return (h[0] + (z[0] - h[0]) * k, h[1] + (z[1] - h[1]) * k, h[2] + (z[2] - h[2]) * k)
 
     def find_intensity(self, P: sc.Vec3, N: sc.Vec3, V: sc.Vec3, specular: float) -> float:
-        """Listing 3.2."""
-        intensity = 0.0
+        """Listing 3.2 (white lights, no attenuation: the documented mode)."""
+        return self.find_intensities(P, N, V, specular)[0][0]
+
+    def find_intensities(self, P: sc.Vec3, N: sc.Vec3, V: sc.Vec3, specular: float) -> tuple[list[float], list[float]]:
+        """Listing 3.2 with each light's colour and attenuation. Documented mode (self.colored false): the whole
+        intensity, summed in the listing's order, in every channel of the first list. Else the (ambient + diffuse,
+        specular) sums per channel."""
+        total = 0.0
+        diffuse = [0.0, 0.0, 0.0]
+        highlight = [0.0, 0.0, 0.0]
         length_n = length(N)
         length_v = length(V)
         for light in self.scene.lights:
+            color = light.color
             if isinstance(light, sc.AmbientLight):
-                intensity += light.intensity
+                total += light.intensity
+                diffuse = [diffuse[c] + light.intensity * color[c] for c in range(3)]
                 continue
-            if isinstance(light, sc.PointLight):
+            factor = 1.0
+            if isinstance(light, sc.PointLight | sc.SpotLight):
                 light_vector = sub(light.location, P)
                 t_max = 1.0
+                if isinstance(light, sc.SpotLight):
+                    cosine = -dot(light_vector, normalize(light.direction)) / length(light_vector)
+                    factor = spot_attenuation(cosine, light)
+                if light.falloff == "inverse_square":
+                    falloff = 1.0 / dot(light_vector, light_vector)
+                    factor = falloff if not isinstance(light, sc.SpotLight) else factor * falloff
             else:
                 light_vector = light.direction
                 t_max = INF
             self.rays["shadow"] += 1
-            shadow_object, _, _ = self.closest_intersection(P, light_vector, SHADOW_T_MIN, t_max)
+            shadow_object, _, _ = self.closest_intersection(P, light_vector, SHADOW_T_MIN, t_max, "visible_shadow")
             if shadow_object >= 0:
                 continue
             NL = dot(N, light_vector)
             if NL > 0.0:
-                intensity += light.intensity * NL / (length_n * length(light_vector))
+                term = light.intensity * NL / (length_n * length(light_vector))
+                total += term
+                diffuse = [diffuse[c] + (term * factor) * color[c] for c in range(3)]
             if specular <= 0.0 or (self.settings.gate_specular and NL <= 0.0):
                 continue
+            term = None
             if self.settings.model == "phong":
                 R = reflect_ray(light_vector, N)
                 RV = dot(R, V)
                 if RV > 0.0:
-                    intensity += light.intensity * (RV / (length(R) * length_v)) ** specular
+                    term = light.intensity * (RV / (length(R) * length_v)) ** specular
             else:
                 H = add(normalize(light_vector), normalize(V))
                 HN = dot(H, N)
                 if HN > 0.0:
-                    intensity += light.intensity * (HN / (length(H) * length_n)) ** (specular * self.settings.coef)
-        return intensity
+                    term = light.intensity * (HN / (length(H) * length_n)) ** (specular * self.settings.coef)
+            if term is not None:
+                total += term
+                highlight = [highlight[c] + (term * factor) * color[c] for c in range(3)]
+        if not self.colored:
+            return [total, total, total], [0.0, 0.0, 0.0]
+        return diffuse, highlight
 
-    def trace_ray(self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, depth: int) -> sc.Color:
-        """Listing 3.1."""
-        closest_object, part, closest_t = self.closest_intersection(O, D, t_min, t_max)
+    def trace_ray(
+        self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, depth: int, camera: bool = False
+    ) -> sc.Color:
+        """Listing 3.1. camera: the camera ray (it sees the visible_camera objects, and nothing through a
+        transparent film); the others are mirror rays."""
+        seen_by = "visible_camera" if camera else "visible_reflection"
+        closest_object, part, closest_t = self.closest_intersection(O, D, t_min, t_max, seen_by)
         if closest_object < 0:
-            return self.background(D)
+            return (0.0, 0.0, 0.0) if camera and self.settings.film_transparent else self.background(D)
+        if self.scene.objects[closest_object].holdout:
+            return (0.0, 0.0, 0.0)
         P = add(O, scale(D, closest_t))
         N = normalize(find_normal(self.primitives[closest_object], part, P))
-        material = self.materials[closest_object]
+        material = self.material(closest_object, part)
         V = (-D[0], -D[1], -D[2])
-        intensity = self.find_intensity(P, N, V, material.specular)
-        weight = intensity * (1.0 - material.reflective)
+        S = N  # the shading normal: smooth, and flipped on the back of a two-sided material
+        corners = self.corners[closest_object]
+        if corners is not None:
+            S = barycentric_normal(self.primitives[closest_object].triangles[part], corners[part], P) or N
+        if material.two_sided and dot(N, V) < 0.0:
+            S = (-S[0], -S[1], -S[2])
+        diffuse, highlight = self.find_intensities(P, S, V, material.specular)
         color = material.color
-        local = (weight * color[0], weight * color[1], weight * color[2])
+        if self.colored:
+            tint = color if material.specular_color is None else material.specular_color
+            local = tuple(
+                (diffuse[c] * color[c] + highlight[c] * tint[c]) * (1.0 - material.reflective) for c in range(3)
+            )
+        else:
+            weight = diffuse[0] * (1.0 - material.reflective)
+            local = (weight * color[0], weight * color[1], weight * color[2])
+        if material.emission != sc.BLACK:
+            local = tuple(local[c] + material.emission[c] for c in range(3))
         if depth <= 0 or material.reflective <= 0.0:
             return local
         self.rays["reflection"] += 1
-        reflected = self.trace_ray(P, reflect_ray(V, N), REFLECTION_T_MIN, INF, depth - 1)
+        reflected = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1)
         r = material.reflective
         return (local[0] + reflected[0] * r, local[1] + reflected[1] * r, local[2] + reflected[2] * r)
 
     def pixel(self, i: int, j: int) -> sc.Color:
-        """The box-filtered mean of the pixel's samples."""
-        total = [0.0, 0.0, 0.0]
+        """The box-filtered mean of the pixel's samples (r, g, b), and alpha where the scene has one."""
+        total = [0.0, 0.0, 0.0, 0.0]
         for s in range(self.settings.samples):
             x, y = cam.sample_position(self.settings, i, j, s)
             O, D, t_max = cam.primary_ray(self.scene.camera, self.settings, x, y)
             self.rays["camera"] += 1
-            color = self.trace_ray(O, D, CAMERA_T_MIN, t_max, self.settings.depth)
-            total = [total[0] + color[0], total[1] + color[1], total[2] + color[2]]
+            color = self.trace_ray(O, D, CAMERA_T_MIN, t_max, self.settings.depth, camera=True)
+            first, _, _ = self.closest_intersection(O, D, CAMERA_T_MIN, t_max, "visible_camera")
+            if first >= 0:
+                covered = 0.0 if self.scene.objects[first].holdout else 1.0
+            else:
+                covered = 0.0 if self.settings.film_transparent else 1.0
+            total = [total[0] + color[0], total[1] + color[1], total[2] + color[2], total[3] + covered]
         n = self.settings.samples
+        if self.scene.has_alpha:
+            return (total[0] / n, total[1] / n, total[2] / n, total[3] / n)
         return (total[0] / n, total[1] / n, total[2] / n)
 
 
 def render_reference(scene: sc.Scene) -> list[list[sc.Color]]:
-    """The whole image as rows of (r, g, b) linear floats, unclamped; rows from the top."""
+    """The whole image as rows of (r, g, b) linear floats, unclamped, (r, g, b, alpha) where the scene has an
+    alpha; rows from the top."""
     tracer = ReferenceTracer(scene)
     return [[tracer.pixel(i, j) for i in range(scene.render.width)] for j in range(scene.render.height)]

@@ -52,6 +52,10 @@ class _Light:
     vector: np.ndarray | None = None  # (3, 1): point location or direction toward the light
     t_max: float = math.inf
     grid: CoverageGrid | None = None  # which shadow rays can meet a bounded object
+    color: np.ndarray | None = None  # (3, 1) in the tracing dtype
+    inverse_square: bool = False  # a point or spot light's terms divided by |L|^2
+    spot: sc.SpotLight | None = None  # a spot light: its terms multiplied by spot_attenuation()
+    axis: np.ndarray | None = None  # a spot light's unit axis (3, 1)
 
 
 @dataclass
@@ -76,20 +80,45 @@ class PreparedScene:
             else kernel
             for kernel, primitive in zip(self.kernels, primitives, strict=True)
         ]
+        objects = self.scene.objects
         owners = list(range(len(leaf_kernels)))
         self.hierarchy = Hierarchy(leaf_kernels, self.dtype, owners)
-        materials = [self.scene.materials[obj.material] for obj in self.scene.objects]
-        self.colors = np.asarray([m.color for m in materials], dtype=self.dtype).T.reshape(3, -1)  # (3, objects)
-        self.specular = np.asarray([m.specular for m in materials], dtype=self.dtype)
-        self.reflective = np.asarray([m.reflective for m in materials], dtype=self.dtype)
+
+        def seen_by(flag: str) -> Hierarchy:  # the objects one kind of ray sees (Blender's ray visibility)
+            chosen = [index for index, obj in enumerate(objects) if getattr(obj, flag)]
+            if len(chosen) == len(objects):
+                return self.hierarchy
+            return Hierarchy([leaf_kernels[index] for index in chosen], self.dtype, chosen)
+
+        self.camera_hierarchy = seen_by("visible_camera")
+        self.shadow_hierarchy = seen_by("visible_shadow")
+        self.mirror_hierarchy = seen_by("visible_reflection")
+        self.holdout = np.asarray([obj.holdout for obj in objects], dtype=bool)
+        self.any_holdout = bool(self.holdout.any())
+        self.has_alpha = self.scene.has_alpha
+        self.channels = 4 if self.has_alpha else 3  # colour, and alpha where the scene has one
+        self._materials(objects)
+        self._smooth_normals(objects, primitives)
         self.lights = []
         for light in self.scene.lights:
+            color = column(light.color, self.dtype)
             if isinstance(light, sc.AmbientLight):
-                self.lights.append(_Light("ambient", light.intensity))
-            elif isinstance(light, sc.PointLight):
-                self.lights.append(_Light("point", light.intensity, column(light.location, self.dtype), 1.0))
+                self.lights.append(_Light("ambient", light.intensity, color=color))
+            elif isinstance(light, sc.PointLight | sc.SpotLight):
+                made = _Light("point", light.intensity, column(light.location, self.dtype), 1.0, color=color)
+                made.inverse_square = light.falloff == "inverse_square"
+                if isinstance(light, sc.SpotLight):
+                    made.spot, made.axis = light, column(tf.normalize(light.direction), self.dtype)
+                self.lights.append(made)
             else:
-                self.lights.append(_Light("directional", light.intensity, column(light.direction, self.dtype)))
+                self.lights.append(
+                    _Light("directional", light.intensity, column(light.direction, self.dtype), color=color)
+                )
+        # the documented arithmetic (one intensity per point) unless a light or a material needs colours
+        self.colored = self.colored or any(
+            light.color != sc.WHITE or getattr(light, "falloff", "none") != "none" or isinstance(light, sc.SpotLight)
+            for light in self.scene.lights
+        )
         background = self.scene.background
         self.documented_color = None
         if background.type == "documented":
@@ -97,16 +126,95 @@ class PreparedScene:
             self.documented_color = column(background.sky(direction[2]), self.dtype)
         self.origin = column(self.scene.camera.location, self.dtype)
         self.screen = None  # which camera rays each bounded kernel can meet
-        if self.hierarchy.boxes is not None:
+        if self.camera_hierarchy.boxes is not None:
             self.screen = ScreenRectangles.build(
-                self.scene.camera, settings, self.origin.ravel().astype(np.float64), self.hierarchy.boxes
+                self.scene.camera, settings, self.origin.ravel().astype(np.float64), self.camera_hierarchy.boxes
             )
-            boxes = self.hierarchy.boxes
+        if self.shadow_hierarchy.boxes is not None:
+            boxes = self.shadow_hierarchy.boxes
             for light in self.lights:
                 if light.kind == "point":
                     light.grid = CoverageGrid.from_point(light.vector.ravel().astype(np.float64), *boxes)
                 elif light.kind == "directional":
                     light.grid = CoverageGrid.from_direction(light.vector.ravel().astype(np.float64), *boxes)
+
+    def _materials(self, objects: tuple[sc.SceneObject, ...]) -> None:
+        """The materials as arrays (3, M) and (M,), and each object's (or a mesh's each triangle's) index into them."""
+        names = list(self.scene.materials)
+        number = {name: index for index, name in enumerate(names)}
+        table = [self.scene.materials[name] for name in names]
+        self.object_material = np.asarray([number[obj.material] for obj in objects], dtype=np.intp)
+        self.triangle_materials: dict[int, np.ndarray] = {}
+        for index, obj in enumerate(objects):
+            if getattr(obj, "material_indices", None) is not None:
+                slots = np.asarray([number[name] for name in obj.materials], dtype=np.intp)
+                self.triangle_materials[index] = slots.take(np.asarray(obj.material_indices, dtype=np.intp))
+        as_columns = lambda values: np.asarray(values, dtype=self.dtype).T.reshape(3, -1)  # noqa: E731
+        self.colors = as_columns([m.color for m in table])  # (3, materials)
+        self.specular = np.asarray([m.specular for m in table], dtype=self.dtype)
+        self.reflective = np.asarray([m.reflective for m in table], dtype=self.dtype)
+        self.emission = as_columns([m.emission for m in table])
+        self.emissive = any(m.emission != sc.BLACK for m in table)
+        self.specular_colors = as_columns([m.color if m.specular_color is None else m.specular_color for m in table])
+        self.colored = any(m.specular_color is not None for m in table)
+        self.two_sided = np.asarray([m.two_sided for m in table], dtype=bool)
+        self.any_two_sided = bool(self.two_sided.any())
+
+    def _smooth_normals(self, objects: tuple[sc.SceneObject, ...], primitives: list) -> None:
+        """For each mesh with corner normals: its triangles' v0, e1, e2 and corner normals n0, n1, n2 (3, T) each,
+        float64 (the reference's numbers)."""
+        self.smooth: dict[int, tuple[np.ndarray, ...]] = {}
+        for index, (obj, primitive) in enumerate(zip(objects, primitives, strict=True)):
+            corners = tf.world_corner_normals(obj, self.scene.vane)
+            if corners is None:
+                continue
+            triangles = np.asarray(primitive.triangles, dtype=np.float64)  # (T, 3, 3)
+            v0 = triangles[:, 0]
+            parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, corners[:, 0], corners[:, 1], corners[:, 2])
+            self.smooth[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
+
+    def material_of(self, obj: np.ndarray, part: np.ndarray) -> np.ndarray:
+        """Each hit's index into the material arrays (n,): its object's material, or its triangle's."""
+        material = self.object_material.take(obj)
+        for index, table in self.triangle_materials.items():
+            rows = indices(obj == index)
+            if rows.size:
+                material.put(rows, table.take(part.take(rows)))
+        return material
+
+    def shading_normals(
+        self, N: np.ndarray, V: np.ndarray, P: np.ndarray, obj: np.ndarray, part: np.ndarray, material: np.ndarray
+    ) -> np.ndarray:
+        """The normals (3, n) that lighting and the mirror direction use: N (the geometric unit normals) where
+        nothing changes them; a smooth mesh's interpolated corner normals; flipped where a two-sided material is
+        hit from behind (N.V < 0, that is N.D > 0)."""
+        S = N
+        if self.smooth:
+            S = np.array(N, copy=True)
+            for index, (v0, e1, e2, n0, n1, n2) in self.smooth.items():
+                rows = indices(obj == index)
+                if not rows.size:
+                    continue
+                triangle = part.take(rows)
+                a, b, c = v0.take(triangle, axis=1), e1.take(triangle, axis=1), e2.take(triangle, axis=1)
+                w = take(P, rows).astype(np.float64) - a
+                d00, d01, d11 = dot(b, b), dot(b, c), dot(c, c)
+                d20, d21 = dot(w, b), dot(w, c)
+                denominator = d00 * d11 - d01 * d01
+                u = (d11 * d20 - d01 * d21) / denominator
+                v = (d00 * d21 - d01 * d20) / denominator
+                s = 1.0 - u - v
+                n = n0.take(triangle, axis=1) * s + n1.take(triangle, axis=1) * u + n2.take(triangle, axis=1) * v
+                size = np.sqrt(dot(n, n))
+                good = size > 0.0  # opposite corner normals can cancel: the flat normal then
+                unit = np.where(good, n / np.where(good, size, 1.0), take(N, rows))
+                for axis in range(3):
+                    S[axis].put(rows, unit[axis])
+        if self.any_two_sided:
+            flip = self.two_sided.take(material) & (dot(N, V) < 0.0)
+            if flip.any():
+                S = np.where(flip, -S, S)
+        return S
 
     # ---- intersection ------------------------------------------------------------------------------------------
 
@@ -152,8 +260,12 @@ class PreparedScene:
         surface: tuple[np.ndarray, np.ndarray] | None = None,
         footprint: Footprint | None = None,
         samples: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """Listing 3.2 for every hit point at once: P, N, V (3, n), specular (n,) -> intensity (n,).
+        geometric: np.ndarray | None = None,
+    ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """Listing 3.2 for every hit point at once: P, N, V (3, n), specular (n,) -> intensity (n,); where lights or
+        materials have colours (self.colored) the (ambient + diffuse, specular) intensities (3, n) each instead.
+
+        geometric: the surfaces' own unit normals where N (the shading normals) differs, for robust shadow origins.
 
         surface: robust numerics' (distance, scale) (n,) of each point, as normals() gives them. footprint: records
         the shadow rays of the camera samples (n,) the points belong to.
@@ -190,16 +302,25 @@ class PreparedScene:
                 cosine = HN / (np.sqrt(dot(H, H)) * length_n)
             # a shadow ray only where this light could add something: the result is the listing's, with fewer rays
             diffuse_gate = NL > 0.0
-            needed = indices(diffuse_gate | gate)
-            terms.append((L, NL, length_l, diffuse_gate, gate, cosine, needed))
-        lit = self._lit([term for term in terms if term is not None], P, N, counts, surface, footprint, samples)
+            factor = None
+            if light.inverse_square or light.spot is not None:
+                factor = self._attenuation(light, L, length_l)
+            if light.spot is not None:
+                needed = indices((diffuse_gate | gate) & (factor > 0.0))
+            else:
+                needed = indices(diffuse_gate | gate)
+            terms.append((L, NL, length_l, diffuse_gate, gate, cosine, needed, factor))
+        normals = N if geometric is None else geometric
+        lit = self._lit([term for term in terms if term is not None], P, normals, counts, surface, footprint, samples)
+        if self.colored:
+            return self._colored(terms, lit, count, length_n, exponent)
         intensity = np.zeros(count, dtype=self.dtype)
         shadow_rays = iter(lit)
         for light, term in zip(self.lights, terms, strict=True):
             if term is None:
                 intensity = intensity + light.intensity
                 continue
-            L, NL, length_l, diffuse_gate, gate, cosine, needed = term
+            L, NL, length_l, diffuse_gate, gate, cosine, needed, _ = term
             light_lit = next(shadow_rays)
             diffuse = light.intensity * NL / (length_n * length_l)
             intensity = np.where(light_lit & diffuse_gate, intensity + diffuse, intensity)
@@ -207,6 +328,42 @@ class PreparedScene:
             highlight = light.intensity * np.power(np.where(gate, cosine, 1.0), exponent)
             intensity = np.where(gate, intensity + highlight, intensity)
         return intensity
+
+    def _colored(
+        self, terms: list, lit: list[np.ndarray], count: int, length_n: np.ndarray, exponent: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The light-by-light sums of find_intensity with each light's colour and attenuation: (ambient + diffuse,
+        specular) (3, n) each."""
+        diffuse_sum = np.zeros((3, count), dtype=self.dtype)
+        specular_sum = np.zeros((3, count), dtype=self.dtype)
+        shadow_rays = iter(lit)
+        for light, term in zip(self.lights, terms, strict=True):
+            if term is None:
+                diffuse_sum = diffuse_sum + light.intensity * light.color
+                continue
+            _, NL, length_l, diffuse_gate, gate, cosine, _, factor = term
+            light_lit = next(shadow_rays)
+            diffuse = light.intensity * NL / (length_n * length_l)
+            highlight = light.intensity * np.power(np.where(gate & light_lit, cosine, 1.0), exponent)
+            if factor is not None:
+                diffuse = diffuse * factor
+                highlight = highlight * factor
+            diffuse_sum = np.where(light_lit & diffuse_gate, diffuse_sum + diffuse * light.color, diffuse_sum)
+            gate &= light_lit
+            specular_sum = np.where(gate, specular_sum + highlight * light.color, specular_sum)
+        return diffuse_sum, specular_sum
+
+    def _attenuation(self, light: _Light, L: np.ndarray, length_l: np.ndarray) -> np.ndarray:
+        """A point or spot light's factor (n,) on its terms: 1 / |L|^2 for inverse_square falloff, times a spot
+        light's spot_attenuation() (the same operations as the reference's)."""
+        factor = None
+        if light.spot is not None:
+            cosine = -dot(L, light.axis) / length_l  # the angle at the light between its axis and the point
+            factor = spot_attenuation(cosine, light.spot)
+        if light.inverse_square:
+            falloff = 1.0 / dot(L, L)
+            factor = falloff if factor is None else factor * falloff
+        return factor
 
     def _lit(
         self,
@@ -225,7 +382,7 @@ class PreparedScene:
         lights = [(index, light) for index, light in enumerate(self.lights) if light.kind != "ambient"]
         t_min = 0.0 if self.robust else SHADOW_T_MIN
         shadows, origins, vectors, limits, bits = [], [], [], [], []
-        for (index, light), (L, *_, needed) in zip(lights, terms, strict=True):
+        for (index, light), (L, *_, needed, _) in zip(lights, terms, strict=True):
             vector = take(L, needed)  # a directional light's vector stays a shared column
             origin = take(P, needed)
             if self.robust:
@@ -237,7 +394,7 @@ class PreparedScene:
             counts.shadow += needed.size
             # planes first, light by light (a shared direction keeps their test cheap); then only the rays that
             # the light's coverage grid cannot rule out go on to the hierarchy, all lights in one batch
-            blocked = self.hierarchy.blocked_by_planes(origin, vector, t_min, light.t_max)
+            blocked = self.shadow_hierarchy.blocked_by_planes(origin, vector, t_min, light.t_max)
             if light.grid is None:
                 rest, covering = indices(~blocked), None
             else:
@@ -253,8 +410,9 @@ class PreparedScene:
         if not shadows:
             return []
         # where every light's grid told which boxes each ray may meet, the hierarchy is not walked
-        sets = None if any(b is None for b in bits) else kernel_sets(self.hierarchy.boxes[0], np.concatenate(bits))
-        blocked_by_objects = self.hierarchy.occluded(
+        hierarchy = self.shadow_hierarchy
+        sets = None if any(b is None for b in bits) else kernel_sets(hierarchy.boxes[0], np.concatenate(bits))
+        blocked_by_objects = hierarchy.occluded(
             np.concatenate(origins, axis=1),
             np.concatenate(vectors, axis=1),
             t_min,
@@ -295,8 +453,10 @@ class PreparedScene:
         origins: np.ndarray | None = None,
         far: np.ndarray | None = None,
         footprint: Footprint | RayStore | None = None,
+        alpha: np.ndarray | None = None,
     ) -> np.ndarray:
-        """Camera rays (3, N) -> linear colors (3, N), unclamped.
+        """Camera rays (3, N) -> linear colors (3, N), unclamped; alpha (N,), where given (ones), is set to 0 for
+        the rays that meet a holdout first, or nothing with a transparent film.
 
         rows: the image rows (R,) that the rays are, ordered as camera.band_directions gives them, if they are.
         origins (3, N): where each ray starts (None: all at the camera); far (N,): where each stops (None: never),
@@ -310,37 +470,63 @@ class PreparedScene:
         pixel = np.arange(total)
         O = self.origin if origins is None else origins  # (3, 1): every camera ray starts at the camera
         t_min = CAMERA_T_MIN
+        transparent = self.scene.render.film_transparent
         for bounce in range(depth + 1):
             sets = self.screen.rays(rows) if bounce == 0 and rows is not None and self.screen is not None else None
-            t, obj, part = self.hierarchy.closest(O, D, t_min, sets)
+            hierarchy = self.camera_hierarchy if bounce == 0 else self.mirror_hierarchy
+            t, obj, part = hierarchy.closest(O, D, t_min, sets)
             if bounce == 0 and far is not None:  # beyond the camera's clip_end: the nearest hit is, so all are
                 obj[t >= far] = -1
             if footprint is not None:  # each ray up to its hit; a miss to its end
                 end = np.where(obj >= 0, t, np.inf if bounce or far is None else far)
                 footprint.record(pixel, O, D, t_min, end, hit=obj)
             miss = indices(obj < 0)
-            if miss.size:
+            if miss.size and bounce == 0 and transparent:  # the film shows nothing there: colour 0, alpha 0
+                if alpha is not None:
+                    alpha.put(miss, 0.0)
+            elif miss.size:
                 sky = weight.take(miss) * self.background(take(D, miss))
                 _accumulate(color, pixel.take(miss), sky, bounce == 0)
             if miss.size == obj.size:
                 break
             hit = indices(obj >= 0)
+            if self.any_holdout:  # a holdout adds nothing, and a camera ray that meets it first leaves alpha 0
+                held = self.holdout.take(obj.take(hit))
+                if held.any():
+                    if bounce == 0 and alpha is not None:
+                        alpha.put(hit.take(indices(held)), 0.0)
+                    hit = hit.take(indices(~held))
+                    if not hit.size:
+                        break
             O, D, t, obj, part = take(O, hit), take(D, hit), t.take(hit), obj.take(hit), part.take(hit)
             weight, pixel = weight.take(hit), pixel.take(hit)
             P = O + D * t
             V = -D
             O = D = t = None  # memory: a band's peak comes in the shading below
             N, surface = self.normals(P, obj, part)
-            intensity = self.find_intensity(P, N, V, self.specular.take(obj), counts, surface, footprint, pixel)
-            reflective = self.reflective.take(obj)
-            local = (intensity * (1.0 - reflective)) * self.colors.take(obj, axis=1)
+            material = self.material_of(obj, part)
+            S = self.shading_normals(N, V, P, obj, part, material)
+            geometric = None if S is N else N
+            specular = self.specular.take(material)
+            intensity = self.find_intensity(P, S, V, specular, counts, surface, footprint, pixel, geometric)
+            reflective = self.reflective.take(material)
+            if self.colored:
+                diffuse, highlight = intensity
+                lit = diffuse * self.colors.take(material, axis=1)
+                local = (lit + highlight * self.specular_colors.take(material, axis=1)) * (1.0 - reflective)
+            else:
+                local = (intensity * (1.0 - reflective)) * self.colors.take(material, axis=1)
+            if self.emissive:
+                local = local + self.emission.take(material, axis=1)
             _accumulate(color, pixel, weight * local, bounce == 0)
             go_on = indices(reflective > 0.0)
             if bounce == depth or go_on.size == 0:
                 break
+            same = S is N
             P, N, V = take(P, go_on), take(N, go_on), take(V, go_on)
-            k = 2.0 * dot(N, V)
-            O, D = P, N * k - V
+            S = N if same else take(S, go_on)
+            k = 2.0 * dot(S, V)
+            O, D = P, S * k - V
             if self.robust:
                 O = offset_origins(P, N, D, *(part.take(go_on) for part in surface))
             weight, pixel = weight.take(go_on) * reflective.take(go_on), pixel.take(go_on)
@@ -367,7 +553,7 @@ class PreparedScene:
         if max_samples is None or len(rows) * per_row <= max_samples:
             return self._render_piece(rows, None, volume, touched)
         counts = RayCounts()
-        image = np.empty((len(rows), settings.width, 3), dtype=self.dtype)
+        image = np.empty((len(rows), settings.width, self.channels), dtype=self.dtype)
         rows_at_once = max_samples // per_row
         if rows_at_once >= 1:
             for first in range(0, len(rows), rows_at_once):
@@ -404,17 +590,17 @@ class PreparedScene:
         width = settings.width if columns is None else len(columns)
         if touched is not None:
             touched[...] = hit.reshape(len(rows), width)
-        return colors.reshape(len(rows), width, 3), counts
+        return colors.reshape(len(rows), width, self.channels), counts
 
     def render_pixels(
         self, pixels: np.ndarray, max_samples: int | None = None, store: RayStore | None = None
     ) -> tuple[np.ndarray, RayCounts]:
-        """Flat pixel indices j * W + i (P,) -> their linear colours (P, 3) in the scene's dtype, and the ray
-        counts: the same bytes as those pixels of a whole image (the incremental frames' re-trace). store: keeps
-        every segment of their ray trees (edits.py)."""
+        """Flat pixel indices j * W + i (P,) -> their linear colours (P, 3; P, 4 with alpha) in the scene's dtype,
+        and the ray counts: the same bytes as those pixels of a whole image (the incremental frames' re-trace).
+        store: keeps every segment of their ray trees (edits.py)."""
         settings = self.scene.render
         at_once = len(pixels) if max_samples is None else max(1, max_samples // settings.samples)
-        colors = np.empty((len(pixels), 3), dtype=self.dtype)
+        colors = np.empty((len(pixels), self.channels), dtype=self.dtype)
         counts = RayCounts()
         for first in range(0, len(pixels), at_once):
             piece = np.asarray(pixels[first : first + at_once])
@@ -436,8 +622,9 @@ class PreparedScene:
         store: RayStore | None = None,
     ) -> tuple[np.ndarray, RayCounts, np.ndarray | None]:
         """Camera rays (3, P * samples) of the flat pixels (P,; needed only for a camera whose rays do not all
-        start at its location) -> colours (P, 3) box-filtered over each pixel's samples, the ray counts, and where a
-        volume is given which pixels' trees met it (P,)."""
+        start at its location) -> colours (P, 3) box-filtered over each pixel's samples (P, 4 with the alpha, the
+        share of samples that met a visible object, where the scene has one), the ray counts, and where a volume is
+        given which pixels' trees met it (P,)."""
         settings = self.scene.render
         camera = self.scene.camera
         counts = RayCounts()
@@ -447,11 +634,32 @@ class PreparedScene:
             if not cam.shares_origin(camera):
                 origins, far = cam.pixel_starts(camera, settings, pixels, directions)
                 origins = origins.astype(self.dtype)
-            color = self.trace(directions, counts, rows, origins, far, footprint)
-        samples = color.reshape(3, -1, settings.samples)
+            alpha = np.ones(directions.shape[1], dtype=self.dtype) if self.has_alpha else None
+            color = self.trace(directions, counts, rows, origins, far, footprint, alpha)
+        if alpha is not None:
+            color = np.concatenate((color, alpha[None]))
+        samples = color.reshape(self.channels, -1, settings.samples)
         image = samples.sum(axis=2) / settings.samples if settings.samples > 1 else samples[..., 0]
         hit = None if volume is None else footprint.touched.reshape(-1, settings.samples).any(axis=1)
         return np.ascontiguousarray(image.T), counts, hit
+
+
+def spot_attenuation(cosine: np.ndarray, spot: sc.SpotLight) -> np.ndarray:
+    """Cycles' spot light attenuation (n,) for the cosines (n,) of the angle at the light between its axis and the
+    points; the same operations as reference.spot_attenuation. cycles4 (Blender 4.0 on, kernel/light/spot.h):
+    smoothstep((c - cos_half) / ((1 - cos_half) * blend)); cycles3 (3.4-3.6): 0 inside cos_half, else c times
+    smoothstep((c - cos_half) / ((1 - cos_half) * blend)) while that is below 1, and c beyond. Blend 0: a hard edge."""
+    cos_half = math.cos(math.radians(spot.spot_size) / 2.0)
+    width = (1.0 - cos_half) * spot.spot_blend
+    inside = cosine > cos_half
+    if width == 0.0:
+        step = np.where(inside, 1.0, 0.0)
+    else:
+        f = np.clip((cosine - cos_half) / width, 0.0, 1.0)
+        ff = f * f
+        step = 3.0 * ff - 2.0 * ff * f
+    attenuation = np.where(inside, cosine * step if spot.spot_model == "cycles3" else step, 0.0)
+    return attenuation.astype(cosine.dtype, copy=False)
 
 
 _KERNELS: OrderedDict[tuple, object] = OrderedDict()

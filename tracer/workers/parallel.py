@@ -68,6 +68,10 @@ class RenderResult:
     rays: RayCounts
     seconds: float
     touched: np.ndarray | None = None  # (height, width) bool: pixels whose ray trees met the volume asked about
+    # (height, width): the share of each pixel's camera samples that met a visible object other than a holdout;
+    # None where the scene has neither a transparent film nor a holdout (Scene.has_alpha). The colours are then
+    # premultiplied by it (a missing sample adds 0).
+    alpha: np.ndarray | None = None
 
     @property
     def mrays_per_second(self) -> float:
@@ -101,6 +105,18 @@ def tune_allocator() -> None:
 # ---- worker side -------------------------------------------------------------------------------------------------
 
 _worker_cache: dict[str, object] = {}
+
+
+def _result(image: np.ndarray, counts: RayCounts, seconds: float, touched: np.ndarray | None = None) -> RenderResult:
+    """A RenderResult from an image of 3 channels, or of 4 (colour and alpha) where the scene has an alpha."""
+    if image.shape[-1] == 4:
+        return RenderResult(np.ascontiguousarray(image[..., :3]), counts, seconds, touched, image[..., 3].copy())
+    return RenderResult(image, counts, seconds, touched)
+
+
+def _colour(image: np.ndarray) -> np.ndarray:
+    """The colour channels of an image being traced (what band_done shows)."""
+    return image if image.shape[-1] == 3 else image[..., :3]
 
 
 def _prepared_for(scene_bytes: bytes) -> PreparedScene:
@@ -201,7 +217,7 @@ class Renderer:
         settings = scene.render
         started = time.perf_counter()
         prepared = self._prepared_here(scene)
-        image = np.empty((settings.height, settings.width, 3), dtype=settings.dtype)
+        image = np.empty((settings.height, settings.width, prepared.channels), dtype=settings.dtype)
         touched = None if volume is None else np.zeros((settings.height, settings.width), dtype=bool)
         counts = RayCounts()
         every = bands(settings)
@@ -212,10 +228,10 @@ class Renderer:
                 touched[rows] = band_touched
             counts.add(band_counts)
             if band_done is not None:
-                band_done(image, rows)
+                band_done(_colour(image), rows)
             if progress is not None:
                 progress(done, len(every))
-        return RenderResult(image, counts, time.perf_counter() - started, touched)
+        return _result(image, counts, time.perf_counter() - started, touched)
 
     def _prepared_here(self, scene: sc.Scene) -> PreparedScene:
         """The scene prepared in this process (one worker), kept while it stays the same."""
@@ -227,14 +243,15 @@ class Renderer:
 
     def render_pixels(self, scene: sc.Scene, pixels: np.ndarray, base: np.ndarray) -> RenderResult:
         """The image base (height, width, 3) with the flat pixels (P,) traced again in scene: bit for bit the
-        scene's whole image where no other pixel can differ from base (footprint.py)."""
+        scene's whole image where no other pixel can differ from base (footprint.py). Colour only: a scene with an
+        alpha is rendered whole by the callers (incremental.py)."""
         if self.workers > 1:
             self._start_pool()
             return self._submit_pixels(scene, pixels, base).finish()
         started = time.perf_counter()
         image = base.copy()
         colors, counts = self._prepared_here(scene).render_pixels(pixels, band_samples(scene.render))
-        image.reshape(-1, 3)[pixels] = colors
+        image.reshape(-1, 3)[pixels] = colors[:, :3]
         return RenderResult(image, counts, time.perf_counter() - started)
 
     def render_frames(self, scenes: Iterable[sc.Scene]) -> Iterator[RenderResult]:
@@ -284,7 +301,7 @@ class Renderer:
     def _submit(self, scene: sc.Scene, volume: Volume | None = None) -> _Frame:
         pool = self._start_pool()
         settings = scene.render
-        shape = (settings.height, settings.width, 3)
+        shape = (settings.height, settings.width, 4 if scene.has_alpha else 3)
         dtype = np.dtype(settings.dtype)
         started = time.perf_counter()
         descriptor, image = _shared_image(shape, dtype) if self._shared else (None, np.empty(shape, dtype))
@@ -325,7 +342,7 @@ class _Frame:
             for done, task in enumerate(self.pool.as_completed([task for _, task in self.tasks]), 1):
                 if self.pixels:
                     colors, piece_counts = task.result
-                    self.image.reshape(-1, 3)[where[id(task)]] = colors
+                    self.image.reshape(-1, 3)[where[id(task)]] = colors[:, :3]
                 else:
                     band, piece_counts, band_touched = task.result
                     if band is not None:
@@ -333,13 +350,13 @@ class _Frame:
                     if self.touched is not None:
                         self.touched[where[id(task)]] = band_touched
                     if band_done is not None:
-                        band_done(self.image, where[id(task)])
+                        band_done(_colour(self.image), where[id(task)])
                 counts.add(piece_counts)
                 if progress is not None:
                     progress(done, len(self.tasks))
         finally:
             self.abandon()
-        return RenderResult(self.image, counts, time.perf_counter() - self.started, self.touched)
+        return _result(self.image, counts, time.perf_counter() - self.started, self.touched)
 
     def abandon(self) -> None:
         """Forget the bands not yet finished (their workers may still write into the image: it is this frame's own
