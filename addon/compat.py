@@ -7,6 +7,8 @@ BLENDER_EEVEE_NEXT in 4.2-4.5. The default view transform is Filmic in 3.4 and A
 
 from __future__ import annotations
 
+import struct
+
 import bpy
 
 VERSION = bpy.app.version
@@ -115,3 +117,71 @@ def no_world_sampling(world: bpy.types.World) -> None:
 
 def eevee_engine() -> str:
     return "BLENDER_EEVEE_NEXT" if (4, 2, 0) <= VERSION < (5, 0, 0) else "BLENDER_EEVEE"
+
+
+def principled_input(node: bpy.types.Node, role: str):
+    """A Principled BSDF input by the role it plays, or None where this Blender has none: 4.0 renamed 'Subsurface',
+    'Transmission', 'Clearcoat' and 'Sheen' to their '... Weight' names (3.4's are factors with the same meaning)."""
+    names = {
+        "subsurface": ("Subsurface Weight", "Subsurface"),
+        "transmission": ("Transmission Weight", "Transmission"),
+        "coat": ("Coat Weight", "Clearcoat"),
+        "sheen": ("Sheen Weight", "Sheen"),
+        "specular": ("Specular IOR Level", "Specular"),
+        "emission": ("Emission Color", "Emission"),
+    }.get(role, (role,))
+    return next((node.inputs[name] for name in names if name in node.inputs), None)
+
+
+def principled_f0(node: bpy.types.Node, level: float) -> float:
+    """A dielectric Principled BSDF's reflectance at normal incidence for its specular level.
+
+    3.4: F0 = 0.08 * Specular (0.5 is F0 = 0.04). 4.0+: F0 = ((IOR - 1) / (IOR + 1))^2 scaled by 2 * IOR Level (0.5
+    keeps the IOR's own F0; IOR 1.5 is 0.04)."""
+    if "IOR" in node.inputs and "Specular IOR Level" in node.inputs:
+        ior = float(node.inputs["IOR"].default_value)
+        return min(1.0, ((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0 * level)
+    return min(1.0, 0.08 * level)
+
+
+def light_color(light: bpy.types.Light) -> tuple[float, float, float]:
+    """The light's colour as Cycles emits it: 4.x+ multiplies it by the blackbody colour when use_temperature is on."""
+    color = tuple(light.color)
+    if getattr(light, "use_temperature", False):
+        tint = tuple(light.temperature_color)
+        color = tuple(c * t for c, t in zip(color, tint, strict=True))
+    return color
+
+
+def light_power(light: bpy.types.Light) -> float:
+    """Watts (point, spot, area) or W/m^2 (sun) as Cycles emits them: 4.x+ scales energy by 2 ** exposure."""
+    return float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
+
+
+def light_casts_shadow(light: bpy.types.Light) -> bool:
+    """3.x keeps the switch in Cycles' settings (cast_shadow), 4.0+ on the light (use_shadow)."""
+    if hasattr(light, "use_shadow") and VERSION >= (4, 0, 0):
+        return bool(light.use_shadow)
+    return bool(getattr(getattr(light, "cycles", None), "cast_shadow", True))
+
+
+def light_soft_falloff(light: bpy.types.Light) -> bool:
+    """4.0+: a point or spot light of non-zero radius softens the inverse square near itself (Soft Falloff)."""
+    return bool(getattr(light, "use_soft_falloff", False))
+
+
+def uses_nodes(data) -> bool:
+    """A material's or world's node tree is what Cycles renders (always from 5.0, where use_nodes is deprecated)."""
+    return data.node_tree is not None and (VERSION >= (5, 0, 0) or bool(data.use_nodes))
+
+
+def float32_decimal(value: float) -> float:
+    """The shortest decimal that Blender's float32 storage of value came from (0.800000011920929 -> 0.8)."""
+    if not abs(value) < 3.0e38:  # inf, nan and what float32 cannot hold stay as they are
+        return float(value)
+    stored = struct.unpack("f", struct.pack("f", value))[0]
+    for digits in range(1, 10):
+        text = f"{stored:.{digits}g}"
+        if struct.unpack("f", struct.pack("f", float(text)))[0] == stored:
+            return float(text)
+    return float(stored)

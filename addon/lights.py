@@ -64,6 +64,7 @@ def create(kind: str, intensity: float, name: str, collection, vector=(0.0, 0.0,
         # rounded to a millionth of a radian: the conversion leaves float noise that the panel shows as 0.000003°
         obj.rotation_euler = [round(angle, 6) + 0.0 for angle in Vector(vector).to_track_quat("Z", "Y").to_euler("XYZ")]
         obj["weathervane_direction_length"] = Vector(vector).length  # the documented L keeps its length
+        obj["weathervane_direction"] = [float(c) for c in vector]  # exactly, while the light still points along it
     collection.objects.link(obj)
     return obj
 

@@ -1,0 +1,145 @@
+"""A Blender light object -> a tracer light (docs/scene-format.md) and one short line per thing it approximates.
+
+Cycles' units, measured on a white diffuse plane (albedo 1) facing the light, radius 0, in Cycles 5.0.1 (bpy wheel)
+and 3.4.1 (Debian), both giving the same numbers (tests/addon/test_shading_convert.py repeats it):
+
+    point 100 W at 2 m: 0.63324, at 5 m: 0.10132; 1000 W at 2 m: 6.33241, at 5 m: 1.01321
+        = P / (4 pi^2 d^2) to 1e-4: the tracer's diffuse i cos / d^2 (falloff "inverse_square") needs i = P / (4 pi^2)
+    spot, on its axis: the same as a point of the same power (the cone does not concentrate it)
+    sun of strength 1: 0.31831, 3: 0.95493 = S / pi: a directional light of i = S / pi
+
+So a point or spot light is {"intensity": P / (4 pi^2), "falloff": "inverse_square"}, a sun a directional light of
+S / pi, every light with its colour (times the blackbody colour where Use Temperature is on, and the power times
+2^exposure, as Cycles emits them). A spot shines along the light's -Z axis in world space with Blender's spot_size
+(the full cone, here in degrees) and spot_blend. An area light becomes a point light of the same power at its centre
+(named: an area light emits from one side, cosine-weighted); a radius (soft shadows, soft falloff) and a sun's angle
+become hard shadows (named).
+
+The add-on's own lights (lights.py: documented point lights with a constant-falloff node, and suns) convert back to
+exactly the intensity, location and direction the panel and the scene file hold.
+"""
+
+from __future__ import annotations
+
+import math
+
+import bpy
+from mathutils import Vector
+
+from . import compat
+
+POINT_WATTS_PER_UNIT = 4.0 * math.pi**2  # P = 4 pi^2 i (measured: see above)
+SUN_STRENGTH_PER_UNIT = math.pi  # S = pi i
+
+
+def _world_axis(obj, z: float) -> Vector:
+    return (obj.matrix_world.to_3x3() @ Vector((0.0, 0.0, z))).normalized()
+
+
+def _falloff_node(light) -> tuple[str | None, float, tuple[float, float, float]]:
+    """A Cycles light node tree: (Light Falloff output driving the emission or None, strength, colour)."""
+    if not compat.uses_nodes(light):
+        return None, 1.0, (1.0, 1.0, 1.0)
+    output = next((n for n in light.node_tree.nodes if n.type == "OUTPUT_LIGHT" and n.is_active_output), None)
+    output = output or next((n for n in light.node_tree.nodes if n.type == "OUTPUT_LIGHT"), None)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return None, 1.0, (1.0, 1.0, 1.0)
+    emission = output.inputs["Surface"].links[0].from_node
+    if emission.type != "EMISSION":
+        return None, 1.0, (1.0, 1.0, 1.0)
+    color = tuple(float(c) for c in emission.inputs["Color"].default_value[:3])
+    strength = emission.inputs["Strength"]
+    if strength.is_linked and strength.links[0].from_node.type == "LIGHT_FALLOFF":
+        node = strength.links[0].from_node
+        return strength.links[0].from_socket.name, float(node.inputs["Strength"].default_value), color
+    return None, float(strength.default_value), color
+
+
+def _own(obj, blender_scene) -> dict | None:
+    """The add-on's own light as the documented light its panel entry holds; None where it is not one."""
+    entries = getattr(getattr(blender_scene, "weathervane", None), "lights", ())
+    name = obj.original.name if getattr(obj, "original", None) is not None else obj.name
+    entry = next((e for e in entries if e.object_name == name and e.kind != "AMBIENT"), None)
+    light = obj.data
+    if entry is None:
+        return None
+    power = compat.light_power(light)
+    if entry.kind == "POINT" and light.type == "POINT":
+        falloff, strength, _ = _falloff_node(light)
+        if falloff != "Constant" or strength != 1.0:
+            return None
+        expected = entry.intensity * POINT_WATTS_PER_UNIT
+        intensity = entry.intensity if math.isclose(power, expected, rel_tol=1e-6) else power / POINT_WATTS_PER_UNIT
+        document = {
+            "type": "point",
+            "location": [compat.float32_decimal(c) for c in obj.matrix_world.translation],
+            "intensity": compat.float32_decimal(intensity),
+        }
+    elif entry.kind == "DIRECTIONAL" and light.type == "SUN":
+        expected = entry.intensity * SUN_STRENGTH_PER_UNIT
+        intensity = entry.intensity if math.isclose(power, expected, rel_tol=1e-6) else power / SUN_STRENGTH_PER_UNIT
+        axis = _world_axis(obj, 1.0)
+        stored = obj.get("weathervane_direction")
+        if stored is not None and axis.angle(Vector(stored).normalized(), 1.0) <= 1e-5:
+            direction = [float(c) for c in stored]
+        else:
+            direction = list(axis * float(obj.get("weathervane_direction_length", 1.0)))
+        document = {"type": "directional", "direction": direction, "intensity": compat.float32_decimal(intensity)}
+    else:
+        return None  # its type was changed in Blender's Light tab: converted as Blender now has it
+    color = compat.light_color(light)
+    if any(c != 1.0 for c in color):
+        document["color"] = [float(c) for c in color]
+    return document
+
+
+def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
+    """A Blender light object (evaluated or not; its matrix_world is used) -> (tracer light dict, notes)."""
+    blender_scene = blender_scene or bpy.context.scene
+    light = obj.data
+    own = _own(obj, blender_scene)
+    if own is not None:
+        return own, []
+    notes: list[str] = []
+    falloff, strength, node_color = _falloff_node(light)
+    color = [c * n for c, n in zip(compat.light_color(light), node_color, strict=True)]
+    power = compat.light_power(light) * strength
+    location = list(obj.matrix_world.translation)
+    kind = light.type
+    if kind == "SUN":
+        document = {"type": "directional", "direction": list(_world_axis(obj, 1.0)), "intensity": power / math.pi}
+        if light.angle > 0.0:
+            notes.append(f"sun angle {math.degrees(light.angle):.3g}°: hard shadow")
+    else:
+        document = {
+            "type": "point",
+            "location": location,
+            "intensity": power / POINT_WATTS_PER_UNIT,
+            "falloff": "none" if falloff == "Constant" else "inverse_square",
+        }
+        if falloff == "Linear":
+            notes.append("linear falloff node: inverse square")
+        if kind == "SPOT":
+            document.update(
+                type="spot",
+                direction=list(_world_axis(obj, -1.0)),
+                spot_size=math.degrees(light.spot_size),
+                spot_blend=float(light.spot_blend),
+            )
+            if getattr(light, "use_square", False):
+                notes.append("square spot: a round cone")
+        if kind in ("POINT", "SPOT") and light.shadow_soft_size > 0.0:
+            soft = ", soft falloff: inverse square" if compat.light_soft_falloff(light) else ""
+            notes.append(f"radius {light.shadow_soft_size:.3g} m: hard shadow{soft}")
+        if kind == "AREA":
+            size = f"{light.size:.3g} m"
+            if light.shape in ("RECTANGLE", "ELLIPSE"):
+                size = f"{light.size:.3g} x {light.size_y:.3g} m"
+            notes.append(f"area light {light.shape.lower()} {size}: a point of the same power at its centre")
+    document["color"] = color
+    if not compat.light_casts_shadow(light):
+        notes.append("casts no shadow in Blender: shadowed here")
+    for factor, what in (("diffuse_factor", "diffuse"), ("specular_factor", "specular")):
+        if float(getattr(light, factor, 1.0)) != 1.0:
+            notes.append(f"{what} factor {getattr(light, factor):.3g}: 1")
+    return document, notes

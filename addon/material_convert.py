@@ -1,0 +1,428 @@
+"""A Blender material -> a tracer material (docs/scene-format.md) and one short line per thing it approximates.
+
+The node tree that the active Material Output (target All or Cycles) uses is read as a sum of lobes: a diffuse colour
+D, a mirror reflectance M, highlights (a colour weight G and a Blinn-Phong exponent n) and an emission E. Mix Shader
+weighs its two inputs by its factor, Add Shader adds them. Then the documented material is
+
+    reflective r    = mean(M)                          the documented mirror is white: a tinted mirror is named
+    color           = D / (1 - r)                      the tracer weighs the local colour by 1 - r
+    specular s      = n / coef (Blinn-Phong), n / 4 (Phong)     the twin's relation, inverted (materials.py)
+    specular_color  = G (n + 2) / 8 / (1 - r)          the twin's highlight_gain, inverted
+    emission        = E                                added unshadowed, as Cycles adds a surface's emission
+
+Lobes of the shaders (F0 is a dielectric's reflectance at normal incidence, compat.principled_f0: 0.04 by default):
+
+    Principled BSDF  specular F = metallic C + (1 - metallic) F0 (white for dielectrics, the base colour C for
+                     metals); D = (1 - metallic)(1 - F0) C; E = Emission Color x Emission Strength
+    Diffuse BSDF     D = C
+    Glossy BSDF      F = C (Anisotropic in 3.4 too, its anisotropy named)
+    Emission         E = Color x Strength
+
+and a specular F splits by roughness rho into a mirror share and a highlight share. The twin draws the documented
+highlight of exponent n as a Beckmann lobe of roughness rho = (2 / (n + 2))^(1/4) (materials.py), so rho maps back
+to n = 2 / rho^4 - 2. A lobe at rho <= 0.1 (n >= 20000, narrower than any exponent the add-on's materials reach) is
+a mirror; at rho >= 0.5 (n <= 30, a lobe 14 degrees wide) the scene's reflection is blurred past recognition and
+only the lights' highlight is kept; in between the share moves linearly: mirror w = (0.5 - rho) / 0.4 of F, and
+(1 - w) F is the highlight's weight. Where n < 1 (rho > 0.84) the highlight is as wide as a diffuse lobe and goes to D.
+
+Image textures and colour attributes on a colour input give their mean colour (linear, computed once per image or
+attribute and kept in a cache), named. Transmission, subsurface, coat, sheen, alpha, normal and bump maps, and
+volumes are named and rendered as the opaque base. With no node tree the Viewport Display colour is the colour.
+The add-on's own materials (materials.py) convert back to exactly the values the panel holds.
+"""
+
+from __future__ import annotations
+
+import math
+
+import bpy
+
+from . import compat
+
+ROUGH_MIRROR = 0.1  # at or below: a mirror
+ROUGH_HIGHLIGHT = 0.5  # at or above: a highlight of the lights only
+DEFAULT_GREY = (0.8, 0.8, 0.8)  # Cycles' surface for an object without a material
+
+_means: dict[tuple, tuple[float, float, float]] = {}  # image or attribute -> its mean linear colour
+
+
+def clear_cache() -> None:
+    """Forget the cached mean colours (an image or a mesh's colours changed)."""
+    _means.clear()
+
+
+def exponent_from_roughness(roughness: float) -> float:
+    """The Blinn-Phong exponent n whose twin lobe has this roughness: the inverse of rho = (2 / (n + 2))^(1/4)."""
+    if roughness <= 0.0:
+        return math.inf
+    return max(0.0, 2.0 / roughness**4 - 2.0)
+
+
+def specular_from_exponent(exponent: float, model: str = "blinn-phong", coef: float = 3.0) -> float:
+    """The material's specular s for a half-vector exponent n (n = s * coef, or 4 s for Phong: materials.py)."""
+    return exponent / coef if model == "blinn-phong" else exponent / 4.0
+
+
+def mirror_share(roughness: float) -> float:
+    """The share of a specular lobe that is a mirror: 1 up to ROUGH_MIRROR, 0 from ROUGH_HIGHLIGHT, linear between."""
+    return min(1.0, max(0.0, (ROUGH_HIGHLIGHT - roughness) / (ROUGH_HIGHLIGHT - ROUGH_MIRROR)))
+
+
+class _Lobes:
+    """A surface as the documented model's parts: diffuse, mirror, highlights and emission (linear RGB)."""
+
+    def __init__(self) -> None:
+        self.diffuse = [0.0, 0.0, 0.0]
+        self.mirror = [0.0, 0.0, 0.0]
+        self.highlights: list[tuple[list[float], float]] = []  # (colour weight, exponent n)
+        self.emission = [0.0, 0.0, 0.0]
+
+    def scaled(self, k: float) -> _Lobes:
+        out = _Lobes()
+        out.diffuse = [c * k for c in self.diffuse]
+        out.mirror = [c * k for c in self.mirror]
+        out.highlights = [([c * k for c in weight], n) for weight, n in self.highlights]
+        out.emission = [c * k for c in self.emission]
+        return out
+
+    def plus(self, other: _Lobes) -> _Lobes:
+        out = _Lobes()
+        out.diffuse = [a + b for a, b in zip(self.diffuse, other.diffuse, strict=True)]
+        out.mirror = [a + b for a, b in zip(self.mirror, other.mirror, strict=True)]
+        out.highlights = self.highlights + other.highlights
+        out.emission = [a + b for a, b in zip(self.emission, other.emission, strict=True)]
+        return out
+
+    def add_specular(self, weight, roughness: float) -> None:
+        """A specular lobe of colour weight and roughness: mirror, highlight, or diffuse where it is that wide."""
+        share = mirror_share(roughness)
+        self.mirror = [m + share * c for m, c in zip(self.mirror, weight, strict=True)]
+        rest = [(1.0 - share) * c for c in weight]
+        if share >= 1.0 or not any(rest):
+            return
+        exponent = exponent_from_roughness(roughness)
+        if exponent < 1.0:
+            self.diffuse = [d + c for d, c in zip(self.diffuse, rest, strict=True)]
+        else:
+            self.highlights.append((rest, exponent))
+
+
+# --- inputs ----------------------------------------------------------------------------------------------------------
+
+
+def _source(socket):
+    """The node and output feeding socket (through reroutes and muted nodes), or (None, None)."""
+    while socket.is_linked:
+        link = socket.links[0]
+        if not link.is_valid or link.is_muted:
+            return None, None
+        node = link.from_node
+        if node.type == "REROUTE" or node.mute:
+            inputs = [s for s in node.inputs if s.is_linked]
+            if not inputs:
+                return None, None
+            socket = inputs[0]
+            continue
+        return node, link.from_socket
+    return None, None
+
+
+def _srgb_to_linear(c: float) -> float:
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+
+
+def image_mean(image) -> tuple[float, float, float] | None:
+    """An image's mean linear colour (cached by name, size and file); None where it has no pixels."""
+    key = ("image", image.name, tuple(image.size), image.filepath)
+    if key in _means:
+        return _means[key]
+    width, height = image.size
+    if width * height == 0:
+        return None
+    import numpy as np
+
+    pixels = np.empty(width * height * image.channels, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    rgb = pixels.reshape(-1, image.channels)[:, :3].astype(np.float64)
+    if image.channels < 3:
+        rgb = np.repeat(pixels.reshape(-1, image.channels)[:, :1], 3, axis=1).astype(np.float64)
+    if not image.is_float and image.colorspace_settings.name in ("sRGB", "sRGB - Display"):
+        rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    mean = tuple(float(c) for c in rgb.mean(axis=0))
+    _means[key] = mean
+    return mean
+
+
+def attribute_mean(material, attribute_name: str) -> tuple[float, float, float] | None:
+    """The mean of a colour attribute over the meshes that use material (cached); None where none has it."""
+    key = ("attribute", material.name, attribute_name)
+    if key in _means:
+        return _means[key]
+    total, count = [0.0, 0.0, 0.0], 0
+    for mesh in bpy.data.meshes:
+        if material.name not in mesh.materials:
+            continue
+        attributes = getattr(mesh, "color_attributes", None) or getattr(mesh, "vertex_colors", None)
+        if not attributes:
+            continue
+        layer = attributes.get(attribute_name) if attribute_name else attributes.active_color
+        if layer is None and not attribute_name:
+            layer = attributes[0]
+        if layer is None:
+            continue
+        for item in layer.data:
+            color = item.color
+            total = [t + c for t, c in zip(total, color[:3], strict=True)]
+            count += 1
+    mean = tuple(t / count for t in total) if count else None
+    _means[key] = mean
+    return mean
+
+
+def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, float, float]:
+    """A colour input's value: its own, an RGB node's, or the mean of an image or colour attribute (named)."""
+    node, _ = _source(socket)
+    own = tuple(float(c) for c in socket.default_value[:3])
+    if node is None:
+        return own
+    if node.type == "RGB":
+        return tuple(float(c) for c in node.outputs[0].default_value[:3])
+    if node.type in ("TEX_IMAGE", "TEX_ENVIRONMENT") and node.image is not None:
+        mean = image_mean(node.image)
+        if mean is not None:
+            notes.append(f"image texture on {label}: mean colour")
+            return mean
+    if node.type in ("VERTEX_COLOR", "ATTRIBUTE"):
+        name = getattr(node, "layer_name", "") or getattr(node, "attribute_name", "")
+        mean = attribute_mean(material, name)
+        if mean is not None:
+            notes.append(f"colour attribute on {label}: mean colour")
+            return mean
+    notes.append(f"{node.name} on {label}: the input's own value")
+    return own
+
+
+def value_input(socket, label: str, notes: list[str]) -> float:
+    """A factor input's own value; a linked one is named and read unlinked."""
+    node, _ = _source(socket)
+    if node is not None:
+        if node.type == "VALUE":
+            return float(node.outputs[0].default_value)
+        notes.append(f"{node.name} on {label}: the input's own value")
+    return float(socket.default_value)
+
+
+# --- shaders ---------------------------------------------------------------------------------------------------------
+
+
+def _principled(node, material, notes: list[str]) -> _Lobes:
+    lobes = _Lobes()
+    base = color_input(node.inputs["Base Color"], material, "Base Color", notes)
+    metallic = min(1.0, max(0.0, value_input(node.inputs["Metallic"], "Metallic", notes)))
+    roughness = min(1.0, max(0.0, value_input(node.inputs["Roughness"], "Roughness", notes)))
+    level = value_input(compat.principled_socket(node, "specular"), "Specular", notes)
+    f0 = compat.principled_f0(node, level)
+    lobes.diffuse = [(1.0 - metallic) * (1.0 - f0) * c for c in base]
+    lobes.add_specular([metallic * c + (1.0 - metallic) * f0 for c in base], roughness)
+    emission = color_input(compat.principled_socket(node, "emission"), material, "Emission", notes)
+    strength = value_input(node.inputs["Emission Strength"], "Emission Strength", notes)
+    lobes.emission = [c * strength for c in emission]
+    for role, what in (("transmission", "transmission"), ("subsurface", "subsurface"), ("coat", "coat"),
+                       ("sheen", "sheen")):  # fmt: skip
+        socket = compat.principled_input(node, role)
+        if socket is not None and (socket.is_linked or float(socket.default_value) > 0.0):
+            notes.append(f"{what}: rendered as the opaque base")
+    alpha = node.inputs.get("Alpha")
+    if alpha is not None and (alpha.is_linked or float(alpha.default_value) < 1.0):
+        notes.append("alpha: rendered opaque")
+    anisotropic = compat.principled_input(node, "Anisotropic")
+    if anisotropic is not None and (anisotropic.is_linked or float(anisotropic.default_value) != 0.0):
+        notes.append("anisotropy: an isotropic highlight")
+    return lobes
+
+
+def _glossy(node, material, notes: list[str]) -> _Lobes:
+    lobes = _Lobes()
+    color = color_input(node.inputs["Color"], material, f"{node.name} Color", notes)
+    roughness = min(1.0, max(0.0, value_input(node.inputs["Roughness"], "Roughness", notes)))
+    lobes.add_specular(list(color), roughness)
+    anisotropy = node.inputs.get("Anisotropy")
+    if anisotropy is not None and (anisotropy.is_linked or float(anisotropy.default_value) != 0.0):
+        notes.append("anisotropy: an isotropic highlight")
+    return lobes
+
+
+def _diffuse(node, material, notes: list[str]) -> _Lobes:
+    lobes = _Lobes()
+    lobes.diffuse = list(color_input(node.inputs["Color"], material, f"{node.name} Color", notes))
+    roughness = node.inputs.get("Roughness")
+    if roughness is not None and (roughness.is_linked or float(roughness.default_value) > 0.0):
+        notes.append("diffuse roughness (Oren-Nayar): Lambert")
+    return lobes
+
+
+def _emission(node, material, notes: list[str]) -> _Lobes:
+    lobes = _Lobes()
+    color = color_input(node.inputs["Color"], material, f"{node.name} Color", notes)
+    strength = value_input(node.inputs["Strength"], "Strength", notes)
+    lobes.emission = [c * strength for c in color]
+    return lobes
+
+
+def _shader(socket, material, notes: list[str], depth: int = 0) -> _Lobes:
+    """The lobes of whatever shader feeds socket."""
+    node, _ = _source(socket)
+    if node is None or depth > 32:
+        return _Lobes()
+    kind = node.type
+    if kind == "BSDF_PRINCIPLED":
+        return _principled(node, material, notes)
+    if kind in ("BSDF_GLOSSY", "BSDF_ANISOTROPIC"):
+        return _glossy(node, material, notes)
+    if kind == "BSDF_DIFFUSE":
+        return _diffuse(node, material, notes)
+    if kind == "EMISSION":
+        return _emission(node, material, notes)
+    if kind == "ADD_SHADER":
+        return _shader(node.inputs[0], material, notes, depth + 1).plus(
+            _shader(node.inputs[1], material, notes, depth + 1)
+        )
+    if kind == "MIX_SHADER":
+        factor = min(1.0, max(0.0, value_input(node.inputs[0], f"{node.name} Fac", notes)))
+        first = _shader(node.inputs[1], material, notes, depth + 1).scaled(1.0 - factor)
+        return first.plus(_shader(node.inputs[2], material, notes, depth + 1).scaled(factor))
+    lobes = _Lobes()
+    color = node.inputs.get("Color")
+    if color is not None and hasattr(color, "default_value") and len(color.default_value) >= 3:
+        lobes.diffuse = list(color_input(color, material, f"{node.name} Color", notes))
+        notes.append(f"{node.bl_label}: a diffuse surface of its colour")
+    else:
+        lobes.diffuse = list(DEFAULT_GREY)
+        notes.append(f"{node.bl_label}: grey diffuse")
+    return lobes
+
+
+def material_output(tree):
+    """The Material Output that Cycles uses: the active one of target All or Cycles, else the first such."""
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.target in ("ALL", "CYCLES")]
+    active = [n for n in outputs if n.is_active_output]
+    return (active or outputs or [None])[0]
+
+
+# --- the add-on's own materials --------------------------------------------------------------------------------------
+
+OWN_NODES = ("WV Diffuse", "WV Highlight", "WV Mix")
+
+
+def _own(material, blender_scene, model: str, coef: float) -> dict | None:
+    """An add-on material (materials.py) back as its documented values; None where its nodes are not the add-on's."""
+    nodes = material.node_tree.nodes if material.node_tree else None
+    if nodes is None or any(nodes.get(name) is None for name in OWN_NODES):
+        return None
+    color = [float(c) for c in nodes["WV Diffuse"].inputs["Color"].default_value[:3]]
+    reflective = float(nodes["WV Mix"].inputs["Fac"].default_value)
+    highlight = nodes["WV Highlight"]
+    specular = 0.0
+    if any(float(c) > 0.0 for c in highlight.inputs["Color"].default_value[:3]):
+        exponent = exponent_from_roughness(float(highlight.inputs["Roughness"].default_value))
+        specular = specular_from_exponent(exponent, model, coef)
+    entries = getattr(getattr(blender_scene, "weathervane", None), "materials", ())
+    entry = next((e for e in entries if e.name == material.get("weathervane_material")), None)
+    if (
+        entry is not None
+        and all(abs(a - b) <= 1e-6 for a, b in zip(entry.color, color, strict=True))
+        and abs(entry.reflective - reflective) <= 1e-6
+        and abs(entry.specular - specular) <= 1e-3 * max(1.0, entry.specular)
+    ):
+        color, specular, reflective = list(entry.color), entry.specular, entry.reflective
+    return {
+        "color": [compat.float32_decimal(c) for c in color],
+        "specular": compat.float32_decimal(specular),
+        "reflective": compat.float32_decimal(reflective),
+    }
+
+
+# --- the conversion --------------------------------------------------------------------------------------------------
+
+
+def convert_material(
+    material,
+    *,
+    blender_scene=None,
+    two_sided: bool | None = None,
+) -> tuple[dict, list[str]]:
+    """A Blender material (or None) -> (tracer material dict, notes on what it approximates).
+
+    blender_scene gives the highlight model and coef (default: the context's scene); two_sided defaults to True for
+    a material the add-on did not build (Blender lights both sides of a face), and is left out for the add-on's own.
+    """
+    blender_scene = blender_scene or bpy.context.scene
+    settings = getattr(blender_scene, "weathervane", None)
+    model = getattr(settings, "model", "blinn-phong")
+    coef = float(getattr(settings, "coef", 3.0))
+    notes: list[str] = []
+    if material is None:
+        return {"color": list(DEFAULT_GREY), "specular": 0, "reflective": 0, "two_sided": two_sided is not False}, [
+            "no material: Cycles' grey"
+        ]
+    if compat.uses_nodes(material) and material.get("weathervane_material") is not None:
+        own = _own(material, blender_scene, model, coef)
+        if own is not None:
+            if two_sided:
+                own["two_sided"] = True
+            return own, notes
+    if not compat.uses_nodes(material):
+        color = [min(1.0, max(0.0, float(c))) for c in material.diffuse_color[:3]]
+        document = {"color": color, "specular": 0, "reflective": 0}
+        notes.append("no node tree: its Viewport Display colour, diffuse")
+        if two_sided is not False:
+            document["two_sided"] = True
+        return document, notes
+    output = material_output(material.node_tree)
+    if output is None or not output.inputs["Surface"].is_linked:
+        notes.append("no surface shader: black")
+        lobes = _Lobes()
+    else:
+        lobes = _shader(output.inputs["Surface"], material, notes)
+    if output is not None:
+        if output.inputs["Volume"].is_linked:
+            notes.append("volume: ignored")
+        if output.inputs["Displacement"].is_linked:
+            notes.append("displacement: ignored")
+    _name_normal_maps(material.node_tree, notes)
+    document = _document(lobes, model, coef, notes)
+    if two_sided is not False:
+        document["two_sided"] = True
+    return document, list(dict.fromkeys(notes))
+
+
+def _name_normal_maps(tree, notes: list[str]) -> None:
+    for node in tree.nodes:
+        normal = node.inputs.get("Normal") if node.type.startswith("BSDF") else None
+        if normal is not None and normal.is_linked:
+            notes.append("normal or bump map: the surface's own normal")
+            return
+
+
+def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
+    mirror = [min(1.0, max(0.0, c)) for c in lobes.mirror]
+    reflective = sum(mirror) / 3.0
+    if reflective > 0.0 and max(mirror) - min(mirror) > 1e-3:
+        notes.append("tinted mirror: white at its mean reflectance")
+    local = 1.0 / (1.0 - reflective) if reflective < 1.0 else 0.0
+    color = [c * local for c in lobes.diffuse]
+    if any(c > 1.0 for c in color):
+        notes.append("diffuse colour above 1: clamped")
+    document = {"color": [min(1.0, max(0.0, c)) for c in color], "specular": 0, "reflective": reflective}
+    if lobes.highlights:
+        weight, exponent = max(lobes.highlights, key=lambda item: sum(item[0]))
+        if len(lobes.highlights) > 1:
+            total = [sum(w[i] for w, _ in lobes.highlights) for i in range(3)]
+            weight = total
+            notes.append("several highlights: one, of the strongest's exponent")
+        gain = (exponent + 2.0) / 8.0 * local
+        document["specular"] = specular_from_exponent(exponent, model, coef)
+        document["specular_color"] = [c * gain for c in weight]
+    if any(c > 0.0 for c in lobes.emission):
+        document["emission"] = list(lobes.emission)
+    return document

@@ -1,0 +1,350 @@
+"""Blender's materials, lights and world -> the tracer's (addon/material_convert.py, light_convert.py,
+world_convert.py), the round trip of the add-on's own, Cycles' light units measured, and Blender's own property
+panels shown for the engine. Runs in the bpy wheel (5.0.1) and in Debian's 3.4.1 (run_in_blender.py)."""
+
+from __future__ import annotations
+
+import copy
+import math
+import os
+import tempfile
+
+import bpy
+import pytest
+
+from addon import build, compat, light_convert, material_convert, world_convert
+from tracer.scene.loader import default_scene_dict, scene_from_dict
+
+
+def principled(name: str = "P", **inputs) -> bpy.types.Material:
+    material = bpy.data.materials.new(name)
+    compat.enable_nodes(material)
+    node = next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    for role, value in inputs.items():
+        socket = compat.principled_socket(node, role) if role in ("specular", "emission") else node.inputs[role]
+        socket.default_value = value
+    return material
+
+
+def shader_material(name: str, *kinds: str) -> tuple[bpy.types.Material, list]:
+    """A material whose nodes are only an output and the given shader nodes (unlinked)."""
+    material = bpy.data.materials.new(name)
+    compat.enable_nodes(material)
+    tree = material.node_tree
+    tree.nodes.clear()
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    return material, [output, *(tree.nodes.new(kind) for kind in kinds)]
+
+
+def light_object(kind: str, energy: float, location=(0.0, 0.0, 3.0), rotation=(0.0, 0.0, 0.0), **settings):
+    data = bpy.data.lights.new(kind.title(), kind)
+    data.energy = energy
+    for key, value in settings.items():
+        setattr(data, key, value)
+    obj = bpy.data.objects.new(kind.title(), data)
+    obj.location, obj.rotation_euler = location, rotation
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.update()
+    return obj
+
+
+# --- materials -------------------------------------------------------------------------------------------------------
+
+
+def test_a_red_principled_is_a_red_diffuse_with_a_white_highlight() -> None:
+    material = principled(**{"Base Color": (0.8, 0.05, 0.05, 1.0), "Roughness": 0.5})
+    document, notes = material_convert.convert_material(material)
+    f0 = 0.04  # IOR 1.5 (4.0+) and Specular 0.5 (3.4)
+    assert document["color"] == pytest.approx([0.8 * (1 - f0), 0.05 * (1 - f0), 0.05 * (1 - f0)], rel=1e-5)
+    assert document["reflective"] == 0.0 and document["two_sided"] is True
+    n = 2 / 0.5**4 - 2  # 30: the twin's exponent for roughness 0.5
+    assert document["specular"] == pytest.approx(n / 3.0)
+    assert document["specular_color"] == pytest.approx([f0 * (n + 2) / 8] * 3, rel=1e-5)  # white: a dielectric
+    assert "emission" not in document and notes == []
+
+
+def test_a_smooth_metal_is_a_mirror_named_where_tinted() -> None:
+    document, notes = material_convert.convert_material(
+        principled(**{"Base Color": (1.0, 1.0, 1.0, 1.0), "Metallic": 1.0, "Roughness": 0.0})
+    )
+    assert document["reflective"] == pytest.approx(1.0) and "specular_color" not in document
+    assert document["specular"] == 0 and notes == []
+    gold, notes = material_convert.convert_material(
+        principled(**{"Base Color": (1.0, 0.8, 0.3, 1.0), "Metallic": 1.0, "Roughness": 0.05})
+    )
+    assert gold["reflective"] == pytest.approx(0.7, rel=1e-5) and gold["color"] == pytest.approx([0, 0, 0])
+    assert "tinted mirror: white at its mean reflectance" in notes
+
+
+def test_roughness_splits_a_metal_between_mirror_and_highlight_in_the_base_colour() -> None:
+    document, _ = material_convert.convert_material(
+        principled(**{"Base Color": (0.9, 0.6, 0.2, 1.0), "Metallic": 1.0, "Roughness": 0.3})
+    )
+    share = material_convert.mirror_share(0.3)
+    assert share == pytest.approx(0.5)
+    assert document["reflective"] == pytest.approx(share * (0.9 + 0.6 + 0.2) / 3, rel=1e-5)
+    n = 2 / 0.3**4 - 2
+    gain = (n + 2) / 8 / (1 - document["reflective"])
+    assert document["specular_color"] == pytest.approx([0.5 * c * gain for c in (0.9, 0.6, 0.2)], rel=1e-4)
+
+
+def test_emission_is_added_and_an_emission_only_plane_is_not_black() -> None:
+    material, (output, emission) = shader_material("glow", "ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (1.0, 0.5, 0.25, 1.0)
+    emission.inputs["Strength"].default_value = 2.0
+    material.node_tree.links.new(emission.outputs[0], output.inputs["Surface"])
+    document, notes = material_convert.convert_material(material)
+    assert document["emission"] == pytest.approx([2.0, 1.0, 0.5]) and document["color"] == [0, 0, 0]
+    assert notes == []
+    lamp, _ = material_convert.convert_material(principled(emission=(0.0, 1.0, 0.0, 1.0), **{"Emission Strength": 3.0}))
+    assert lamp["emission"] == pytest.approx([0.0, 3.0, 0.0])
+
+
+def test_mix_and_add_weigh_their_shaders() -> None:
+    material, (output, diffuse, glossy, mix) = shader_material(
+        "mix", "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfGlossy", "ShaderNodeMixShader"
+    )
+    links = material.node_tree.links
+    diffuse.inputs["Color"].default_value = (0.2, 0.4, 0.6, 1.0)
+    glossy.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    glossy.inputs["Roughness"].default_value = 0.0
+    mix.inputs["Fac"].default_value = 0.25
+    links.new(diffuse.outputs[0], mix.inputs[1])
+    links.new(glossy.outputs[0], mix.inputs[2])
+    links.new(mix.outputs[0], output.inputs["Surface"])
+    document, notes = material_convert.convert_material(material)
+    # local 0.75 x diffuse weighed by 1 - r = 0.75 in the tracer: the colour itself; mirror 0.25
+    assert document["reflective"] == pytest.approx(0.25)
+    assert document["color"] == pytest.approx([0.2, 0.4, 0.6], rel=1e-5) and notes == []
+    add = material.node_tree.nodes.new("ShaderNodeAddShader")
+    emission = material.node_tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 0.5
+    links.new(mix.outputs[0], add.inputs[0])
+    links.new(emission.outputs[0], add.inputs[1])
+    links.new(add.outputs[0], output.inputs["Surface"])
+    document, _ = material_convert.convert_material(material)
+    assert document["emission"] == pytest.approx([0.5, 0.5, 0.5]) and document["reflective"] == pytest.approx(0.25)
+
+
+def test_an_image_texture_on_base_color_is_its_mean_colour_named() -> None:
+    image = bpy.data.images.new("checker", 4, 4, float_buffer=True)
+    pixels = [0.0] * 64
+    for index in range(16):
+        pixels[index * 4 : index * 4 + 4] = (1.0, 0.5, 0.0, 1.0) if index % 2 else (0.0, 0.5, 1.0, 1.0)
+    image.pixels[:] = pixels
+    material = principled("textured")
+    tree = material.node_tree
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    tree.links.new(texture.outputs["Color"], next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED").inputs[0])
+    document, notes = material_convert.convert_material(material)
+    assert document["color"] == pytest.approx([0.5 * 0.96, 0.5 * 0.96, 0.5 * 0.96], rel=1e-5)
+    assert notes == ["image texture on Base Color: mean colour"]
+
+
+def test_what_the_model_cannot_say_is_named() -> None:
+    material = principled(**{"Alpha": 0.5})
+    compat.principled_input(next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED"),
+                            "transmission").default_value = 1.0  # fmt: skip
+    _, notes = material_convert.convert_material(material)
+    assert "alpha: rendered opaque" in notes and "transmission: rendered as the opaque base" in notes
+    plain = bpy.data.materials.new("plain")
+    plain.diffuse_color = (0.1, 0.2, 0.3, 1.0)
+    if compat.VERSION < (5, 0, 0):
+        document, notes = material_convert.convert_material(plain)
+        assert document["color"] == pytest.approx([0.1, 0.2, 0.3]) and notes
+    document, notes = material_convert.convert_material(None)
+    assert document["color"] == [0.8, 0.8, 0.8] and notes == ["no material: Cycles' grey"]
+
+
+SCENE_VARIANTS = [
+    ("blinn-phong", 3.0, {"odd": {"color": [0.123, 0.4567, 0.9], "specular": 1234.5, "reflective": 0.77}}),
+    ("phong", 2.5, {"odd": {"color": [1.0, 0.0, 0.333], "specular": 7, "reflective": 1.0}}),
+]
+
+
+@pytest.mark.parametrize("model, coef, extra", SCENE_VARIANTS, ids=["blinn-phong", "phong"])
+def test_the_addons_own_materials_and_lights_convert_back_exactly(model, coef, extra) -> None:
+    document = copy.deepcopy(default_scene_dict())
+    document["materials"].update(extra)
+    document["objects"][0]["material"] = "odd"
+    document["render"].update(model=model, coef=coef)
+    document["lights"].append({"type": "point", "location": [0.1, -2.7, 9.3], "intensity": 0.33})
+    document["lights"].append({"type": "directional", "direction": [0.3, -0.2, 0.7], "intensity": 0.05})
+    build.build(bpy.context, scene_from_dict(document), source="round trip")
+    bpy.context.view_layer.update()
+    for name, expected in document["materials"].items():
+        if not any(obj["material"] == name for obj in document["objects"]):
+            continue
+        converted, notes = material_convert.convert_material(bpy.data.materials[f"WV {name}"])
+        assert converted == expected and notes == [], name
+    settings = bpy.context.scene.weathervane
+    converted = []
+    for entry in settings.lights:
+        if entry.object_name:
+            light, notes = light_convert.convert_light(bpy.data.objects[entry.object_name])
+            assert notes == []
+            converted.append(light)
+    expected = [light for light in document["lights"] if light["type"] != "ambient"]
+    assert converted == expected
+
+
+def test_a_material_edited_in_its_nodes_follows_the_nodes() -> None:
+    build.build(bpy.context, scene_from_dict(default_scene_dict()), source="edit")
+    material = bpy.data.materials["WV brass"]
+    material.node_tree.nodes["WV Mix"].inputs["Fac"].default_value = 0.5
+    converted, _ = material_convert.convert_material(material)
+    assert converted["reflective"] == 0.5 and converted["specular"] == pytest.approx(200, rel=1e-3)
+
+
+# --- lights ----------------------------------------------------------------------------------------------------------
+
+
+def test_point_and_spot_lights_take_cycles_units_and_inverse_square() -> None:
+    point, notes = light_convert.convert_light(light_object("POINT", 1000.0, shadow_soft_size=0.0))
+    assert point == {
+        "type": "point",
+        "location": pytest.approx([0.0, 0.0, 3.0]),
+        "intensity": pytest.approx(1000.0 / (4 * math.pi**2)),
+        "falloff": "inverse_square",
+        "color": pytest.approx([1.0, 1.0, 1.0]),
+    }
+    assert notes == []
+    spot, notes = light_convert.convert_light(
+        light_object(
+            "SPOT", 100.0, rotation=(math.radians(90), 0.0, 0.0), spot_size=math.radians(40), spot_blend=0.25,
+            shadow_soft_size=0.25, color=(1.0, 0.5, 0.2),
+        )
+    )  # fmt: skip
+    assert spot["type"] == "spot" and spot["intensity"] == pytest.approx(100.0 / (4 * math.pi**2))
+    assert spot["direction"] == pytest.approx([0.0, 1.0, 0.0], abs=1e-6)  # -Z turned 90 degrees about X
+    assert spot["spot_size"] == pytest.approx(40.0) and spot["spot_blend"] == pytest.approx(0.25)
+    assert spot["color"] == pytest.approx([1.0, 0.5, 0.2]) and spot["falloff"] == "inverse_square"
+    assert notes and notes[0].startswith("radius 0.25 m: hard shadow")
+
+
+def test_a_coloured_sun_is_a_coloured_directional_light() -> None:
+    sun, notes = light_convert.convert_light(
+        light_object("SUN", 3.0, rotation=(0.0, math.radians(90), 0.0), color=(1.0, 0.2, 0.1), angle=0.0)
+    )
+    assert sun["type"] == "directional" and sun["intensity"] == pytest.approx(3.0 / math.pi)
+    assert sun["direction"] == pytest.approx([1.0, 0.0, 0.0], abs=1e-6)  # +Z, toward the light
+    assert sun["color"] == pytest.approx([1.0, 0.2, 0.1]) and notes == []
+    _, notes = light_convert.convert_light(light_object("SUN", 1.0, angle=math.radians(2.0)))
+    assert notes == ["sun angle 2°: hard shadow"]
+
+
+def test_an_area_light_is_a_point_of_its_power_named() -> None:
+    area, notes = light_convert.convert_light(light_object("AREA", 200.0, location=(1.0, 2.0, 3.0), size=0.5))
+    assert area["type"] == "point" and area["location"] == pytest.approx([1.0, 2.0, 3.0])
+    assert area["intensity"] == pytest.approx(200.0 / (4 * math.pi**2))
+    assert notes == ["area light square 0.5 m: a point of the same power at its centre"]
+
+
+def test_a_light_whose_type_changed_in_blender_converts_as_its_new_type() -> None:
+    build.build(bpy.context, scene_from_dict(default_scene_dict()), source="retype")
+    bpy.context.view_layer.update()
+    entry = next(e for e in bpy.context.scene.weathervane.lights if e.kind == "DIRECTIONAL")
+    bpy.data.objects[entry.object_name].data.type = "POINT"
+    light, _ = light_convert.convert_light(bpy.data.objects[entry.object_name])
+    assert light["type"] == "point" and light["falloff"] == "inverse_square"
+
+
+# --- world -----------------------------------------------------------------------------------------------------------
+
+
+def test_the_world_colour_is_the_background_and_a_coloured_ambient() -> None:
+    assert world_convert.convert_world(None) == ({"type": "solid", "color": [0.0, 0.0, 0.0]}, None, [])
+    world = bpy.data.worlds.new("green")
+    compat.enable_nodes(world)
+    background = world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (0.1, 0.6, 0.2, 1.0)
+    background.inputs["Strength"].default_value = 2.0
+    color, ambient, notes = world_convert.convert_world(world)
+    assert color == {"type": "solid", "color": pytest.approx([0.2, 1.2, 0.4])}
+    assert ambient == {"type": "ambient", "intensity": 1.0, "color": pytest.approx([0.2, 1.2, 0.4])}
+    assert notes == ["world light: unshadowed ambient"]
+    sky = world.node_tree.nodes.new("ShaderNodeTexSky")
+    world.node_tree.links.new(sky.outputs["Color"], background.inputs["Color"])
+    color, _, notes = world_convert.convert_world(world)
+    assert color["color"] == pytest.approx([2 * c for c in world_convert.SKY_MEAN]) and notes[0].startswith("sky")
+
+
+# --- Cycles' units, measured -----------------------------------------------------------------------------------------
+
+
+def cycles_white_plane(light: tuple | None, world=(0.0, 0.0, 0.0)) -> float:
+    """Cycles' linear value at the centre of a white diffuse plane (albedo 1) under one light of radius 0 straight
+    above it ((kind, power, height)) and a uniform world."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 4 if light else 64
+    scene.cycles.use_denoising = False
+    scene.cycles.max_bounces = 1
+    scene.cycles.diffuse_bounces = 0
+    scene.render.resolution_x = scene.render.resolution_y = 4
+    scene.view_settings.view_transform = "Standard"
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    mesh = bpy.data.meshes.new("plane")
+    mesh.from_pydata([(-50, -50, 0), (50, -50, 0), (50, 50, 0), (-50, 50, 0)], [], [(0, 1, 2, 3)])
+    material, (output, diffuse) = shader_material("white", "ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    material.node_tree.links.new(diffuse.outputs[0], output.inputs["Surface"])
+    mesh.materials.append(material)
+    scene.collection.objects.link(bpy.data.objects.new("plane", mesh))
+    scene.world = bpy.data.worlds.new("world")
+    compat.enable_nodes(scene.world)
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (*world, 1.0)
+    if light is not None:
+        kind, power, height = light
+        data = bpy.data.lights.new("light", kind)
+        data.energy = power
+        if kind == "SUN":
+            data.angle = 0.0
+        else:
+            data.shadow_soft_size = 0.0
+        if kind == "SPOT":
+            data.spot_size = math.radians(60.0)
+        obj = bpy.data.objects.new("light", data)
+        obj.location = (0.0, 0.0, height)
+        scene.collection.objects.link(obj)
+    camera = bpy.data.cameras.new("camera")
+    camera.type, camera.ortho_scale, camera.clip_start = "ORTHO", 0.01, 0.001
+    scene.camera = bpy.data.objects.new("camera", camera)
+    scene.camera.location = (0.0, 0.0, 0.5)
+    scene.collection.objects.link(scene.camera)
+    scene.render.filepath = os.path.join(tempfile.mkdtemp(), "white.exr")
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(scene.render.filepath)
+    pixels = list(image.pixels)
+    return sum(pixels[0::4]) / (len(pixels) // 4)
+
+
+@pytest.mark.parametrize(
+    "kind, power, height, measured",
+    [
+        ("POINT", 100.0, 2.0, 0.63324),
+        ("POINT", 100.0, 5.0, 0.10132),
+        ("POINT", 1000.0, 2.0, 6.33241),
+        ("POINT", 1000.0, 5.0, 1.01321),
+        ("SPOT", 100.0, 2.0, 0.63324),
+        ("SPOT", 1000.0, 5.0, 1.01321),
+        ("SUN", 1.0, 1.0, 0.31831),
+        ("SUN", 3.0, 1.0, 0.95493),
+    ],
+)
+def test_cycles_light_units_are_what_the_conversion_assumes(kind, power, height, measured) -> None:
+    """The tracer's white diffuse surface facing a light returns i (falloff 1 / d^2 for point and spot)."""
+    value = cycles_white_plane((kind, power, height))
+    assert value == pytest.approx(measured, rel=0.03)  # the number recorded in light_convert.py, this Blender
+    if kind == "SUN":
+        predicted = power / light_convert.SUN_STRENGTH_PER_UNIT
+    else:
+        predicted = power / light_convert.POINT_WATTS_PER_UNIT / height**2
+    assert value == pytest.approx(predicted, rel=0.03)
+
+
+def test_cycles_world_lights_a_white_plane_to_its_colour() -> None:
+    assert cycles_white_plane(None, world=(0.3, 0.5, 0.7)) == pytest.approx(0.3, rel=0.03)
