@@ -155,7 +155,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         pixels = (rows[:, None] * width + np.arange(x0, x1)[None, :]).ravel()
         pool, resources = module("workers.pool"), module("workers.resources")
         try:
-            base = np.zeros((height, width, 3), dtype=np.dtype(scene.render.dtype))
+            base = np.zeros((height, width, 4 if scene.has_alpha else 3), dtype=np.dtype(scene.render.dtype))
             result = _renderer(scene.render.workers).render_pixels(scene, pixels, base)
         except (resources.ResourceError, pool.WorkerLostError, pool.TaskFailedError) as error:
             self.end_result(render_result, cancel=True)

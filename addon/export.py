@@ -17,7 +17,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from . import build, lights, mesh_export
+from . import build, light_convert, material_convert, mesh_export, world_convert
 from . import camera as camera_module
 from .animation import motion_for
 
@@ -54,6 +54,9 @@ class ExportNotes:
     not_traced: dict[str, list[str]] = field(default_factory=dict)  # kind -> object names
     dropped_triangles: dict[str, int] = field(default_factory=dict)  # object -> zero-area triangles left out
     approximated: list[str] = field(default_factory=list)
+    materials: dict[str, list[str]] = field(default_factory=dict)  # Blender material -> what its mapping approximates
+    lights: dict[str, list[str]] = field(default_factory=dict)  # Blender light -> the same
+    world: list[str] = field(default_factory=list)
 
     def not_rendered(self, kind: str, name: str) -> None:
         names = self.not_traced.setdefault(kind, [])
@@ -71,7 +74,18 @@ class ExportNotes:
             names = ", ".join(list(self.dropped_triangles)[:3])
             parts.append(f"{total} zero-area triangle{'s' if total > 1 else ''} left out ({names})")
         parts += self.approximated
+        counted = [
+            f"{len(names)} {kind}{'s' if len(names) > 1 else ''}"
+            for kind, names in (("material", self._noted(self.materials)), ("light", self._noted(self.lights)))
+            if names
+        ] + (["the world"] if self.world else [])
+        if counted:
+            parts.append(f"approximated: {', '.join(counted)} (Render Properties > Scene Conversion says how)")
         return "; ".join(parts)
+
+    @staticmethod
+    def _noted(mapping: dict[str, list[str]]) -> list[str]:
+        return [name for name, said in mapping.items() if said]
 
 
 def named_problems(problems: list[str], document: dict) -> list[str]:
@@ -94,15 +108,13 @@ def _visible_in_render(obj) -> bool:
     return not any(collection.hide_render for collection in obj.users_collection)
 
 
-def _material_name(material, materials: dict) -> str:
-    """A Blender material (or None) -> the name of its scene-file material, converting it once."""
-    if material is None:
-        materials.setdefault("blender:default", {"color": [0.8, 0.8, 0.8], "specular": 0, "reflective": 0})
-        return "blender:default"
-    name = f"blender:{material.name}"
+def _material_name(material, materials: dict, notes: ExportNotes | None = None) -> str:
+    """A Blender material (or None) -> the name of its scene-file material, converted once from its node tree."""
+    name = f"blender:{material.name}" if material is not None else "blender:default"
     if name not in materials:
-        color = [min(1.0, max(0.0, c)) for c in material.diffuse_color[:3]]
-        materials[name] = {"color": color, "specular": 0, "reflective": 0}
+        materials[name], said = material_convert.convert_material(material)
+        if notes is not None and material is not None:
+            notes.materials[material.name] = said
     return name
 
 
@@ -117,9 +129,10 @@ def _mesh_object(name: str, obj, arrays, matrix, materials: dict, notes: ExportN
     # a face whose slot index is past the object's slots takes the last slot, as Blender's render does
     slots = np.minimum(slots, len(slot_materials) - 1)
     used = sorted(set(slots.tolist()))
-    body = {"name": name, "type": "mesh", "material": _material_name(slot_materials[used[0]], materials), **fields}
+    first = _material_name(slot_materials[used[0]], materials, notes)
+    body = {"name": name, "type": "mesh", "material": first, **fields}
     if len(used) > 1:
-        body["materials"] = [_material_name(material, materials) for material in slot_materials]
+        body["materials"] = [_material_name(material, materials, notes) for material in slot_materials]
         body["material_indices"] = slots.tolist()
     for flag, field_name in (("visible_camera", "visible_camera"), ("visible_shadow", "visible_shadow")):
         if not getattr(obj, flag, True):
@@ -144,6 +157,7 @@ def _collect(depsgraph, turn, materials: dict, notes: ExportNotes) -> _Collected
     viewport = depsgraph.mode == "VIEWPORT"
     meshes: dict[tuple, object] = {}  # one read per evaluated object, however many instances
     instance_count: dict[str, int] = {}
+    names: set[str] = set()  # scene-file names are unique
     for instance in depsgraph.object_instances:
         obj = instance.object
         original = obj.original
@@ -181,6 +195,10 @@ def _collect(depsgraph, turn, materials: dict, notes: ExportNotes) -> _Collected
             name = f"{owner}/{original.name}#{count}"
         else:
             name = original.name
+        while name in names:  # Geometry Nodes instances of an object's own geometry share its name
+            instance_count[name] = instance_count.get(name, 0) + 1
+            name = f"{original.name}#{instance_count[name]}"
+        names.add(name)
         body = _mesh_object(name, obj, meshes[key], matrix, materials, notes)
         if body is not None:
             collected.objects.append(body)
@@ -210,19 +228,19 @@ def _direction_toward(obj, matrix) -> list[float]:
     return list(axis.normalized() * float(obj.get("weathervane_direction_length", 1.0)))
 
 
-def _blender_light(original, matrix) -> dict:
-    """A light the panel does not drive -> a scene-file light."""
-    if original.data.type == "SUN":
-        intensity = original.data.energy / lights.SUN_STRENGTH_PER_UNIT
-        return {"type": "directional", "direction": _direction_toward(original, matrix), "intensity": intensity}
-    intensity = original.data.energy / lights.POINT_WATTS_PER_UNIT
-    return {"type": "point", "location": list(matrix.translation), "intensity": intensity}
+def _blender_light(light, notes: ExportNotes) -> dict:
+    """A light the panel does not drive (an evaluated light object) -> a scene-file light in Cycles' units."""
+    document, said = light_convert.convert_light(light)
+    notes.lights[light.name] = said
+    if document["type"] == "spot" and bpy.app.version < (4, 0, 0):
+        document["spot_model"] = "cycles3"  # Cycles before 4.0 also weights a spot by the angle's cosine
+    return document
 
 
-def _light_documents(settings, collected: _Collected, own_vane: bool) -> list[dict]:
+def _light_documents(settings, collected: _Collected, own_vane: bool, notes: ExportNotes) -> list[dict]:
     """The panel's lights (at their evaluated places), then the scene's other rendered lights: always when the
     scene has no vane of the add-on's, else only with Other Lights on."""
-    placed = {original.name: matrix for original, _, matrix in collected.lights}
+    placed = {original.name: (evaluated, matrix) for original, evaluated, matrix in collected.lights}
     documents = []
     driven = set()
     for entry in settings.lights:
@@ -234,9 +252,9 @@ def _light_documents(settings, collected: _Collected, own_vane: bool) -> list[di
         if obj is None:
             continue
         driven.add(obj.name)
-        matrix = placed.get(obj.name)
-        if matrix is None:
+        if obj.name not in placed:
             continue  # not rendered (an excluded collection, Disable in Renders)
+        evaluated, matrix = placed[obj.name]
         if kind == "POINT":
             documents.append({"type": "point", "location": list(matrix.translation), "intensity": entry.intensity})
         elif kind == "DIRECTIONAL":
@@ -244,11 +262,11 @@ def _light_documents(settings, collected: _Collected, own_vane: bool) -> list[di
                 {"type": "directional", "direction": _direction_toward(obj, matrix), "intensity": entry.intensity}
             )
         else:  # made a spot or area light in Blender's Light tab: it renders as Blender's light of that type
-            documents.append(_blender_light(obj, matrix))
+            documents.append(_blender_light(evaluated, notes))
     if settings.other_lights or not own_vane:
-        for original, _, matrix in collected.lights:
+        for original, evaluated, _ in collected.lights:
             if original.name not in driven:
-                documents.append(_blender_light(original, matrix))
+                documents.append(_blender_light(evaluated, notes))
     return documents
 
 
@@ -270,21 +288,25 @@ def scene_document(context, depsgraph=None, blender_scene=None, notes: ExportNot
     collected = _collect(depsgraph, turn, materials, notes)
     objects, parts = collected.objects, collected.parts
     own_vane = any("weathervane_object" in obj for obj in bpy.data.objects)
-    light_list = _light_documents(settings, collected, own_vane)
+    light_list = _light_documents(settings, collected, own_vane, notes)
     if not materials:  # a scene with nothing to render still needs one material in the file
         _material_name(None, materials)
+    background = {
+        "type": settings.background,
+        "color": list(settings.background_color),
+        "horizon": list(settings.horizon),
+        "zenith": list(settings.zenith),
+    }
+    if not own_vane:  # the scene's world is its background and, as Cycles lights with it, an ambient light
+        background, ambient, notes.world = world_convert.convert_world(blender_scene.world, blender_scene=blender_scene)
+        light_list += [ambient] if ambient is not None else []
     render = blender_scene.render
     scale = render.resolution_percentage / 100.0
     document = {
         "materials": materials,
         "objects": objects,
         "lights": light_list,
-        "background": {
-            "type": settings.background,
-            "color": list(settings.background_color),
-            "horizon": list(settings.horizon),
-            "zenith": list(settings.zenith),
-        },
+        "background": background,
         "render": {
             "width": max(1, round(render.resolution_x * scale)),
             "height": max(1, round(render.resolution_y * scale)),

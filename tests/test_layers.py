@@ -17,7 +17,19 @@ ROOT = Path(__file__).resolve().parents[1]
 # Lowest first. A module may import modules of its own layer or of a lower one.
 TRACER_LAYERS = ("scene", "geometry", "tracing", "workers", "frames", "")  # "": the package's top (entry points)
 ADDON_LAYERS: tuple[tuple[str, ...], ...] = (
-    ("compat", "_tracer", "workers", "camera", "lights", "materials", "mesh_export"),  # Blender API, tracer, data
+    # Blender's API, the tracer, plain data both ways
+    (
+        "compat",
+        "_tracer",
+        "workers",
+        "camera",
+        "lights",
+        "materials",
+        "mesh_export",
+        "material_convert",
+        "light_convert",
+        "world_convert",
+    ),
     ("build", "animation", "export", "twin", "properties"),  # the scene the add-on builds, reads and keys
     ("viewport", "engine"),  # the render engine and the Rendered view
     ("operators", "panels", "render_panels"),  # what the user clicks

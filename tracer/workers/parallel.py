@@ -242,17 +242,17 @@ class Renderer:
         return self._prepared[1]
 
     def render_pixels(self, scene: sc.Scene, pixels: np.ndarray, base: np.ndarray) -> RenderResult:
-        """The image base (height, width, 3) with the flat pixels (P,) traced again in scene: bit for bit the
-        scene's whole image where no other pixel can differ from base (footprint.py). Colour only: a scene with an
-        alpha is rendered whole by the callers (incremental.py)."""
+        """The image base (height, width, 3), or (height, width, 4) with alpha for a scene that has one, with the
+        flat pixels (P,) traced again in scene: bit for bit the scene's whole image where no other pixel can differ
+        from base (footprint.py)."""
         if self.workers > 1:
             self._start_pool()
             return self._submit_pixels(scene, pixels, base).finish()
         started = time.perf_counter()
         image = base.copy()
         colors, counts = self._prepared_here(scene).render_pixels(pixels, band_samples(scene.render))
-        image.reshape(-1, 3)[pixels] = colors[:, :3]
-        return RenderResult(image, counts, time.perf_counter() - started)
+        image.reshape(-1, image.shape[-1])[pixels] = colors[:, : image.shape[-1]]
+        return _result(image, counts, time.perf_counter() - started)
 
     def render_frames(self, scenes: Iterable[sc.Scene]) -> Iterator[RenderResult]:
         """render() for each scene in turn, results in order. With workers the next frame's bands wait in the
@@ -342,7 +342,8 @@ class _Frame:
             for done, task in enumerate(self.pool.as_completed([task for _, task in self.tasks]), 1):
                 if self.pixels:
                     colors, piece_counts = task.result
-                    self.image.reshape(-1, 3)[where[id(task)]] = colors[:, :3]
+                    channels = self.image.shape[-1]  # 4 where base carries alpha
+                    self.image.reshape(-1, channels)[where[id(task)]] = colors[:, :channels]
                 else:
                     band, piece_counts, band_touched = task.result
                     if band is not None:
