@@ -311,6 +311,18 @@ def test_bad_spot_and_material_fields_are_named() -> None:
     assert any(p.startswith("materials.stone.specular_color: must be a list of 3 numbers") for p in problems)
 
 
+def test_bad_border_is_named() -> None:
+    document = copy.deepcopy(default_scene_dict())
+    document["render"]["border"] = [0.3, 0.2, 0.4, 1.2]
+    with pytest.raises(SceneError) as caught:
+        scene_from_dict(document)
+    assert caught.value.problems == ["render.border[3]: must be <= 1, got 1.2"]
+    document["render"]["border"] = [0.5, 0.2, 0.4, 0.9]
+    with pytest.raises(SceneError) as caught:
+        scene_from_dict(document)
+    assert caught.value.problems == ["render.border: min_x must be less than max_x, got 0.5 and 0.4"]
+
+
 def test_cli_writes_rgba_png_and_four_channel_npy(tmp_path: Path) -> None:
     from PIL import Image
 
@@ -339,3 +351,25 @@ def test_cli_writes_rgba_png_and_four_channel_npy(tmp_path: Path) -> None:
     array = np.load(tmp_path / "out.npy")
     assert array.shape == (24, 32, 4)
     assert array[..., 3].min() == 0.0 and array[..., 3].max() == 1.0
+
+
+@pytest.mark.parametrize("crop", [False, True])
+def test_render_border_traces_only_its_pixels(crop: bool) -> None:
+    from tracer.geometry.camera import border_window
+
+    scene = default_scene().with_render(width=40, height=30, border=(0.25, 0.1, 0.75, 0.5), crop=crop)
+    assert border_window(scene.render) == (10, 30, 15, 27)  # columns 10-29; rows 3-14 from the bottom
+    whole = render(scene.with_render(border=None, crop=False), workers=1)
+    one, two = render(scene, workers=1), render(scene, workers=2)
+    np.testing.assert_array_equal(one.image, two.image)
+    inside = whole.image[15:27, 10:30]
+    if crop:
+        assert one.image.shape == (12, 20, 3) and one.alpha is None
+        np.testing.assert_array_equal(one.image, inside)
+    else:
+        assert one.image.shape == (30, 40, 3)
+        np.testing.assert_array_equal(one.image[15:27, 10:30], inside)
+        assert not one.image[:15].any() and not one.image[:, :10].any() and not one.image[27:].any()
+        assert one.alpha[15:27, 10:30].min() == 1.0 and one.alpha.sum() == 12 * 20
+        np.testing.assert_array_equal(one.alpha, two.alpha)
+    assert one.rays.camera == 12 * 20

@@ -62,6 +62,7 @@ def test_random_scenes_with_blender_fields_cover_every_field() -> None:
     meshes = [obj for obj in objects if isinstance(obj, sc.TriangleMesh)]
     assert any(m.normals is not None for m in meshes) and any(m.material_indices is not None for m in meshes)
     assert any(scene.render.film_transparent for scene in scenes)
+    assert {scene.render.crop for scene in scenes if scene.render.border is not None} == {False, True}
 
 
 @pytest.mark.parametrize("seed", [0, 5, 13])

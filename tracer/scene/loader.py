@@ -559,7 +559,14 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
             "pixel_aspect", base.pixel_aspect, length=2, low=PIXEL_ASPECT_RANGE[0], high=PIXEL_ASPECT_RANGE[1]
         ),
         film_transparent=reader.boolean("film_transparent", base.film_transparent),
+        border=reader.vector("border", None, length=4, low=0.0, high=1.0),
+        crop=reader.boolean("crop", base.crop),
     )
+    border = settings.border
+    if border is not None and all(isinstance(x, float) for x in border):
+        for axis, low, high in (("x", border[0], border[2]), ("y", border[1], border[3])):
+            if not low < high:
+                reader.fail("border", f"min_{axis} must be less than max_{axis}, got {_show(low)} and {_show(high)}")
     raw_samples = reader.data.get("samples")
     if isinstance(raw_samples, int) and not isinstance(raw_samples, bool) and 1 <= raw_samples <= 1024:
         samples_problem = check_samples(raw_samples)

@@ -225,6 +225,10 @@ class RenderSettings:
     numerics: Literal["documented", "robust"] = "documented"  # tracer/geometry/robust.py
     pixel_aspect: tuple[float, float] = (1.0, 1.0)  # Blender's pixel_aspect_x, pixel_aspect_y
     film_transparent: bool = False  # misses of camera rays: colour 0 and alpha 0 (RenderResult.alpha)
+    # Blender's render border: (min_x, min_y, max_x, max_y) fractions of the image, y up from the bottom; only the
+    # pixels inside are traced, the others are 0 (alpha 0); crop: the image is the border's region only
+    border: tuple[float, float, float, float] | None = None
+    crop: bool = False
 
 
 @dataclass(frozen=True)
@@ -244,8 +248,12 @@ class Scene:
 
     @property
     def has_alpha(self) -> bool:
-        """Whether the render has an alpha channel: a transparent film or a holdout object."""
-        return self.render.film_transparent or any(obj.holdout for obj in self.objects)
+        """Whether the render has an alpha channel: a transparent film, a holdout object, or a render border whose
+        outside is kept (not cropped)."""
+        settings = self.render
+        if settings.film_transparent or (settings.border is not None and not settings.crop):
+            return True
+        return any(obj.holdout for obj in self.objects)
 
     def with_heading(self, heading: float) -> Scene:
         """The same scene with the vane turned to heading degrees."""

@@ -351,4 +351,14 @@ def render_reference(scene: sc.Scene) -> list[list[sc.Color]]:
     """The whole image as rows of (r, g, b) linear floats, unclamped, (r, g, b, alpha) where the scene has an
     alpha; rows from the top."""
     tracer = ReferenceTracer(scene)
-    return [[tracer.pixel(i, j) for i in range(scene.render.width)] for j in range(scene.render.height)]
+    settings = scene.render
+    window = cam.border_window(settings)
+    if window is None:
+        return [[tracer.pixel(i, j) for i in range(settings.width)] for j in range(settings.height)]
+    x0, x1, y0, y1 = window  # a render border: only its pixels are traced, the others are 0 (alpha 0)
+    blank = (0.0,) * (4 if scene.has_alpha else 3)
+    image = [
+        [tracer.pixel(i, j) if x0 <= i < x1 and y0 <= j < y1 else blank for i in range(settings.width)]
+        for j in range(settings.height)
+    ]
+    return [row[x0:x1] for row in image[y0:y1]] if settings.crop else image
