@@ -373,3 +373,21 @@ def test_render_border_traces_only_its_pixels(crop: bool) -> None:
         assert one.alpha[15:27, 10:30].min() == 1.0 and one.alpha.sum() == 12 * 20
         np.testing.assert_array_equal(one.alpha, two.alpha)
     assert one.rays.camera == 12 * 20
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+@pytest.mark.parametrize("numerics", ["documented", "robust"])
+def test_blender_fields_at_their_limits_render_finite_pixels(dtype: str, numerics: str) -> None:
+    document = extended_scene_document(3, width=12, height=9)
+    document["render"].update(dtype=dtype, numerics=numerics, samples=4)
+    for material in document["materials"].values():
+        material.update(emission=[1e6, 0, 1e6], specular_color=[1e6, 1e6, 0], two_sided=True)
+    document["lights"] += [
+        {"type": "spot", "location": [0, -3, 2], "direction": [0, 1, 0], "intensity": 1e6, "color": [1e6, 0, 1],
+         "falloff": "inverse_square", "spot_size": 1e-3, "spot_blend": 1.0, "spot_model": "cycles3"},
+        {"type": "spot", "location": [0, -3, 2], "direction": [1e-9, 0, 0], "intensity": 1, "spot_size": 180,
+         "spot_blend": 0.0},
+        {"type": "point", "location": [1e9, 0, 0], "intensity": 1e6, "falloff": "inverse_square", "color": [1e6] * 3},
+    ]  # fmt: skip
+    result = render(scene_from_dict(document), workers=1)
+    assert np.all(np.isfinite(result.image)) and (result.alpha is None or np.all(np.isfinite(result.alpha)))
