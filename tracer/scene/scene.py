@@ -141,7 +141,7 @@ class SpotLight:
     """A point light whose terms are multiplied by Cycles' spot attenuation (docs/scene-format.md).
 
     direction: the cone's axis, from the light outward; spot_size: the full cone angle in degrees; spot_blend: the
-    soft edge (0..1); spot_model: cycles4 (Blender 4.0 on: smoothstep only) or cycles3 (up to 3.6: smoothstep times
+    soft edge (0..1); spot_model: cycles4 (Blender 4.x, 5.0: smoothstep only) or cycles3 (Blender 3.4: smoothstep times
     the cosine of the angle to the axis)."""
 
     location: Vec3 = (0.0, 0.0, 5.0)

@@ -670,8 +670,8 @@ class PreparedScene:
 
 def spot_attenuation(cosine: np.ndarray, spot: sc.SpotLight) -> np.ndarray:
     """Cycles' spot light attenuation (n,) for the cosines (n,) of the angle at the light between its axis and the
-    points; the same operations as reference.spot_attenuation. cycles4 (Blender 4.0 on, kernel/light/spot.h):
-    smoothstep((c - cos_half) / ((1 - cos_half) * blend)); cycles3 (3.4-3.6): 0 inside cos_half, else c times
+    points; the same operations as reference.spot_attenuation. cycles4 (Blender 4.x, 5.0: kernel/light/spot.h):
+    smoothstep((c - cos_half) / ((1 - cos_half) * blend)); cycles3 (Blender 3.4): 0 inside cos_half, else c times
     smoothstep((c - cos_half) / ((1 - cos_half) * blend)) while that is below 1, and c beyond. Blend 0: a hard edge."""
     cos_half = math.cos(math.radians(spot.spot_size) / 2.0)
     width = (1.0 - cos_half) * spot.spot_blend
