@@ -97,13 +97,14 @@ class Pyramid(Primitive):
 class TriangleMesh(Primitive):
     """Triangles in local coordinates (vertices and index triples), counter-clockwise seen from outside.
 
-    normals: None (flat) or per triangle its three corner normals (local frame): the shading normal is their
-    barycentric interpolation, normalised. materials, material_indices: None (every triangle uses material) or the
-    names of the mesh's materials and each triangle's index into them."""
+    normals: None (flat) or per triangle its three corner normals (local frame), as three triples or flat
+    (x0, y0, z0, x1, ..., z2; the loader's form): the shading normal is their barycentric interpolation,
+    normalised. materials, material_indices: None (every triangle uses material) or the names of the mesh's
+    materials and each triangle's index into them."""
 
     vertices: tuple[Vec3, ...] = ()
     triangles: tuple[tuple[int, int, int], ...] = ()
-    normals: tuple[tuple[Vec3, Vec3, Vec3], ...] | None = None
+    normals: tuple[tuple[Vec3, Vec3, Vec3], ...] | tuple[tuple[float, ...], ...] | None = None
     materials: tuple[str, ...] | None = None
     material_indices: tuple[int, ...] | None = None
 
