@@ -84,7 +84,8 @@ def random_scene_document(seed: int, width: int = 16, height: int = 12) -> dict[
 def extended_scene_document(seed: int, width: int = 16, height: int = 12) -> dict[str, Any]:
     """random_scene_document(seed) with the optional Blender fields (docs/scene-format.md) drawn at random: material
     emission, two_sided and specular_color; light colours, inverse-square falloff and spot lights of both models;
-    objects' ray visibility and holdouts; mesh corner normals and per-triangle materials; a transparent film."""
+    objects' ray visibility and holdouts; mesh corner normals and per-triangle materials; a transparent film; a
+    render border, cropped or not."""
     document = random_scene_document(seed, width, height)
     rng = random.Random(10_000 + seed)
     for material in document["materials"].values():
@@ -131,4 +132,8 @@ def extended_scene_document(seed: int, width: int = 16, height: int = 12) -> dic
                 body["material_indices"] = [rng.randrange(2) for _ in body["triangles"]]
     if rng.random() < 0.4:
         document["render"]["film_transparent"] = True
+    if rng.random() < 0.3:
+        x, y = rng.uniform(0.0, 0.5), rng.uniform(0.0, 0.5)
+        document["render"]["border"] = [x, y, x + rng.uniform(0.1, 0.5), y + rng.uniform(0.1, 0.5)]
+        document["render"]["crop"] = rng.random() < 0.5
     return document

@@ -97,3 +97,20 @@ def test_an_editable_image_built_in_pieces_is_the_whole_render_and_can_be_stoppe
 
     with pytest.raises(StopError):
         edits.EditableImage(scene, between_pieces=stop)  # after its first piece
+
+
+@pytest.mark.parametrize("seed", range(0, 40, 5))
+def test_edits_of_scenes_with_blender_fields_give_the_whole_render(seed: int) -> None:
+    from tests.random_scenes import extended_scene_document
+
+    document = extended_scene_document(seed, width=32, height=24)
+    document["render"].pop("border", None)  # the editable image is the whole image's colours
+    document["render"]["depth"] = max(document["render"]["depth"], 3)
+    scene = scene_from_dict(document)
+    image = edits.EditableImage(scene)
+    assert np.array_equal(image.image, render(scene, workers=1).image)
+    rng = random.Random(seed)
+    for _ in range(6):
+        edit = random_edit(image.scene, rng)
+        edited = image.apply(edit)
+        assert np.array_equal(edited, render(image.scene, workers=1).image), edit

@@ -109,3 +109,27 @@ def test_a_vane_that_fills_the_view_falls_back_to_whole_frames(monkeypatch: pyte
     with Renderer(1) as renderer:
         for frame, result in incremental.render_frames(renderer, scene, iter(list(enumerate(turns, 1)))):
             assert np.array_equal(result.image, renderer.render(scene.with_heading(turns[frame - 1])).image)
+
+
+@pytest.mark.parametrize("seed", [1, 4, 8, 9])
+def test_turning_scenes_with_blender_fields_are_whole_frames(seed: int) -> None:
+    from tests.random_scenes import extended_scene_document
+
+    document = extended_scene_document(seed, width=32, height=24)
+    bounded = [obj["name"] for obj in document["objects"] if obj["type"] != "plane"]
+    document["vane"] = {"parts": bounded[::2], "pivot": [0.2, 0.5, 0.3], "axis": [0.1, 0.0, 1.0]}
+    document["render"]["depth"] = 3
+    scene = scene_from_dict(document)
+    turns = random_headings(seed, 8)
+    with Renderer(1) as renderer:
+        for frame, result in incremental.render_frames(renderer, scene, iter(list(enumerate(turns, 1)))):
+            whole = renderer.render(scene.with_heading(turns[frame - 1]))
+            assert np.array_equal(result.image, whole.image)
+            assert (result.alpha is None) == (whole.alpha is None)
+            assert result.alpha is None or np.array_equal(result.alpha, whole.alpha)
+    # the pixel re-trace path itself, on the scene without what needs whole frames (alpha, border)
+    document["render"].pop("border", None)
+    document["render"]["film_transparent"] = False
+    for obj in document["objects"]:
+        obj["holdout"] = False
+    assert_frames_are_whole_frames(scene_from_dict(document), turns, workers=1)

@@ -244,7 +244,7 @@ def run_render(args: argparse.Namespace) -> int:
     with Renderer(scene.render.workers) as renderer:
         suffix = args.output.suffix.lower()
         check_resources(scene.render, renderer.workers, output=suffix)
-        check_disk(args.output, output_bytes(scene.render, suffix))
+        check_disk(args.output, output_bytes(scene.render, suffix, 4 if scene.has_alpha else 3))
         result = renderer.render(scene, progress)
         workers = renderer.workers
     progress.close()

@@ -79,7 +79,8 @@ def edits_between(old: sc.Scene, new: sc.Scene) -> list[Edit] | None:
 
 
 class EditableImage:
-    """A scene's image that edits update in place of a whole render (one process).
+    """A scene's image that edits update in place of a whole render (one process). Colour only: a scene's alpha
+    (film_transparent, holdouts) is not kept, and a render border is not applied (the whole image is traced).
 
     The segments are kept in chunks, one per trace; a pixel traced again makes its older segments stale (each chunk
     notes the pixel's generation it was traced in), so an edit costs its own segments, not a copy of all of them;

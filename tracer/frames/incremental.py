@@ -48,8 +48,9 @@ def render_frames(
     """(frame, image) for each (frame, heading), in order: scene with its vane turned to each heading."""
     for run in runs(frame_headings):
         headings = np.array([heading for _, heading in run])
-        # a scene with an alpha (a transparent film, a holdout) is traced in whole frames: pixel re-traces keep colour
-        volume = None if scene.has_alpha else swept_volume(scene, np.dtype(scene.render.dtype), headings)
+        # a scene with an alpha (a transparent film, a holdout) or a border is traced in whole frames (see below)
+        whole = scene.has_alpha or scene.render.border is not None
+        volume = None if whole else swept_volume(scene, np.dtype(scene.render.dtype), headings)
         (first_frame, first_heading), rest = run[0], run[1:]
         if volume is None or not rest:
             for (frame, _), result in zip(
@@ -82,7 +83,8 @@ class TurningFrames:
     def render(
         self, renderer: Renderer, scene: sc.Scene, progress: Progress | None = None, band_done: BandDone | None = None
     ) -> RenderResult:
-        if scene.vane is None or scene.has_alpha:  # an alpha: whole frames (pixel re-traces keep colour only)
+        # an alpha or a render border: whole frames (pixel re-traces keep colour only, of the whole image)
+        if scene.vane is None or scene.has_alpha or scene.render.border is not None:
             return renderer.render(scene, progress, band_done=band_done)
         still = pickle.dumps(replace(scene, vane=replace(scene.vane, heading=0.0)))
         if still == self._still:

@@ -194,6 +194,22 @@ def band_directions(
     return pixel_directions(camera, settings, band_pixels(settings, rows, columns))
 
 
+def border_window(settings: sc.RenderSettings) -> tuple[int, int, int, int] | None:
+    """The render border's pixels as columns [x0, x1) and rows from the top [y0, y1), or None without a border.
+
+    As Blender's render rectangle: each side at int(fraction * size) (truncated), y counted up from the bottom;
+    at least one pixel wide and high."""
+    if settings.border is None:
+        return None
+    width, height = settings.width, settings.height
+    min_x, min_y, max_x, max_y = settings.border
+    x0 = min(int(min_x * width), width - 1)
+    x1 = min(max(int(max_x * width), x0 + 1), width)
+    bottom = min(int(min_y * height), height - 1)
+    top = min(max(int(max_y * height), bottom + 1), height)
+    return x0, x1, height - top, height - bottom
+
+
 def shares_origin(camera: sc.Camera) -> bool:
     """Whether every camera ray starts at the camera's location and has no far limit (the documented camera)."""
     return camera.type == "PERSP" and not camera.clip_start and camera.clip_end is None

@@ -231,4 +231,5 @@ def world_corner_normals(obj: sc.SceneObject, vane: sc.Vane | None) -> np.ndarra
     if normals is None:
         return None
     rotation, _ = object_frame(obj, vane)
-    return np.asarray(normals, dtype=np.float64) @ np.asarray(rotation, dtype=np.float64).T
+    local = np.asarray(normals, dtype=np.float64).reshape(-1, 3, 3)  # triples, or the loader's flat nines
+    return local @ np.asarray(rotation, dtype=np.float64).T

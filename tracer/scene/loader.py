@@ -378,20 +378,38 @@ def _corner_normals(reader: _Reader, count: int) -> tuple | None:
     if not isinstance(raw, list) or len(raw) != count:
         reader.fail("normals", f"{expected}, got {_show_shape(raw)}")
         return None
-    bad = next((i for i, item in enumerate(raw) if not _is_corner_triple(item)), None)
-    if bad is not None:
+    array = _number_array(raw, (count, 3, 3))
+    if array is None:  # the slow way, to name the first bad triangle
+        bad = next((i for i, item in enumerate(raw) if not _is_corner_triple(item)), 0)
         reader.fail(
             f"normals[{bad}]",
             f"must be 3 corner normals [x, y, z] of numbers up to {_show(COORDINATE_LIMIT)}, got {_show(raw[bad])}",
         )
         return None
-    array = np.asarray(raw, dtype=np.float64).reshape(count, 3, 3)
     short = np.sqrt((array * array).sum(axis=2)) < DIRECTION_MIN_LENGTH
     if short.any():
         bad, corner = (int(x) for x in np.argwhere(short)[0])
         reader.fail(f"normals[{bad}][{corner}]", "must not be the zero vector (a normal needs a direction)")
         return None
-    return tuple(tuple(map(tuple, triangle)) for triangle in array.tolist())
+    return tuple(map(tuple, array.reshape(count, 9).tolist()))  # flat (x0, y0, z0, x1, ...): fewer tuples to make
+
+
+def _number_array(raw: list, shape: tuple[int, ...]) -> np.ndarray | None:
+    """Nested lists of JSON numbers (no booleans) of this shape, each of magnitude at most COORDINATE_LIMIT, as a
+    float64 array (checked with array operations: a large mesh's normals); None where they are not."""
+    try:
+        objects = np.asarray(raw, dtype=object)
+    except ValueError:
+        return None
+    if objects.shape != shape or not set(map(type, objects.ravel().tolist())) <= {int, float}:
+        return None
+    try:
+        array = objects.astype(np.float64)
+    except OverflowError:
+        return None
+    if not np.all(np.abs(array) <= COORDINATE_LIMIT):
+        return None
+    return array
 
 
 def _is_corner_triple(item: Any) -> bool:
@@ -559,7 +577,14 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
             "pixel_aspect", base.pixel_aspect, length=2, low=PIXEL_ASPECT_RANGE[0], high=PIXEL_ASPECT_RANGE[1]
         ),
         film_transparent=reader.boolean("film_transparent", base.film_transparent),
+        border=reader.vector("border", None, length=4, low=0.0, high=1.0),
+        crop=reader.boolean("crop", base.crop),
     )
+    border = settings.border
+    if border is not None and all(isinstance(x, float) for x in border):
+        for axis, low, high in (("x", border[0], border[2]), ("y", border[1], border[3])):
+            if not low < high:
+                reader.fail("border", f"min_{axis} must be less than max_{axis}, got {_show(low)} and {_show(high)}")
     raw_samples = reader.data.get("samples")
     if isinstance(raw_samples, int) and not isinstance(raw_samples, bool) and 1 <= raw_samples <= 1024:
         samples_problem = check_samples(raw_samples)

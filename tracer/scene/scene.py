@@ -97,13 +97,14 @@ class Pyramid(Primitive):
 class TriangleMesh(Primitive):
     """Triangles in local coordinates (vertices and index triples), counter-clockwise seen from outside.
 
-    normals: None (flat) or per triangle its three corner normals (local frame): the shading normal is their
-    barycentric interpolation, normalised. materials, material_indices: None (every triangle uses material) or the
-    names of the mesh's materials and each triangle's index into them."""
+    normals: None (flat) or per triangle its three corner normals (local frame), as three triples or flat
+    (x0, y0, z0, x1, ..., z2; the loader's form): the shading normal is their barycentric interpolation,
+    normalised. materials, material_indices: None (every triangle uses material) or the names of the mesh's
+    materials and each triangle's index into them."""
 
     vertices: tuple[Vec3, ...] = ()
     triangles: tuple[tuple[int, int, int], ...] = ()
-    normals: tuple[tuple[Vec3, Vec3, Vec3], ...] | None = None
+    normals: tuple[tuple[Vec3, Vec3, Vec3], ...] | tuple[tuple[float, ...], ...] | None = None
     materials: tuple[str, ...] | None = None
     material_indices: tuple[int, ...] | None = None
 
@@ -141,7 +142,7 @@ class SpotLight:
     """A point light whose terms are multiplied by Cycles' spot attenuation (docs/scene-format.md).
 
     direction: the cone's axis, from the light outward; spot_size: the full cone angle in degrees; spot_blend: the
-    soft edge (0..1); spot_model: cycles4 (Blender 4.0 on: smoothstep only) or cycles3 (up to 3.6: smoothstep times
+    soft edge (0..1); spot_model: cycles4 (Blender 4.x, 5.0: smoothstep only) or cycles3 (Blender 3.4: smoothstep times
     the cosine of the angle to the axis)."""
 
     location: Vec3 = (0.0, 0.0, 5.0)
@@ -225,6 +226,10 @@ class RenderSettings:
     numerics: Literal["documented", "robust"] = "documented"  # tracer/geometry/robust.py
     pixel_aspect: tuple[float, float] = (1.0, 1.0)  # Blender's pixel_aspect_x, pixel_aspect_y
     film_transparent: bool = False  # misses of camera rays: colour 0 and alpha 0 (RenderResult.alpha)
+    # Blender's render border: (min_x, min_y, max_x, max_y) fractions of the image, y up from the bottom; only the
+    # pixels inside are traced, the others are 0 (alpha 0); crop: the image is the border's region only
+    border: tuple[float, float, float, float] | None = None
+    crop: bool = False
 
 
 @dataclass(frozen=True)
@@ -244,8 +249,12 @@ class Scene:
 
     @property
     def has_alpha(self) -> bool:
-        """Whether the render has an alpha channel: a transparent film or a holdout object."""
-        return self.render.film_transparent or any(obj.holdout for obj in self.objects)
+        """Whether the render has an alpha channel: a transparent film, a holdout object, or a render border whose
+        outside is kept (not cropped)."""
+        settings = self.render
+        if settings.film_transparent or (settings.border is not None and not settings.crop):
+            return True
+        return any(obj.holdout for obj in self.objects)
 
     def with_heading(self, heading: float) -> Scene:
         """The same scene with the vane turned to heading degrees."""

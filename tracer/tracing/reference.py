@@ -141,9 +141,9 @@ def find_normal(primitive: tf.WorldPrimitive, part: int, P: sc.Vec3) -> sc.Vec3:
 def spot_attenuation(cosine: float, spot: sc.SpotLight) -> float:
     """Cycles' spot attenuation at a point seen from the light at this cosine to the axis (docs/scene-format.md).
 
-    cycles4 (Blender 4.0 on, intern/cycles/kernel/light/spot.h): smoothstep((c - cos_half) * spot_smooth), with
+    cycles4 (Blender 4.x and 5.0, intern/cycles/kernel/light/spot.h): smoothstep((c - cos_half) * spot_smooth), with
     spot_smooth = 1 / ((1 - cos_half) * blend) and smoothstep(f) = 0 below 0, 1 above 1, else 3 f^2 - 2 f^3.
-    cycles3 (Blender 3.4-3.6): 0 where c <= cos_half; else c times smoothstep(t / ((1 - cos_half) * blend)) while
+    cycles3 (Blender 3.4 and before): 0 where c <= cos_half; else c times smoothstep(t / ((1 - cos_half) * blend)) while
     t = c - cos_half is below (1 - cos_half) * blend, and c beyond. Blend 0: a hard edge."""
     cos_half = math.cos(math.radians(spot.spot_size) / 2.0)
     width = (1.0 - cos_half) * spot.spot_blend
@@ -351,4 +351,14 @@ def render_reference(scene: sc.Scene) -> list[list[sc.Color]]:
     """The whole image as rows of (r, g, b) linear floats, unclamped, (r, g, b, alpha) where the scene has an
     alpha; rows from the top."""
     tracer = ReferenceTracer(scene)
-    return [[tracer.pixel(i, j) for i in range(scene.render.width)] for j in range(scene.render.height)]
+    settings = scene.render
+    window = cam.border_window(settings)
+    if window is None:
+        return [[tracer.pixel(i, j) for i in range(settings.width)] for j in range(settings.height)]
+    x0, x1, y0, y1 = window  # a render border: only its pixels are traced, the others are 0 (alpha 0)
+    blank = (0.0,) * (4 if scene.has_alpha else 3)
+    image = [
+        [tracer.pixel(i, j) if x0 <= i < x1 and y0 <= j < y1 else blank for i in range(settings.width)]
+        for j in range(settings.height)
+    ]
+    return [row[x0:x1] for row in image[y0:y1]] if settings.crop else image

@@ -550,6 +550,8 @@ class PreparedScene:
         settings = self.scene.render
         per_row = settings.width * settings.samples
         rows = np.asarray(rows)
+        if settings.border is not None:
+            return self._render_border_rows(rows, max_samples, volume, touched)
         if max_samples is None or len(rows) * per_row <= max_samples:
             return self._render_piece(rows, None, volume, touched)
         counts = RayCounts()
@@ -570,6 +572,28 @@ class PreparedScene:
                 piece, piece_counts = self._render_piece(np.asarray([row]), columns, volume, piece_touched)
                 image[index, columns] = piece[0]
                 counts.add(piece_counts)
+        return image, counts
+
+    def _render_border_rows(
+        self, rows: np.ndarray, max_samples: int | None, volume: Volume | None, touched: np.ndarray | None
+    ) -> tuple[np.ndarray, RayCounts]:
+        """render_rows() with a render border: only the pixels inside it are traced (in pieces of whole rows of the
+        border), the others are 0 (alpha 0)."""
+        settings = self.scene.render
+        x0, x1, y0, y1 = cam.border_window(settings)
+        image = np.zeros((len(rows), settings.width, self.channels), dtype=self.dtype)
+        counts = RayCounts()
+        inside = indices((rows >= y0) & (rows < y1))
+        columns = np.arange(x0, x1)
+        at_once = inside.size if max_samples is None else max(1, max_samples // (len(columns) * settings.samples))
+        for first in range(0, inside.size, max(1, at_once)):
+            part = inside[first : first + at_once]
+            piece_touched = None if touched is None else np.zeros((len(part), len(columns)), dtype=bool)
+            piece, piece_counts = self._render_piece(rows.take(part), columns, volume, piece_touched)
+            image[part, x0:x1] = piece
+            if touched is not None:
+                touched[part, x0:x1] = piece_touched
+            counts.add(piece_counts)
         return image, counts
 
     def _render_piece(
@@ -646,8 +670,8 @@ class PreparedScene:
 
 def spot_attenuation(cosine: np.ndarray, spot: sc.SpotLight) -> np.ndarray:
     """Cycles' spot light attenuation (n,) for the cosines (n,) of the angle at the light between its axis and the
-    points; the same operations as reference.spot_attenuation. cycles4 (Blender 4.0 on, kernel/light/spot.h):
-    smoothstep((c - cos_half) / ((1 - cos_half) * blend)); cycles3 (3.4-3.6): 0 inside cos_half, else c times
+    points; the same operations as reference.spot_attenuation. cycles4 (Blender 4.x, 5.0: kernel/light/spot.h):
+    smoothstep((c - cos_half) / ((1 - cos_half) * blend)); cycles3 (Blender 3.4): 0 inside cos_half, else c times
     smoothstep((c - cos_half) / ((1 - cos_half) * blend)) while that is below 1, and c beyond. Blend 0: a hard edge."""
     cos_half = math.cos(math.radians(spot.spot_size) / 2.0)
     width = (1.0 - cos_half) * spot.spot_blend

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry.camera import border_window
 from ..geometry.footprint import Volume
 from ..scene import scene as sc
 from ..tracing.wavefront import PreparedScene, RayCounts
@@ -107,8 +108,21 @@ def tune_allocator() -> None:
 _worker_cache: dict[str, object] = {}
 
 
-def _result(image: np.ndarray, counts: RayCounts, seconds: float, touched: np.ndarray | None = None) -> RenderResult:
-    """A RenderResult from an image of 3 channels, or of 4 (colour and alpha) where the scene has an alpha."""
+def _result(
+    image: np.ndarray,
+    counts: RayCounts,
+    seconds: float,
+    touched: np.ndarray | None = None,
+    settings: sc.RenderSettings | None = None,
+) -> RenderResult:
+    """A RenderResult from an image of 3 channels, or of 4 (colour and alpha) where the scene has an alpha; cut to
+    the render border where the settings crop to it."""
+    if settings is not None and settings.crop and settings.border is not None:
+        x0, x1, y0, y1 = border_window(settings)
+        image = image[y0:y1, x0:x1]
+        touched = None if touched is None else touched[y0:y1, x0:x1]
+        if image.shape[-1] == 3:
+            image = np.ascontiguousarray(image)
     if image.shape[-1] == 4:
         return RenderResult(np.ascontiguousarray(image[..., :3]), counts, seconds, touched, image[..., 3].copy())
     return RenderResult(image, counts, seconds, touched)
@@ -231,7 +245,7 @@ class Renderer:
                 band_done(_colour(image), rows)
             if progress is not None:
                 progress(done, len(every))
-        return _result(image, counts, time.perf_counter() - started, touched)
+        return _result(image, counts, time.perf_counter() - started, touched, settings)
 
     def _prepared_here(self, scene: sc.Scene) -> PreparedScene:
         """The scene prepared in this process (one worker), kept while it stays the same."""
@@ -311,7 +325,7 @@ class Renderer:
             for rows in bands(settings)
         ]
         touched = None if volume is None else np.zeros(shape[:2], dtype=bool)
-        return _Frame(pool, image, tasks, descriptor, started, touched)
+        return _Frame(pool, image, tasks, descriptor, started, touched, settings=settings)
 
     def _submit_pixels(self, scene: sc.Scene, pixels: np.ndarray, base: np.ndarray, pieces: int = 0) -> _Frame:
         """A frame of base with pixels traced again, in the given number of tasks (0: one per worker)."""
@@ -334,6 +348,7 @@ class _Frame:
     started: float
     touched: np.ndarray | None = None
     pixels: bool = False
+    settings: sc.RenderSettings | None = None  # a whole frame's: its render border may crop the image
 
     def finish(self, progress: Progress | None = None, band_done: BandDone | None = None) -> RenderResult:
         counts = RayCounts()
@@ -357,7 +372,7 @@ class _Frame:
                     progress(done, len(self.tasks))
         finally:
             self.abandon()
-        return _result(self.image, counts, time.perf_counter() - self.started, self.touched)
+        return _result(self.image, counts, time.perf_counter() - self.started, self.touched, self.settings)
 
     def abandon(self) -> None:
         """Forget the bands not yet finished (their workers may still write into the image: it is this frame's own

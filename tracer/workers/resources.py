@@ -94,13 +94,13 @@ def check_resources(settings: sc.RenderSettings, workers: int, frames: int = 1, 
     )
 
 
-def output_bytes(settings: sc.RenderSettings, suffix: str) -> int:
+def output_bytes(settings: sc.RenderSettings, suffix: str, channels: int = 3) -> int:
     """The largest the output file can be: .npy exactly (float32), .png at most the raw 8-bit pixels plus
-    filtering bytes and headers (an incompressible image)."""
+    filtering bytes and headers (an incompressible image). channels: 4 where the render has an alpha."""
     pixels = settings.width * settings.height
     if suffix == ".npy":
-        return pixels * 3 * 4 + 128
-    return pixels * 3 + settings.height + 4096
+        return pixels * channels * 4 + 128
+    return pixels * channels + settings.height + 4096
 
 
 def check_disk(target: Path, needed: int) -> None:
