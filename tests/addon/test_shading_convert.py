@@ -348,3 +348,96 @@ def test_cycles_light_units_are_what_the_conversion_assumes(kind, power, height,
 
 def test_cycles_world_lights_a_white_plane_to_its_colour() -> None:
     assert cycles_white_plane(None, world=(0.3, 0.5, 0.7)) == pytest.approx(0.3, rel=0.03)
+
+
+# --- Blender's own panels, and the Scene Conversion panel ------------------------------------------------------------
+
+
+def test_blenders_material_light_world_and_mesh_panels_show_for_the_engine() -> None:
+    from addon import render_panels
+
+    scene = bpy.context.scene
+    scene.render.engine = "WEATHERVANE_TRACER"
+    mesh = bpy.data.meshes.new("mesh")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    obj = bpy.data.objects.new("mesh", mesh)
+    scene.collection.objects.link(obj)
+    material = principled("shown")
+    mesh.materials.append(material)
+    spot = light_object("SPOT", 10.0)
+    scene.world = bpy.data.worlds.new("world")
+    compat.enable_nodes(scene.world)
+    names = {cls.__name__ for cls in render_panels._added}
+    wanted = {
+        "material": ["CYCLES_PT_context_material", "CYCLES_MATERIAL_PT_surface", "MATERIAL_PT_viewport"],
+        "light": ["DATA_PT_context_light", "CYCLES_LIGHT_PT_light", "CYCLES_LIGHT_PT_beam_shape"],
+        "world": ["WORLD_PT_context_world", "CYCLES_WORLD_PT_surface"],
+        "mesh": ["DATA_PT_context_mesh", "DATA_PT_uv_texture", "DATA_PT_shape_keys", "DATA_PT_vertex_groups"]
+        + (["DATA_PT_normals"] if compat.VERSION < (4, 1, 0) else []),
+    }
+    members = {
+        "material": {"material": material, "object": obj},
+        "light": {"light": spot.data, "object": spot},
+        "world": {"world": scene.world},
+        "mesh": {"mesh": mesh, "object": obj},
+    }
+    for tab, panels in wanted.items():
+        with bpy.context.temp_override(**members[tab]):
+            for name in panels:
+                cls = getattr(bpy.types, name)
+                assert name in names or name == "MATERIAL_PT_viewport", name  # Viewport Display shows for all engines
+                assert cls.poll(bpy.context), name
+    assert not any(word in name.lower() for name in names for word in ("preview", "volume", "mist"))
+    assert "DATA_PT_light" not in names  # Cycles' Light panel replaces the type-only one
+    added = list(render_panels._added)
+    import addon
+
+    addon.unregister()
+    try:
+        assert not any("WEATHERVANE_TRACER" in cls.COMPAT_ENGINES for cls in added)
+        assert all("CYCLES" in cls.COMPAT_ENGINES for cls in added if cls.__name__.startswith("CYCLES_"))
+    finally:
+        addon.register()
+
+
+def test_the_scene_conversion_panel_converts_once_per_change(monkeypatch) -> None:
+    from addon import render_panels
+
+    scene = bpy.context.scene
+    scene.render.engine = "WEATHERVANE_TRACER"
+    mesh = bpy.data.meshes.new("mesh")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    obj = bpy.data.objects.new("mesh", mesh)
+    scene.collection.objects.link(obj)
+    material = principled("glass", **{"Alpha": 0.5})
+    mesh.materials.append(material)
+    light_object("AREA", 100.0)
+    bpy.context.view_layer.update()
+    calls = []
+    convert = material_convert.convert_material
+    monkeypatch.setattr(
+        material_convert, "convert_material", lambda *a, **k: calls.append(a[0].name) or convert(*a, **k)
+    )
+    rows = render_panels.scene_conversion(scene)
+    assert [(kind, name) for kind, name, _ in rows] == [
+        ("MATERIAL", "glass"),
+        ("LIGHT", "Area"),
+        ("WORLD", "no world (black)"),
+    ]
+    assert rows[0][2] == ["alpha: rendered opaque"] and rows[1][2][0].startswith("area light") and rows[2][2] == []
+    assert render_panels.summary_line(rows) == "1 exact, 2 approximated (glass, Area)"
+    for _ in range(50):  # redraws
+        assert render_panels.scene_conversion(scene) is rows
+    assert calls == ["glass"]
+    next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED").inputs["Alpha"].default_value = 1.0
+    material.node_tree.update_tag()
+    bpy.context.view_layer.update()
+    rows = render_panels.scene_conversion(scene)
+    assert calls == ["glass", "glass"] and rows[0][2] == []
+
+
+def test_cycles_own_render_panels_stay_hidden_for_the_engine() -> None:
+    """Cycles' panels share one COMPAT_ENGINES set through their base class: the engine goes into a copy."""
+    for name in ("CYCLES_RENDER_PT_sampling", "CYCLES_MATERIAL_PT_preview", "CYCLES_WORLD_PT_volume"):
+        cls = getattr(bpy.types, name, None)
+        assert cls is None or "WEATHERVANE_TRACER" not in cls.COMPAT_ENGINES, name
