@@ -238,7 +238,7 @@ def test_an_area_light_is_a_point_of_its_power_named() -> None:
     area, notes = light_convert.convert_light(light_object("AREA", 200.0, location=(1.0, 2.0, 3.0), size=0.5))
     assert area["type"] == "point" and area["location"] == pytest.approx([1.0, 2.0, 3.0])
     assert area["intensity"] == pytest.approx(200.0 / (4 * math.pi**2))
-    assert notes == ["area light square 0.5 m: a point of the same power at its centre"]
+    assert notes == ["area light square 0.5 m: a point of the same power at its centre (3-4x dimmer)"]
 
 
 def test_a_light_whose_type_changed_in_blender_converts_as_its_new_type() -> None:
