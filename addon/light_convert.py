@@ -42,16 +42,18 @@ def _falloff_node(light) -> tuple[str | None, float, tuple[float, float, float]]
     """A Cycles light node tree: (Light Falloff output driving the emission or None, strength, colour)."""
     if not compat.uses_nodes(light):
         return None, 1.0, (1.0, 1.0, 1.0)
-    output = next((n for n in light.node_tree.nodes if n.type == "OUTPUT_LIGHT" and n.is_active_output), None)
-    output = output or next((n for n in light.node_tree.nodes if n.type == "OUTPUT_LIGHT"), None)
+    output = next(
+        (n for n in light.node_tree.nodes if n.bl_idname == "ShaderNodeOutputLight" and n.is_active_output), None
+    )
+    output = output or next((n for n in light.node_tree.nodes if n.bl_idname == "ShaderNodeOutputLight"), None)
     if output is None or not output.inputs["Surface"].is_linked:
         return None, 1.0, (1.0, 1.0, 1.0)
     emission = output.inputs["Surface"].links[0].from_node
-    if emission.type != "EMISSION":
+    if emission.bl_idname != "ShaderNodeEmission":
         return None, 1.0, (1.0, 1.0, 1.0)
     color = tuple(float(c) for c in emission.inputs["Color"].default_value[:3])
     strength = emission.inputs["Strength"]
-    if strength.is_linked and strength.links[0].from_node.type == "LIGHT_FALLOFF":
+    if strength.is_linked and strength.links[0].from_node.bl_idname == "ShaderNodeLightFalloff":
         node = strength.links[0].from_node
         return strength.links[0].from_socket.name, float(node.inputs["Strength"].default_value), color
     return None, float(strength.default_value), color

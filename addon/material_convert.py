@@ -117,7 +117,7 @@ def _source(socket):
         if not link.is_valid or link.is_muted:
             return None, None
         node = link.from_node
-        if node.type == "REROUTE" or node.mute:
+        if node.bl_idname == "NodeReroute" or node.mute:
             inputs = [s for s in node.inputs if s.is_linked]
             if not inputs:
                 return None, None
@@ -185,14 +185,14 @@ def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, 
     own = tuple(float(c) for c in socket.default_value[:3])
     if node is None:
         return own
-    if node.type == "RGB":
+    if node.bl_idname == "ShaderNodeRGB":
         return tuple(float(c) for c in node.outputs[0].default_value[:3])
-    if node.type in ("TEX_IMAGE", "TEX_ENVIRONMENT") and node.image is not None:
+    if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment") and node.image is not None:
         mean = image_mean(node.image)
         if mean is not None:
             notes.append(f"image texture on {label}: mean colour")
             return mean
-    if node.type in ("VERTEX_COLOR", "ATTRIBUTE"):
+    if node.bl_idname in ("ShaderNodeVertexColor", "ShaderNodeAttribute"):
         name = getattr(node, "layer_name", "") or getattr(node, "attribute_name", "")
         mean = attribute_mean(material, name)
         if mean is not None:
@@ -206,7 +206,7 @@ def value_input(socket, label: str, notes: list[str]) -> float:
     """A factor input's own value; a linked one is named and read unlinked."""
     node, _ = _source(socket)
     if node is not None:
-        if node.type == "VALUE":
+        if node.bl_idname == "ShaderNodeValue":
             return float(node.outputs[0].default_value)
         notes.append(f"{node.name} on {label}: the input's own value")
     return float(socket.default_value)
@@ -274,20 +274,20 @@ def _shader(socket, material, notes: list[str], depth: int = 0) -> _Lobes:
     node, _ = _source(socket)
     if node is None or depth > 32:
         return _Lobes()
-    kind = node.type
-    if kind == "BSDF_PRINCIPLED":
+    kind = node.bl_idname  # stable across versions (4.4 calls the Diffuse BSDF's type DIFFUSE_BSDF)
+    if kind == "ShaderNodeBsdfPrincipled":
         return _principled(node, material, notes)
-    if kind in ("BSDF_GLOSSY", "BSDF_ANISOTROPIC"):
+    if kind in ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"):
         return _glossy(node, material, notes)
-    if kind == "BSDF_DIFFUSE":
+    if kind == "ShaderNodeBsdfDiffuse":
         return _diffuse(node, material, notes)
-    if kind == "EMISSION":
+    if kind == "ShaderNodeEmission":
         return _emission(node, material, notes)
-    if kind == "ADD_SHADER":
+    if kind == "ShaderNodeAddShader":
         return _shader(node.inputs[0], material, notes, depth + 1).plus(
             _shader(node.inputs[1], material, notes, depth + 1)
         )
-    if kind == "MIX_SHADER":
+    if kind == "ShaderNodeMixShader":
         factor = min(1.0, max(0.0, value_input(node.inputs[0], f"{node.name} Fac", notes)))
         first = _shader(node.inputs[1], material, notes, depth + 1).scaled(1.0 - factor)
         return first.plus(_shader(node.inputs[2], material, notes, depth + 1).scaled(factor))
@@ -304,7 +304,7 @@ def _shader(socket, material, notes: list[str], depth: int = 0) -> _Lobes:
 
 def material_output(tree):
     """The Material Output that Cycles uses: the active one of target All or Cycles, else the first such."""
-    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.target in ("ALL", "CYCLES")]
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in ("ALL", "CYCLES")]
     active = [n for n in outputs if n.is_active_output]
     return (active or outputs or [None])[0]
 
@@ -398,7 +398,7 @@ def convert_material(
 
 def _name_normal_maps(tree, notes: list[str]) -> None:
     for node in tree.nodes:
-        normal = node.inputs.get("Normal") if node.type.startswith("BSDF") else None
+        normal = node.inputs.get("Normal") if node.bl_idname.startswith("ShaderNodeBsdf") else None
         if normal is not None and normal.is_linked:
             notes.append("normal or bump map: the surface's own normal")
             return

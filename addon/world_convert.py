@@ -66,14 +66,14 @@ def _color_of(socket, notes: list[str]) -> tuple[float, float, float]:
     if not socket.is_linked:
         return own
     node = socket.links[0].from_node
-    if node.type == "RGB":
+    if node.bl_idname == "ShaderNodeRGB":
         return tuple(float(c) for c in node.outputs[0].default_value[:3])
-    if node.type == "TEX_ENVIRONMENT" and node.image is not None:
+    if node.bl_idname == "ShaderNodeTexEnvironment" and node.image is not None:
         mean = environment_mean(node.image)
         if mean is not None:
             notes.append("environment texture: its mean colour")
             return mean
-    if node.type == "TEX_SKY":
+    if node.bl_idname == "ShaderNodeTexSky":
         notes.append(f"sky texture: a clear-sky blue {SKY_MEAN}")
         return SKY_MEAN
     notes.append(f"{node.name} on the world's Color: the input's own value")
@@ -92,14 +92,14 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
         color = [float(c) for c in world.color[:3]]
     else:
         tree = world.node_tree
-        outputs = [n for n in tree.nodes if n.type == "OUTPUT_WORLD" and n.target in ("ALL", "CYCLES")]
+        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.target in ("ALL", "CYCLES")]
         output = ([n for n in outputs if n.is_active_output] or outputs or [None])[0]
         if output is None or not output.inputs["Surface"].is_linked:
             return dict(BLACK), None, notes
         if output.inputs["Volume"].is_linked:
             notes.append("world volume: ignored")
         shader = output.inputs["Surface"].links[0].from_node
-        if shader.type != "BACKGROUND":
+        if shader.bl_idname != "ShaderNodeBackground":
             notes.append(f"{shader.bl_label} as the world: black")
             return dict(BLACK), None, notes
         color = _color_of(shader.inputs["Color"], notes)
