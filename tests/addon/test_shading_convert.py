@@ -502,3 +502,57 @@ def test_an_emission_plane_shows_its_emission_as_in_cycles() -> None:
     material, notes = material_convert.convert_material(bpy.data.materials["glow"])
     assert notes == [] and cycles == pytest.approx(material["emission"], rel=0.02)
     assert documented_plane(material, 0.0, (1.0, 1.0, 1.0), 0.0) == pytest.approx(cycles, rel=0.02)
+
+
+def test_the_factory_startup_scene_converts_with_its_approximations_named() -> None:
+    from addon import render_panels
+
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    scene = bpy.context.scene
+    material, notes = material_convert.convert_material(bpy.data.objects["Cube"].active_material)
+    assert material["color"] == pytest.approx([0.8 * 0.96] * 3, rel=1e-5) and material["two_sided"] and notes == []
+    light, notes = light_convert.convert_light(bpy.data.objects["Light"])
+    assert light["intensity"] == pytest.approx(1000.0 / (4 * math.pi**2)) and light["falloff"] == "inverse_square"
+    assert notes and notes[0].startswith("radius 0.1 m: hard shadow")
+    background, ambient, notes = world_convert.convert_world(scene.world)
+    assert background["color"] == pytest.approx([0.0508761] * 3, rel=1e-4) or background["color"] == pytest.approx(
+        [0.05] * 3, rel=1e-4
+    )
+    assert ambient["color"] == background["color"] and notes == ["world light: unshadowed ambient"]
+    rows = render_panels.scene_conversion(scene)
+    assert [kind for kind, _, _ in rows] == ["MATERIAL", "LIGHT", "WORLD"]
+    assert render_panels.summary_line(rows) == "1 exact, 2 approximated (Light, World)"
+
+
+def test_vertex_colours_on_base_color_are_their_mean_named() -> None:
+    mesh = bpy.data.meshes.new("painted")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    if hasattr(mesh, "color_attributes"):
+        layer = mesh.color_attributes.new("paint", "FLOAT_COLOR", "POINT")
+    else:
+        layer = mesh.vertex_colors.new(name="paint")
+    for item, color in zip(layer.data, [(1, 0, 0, 1), (0, 1, 0, 1), (0, 0, 1, 1)], strict=False):
+        item.color = color
+    material = principled("painted")
+    mesh.materials.append(material)
+    tree = material.node_tree
+    attribute = tree.nodes.new("ShaderNodeVertexColor")
+    attribute.layer_name = "paint"
+    tree.links.new(
+        attribute.outputs["Color"], next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled").inputs[0]
+    )
+    material_convert.clear_cache()
+    document, notes = material_convert.convert_material(material)
+    mean = sum(document["color"]) / 3
+    assert document["color"] == pytest.approx([mean] * 3, rel=1e-3) and mean > 0.2
+    assert notes == ["colour attribute on Base Color: mean colour"]
+
+
+def test_an_addon_light_recoloured_in_blender_keeps_its_intensity_and_takes_the_colour() -> None:
+    build.build(bpy.context, scene_from_dict(default_scene_dict()), source="colour")
+    bpy.context.view_layer.update()
+    entry = next(e for e in bpy.context.scene.weathervane.lights if e.kind == "POINT")
+    bpy.data.objects[entry.object_name].data.color = (1.0, 0.5, 0.25)
+    light, notes = light_convert.convert_light(bpy.data.objects[entry.object_name])
+    assert light == {"type": "point", "location": [4.0, -3.0, 6.0], "intensity": 0.6, "color": [1.0, 0.5, 0.25]}
+    assert notes == []
