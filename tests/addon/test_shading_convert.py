@@ -509,8 +509,12 @@ def test_the_factory_startup_scene_converts_with_its_approximations_named() -> N
 
     bpy.ops.wm.read_factory_settings(use_empty=False)
     scene = bpy.context.scene
-    material, notes = material_convert.convert_material(bpy.data.objects["Cube"].active_material)
-    assert material["color"] == pytest.approx([0.8 * 0.96] * 3, rel=1e-5) and material["two_sided"] and notes == []
+    cube = bpy.data.objects["Cube"].active_material
+    node = next(n for n in cube.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+    material, notes = material_convert.convert_material(cube)
+    f0 = compat.principled_f0(node, compat.principled_socket(node, "specular").default_value)  # IOR 1.45 in 4.x
+    expected = [(1 - f0) * c for c in node.inputs["Base Color"].default_value[:3]]
+    assert material["color"] == pytest.approx(expected, rel=1e-5) and material["two_sided"] and notes == []
     light, notes = light_convert.convert_light(bpy.data.objects["Light"])
     assert light["intensity"] == pytest.approx(1000.0 / (4 * math.pi**2)) and light["falloff"] == "inverse_square"
     assert notes and notes[0].startswith("radius 0.1 m: hard shadow")
