@@ -232,6 +232,15 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
         socket = compat.principled_input(node, role)
         if socket is not None and (socket.is_linked or float(socket.default_value) > 0.0):
             notes.append(f"{what}: rendered as the opaque base")
+    tint = node.inputs.get("Specular Tint")
+    if tint is not None and (
+        tint.is_linked
+        or (any(float(c) != 1.0 for c in tint.default_value[:3]) if tint.type == "RGBA" else tint.default_value > 0.0)
+    ):
+        notes.append("specular tint: white highlight")
+    roughness_diffuse = node.inputs.get("Diffuse Roughness")
+    if roughness_diffuse is not None and (roughness_diffuse.is_linked or float(roughness_diffuse.default_value) > 0.0):
+        notes.append("diffuse roughness (Oren-Nayar): Lambert")
     alpha = node.inputs.get("Alpha")
     if alpha is not None and (alpha.is_linked or float(alpha.default_value) < 1.0):
         notes.append("alpha: rendered opaque")
@@ -245,6 +254,8 @@ def _glossy(node, material, notes: list[str]) -> _Lobes:
     lobes = _Lobes()
     color = color_input(node.inputs["Color"], material, f"{node.name} Color", notes)
     roughness = min(1.0, max(0.0, value_input(node.inputs["Roughness"], "Roughness", notes)))
+    if getattr(node, "distribution", "") == "SHARP":  # 3.x: a perfect mirror whatever the roughness
+        roughness = 0.0
     lobes.add_specular(list(color), roughness)
     anisotropy = node.inputs.get("Anisotropy")
     if anisotropy is not None and (anisotropy.is_linked or float(anisotropy.default_value) != 0.0):

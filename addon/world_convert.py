@@ -108,7 +108,10 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
             notes.append(f"{strength.links[0].from_node.name} on the world's Strength: the input's own value")
         color = [c * float(strength.default_value) for c in color]
     background = {"type": "solid", "color": color}
-    if not any(c > 0.0 for c in color):
+    visibility = getattr(world, "cycles_visibility", None)
+    if visibility is not None and not visibility.camera:
+        background = dict(BLACK)  # Cycles' camera rays do not see it
+    if not any(c > 0.0 for c in color) or (visibility is not None and not visibility.diffuse):
         return background, None, notes
     notes.append("world light: unshadowed ambient")
     return background, {"type": "ambient", "intensity": 1.0, "color": list(color)}, notes

@@ -560,3 +560,16 @@ def test_an_addon_light_recoloured_in_blender_keeps_its_intensity_and_takes_the_
     light, notes = light_convert.convert_light(bpy.data.objects[entry.object_name])
     assert light == {"type": "point", "location": [4.0, -3.0, 6.0], "intensity": 0.6, "color": [1.0, 0.5, 0.25]}
     assert notes == []
+
+
+def test_a_sharp_glossy_is_a_mirror_and_a_tinted_specular_is_named() -> None:
+    material, (output, glossy) = shader_material("sharp", "ShaderNodeBsdfGlossy")
+    glossy.distribution = "SHARP" if compat.VERSION < (4, 0, 0) else "GGX"
+    glossy.inputs["Roughness"].default_value = 0.0 if compat.VERSION >= (4, 0, 0) else 0.7
+    material.node_tree.links.new(glossy.outputs[0], output.inputs["Surface"])
+    document, notes = material_convert.convert_material(material)
+    assert document["reflective"] == pytest.approx(0.8) and notes == []
+    tinted = principled("tinted")
+    tint = next(n for n in tinted.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled").inputs["Specular Tint"]
+    tint.default_value = (1.0, 0.0, 0.0, 1.0) if tint.type == "RGBA" else 0.5
+    assert material_convert.convert_material(tinted)[1] == ["specular tint: white highlight"]
