@@ -12,7 +12,7 @@ import tempfile
 import bpy
 import pytest
 
-from addon import build, compat, light_convert, material_convert, world_convert
+from addon import build, compat, conversion_report, light_convert, material_convert, world_convert
 from tracer.scene.loader import default_scene_dict, scene_from_dict
 
 
@@ -412,7 +412,6 @@ def test_blenders_material_light_world_and_mesh_panels_show_for_the_engine() -> 
 
 
 def test_the_scene_conversion_panel_converts_once_per_change(monkeypatch) -> None:
-    from addon import render_panels
 
     scene = bpy.context.scene
     scene.render.engine = "WEATHERVANE_TRACER"
@@ -429,21 +428,21 @@ def test_the_scene_conversion_panel_converts_once_per_change(monkeypatch) -> Non
     monkeypatch.setattr(
         material_convert, "convert_material", lambda *a, **k: calls.append(a[0].name) or convert(*a, **k)
     )
-    rows = render_panels.scene_conversion(scene)
+    rows = conversion_report.scene_conversion(scene)
     assert [(kind, name) for kind, name, _ in rows] == [
         ("MATERIAL", "glass"),
         ("LIGHT", "Area"),
         ("WORLD", "no world (black)"),
     ]
     assert rows[0][2] == ["alpha: rendered opaque"] and rows[1][2][0].startswith("area light") and rows[2][2] == []
-    assert render_panels.summary_line(rows) == "1 exact, 2 approximated (glass, Area)"
+    assert conversion_report.summary_line(rows) == "1 exact, 2 approximated (glass, Area)"
     for _ in range(50):  # redraws
-        assert render_panels.scene_conversion(scene) is rows
+        assert conversion_report.scene_conversion(scene) is rows
     assert calls == ["glass"]
     next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED").inputs["Alpha"].default_value = 1.0
     material.node_tree.update_tag()
     bpy.context.view_layer.update()
-    rows = render_panels.scene_conversion(scene)
+    rows = conversion_report.scene_conversion(scene)
     assert calls == ["glass", "glass"] and rows[0][2] == []
 
 
@@ -505,7 +504,6 @@ def test_an_emission_plane_shows_its_emission_as_in_cycles() -> None:
 
 
 def test_the_factory_startup_scene_converts_with_its_approximations_named() -> None:
-    from addon import render_panels
 
     bpy.ops.wm.read_factory_settings(use_empty=False)
     scene = bpy.context.scene
@@ -523,9 +521,9 @@ def test_the_factory_startup_scene_converts_with_its_approximations_named() -> N
         [0.05] * 3, rel=1e-4
     )
     assert ambient["color"] == background["color"] and notes == ["world light: unshadowed ambient"]
-    rows = render_panels.scene_conversion(scene)
+    rows = conversion_report.scene_conversion(scene)
     assert [kind for kind, _, _ in rows] == ["MATERIAL", "LIGHT", "WORLD"]
-    assert render_panels.summary_line(rows) == "1 exact, 2 approximated (Light, World)"
+    assert conversion_report.summary_line(rows) == "1 exact, 2 approximated (Light, World)"
 
 
 def test_vertex_colours_on_base_color_are_their_mean_named() -> None:
