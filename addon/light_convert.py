@@ -142,6 +142,10 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
             notes.append(
                 f"area light {light.shape.lower()} {size}: a point of the same power at its centre (3-4x dimmer)"
             )
+    brightest = max(color)
+    if brightest > 1.0:  # the format's colours lie in [0, 1]: the excess goes into the intensity, the same light
+        document["intensity"] *= brightest
+        color = [c / brightest for c in color]
     document["color"] = color
     if not compat.light_casts_shadow(light):
         notes.append("casts no shadow in Blender: shadowed here")

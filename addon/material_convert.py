@@ -7,8 +7,8 @@ weighs its two inputs by its factor, Add Shader adds them. Then the documented m
     reflective r    = mean(M)                          the documented mirror is white: a tinted mirror is named
     color           = D / (1 - r)                      the tracer weighs the local colour by 1 - r
     specular s      = n / coef (Blinn-Phong), n / 4 (Phong)     the twin's relation, inverted (materials.py)
-    specular_color  = G (n + 2) / 8 / (1 - r)          the twin's highlight_gain, inverted
-    emission        = E                                added unshadowed, as Cycles adds a surface's emission
+    specular_color  = G (n + 2) / 8 / (1 - r)          the twin's highlight_gain, inverted (clipped at 1, named)
+    emission        = E                                added unshadowed, as Cycles adds it (clipped at 1, named)
 
 Lobes of the shaders (F0 is a dielectric's reflectance at normal incidence, compat.principled_f0: 0.04 by default):
 
@@ -42,6 +42,9 @@ from . import compat
 ROUGH_MIRROR = 0.1  # at or below: a mirror
 ROUGH_HIGHLIGHT = 0.5  # at or above: a highlight of the lights only
 DEFAULT_GREY = (0.8, 0.8, 0.8)  # Cycles' surface for an object without a material
+# The scene format's colours lie in [0, 1] (the loader checks): a highlight or emission brighter than that is clipped,
+# named. Where the format lets specular_color and emission be weights above 1, raise this.
+MAX_COLOR = 1.0
 
 _means: dict[tuple, tuple[float, float, float]] = {}  # image or attribute -> its mean linear colour
 
@@ -433,7 +436,12 @@ def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
             notes.append("several highlights: one, of the strongest's exponent")
         gain = (exponent + 2.0) / 8.0 * local
         document["specular"] = specular_from_exponent(exponent, model, coef)
-        document["specular_color"] = [c * gain for c in weight]
+        highlight = [c * gain for c in weight]
+        if max(highlight) > MAX_COLOR:
+            notes.append("highlight brighter than a colour holds: clipped at 1")
+        document["specular_color"] = [min(MAX_COLOR, c) for c in highlight]
     if any(c > 0.0 for c in lobes.emission):
-        document["emission"] = list(lobes.emission)
+        if max(lobes.emission) > MAX_COLOR:
+            notes.append("emission above 1: clipped at 1")
+        document["emission"] = [min(MAX_COLOR, c) for c in lobes.emission]
     return document

@@ -7,6 +7,7 @@ unoccluded white diffuse surface to exactly W (measured in Cycles 5.0.1 and 3.4.
     background  {"type": "solid", "color": W}
     ambient     {"type": "ambient", "intensity": 1, "color": W}     the documented ambient term, coloured; named,
                 because Cycles' world light is occluded (ambient occlusion) and the documented ambient is not
+                (a W above 1 becomes intensity max(W) and colour W / max(W), the same light; the background clips)
 
 An environment texture's colour is its image's mean (weighted by solid angle), named; a sky texture has no colour
 to read without rendering it: a clear-sky blue (SKY_MEAN) times its strength, named. No world is black with no
@@ -107,11 +108,16 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
         if strength.is_linked:
             notes.append(f"{strength.links[0].from_node.name} on the world's Strength: the input's own value")
         color = [c * float(strength.default_value) for c in color]
-    background = {"type": "solid", "color": color}
+    background = {"type": "solid", "color": [min(1.0, c) for c in color]}
+    if max(color) > 1.0:
+        notes.append("world brighter than 1: background clipped at 1, as the display shows it")
     visibility = getattr(world, "cycles_visibility", None)
     if visibility is not None and not visibility.camera:
         background = dict(BLACK)  # Cycles' camera rays do not see it
     if not any(c > 0.0 for c in color) or (visibility is not None and not visibility.diffuse):
         return background, None, notes
     notes.append("world light: unshadowed ambient")
-    return background, {"type": "ambient", "intensity": 1.0, "color": list(color)}, notes
+    # intensity 1 and colour W; a W above 1 (the format's colours lie in [0, 1]) puts its largest channel in the
+    # intensity: the same light
+    brightest = max(1.0, max(color))
+    return background, {"type": "ambient", "intensity": brightest, "color": [c / brightest for c in color]}, notes

@@ -77,15 +77,19 @@ def test_a_smooth_metal_is_a_mirror_named_where_tinted() -> None:
 
 
 def test_roughness_splits_a_metal_between_mirror_and_highlight_in_the_base_colour() -> None:
-    document, _ = material_convert.convert_material(
+    document, notes = material_convert.convert_material(
         principled(**{"Base Color": (0.9, 0.6, 0.2, 1.0), "Metallic": 1.0, "Roughness": 0.3})
     )
     share = material_convert.mirror_share(0.3)
     assert share == pytest.approx(0.5)
     assert document["reflective"] == pytest.approx(share * (0.9 + 0.6 + 0.2) / 3, rel=1e-5)
     n = 2 / 0.3**4 - 2
-    gain = (n + 2) / 8 / (1 - document["reflective"])
-    assert document["specular_color"] == pytest.approx([0.5 * c * gain for c in (0.9, 0.6, 0.2)], rel=1e-4)
+    gain = (n + 2) / 8 / (1 - document["reflective"])  # 31: the highlight is brighter than a colour holds
+    assert document["specular_color"] == pytest.approx([min(1, 0.5 * c * gain) for c in (0.9, 0.6, 0.2)], rel=1e-4)
+    assert notes == [
+        "tinted mirror: white at its mean reflectance",
+        "highlight brighter than a colour holds: clipped at 1",
+    ]
 
 
 def test_emission_is_added_and_an_emission_only_plane_is_not_black() -> None:
@@ -94,10 +98,12 @@ def test_emission_is_added_and_an_emission_only_plane_is_not_black() -> None:
     emission.inputs["Strength"].default_value = 2.0
     material.node_tree.links.new(emission.outputs[0], output.inputs["Surface"])
     document, notes = material_convert.convert_material(material)
-    assert document["emission"] == pytest.approx([2.0, 1.0, 0.5]) and document["color"] == [0, 0, 0]
-    assert notes == []
-    lamp, _ = material_convert.convert_material(principled(emission=(0.0, 1.0, 0.0, 1.0), **{"Emission Strength": 3.0}))
-    assert lamp["emission"] == pytest.approx([0.0, 3.0, 0.0])
+    assert document["emission"] == pytest.approx([1.0, 1.0, 0.5]) and document["color"] == [0, 0, 0]
+    assert notes == ["emission above 1: clipped at 1"]
+    lamp, notes = material_convert.convert_material(
+        principled(emission=(0.0, 1.0, 0.0, 1.0), **{"Emission Strength": 0.5})
+    )
+    assert lamp["emission"] == pytest.approx([0.0, 0.5, 0.0]) and notes == []
 
 
 def test_mix_and_add_weigh_their_shaders() -> None:
@@ -261,13 +267,24 @@ def test_the_world_colour_is_the_background_and_a_coloured_ambient() -> None:
     background.inputs["Color"].default_value = (0.1, 0.6, 0.2, 1.0)
     background.inputs["Strength"].default_value = 2.0
     color, ambient, notes = world_convert.convert_world(world)
-    assert color == {"type": "solid", "color": pytest.approx([0.2, 1.2, 0.4])}
-    assert ambient == {"type": "ambient", "intensity": 1.0, "color": pytest.approx([0.2, 1.2, 0.4])}
+    assert color == {"type": "solid", "color": pytest.approx([0.2, 1.0, 0.4])}  # the display's clip
+    assert ambient == {
+        "type": "ambient",
+        "intensity": pytest.approx(1.2),
+        "color": pytest.approx([0.2 / 1.2, 1, 0.4 / 1.2]),
+    }
+    assert notes == [
+        "world brighter than 1: background clipped at 1, as the display shows it",
+        "world light: unshadowed ambient",
+    ]
+    background.inputs["Strength"].default_value = 1.0
+    color, ambient, notes = world_convert.convert_world(world)
+    assert color["color"] == ambient["color"] == pytest.approx([0.1, 0.6, 0.2]) and ambient["intensity"] == 1.0
     assert notes == ["world light: unshadowed ambient"]
     sky = world.node_tree.nodes.new("ShaderNodeTexSky")
     world.node_tree.links.new(sky.outputs["Color"], background.inputs["Color"])
     color, _, notes = world_convert.convert_world(world)
-    assert color["color"] == pytest.approx([2 * c for c in world_convert.SKY_MEAN]) and notes[0].startswith("sky")
+    assert color["color"] == pytest.approx(world_convert.SKY_MEAN) and notes[0].startswith("sky")
 
 
 # --- Cycles' units, measured -----------------------------------------------------------------------------------------
