@@ -7,8 +7,8 @@ weighs its two inputs by its factor, Add Shader adds them. Then the documented m
     reflective r    = mean(M)                          the documented mirror is white: a tinted mirror is named
     color           = D / (1 - r)                      the tracer weighs the local colour by 1 - r
     specular s      = n / coef (Blinn-Phong), n / 4 (Phong)     the twin's relation, inverted (materials.py)
-    specular_color  = G (n + 2) / 8 / (1 - r)          the twin's highlight_gain, inverted
-    emission        = E                                added unshadowed, as Cycles adds a surface's emission
+    specular_color  = G (n + 2) / 8 / (1 - r)          the twin's highlight_gain, inverted (clipped at 1, named)
+    emission        = E                                added unshadowed, as Cycles adds it (clipped at 1, named)
 
 Lobes of the shaders (F0 is a dielectric's reflectance at normal incidence, compat.principled_f0: 0.04 by default):
 
@@ -42,6 +42,9 @@ from . import compat
 ROUGH_MIRROR = 0.1  # at or below: a mirror
 ROUGH_HIGHLIGHT = 0.5  # at or above: a highlight of the lights only
 DEFAULT_GREY = (0.8, 0.8, 0.8)  # Cycles' surface for an object without a material
+# The scene format's colours lie in [0, 1] (the loader checks): a highlight or emission brighter than that is clipped,
+# named. Where the format lets specular_color and emission be weights above 1, raise this.
+MAX_COLOR = 1.0
 
 _means: dict[tuple, tuple[float, float, float]] = {}  # image or attribute -> its mean linear colour
 
@@ -117,7 +120,7 @@ def _source(socket):
         if not link.is_valid or link.is_muted:
             return None, None
         node = link.from_node
-        if node.type == "REROUTE" or node.mute:
+        if node.bl_idname == "NodeReroute" or node.mute:
             inputs = [s for s in node.inputs if s.is_linked]
             if not inputs:
                 return None, None
@@ -185,14 +188,14 @@ def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, 
     own = tuple(float(c) for c in socket.default_value[:3])
     if node is None:
         return own
-    if node.type == "RGB":
+    if node.bl_idname == "ShaderNodeRGB":
         return tuple(float(c) for c in node.outputs[0].default_value[:3])
-    if node.type in ("TEX_IMAGE", "TEX_ENVIRONMENT") and node.image is not None:
+    if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment") and node.image is not None:
         mean = image_mean(node.image)
         if mean is not None:
             notes.append(f"image texture on {label}: mean colour")
             return mean
-    if node.type in ("VERTEX_COLOR", "ATTRIBUTE"):
+    if node.bl_idname in ("ShaderNodeVertexColor", "ShaderNodeAttribute"):
         name = getattr(node, "layer_name", "") or getattr(node, "attribute_name", "")
         mean = attribute_mean(material, name)
         if mean is not None:
@@ -206,7 +209,7 @@ def value_input(socket, label: str, notes: list[str]) -> float:
     """A factor input's own value; a linked one is named and read unlinked."""
     node, _ = _source(socket)
     if node is not None:
-        if node.type == "VALUE":
+        if node.bl_idname == "ShaderNodeValue":
             return float(node.outputs[0].default_value)
         notes.append(f"{node.name} on {label}: the input's own value")
     return float(socket.default_value)
@@ -232,6 +235,15 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
         socket = compat.principled_input(node, role)
         if socket is not None and (socket.is_linked or float(socket.default_value) > 0.0):
             notes.append(f"{what}: rendered as the opaque base")
+    tint = node.inputs.get("Specular Tint")
+    if tint is not None and (
+        tint.is_linked
+        or (any(float(c) != 1.0 for c in tint.default_value[:3]) if tint.type == "RGBA" else tint.default_value > 0.0)
+    ):
+        notes.append("specular tint: white highlight")
+    roughness_diffuse = node.inputs.get("Diffuse Roughness")
+    if roughness_diffuse is not None and (roughness_diffuse.is_linked or float(roughness_diffuse.default_value) > 0.0):
+        notes.append("diffuse roughness (Oren-Nayar): Lambert")
     alpha = node.inputs.get("Alpha")
     if alpha is not None and (alpha.is_linked or float(alpha.default_value) < 1.0):
         notes.append("alpha: rendered opaque")
@@ -245,6 +257,8 @@ def _glossy(node, material, notes: list[str]) -> _Lobes:
     lobes = _Lobes()
     color = color_input(node.inputs["Color"], material, f"{node.name} Color", notes)
     roughness = min(1.0, max(0.0, value_input(node.inputs["Roughness"], "Roughness", notes)))
+    if getattr(node, "distribution", "") == "SHARP":  # 3.x: a perfect mirror whatever the roughness
+        roughness = 0.0
     lobes.add_specular(list(color), roughness)
     anisotropy = node.inputs.get("Anisotropy")
     if anisotropy is not None and (anisotropy.is_linked or float(anisotropy.default_value) != 0.0):
@@ -274,20 +288,20 @@ def _shader(socket, material, notes: list[str], depth: int = 0) -> _Lobes:
     node, _ = _source(socket)
     if node is None or depth > 32:
         return _Lobes()
-    kind = node.type
-    if kind == "BSDF_PRINCIPLED":
+    kind = node.bl_idname  # stable across versions (4.4 calls the Diffuse BSDF's type DIFFUSE_BSDF)
+    if kind == "ShaderNodeBsdfPrincipled":
         return _principled(node, material, notes)
-    if kind in ("BSDF_GLOSSY", "BSDF_ANISOTROPIC"):
+    if kind in ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"):
         return _glossy(node, material, notes)
-    if kind == "BSDF_DIFFUSE":
+    if kind == "ShaderNodeBsdfDiffuse":
         return _diffuse(node, material, notes)
-    if kind == "EMISSION":
+    if kind == "ShaderNodeEmission":
         return _emission(node, material, notes)
-    if kind == "ADD_SHADER":
+    if kind == "ShaderNodeAddShader":
         return _shader(node.inputs[0], material, notes, depth + 1).plus(
             _shader(node.inputs[1], material, notes, depth + 1)
         )
-    if kind == "MIX_SHADER":
+    if kind == "ShaderNodeMixShader":
         factor = min(1.0, max(0.0, value_input(node.inputs[0], f"{node.name} Fac", notes)))
         first = _shader(node.inputs[1], material, notes, depth + 1).scaled(1.0 - factor)
         return first.plus(_shader(node.inputs[2], material, notes, depth + 1).scaled(factor))
@@ -304,7 +318,7 @@ def _shader(socket, material, notes: list[str], depth: int = 0) -> _Lobes:
 
 def material_output(tree):
     """The Material Output that Cycles uses: the active one of target All or Cycles, else the first such."""
-    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.target in ("ALL", "CYCLES")]
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in ("ALL", "CYCLES")]
     active = [n for n in outputs if n.is_active_output]
     return (active or outputs or [None])[0]
 
@@ -398,7 +412,7 @@ def convert_material(
 
 def _name_normal_maps(tree, notes: list[str]) -> None:
     for node in tree.nodes:
-        normal = node.inputs.get("Normal") if node.type.startswith("BSDF") else None
+        normal = node.inputs.get("Normal") if node.bl_idname.startswith("ShaderNodeBsdf") else None
         if normal is not None and normal.is_linked:
             notes.append("normal or bump map: the surface's own normal")
             return
@@ -422,7 +436,12 @@ def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
             notes.append("several highlights: one, of the strongest's exponent")
         gain = (exponent + 2.0) / 8.0 * local
         document["specular"] = specular_from_exponent(exponent, model, coef)
-        document["specular_color"] = [c * gain for c in weight]
+        highlight = [c * gain for c in weight]
+        if max(highlight) > MAX_COLOR:
+            notes.append("highlight brighter than a colour holds: clipped at 1")
+        document["specular_color"] = [min(MAX_COLOR, c) for c in highlight]
     if any(c > 0.0 for c in lobes.emission):
-        document["emission"] = list(lobes.emission)
+        if max(lobes.emission) > MAX_COLOR:
+            notes.append("emission above 1: clipped at 1")
+        document["emission"] = [min(MAX_COLOR, c) for c in lobes.emission]
     return document

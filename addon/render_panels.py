@@ -1,5 +1,6 @@
 """The tracer engine in the Properties editor: Blender's own panels that mean something for it (output, format, frame
-range, metadata, post processing, colour management, camera and light data), and its own in Render and World.
+range, metadata, post processing, colour management, camera data; material, light, world and object data as for
+Cycles), and its own in Render and World.
 
 Blender shows a panel for an engine when the engine is in the panel's COMPAT_ENGINES. Registering adds
 WEATHERVANE_TRACER to the chosen stock panels and remembers which; unregistering removes it from exactly those.
@@ -10,20 +11,53 @@ from __future__ import annotations
 
 import bpy
 
+from . import conversion_report
 from .panels import draw_background, draw_highlights
 
 ENGINE = "WEATHERVANE_TRACER"
 
 # Data panels of the camera and the light that mean something for the tracer (lens, sensor, shift, clipping,
-# display, safe areas; the light's own panel).
+# display, safe areas; the light's own panel where Cycles' is not there).
 DATA_PANELS = {"DATA_PT_context_camera", "DATA_PT_context_light", "DATA_PT_light", "DATA_PT_custom_props_camera",
                "DATA_PT_custom_props_light"}  # fmt: skip
+# Material, World and Object Data Properties as Cycles has them (slot list, Surface with the node inputs, the light's
+# type, colour, power and spot shape, the world's Surface, normals, UV maps, shape keys, attributes), found by the
+# panels that list CYCLES, whose class names differ between Blender versions; not the ones for what the tracer does
+# not render (previews, volumes, displacement, mist, Cycles' sampling and ray-visibility settings, light probes).
+SHADING_CONTEXTS = ("material", "data", "world")
+SKIPPED = ("preview", "volume", "_settings", "ray_visibility", "mist", "displacement", "_dof", "stereoscopy",
+           "lightprobe")  # fmt: skip
 _added: list[type] = []
+_inherited: dict[type, object] = {}  # of _added, those whose COMPAT_ENGINES came from a base class: their own poll
+
+
+def _poll_for_tracer(cls):
+    """cls's poll, answering for the tracer as for Cycles.
+
+    Cycles' polls ask `CyclesButtonsPanel.poll(context)`, which reads the base class's set: while the tracer's panel
+    polls, the engine is in that set, and only then (else every Cycles panel would show)."""
+    original = cls.poll
+    shared = [base.__dict__["COMPAT_ENGINES"] for base in cls.__mro__[1:] if "COMPAT_ENGINES" in base.__dict__]
+
+    def poll(_cls, context):
+        if context.engine != ENGINE:
+            return original(context)
+        lent = [engines for engines in shared if isinstance(engines, set) and ENGINE not in engines]
+        for engines in lent:
+            engines.add(ENGINE)
+        try:
+            return original(context)
+        finally:
+            for engines in lent:
+                engines.discard(ENGINE)
+
+    return classmethod(poll)
 
 
 def _stock_panels() -> list[type]:
     """Blender's panels to show for the tracer: every Output panel, colour management, camera and light data."""
     chosen = []
+    cycles_light = getattr(bpy.types, "CYCLES_LIGHT_PT_light", None)
     for cls in bpy.types.Panel.__subclasses__():
         engines = getattr(cls, "COMPAT_ENGINES", None)
         if not isinstance(engines, set) or not cls.is_registered:
@@ -31,10 +65,26 @@ def _stock_panels() -> list[type]:
         name, context = cls.__name__, getattr(cls, "bl_context", "")
         if name.startswith(("CYCLES_", "EEVEE_")) or "stereoscopy" in name or "_dof" in name:
             continue  # another engine's own panels, and what the tracer does not render (3D, depth of field)
+        if name == "DATA_PT_light" and cycles_light is not None:
+            continue  # Cycles' Light panel (shading_panels) has the type, colour and power
         if (
             context == "output"
             or (context == "render" and name.startswith("RENDER_PT_color_management"))
             or (context == "data" and (name in DATA_PANELS or name.startswith(("DATA_PT_camera", "DATA_PT_lens"))))
+        ):
+            chosen.append(cls)
+    return chosen
+
+
+def shading_panels() -> list[type]:
+    """Blender's Material, Light, World and Object Data panels that Cycles shows and that mean something here."""
+    chosen = []
+    for cls in bpy.types.Panel.__subclasses__():
+        engines = getattr(cls, "COMPAT_ENGINES", None)
+        if not isinstance(engines, set) or "CYCLES" not in engines or not cls.is_registered:
+            continue
+        if getattr(cls, "bl_context", "") in SHADING_CONTEXTS and not any(
+            word in cls.__name__.lower() for word in SKIPPED
         ):
             chosen.append(cls)
     return chosen
@@ -93,21 +143,60 @@ class WEATHERVANE_WORLD_PT_background(TracerPanel, bpy.types.Panel):
         draw_background(self.split_layout(), context.scene.weathervane)
 
 
-CLASSES = (WEATHERVANE_RENDER_PT_tracer, WEATHERVANE_RENDER_PT_shading, WEATHERVANE_WORLD_PT_background)
+class WEATHERVANE_RENDER_PT_conversion(TracerPanel, bpy.types.Panel):
+    bl_label = "Scene Conversion"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        rows = conversion_report.scene_conversion(context.scene)
+        layout.label(text=conversion_report.summary_line(rows))
+        icons = {"MATERIAL": "MATERIAL", "LIGHT": "LIGHT", "WORLD": "WORLD"}
+        for kind, name, notes in rows:
+            column = layout.column(align=True)
+            column.label(text=f"{name}: {'exact' if not notes else 'approximated'}", icon=icons[kind])
+            for note in notes:
+                row = column.row()
+                row.separator(factor=2.0)
+                row.label(text=note, icon="INFO")
+
+
+CLASSES = (
+    WEATHERVANE_RENDER_PT_tracer,
+    WEATHERVANE_RENDER_PT_shading,
+    WEATHERVANE_RENDER_PT_conversion,
+    WEATHERVANE_WORLD_PT_background,
+)
 
 
 def register() -> None:
     for cls in CLASSES:
         bpy.utils.register_class(cls)
-    for cls in _stock_panels():
-        if ENGINE not in cls.COMPAT_ENGINES:
-            cls.COMPAT_ENGINES.add(ENGINE)
+    for cls in _stock_panels() + shading_panels():
+        if ENGINE not in cls.COMPAT_ENGINES and cls not in _added:
+            # a copy on the class itself: Cycles' panels share one set through their base class, and adding the
+            # engine to it would show every Cycles panel (sampling, light paths, ...) for the tracer
+            if "COMPAT_ENGINES" not in cls.__dict__:
+                _inherited[cls] = cls.__dict__.get("poll")
+                cls.poll = _poll_for_tracer(cls)
+            cls.COMPAT_ENGINES = set(cls.COMPAT_ENGINES) | {ENGINE}
             _added.append(cls)
+    conversion_report.register()
 
 
 def unregister() -> None:
+    conversion_report.unregister()
     for cls in _added:
-        cls.COMPAT_ENGINES.discard(ENGINE)
+        if cls in _inherited:
+            del cls.COMPAT_ENGINES  # the base class's set again
+            if _inherited[cls] is None:
+                del cls.poll
+            else:
+                cls.poll = _inherited[cls]
+        else:
+            cls.COMPAT_ENGINES.discard(ENGINE)
     _added.clear()
+    _inherited.clear()
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

@@ -7,6 +7,7 @@ unoccluded white diffuse surface to exactly W (measured in Cycles 5.0.1 and 3.4.
     background  {"type": "solid", "color": W}
     ambient     {"type": "ambient", "intensity": 1, "color": W}     the documented ambient term, coloured; named,
                 because Cycles' world light is occluded (ambient occlusion) and the documented ambient is not
+                (a W above 1 becomes intensity max(W) and colour W / max(W), the same light; the background clips)
 
 An environment texture's colour is its image's mean (weighted by solid angle), named; a sky texture has no colour
 to read without rendering it: a clear-sky blue (SKY_MEAN) times its strength, named. No world is black with no
@@ -66,14 +67,14 @@ def _color_of(socket, notes: list[str]) -> tuple[float, float, float]:
     if not socket.is_linked:
         return own
     node = socket.links[0].from_node
-    if node.type == "RGB":
+    if node.bl_idname == "ShaderNodeRGB":
         return tuple(float(c) for c in node.outputs[0].default_value[:3])
-    if node.type == "TEX_ENVIRONMENT" and node.image is not None:
+    if node.bl_idname == "ShaderNodeTexEnvironment" and node.image is not None:
         mean = environment_mean(node.image)
         if mean is not None:
             notes.append("environment texture: its mean colour")
             return mean
-    if node.type == "TEX_SKY":
+    if node.bl_idname == "ShaderNodeTexSky":
         notes.append(f"sky texture: a clear-sky blue {SKY_MEAN}")
         return SKY_MEAN
     notes.append(f"{node.name} on the world's Color: the input's own value")
@@ -92,14 +93,14 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
         color = [float(c) for c in world.color[:3]]
     else:
         tree = world.node_tree
-        outputs = [n for n in tree.nodes if n.type == "OUTPUT_WORLD" and n.target in ("ALL", "CYCLES")]
+        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.target in ("ALL", "CYCLES")]
         output = ([n for n in outputs if n.is_active_output] or outputs or [None])[0]
         if output is None or not output.inputs["Surface"].is_linked:
             return dict(BLACK), None, notes
         if output.inputs["Volume"].is_linked:
             notes.append("world volume: ignored")
         shader = output.inputs["Surface"].links[0].from_node
-        if shader.type != "BACKGROUND":
+        if shader.bl_idname != "ShaderNodeBackground":
             notes.append(f"{shader.bl_label} as the world: black")
             return dict(BLACK), None, notes
         color = _color_of(shader.inputs["Color"], notes)
@@ -107,8 +108,16 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
         if strength.is_linked:
             notes.append(f"{strength.links[0].from_node.name} on the world's Strength: the input's own value")
         color = [c * float(strength.default_value) for c in color]
-    background = {"type": "solid", "color": color}
-    if not any(c > 0.0 for c in color):
+    background = {"type": "solid", "color": [min(1.0, c) for c in color]}
+    if max(color) > 1.0:
+        notes.append("world brighter than 1: background clipped at 1, as the display shows it")
+    visibility = getattr(world, "cycles_visibility", None)
+    if visibility is not None and not visibility.camera:
+        background = dict(BLACK)  # Cycles' camera rays do not see it
+    if not any(c > 0.0 for c in color) or (visibility is not None and not visibility.diffuse):
         return background, None, notes
     notes.append("world light: unshadowed ambient")
-    return background, {"type": "ambient", "intensity": 1.0, "color": list(color)}, notes
+    # intensity 1 and colour W; a W above 1 (the format's colours lie in [0, 1]) puts its largest channel in the
+    # intensity: the same light
+    brightest = max(1.0, max(color))
+    return background, {"type": "ambient", "intensity": brightest, "color": [c / brightest for c in color]}, notes

@@ -81,6 +81,10 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
     # Output Properties hold Blender's own Format, Frame Range and Output panels for the tracer
     assert "WEATHERVANE-GUI output panels RENDER_PT_format RENDER_PT_frame_range RENDER_PT_output" in log
     assert SCREENSHOT.with_name("weathervane-gui-output.png").exists()
+    # Material, Light, World and Object Data Properties hold Blender's own panels for the tracer, as for Cycles
+    for tab in ("material-part", "data-light", "world-part", "data-part"):
+        assert f"WEATHERVANE-GUI shading panels {tab.replace('-', ' ')}" in log, log[-4000:]
+        assert SCREENSHOT.with_name(f"weathervane-gui-{tab}.png").exists(), tab
     assert "WEATHERVANE-GUI rendered view stopped with Solid shading" in log
     check_f12_is_the_command_lines_png(tmp_path)
     check_rendered_view_is_the_tracers_image(tmp_path, SCREENSHOT.with_name("weathervane-gui-rendered.png"))

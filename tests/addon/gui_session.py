@@ -248,7 +248,54 @@ def show_output_properties() -> float | None:
 def capture_output_properties() -> float | None:
     screenshot("-output")
     print("WEATHERVANE-GUI output screenshot")
-    return guarded(render_f12)
+    return guarded(lambda: show_shading_tab(0))
+
+
+# Blender's own panels that the tracer shows as Cycles does, per Properties tab: (tab, what is active, panels)
+SHADING_TABS = (
+    ("MATERIAL", "part", ("CYCLES_PT_context_material", "CYCLES_MATERIAL_PT_surface", "MATERIAL_PT_viewport")),
+    ("DATA", "light", ("DATA_PT_context_light", "CYCLES_LIGHT_PT_light")),
+    ("WORLD", "part", ("WORLD_PT_context_world", "CYCLES_WORLD_PT_surface")),
+    ("DATA", "part", ("DATA_PT_context_mesh", "DATA_PT_uv_texture", "DATA_PT_shape_keys")),
+)
+
+
+def show_shading_tab(index: int) -> float | None:
+    """Material, Light, World and Object Data Properties with the tracer as the engine: Blender's own panels poll
+    True there (the slot list, Surface, the light's colour and power, the world's Surface, UV maps, shape keys)."""
+    if index >= len(SHADING_TABS):
+        return guarded(render_f12)
+    tab, active, names = SHADING_TABS[index]
+    settings = bpy.context.scene.weathervane
+    if active == "light":
+        obj = bpy.data.objects[next(entry.object_name for entry in settings.lights if entry.object_name)]
+    else:
+        obj = next(o for o in bpy.data.collections["Weathervane"].objects if o.type == "MESH")
+    bpy.context.view_layer.objects.active = obj
+    members = {"object": obj, "material": obj.active_material, "world": bpy.context.scene.world}
+    members[obj.type.lower()] = obj.data  # context.light or context.mesh
+    obj.select_set(True)
+    with bpy.context.temp_override(**{key: value for key, value in members.items() if value is not None}):
+        for name in names:
+            assert getattr(bpy.types, name).poll(bpy.context), name
+    print(f"WEATHERVANE-GUI shading panels {tab.lower()} {active}", " ".join(names))
+    return guarded(lambda: open_shading_tab(index))
+
+
+def open_shading_tab(index: int) -> float | None:
+    """The tab, once the editor has redrawn with the active object (its tabs follow the object)."""
+    window, _, _ = view3d()
+    for properties in (a for a in window.screen.areas if a.type == "PROPERTIES"):
+        properties.spaces.active.context = SHADING_TABS[index][0]
+    return guarded(lambda: capture_shading_tab(index))
+
+
+def capture_shading_tab(index: int) -> float | None:
+    tab, active, _ = SHADING_TABS[index]
+    screenshot(f"-{tab.lower()}-{active}")
+    bpy.context.view_layer.objects.active.select_set(False)
+    bpy.context.view_layer.objects.active = None
+    return guarded(lambda: show_shading_tab(index + 1))
 
 
 def render_f12() -> float | None:

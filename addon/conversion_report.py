@@ -1,0 +1,106 @@
+"""What the conversion of a scene's materials, lights and world approximates: per data-block, the notes of
+material_convert, light_convert and world_convert, kept until a depsgraph update changes that data-block.
+
+Render Properties > Scene Conversion draws `scene_conversion`; F12, `-a` and Export can print `summary_line` of it (one
+line with the counts). Converting is done once per changed data-block, never on a redraw.
+"""
+
+from __future__ import annotations
+
+import bpy
+
+from . import light_convert, material_convert, world_convert
+
+_updates = [0]  # depsgraph updates seen
+_converted: dict[tuple[str, str], list[str]] = {}  # (kind, name) -> notes, until that data-block changes
+_listing: dict[str, object] = {"update": -1, "scene": None, "rows": []}
+
+
+@bpy.app.handlers.persistent
+def _on_depsgraph_update(_scene, depsgraph) -> None:
+    """Count the update and forget the conversions of the materials, lights and worlds it changed."""
+    _updates[0] += 1
+    for update in depsgraph.updates:
+        identifier = update.id.original if update.id.original is not None else update.id
+        kind = type(identifier).__name__
+        if isinstance(identifier, bpy.types.Material):
+            _converted.pop(("material", identifier.name), None)
+        elif isinstance(identifier, bpy.types.Light):
+            for key in [key for key in _converted if key[0] == "light"]:
+                _converted.pop(key)
+        elif isinstance(identifier, bpy.types.Object) and identifier.type == "LIGHT":
+            _converted.pop(("light", identifier.name), None)  # its light data may be another one now
+        elif isinstance(identifier, bpy.types.World):
+            _converted.pop(("world", identifier.name), None)
+        elif kind in ("ShaderNodeTree", "Image", "Mesh"):
+            if kind != "ShaderNodeTree":
+                material_convert.clear_cache()
+            _converted.clear()
+
+
+def _notes(kind: str, name: str, convert) -> list[str]:
+    key = (kind, name)
+    if key not in _converted:
+        try:
+            _converted[key] = list(convert())
+        except Exception as error:  # a panel must draw: the conversion's failure is what it shows
+            _converted[key] = [f"not converted: {error}"]
+    return _converted[key]
+
+
+def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
+    """(kind, name, notes) for each material, light and the world the scene renders; empty notes: exact.
+
+    Converted once per data-block and kept until a depsgraph update changes it; the listing itself is made again only
+    after an update, never on a redraw."""
+    if _listing["update"] == _updates[0] and _listing["scene"] == blender_scene.name:
+        return _listing["rows"]
+    rows, materials, lights = [], {}, {}
+    for obj in blender_scene.objects:
+        if obj.hide_render:
+            continue
+        if obj.type == "LIGHT":
+            lights[obj.name] = obj
+        elif obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
+            for slot in obj.material_slots or ():
+                if slot.material is not None:
+                    materials.setdefault(slot.material.name, slot.material)
+    for name in sorted(materials):
+        material = materials[name]
+        rows.append(("MATERIAL", name, _notes("material", name, lambda m=material: _material_notes(m, blender_scene))))
+    for name in sorted(lights):
+        obj = lights[name]
+        notes = _notes("light", name, lambda o=obj: light_convert.convert_light(o, blender_scene=blender_scene)[1])
+        rows.append(("LIGHT", name, notes))
+    world = blender_scene.world
+    notes = _notes(
+        "world", world.name if world else "", lambda: world_convert.convert_world(world, blender_scene=blender_scene)[2]
+    )
+    rows.append(("WORLD", world.name if world else "no world (black)", notes))
+    _listing.update(update=_updates[0], scene=blender_scene.name, rows=rows)
+    return rows
+
+
+def _material_notes(material, blender_scene) -> list[str]:
+    return material_convert.convert_material(material, blender_scene=blender_scene)[1]
+
+
+def summary_line(rows) -> str:
+    """One line: how many materials, lights and worlds convert exactly and how many are approximated."""
+    approximated = [name for _, name, notes in rows if notes]
+    line = f"{len(rows) - len(approximated)} exact, {len(approximated)} approximated"
+    return line + (
+        f" ({', '.join(approximated[:3])}{', ...' if len(approximated) > 3 else ''})" if approximated else ""
+    )
+
+
+def register() -> None:
+    if _on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.append(_on_depsgraph_update)
+
+
+def unregister() -> None:
+    if _on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.remove(_on_depsgraph_update)
+    _converted.clear()
+    _listing.update(update=-1, scene=None, rows=[])
