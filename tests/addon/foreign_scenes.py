@@ -163,9 +163,9 @@ def _key(obj, data_path: str, frames_values: list[tuple[int, object]]) -> None:
 def keyed_cube() -> Built:
     """A cube keyed from x=0 at frame 1 to x=3 at frame 5 (Bezier keys, as the UI makes them)."""
     _frame(1, 5)
-    cube = _add(bpy.ops.mesh.primitive_cube_add, size=1.0)
+    cube = _add(bpy.ops.mesh.primitive_cube_add, size=1.4)
     _key(cube, "location", [(1, (0.0, 0.0, 0.0)), (5, (3.0, 0.0, 0.0))])
-    _camera((1.5, -9.0, 3.0), (1.5, 0.0, 0.0))
+    _camera((1.5, -8.0, 3.0), (1.5, 0.0, 0.0))
     bpy.context.scene.frame_set(1)
     return Built(frames=(1, 2, 3, 4, 5), track=True)
 
@@ -187,10 +187,10 @@ def parented_child() -> Built:
     _frame(1, 5)
     parent = bpy.data.objects.new("Turntable", None)
     bpy.context.scene.collection.objects.link(parent)
-    child = _add(bpy.ops.mesh.primitive_cone_add, radius1=0.5, depth=1.0, location=(2.0, 0.0, 0.0))
+    child = _add(bpy.ops.mesh.primitive_cone_add, radius1=0.9, depth=1.5, location=(2.0, 0.0, 0.0))
     child.parent = parent
     _key(parent, "rotation_euler", [(1, (0.0, 0.0, 0.0)), (5, (0.0, 0.0, math.radians(90.0)))])
-    _camera((0.0, -3.0, 11.0), (0.0, 0.0, 0.0))
+    _camera((0.0, -3.0, 9.0), (0.0, 0.0, 0.0))
     bpy.context.scene.frame_set(1)
     return Built(frames=(1, 2, 3, 4, 5), track=True)
 

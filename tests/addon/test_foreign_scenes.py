@@ -34,6 +34,10 @@ pytestmark = pytest.mark.skipif(
 )
 
 ENGINE = "WEATHERVANE_TRACER"
+# WEATHERVANE_FOREIGN_UNDER_TEST=CYCLES puts Cycles with another seed in the engine's place: every check then passes,
+# which shows that the bounds are reachable and not broken by Cycles' own noise (the suite's self-test)
+# (WEATHERVANE_FOREIGN_FILTER=0.3 also gives that Cycles a 0.3 px pixel filter: how far sub-pixel differences go)
+UNDER_TEST = os.environ.get("WEATHERVANE_FOREIGN_UNDER_TEST", ENGINE)
 MEASURED: dict[str, dict] = {}  # scene -> metric -> number, for the report and the failure messages
 
 
@@ -115,10 +119,14 @@ def renders(name: str, folder: Path) -> Renders:
         projected = world_to_camera_view(scene, scene.camera, Vector(point))
         result.camera[patch] = (int((1.0 - projected.y) * height), int(projected.x * width))
     cycles_seconds = time.perf_counter() - started
-    if name != "flat_suzanne" and built.isolate:
+    if name != "flat_suzanne" and built.isolate and UNDER_TEST == ENGINE:
         _render_elsewhere(name, scene, result, folder)
     elif name != "flat_suzanne":  # Cycles' own reference for smooth_suzanne
-        scene.render.engine = ENGINE
+        if UNDER_TEST == "CYCLES":
+            scene.cycles.seed = 1
+            scene.cycles.filter_width = float(os.environ.get("WEATHERVANE_FOREIGN_FILTER", "0.01"))
+        else:
+            scene.render.engine = UNDER_TEST
         for frame in built.frames:
             scene.frame_set(frame)
             try:
@@ -438,6 +446,9 @@ def test_world_colour_background(name: str, folder: Path) -> None:
     world = np.array([0.05, 0.15, 0.3]) * 2.0
     background = np.all(np.abs(truth[..., :3] - world) < 1e-3, axis=2)
     assert background.mean() > 0.5  # Cycles shows the world on most of the frame
+    # not the pixels next to the cube's edge (a pixel centre a hair's breadth from it may go either way)
+    padded = np.pad(background, 1, constant_values=True)
+    background &= padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:]
     difference = np.abs(image[..., :3] - truth[..., :3])[background]
     message = measured(
         name,
