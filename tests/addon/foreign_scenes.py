@@ -411,10 +411,10 @@ def render_border_cropped() -> Built:
 
 
 def degenerate_triangle() -> Built:
-    """A mesh of two quads and one zero-area triangle (three collinear vertices): Blender renders the quads."""
+    """A mesh of two quads and one zero-area triangle (two of its corners at one place): Blender renders the quads."""
     _frame()
     mesh = bpy.data.meshes.new("Sliver")
-    vertices = [(-1, 0, -1), (0, 0, -1), (0, 0, 1), (-1, 0, 1), (1, 0, -1), (1, 0, 1), (2, 0, 0), (3, 0, 0), (4, 0, 0)]
+    vertices = [(-1, 0, -1), (0, 0, -1), (0, 0, 1), (-1, 0, 1), (1, 0, -1), (1, 0, 1), (2, 0, 0), (3, 0, 0), (2, 0, 0)]
     faces = [(0, 1, 2, 3), (1, 4, 5, 2), (6, 7, 8)]
     mesh.from_pydata(vertices, [], faces)
     mesh.update()
