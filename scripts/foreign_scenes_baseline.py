@@ -28,6 +28,8 @@ BOUNDS = {
     "smooth_suzanne": "IoU >= 0.99; shading error <= 0.03 and <= half Cycles' flat-vs-smooth",
     "mirrored_object": "IoU >= 0.99; mirrored/original brightness = Cycles' within 5%",
     "per_face_materials": "IoU >= 0.99; slot colour agrees on >= 98% of pixels",
+    "excluded_collection": "IoU >= 0.99; alpha differs on <= 0.5%; shading error (excluded light unused) <= 0.05",
+    "back_facing_plane": "back/front brightness = Cycles' within 5% (two-sided shading)",
     "red_principled_sphere": "mean colour per channel within 3% (or 0.002)",
     "point_light_100w": "near and far patch within 3%",
     "point_light_1000w": "near and far patch within 3%",

@@ -356,15 +356,20 @@ def _move_to_collection(obj, name: str):
 
 
 def excluded_collection() -> Built:
-    """The sphere and a bright point light in a collection excluded from the view layer (the checkbox)."""
-    sphere, _ = _visibility_stage()
+    """The sphere and a bright point light in a collection excluded from the view layer (the checkbox); the rest is
+    white Diffuse under a sun (Cycles direct light only): the excluded light must light nothing."""
+    sphere, cube = _visibility_stage()
+    clay = _material("Clay", (0.8, 0.8, 0.8))
+    for obj in (sphere, cube, bpy.data.objects["Plane"]):
+        _assign(obj, clay)
+    _sun(rotation=(30.0, 0.0, 20.0), strength=2.0)
     collection = _move_to_collection(sphere, "Excluded")
     light = bpy.data.objects.new("Excluded light", bpy.data.lights.new("Excluded light", "POINT"))
     light.data.energy = 1000.0
-    light.location = (0.0, -2.0, 2.0)
+    light.location = (0.0, -2.0, 1.0)
     collection.objects.link(light)
     bpy.context.view_layer.layer_collection.children["Excluded"].exclude = True
-    return Built()
+    return Built(bounces=0)
 
 
 def collection_disabled_in_renders() -> Built:
@@ -392,6 +397,20 @@ def film_transparent() -> Built:
     """The stage with Film > Transparent: alpha 0 wherever camera rays miss (the ground does not fill the frame)."""
     _visibility_stage()
     return Built()
+
+
+def back_facing_plane() -> Built:
+    """Two planes side by side under a sun from the camera's side: the left one's normal faces the camera, the right
+    one's faces away (flipped). Blender shades both sides alike (issue 22: two-sided shading for Blender's meshes)."""
+    _frame()
+    clay = _material("Clay", (0.8, 0.8, 0.8))
+    for x, turn in ((-1.1, 90.0), (1.1, -90.0)):
+        plane = _add(bpy.ops.mesh.primitive_plane_add, size=2.0, location=(x, 0.0, 0.0))
+        plane.rotation_euler = (math.radians(turn), 0.0, 0.0)  # +90: normal toward -y (the camera); -90: away
+        _assign(plane, clay)
+    _sun(rotation=(60.0, 0.0, 0.0), strength=2.0)  # from -y, above: toward the camera's side of both planes
+    _camera((0.0, -6.0, 0.0))
+    return Built(bounces=0)
 
 
 def render_border() -> Built:
@@ -552,6 +571,7 @@ SCENES = {
         camera_ray_visibility_off,
         holdout_object,
         film_transparent,
+        back_facing_plane,
         render_border,
         render_border_cropped,
         degenerate_triangle,
