@@ -84,7 +84,7 @@ def cell(numbers: dict) -> str:
             continue
         if key == "errors":
             for where, error in value.items():
-                first = " ".join(str(error).split())[:160].replace("|", "/")
+                first = " ".join(str(error).replace(f"{ROOT}/", "").split())[:160].replace("|", "/")
                 parts.append(f"**{where} refused**: {first}")
             continue
         parts.append(f"{key} {show(value)}")
