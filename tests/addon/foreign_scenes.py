@@ -413,6 +413,31 @@ def back_facing_plane() -> Built:
     return Built(bounces=0)
 
 
+def viewport_disabled_moved() -> Built:
+    """A cube set to Disable in Viewports, then moved from x = -1.5 to x = 1.5: Blender renders it where it now is."""
+    _frame()
+    cube = _add(bpy.ops.mesh.primitive_cube_add, size=1.2, location=(-1.5, 0.0, 0.0))
+    bpy.context.view_layer.update()
+    cube.hide_viewport = True
+    cube.location = (1.5, 0.0, 0.0)
+    _add(bpy.ops.mesh.primitive_uv_sphere_add, radius=0.6, location=(0.0, 1.0, 0.0))
+    _camera((0.0, -7.0, 2.0))
+    return Built()
+
+
+def shadow_ray_visibility_off() -> Built:
+    """A sphere over a white ground under a sun, the sphere's Ray Visibility > Shadow off: no shadow on the ground."""
+    _frame()
+    clay = _material("Clay", (0.8, 0.8, 0.8))
+    _assign(_ground(size=8.0), clay)
+    sphere = _add(bpy.ops.mesh.primitive_uv_sphere_add, radius=0.8, location=(0.0, 0.0, 1.2))
+    _assign(sphere, clay)
+    sphere.visible_shadow = False
+    _sun(rotation=(35.0, 0.0, 30.0), strength=2.0)
+    _camera((0.0, -7.0, 4.0), (0.0, 0.0, 0.4))
+    return Built(bounces=0)
+
+
 def render_border() -> Built:
     """Render Region (border) on, Crop to Render Region off: the full-size image, traced only inside the region."""
     _visibility_stage()
@@ -539,6 +564,13 @@ def mirror_scene() -> Built:
     return Built(transparent=False, samples=16)
 
 
+def glossy_ray_visibility_off() -> Built:
+    """mirror_scene with the red cube's Ray Visibility > Glossy off: it is seen, but not in the mirror."""
+    built = mirror_scene()
+    next(obj for obj in bpy.data.objects if obj.name.startswith("Cube")).visible_glossy = False
+    return built
+
+
 def factory_startup() -> Built:
     """Blender's factory startup scene (cube, 1000 W point light, camera, grey world) at 5% of its 1920x1080."""
     bpy.ops.wm.read_factory_settings(use_empty=False)
@@ -572,6 +604,8 @@ SCENES = {
         holdout_object,
         film_transparent,
         back_facing_plane,
+        viewport_disabled_moved,
+        shadow_ray_visibility_off,
         render_border,
         render_border_cropped,
         degenerate_triangle,
@@ -584,6 +618,7 @@ SCENES = {
         emission_plane,
         world_colour,
         mirror_scene,
+        glossy_ray_visibility_off,
         factory_startup,
     )
 }
@@ -598,6 +633,7 @@ VISIBILITY = [
     "film_transparent",
 ]
 COVERAGE = [
+    "viewport_disabled_moved",
     *KEYED,
     "text_object",
     "bevelled_curve",
