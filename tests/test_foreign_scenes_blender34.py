@@ -28,6 +28,7 @@ def inner(tmp_path_factory) -> dict:
     folder = tmp_path_factory.mktemp("foreign34")
     report = folder / "measured.json"
     environment = {**os.environ, "WEATHERVANE_FOREIGN_SCENES": "1", "WEATHERVANE_FOREIGN_REPORT": str(report)}
+    environment["COLUMNS"] = "400"  # the short summary keeps each failure's message
     command = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1"]
     command += ["--python", str(ROOT / "tests" / "addon" / "run_in_blender.py"), "--"]
     command += [

@@ -163,9 +163,9 @@ def _key(obj, data_path: str, frames_values: list[tuple[int, object]]) -> None:
 def keyed_cube() -> Built:
     """A cube keyed from x=0 at frame 1 to x=3 at frame 5 (Bezier keys, as the UI makes them)."""
     _frame(1, 5)
-    cube = _add(bpy.ops.mesh.primitive_cube_add, size=1.0)
+    cube = _add(bpy.ops.mesh.primitive_cube_add, size=1.4)
     _key(cube, "location", [(1, (0.0, 0.0, 0.0)), (5, (3.0, 0.0, 0.0))])
-    _camera((1.5, -9.0, 3.0), (1.5, 0.0, 0.0))
+    _camera((1.5, -8.0, 3.0), (1.5, 0.0, 0.0))
     bpy.context.scene.frame_set(1)
     return Built(frames=(1, 2, 3, 4, 5), track=True)
 
@@ -187,10 +187,10 @@ def parented_child() -> Built:
     _frame(1, 5)
     parent = bpy.data.objects.new("Turntable", None)
     bpy.context.scene.collection.objects.link(parent)
-    child = _add(bpy.ops.mesh.primitive_cone_add, radius1=0.5, depth=1.0, location=(2.0, 0.0, 0.0))
+    child = _add(bpy.ops.mesh.primitive_cone_add, radius1=0.9, depth=1.5, location=(2.0, 0.0, 0.0))
     child.parent = parent
     _key(parent, "rotation_euler", [(1, (0.0, 0.0, 0.0)), (5, (0.0, 0.0, math.radians(90.0)))])
-    _camera((0.0, -3.0, 11.0), (0.0, 0.0, 0.0))
+    _camera((0.0, -3.0, 9.0), (0.0, 0.0, 0.0))
     bpy.context.scene.frame_set(1)
     return Built(frames=(1, 2, 3, 4, 5), track=True)
 
@@ -356,15 +356,20 @@ def _move_to_collection(obj, name: str):
 
 
 def excluded_collection() -> Built:
-    """The sphere and a bright point light in a collection excluded from the view layer (the checkbox)."""
-    sphere, _ = _visibility_stage()
+    """The sphere and a bright point light in a collection excluded from the view layer (the checkbox); the rest is
+    white Diffuse under a sun (Cycles direct light only): the excluded light must light nothing."""
+    sphere, cube = _visibility_stage()
+    clay = _material("Clay", (0.8, 0.8, 0.8))
+    for obj in (sphere, cube, bpy.data.objects["Plane"]):
+        _assign(obj, clay)
+    _sun(rotation=(30.0, 0.0, 20.0), strength=2.0)
     collection = _move_to_collection(sphere, "Excluded")
     light = bpy.data.objects.new("Excluded light", bpy.data.lights.new("Excluded light", "POINT"))
     light.data.energy = 1000.0
-    light.location = (0.0, -2.0, 2.0)
+    light.location = (0.0, -2.0, 1.0)
     collection.objects.link(light)
     bpy.context.view_layer.layer_collection.children["Excluded"].exclude = True
-    return Built()
+    return Built(bounces=0)
 
 
 def collection_disabled_in_renders() -> Built:
@@ -394,6 +399,45 @@ def film_transparent() -> Built:
     return Built()
 
 
+def back_facing_plane() -> Built:
+    """Two planes side by side under a sun from the camera's side: the left one's normal faces the camera, the right
+    one's faces away (flipped). Blender shades both sides alike (issue 22: two-sided shading for Blender's meshes)."""
+    _frame()
+    clay = _material("Clay", (0.8, 0.8, 0.8))
+    for x, turn in ((-1.1, 90.0), (1.1, -90.0)):
+        plane = _add(bpy.ops.mesh.primitive_plane_add, size=2.0, location=(x, 0.0, 0.0))
+        plane.rotation_euler = (math.radians(turn), 0.0, 0.0)  # +90: normal toward -y (the camera); -90: away
+        _assign(plane, clay)
+    _sun(rotation=(60.0, 0.0, 0.0), strength=2.0)  # from -y, above: toward the camera's side of both planes
+    _camera((0.0, -6.0, 0.0))
+    return Built(bounces=0)
+
+
+def viewport_disabled_moved() -> Built:
+    """A cube set to Disable in Viewports, then moved from x = -1.5 to x = 1.5: Blender renders it where it now is."""
+    _frame()
+    cube = _add(bpy.ops.mesh.primitive_cube_add, size=1.2, location=(-1.5, 0.0, 0.0))
+    bpy.context.view_layer.update()
+    cube.hide_viewport = True
+    cube.location = (1.5, 0.0, 0.0)
+    _add(bpy.ops.mesh.primitive_uv_sphere_add, radius=0.6, location=(0.0, 1.0, 0.0))
+    _camera((0.0, -7.0, 2.0))
+    return Built()
+
+
+def shadow_ray_visibility_off() -> Built:
+    """A sphere over a white ground under a sun, the sphere's Ray Visibility > Shadow off: no shadow on the ground."""
+    _frame()
+    clay = _material("Clay", (0.8, 0.8, 0.8))
+    _assign(_ground(size=8.0), clay)
+    sphere = _add(bpy.ops.mesh.primitive_uv_sphere_add, radius=0.8, location=(0.0, 0.0, 1.2))
+    _assign(sphere, clay)
+    sphere.visible_shadow = False
+    _sun(rotation=(35.0, 0.0, 30.0), strength=2.0)
+    _camera((0.0, -7.0, 4.0), (0.0, 0.0, 0.4))
+    return Built(bounces=0)
+
+
 def render_border() -> Built:
     """Render Region (border) on, Crop to Render Region off: the full-size image, traced only inside the region."""
     _visibility_stage()
@@ -411,10 +455,10 @@ def render_border_cropped() -> Built:
 
 
 def degenerate_triangle() -> Built:
-    """A mesh of two quads and one zero-area triangle (three collinear vertices): Blender renders the quads."""
+    """A mesh of two quads and one zero-area triangle (two of its corners at one place): Blender renders the quads."""
     _frame()
     mesh = bpy.data.meshes.new("Sliver")
-    vertices = [(-1, 0, -1), (0, 0, -1), (0, 0, 1), (-1, 0, 1), (1, 0, -1), (1, 0, 1), (2, 0, 0), (3, 0, 0), (4, 0, 0)]
+    vertices = [(-1, 0, -1), (0, 0, -1), (0, 0, 1), (-1, 0, 1), (1, 0, -1), (1, 0, 1), (2, 0, 0), (3, 0, 0), (2, 0, 0)]
     faces = [(0, 1, 2, 3), (1, 4, 5, 2), (6, 7, 8)]
     mesh.from_pydata(vertices, [], faces)
     mesh.update()
@@ -520,6 +564,13 @@ def mirror_scene() -> Built:
     return Built(transparent=False, samples=16)
 
 
+def glossy_ray_visibility_off() -> Built:
+    """mirror_scene with the red cube's Ray Visibility > Glossy off: it is seen, but not in the mirror."""
+    built = mirror_scene()
+    next(obj for obj in bpy.data.objects if obj.name.startswith("Cube")).visible_glossy = False
+    return built
+
+
 def factory_startup() -> Built:
     """Blender's factory startup scene (cube, 1000 W point light, camera, grey world) at 5% of its 1920x1080."""
     bpy.ops.wm.read_factory_settings(use_empty=False)
@@ -552,6 +603,9 @@ SCENES = {
         camera_ray_visibility_off,
         holdout_object,
         film_transparent,
+        back_facing_plane,
+        viewport_disabled_moved,
+        shadow_ray_visibility_off,
         render_border,
         render_border_cropped,
         degenerate_triangle,
@@ -564,6 +618,7 @@ SCENES = {
         emission_plane,
         world_colour,
         mirror_scene,
+        glossy_ray_visibility_off,
         factory_startup,
     )
 }
@@ -578,6 +633,7 @@ VISIBILITY = [
     "film_transparent",
 ]
 COVERAGE = [
+    "viewport_disabled_moved",
     *KEYED,
     "text_object",
     "bevelled_curve",

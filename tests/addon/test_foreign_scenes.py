@@ -34,6 +34,10 @@ pytestmark = pytest.mark.skipif(
 )
 
 ENGINE = "WEATHERVANE_TRACER"
+# WEATHERVANE_FOREIGN_UNDER_TEST=CYCLES puts Cycles with another seed in the engine's place: every check then passes,
+# which shows that the bounds are reachable and not broken by Cycles' own noise (the suite's self-test)
+# (WEATHERVANE_FOREIGN_FILTER=0.3 also gives that Cycles a 0.3 px pixel filter: how far sub-pixel differences go)
+UNDER_TEST = os.environ.get("WEATHERVANE_FOREIGN_UNDER_TEST", ENGINE)
 MEASURED: dict[str, dict] = {}  # scene -> metric -> number, for the report and the failure messages
 
 
@@ -115,10 +119,14 @@ def renders(name: str, folder: Path) -> Renders:
         projected = world_to_camera_view(scene, scene.camera, Vector(point))
         result.camera[patch] = (int((1.0 - projected.y) * height), int(projected.x * width))
     cycles_seconds = time.perf_counter() - started
-    if name != "flat_suzanne" and built.isolate:
+    if name != "flat_suzanne" and built.isolate and UNDER_TEST == ENGINE:
         _render_elsewhere(name, scene, result, folder)
     elif name != "flat_suzanne":  # Cycles' own reference for smooth_suzanne
-        scene.render.engine = ENGINE
+        if UNDER_TEST == "CYCLES":
+            scene.cycles.seed = 1
+            scene.cycles.filter_width = float(os.environ.get("WEATHERVANE_FOREIGN_FILTER", "0.01"))
+        else:
+            scene.render.engine = UNDER_TEST
         for frame in built.frames:
             scene.frame_set(frame)
             try:
@@ -235,6 +243,17 @@ def iou(a: np.ndarray, b: np.ndarray) -> float:
     return 1.0 if union == 0 else float(np.logical_and(a, b).sum() / union)
 
 
+def colour_mask(image: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """Diagnostic only (reported, never asserted): the pixels whose colour differs from their row's background, the
+    median colour of the row's pixels that Cycles calls background (the add-on's sky varies by row). What the
+    coverage would be from the colours alone, for an engine whose alpha says nothing."""
+    background = np.zeros((image.shape[0], 3), np.float32)
+    for row in range(image.shape[0]):
+        misses = image[row, ~mask(truth)[row], :3]
+        background[row] = np.median(misses, axis=0) if len(misses) else np.nan
+    return np.nan_to_num(np.abs(image[..., :3] - background[:, None, :]).max(axis=2), nan=1.0) > 0.02
+
+
 def centroid(m: np.ndarray) -> np.ndarray | None:
     rows, columns = np.nonzero(m)
     return None if rows.size == 0 else np.array([columns.mean(), rows.mean()])
@@ -249,11 +268,14 @@ def patch(image: np.ndarray, at: tuple[int, int]) -> np.ndarray:
     return image[row - 1 : row + 2, column - 1 : column + 2, :3].reshape(-1, 3).mean(axis=0)
 
 
-def gain_fitted_error(image: np.ndarray, truth: np.ndarray, where: np.ndarray) -> float:
+def gain_fitted_error(image: np.ndarray, truth: np.ndarray, where: np.ndarray, *, wrong: bool = False) -> float:
     """Mean |g * image - truth| / mean(truth) over where, g the least-squares gain: the shading's shape, whatever the
-    light units."""
+    light units. wrong: instead, the fraction of those pixels off by more than a quarter of the mean (a shadow where
+    Cycles has none, or none where it has one)."""
     a, b = luminance(image)[where].astype(np.float64), luminance(truth)[where].astype(np.float64)
     g = float((a * b).sum() / (a * a).sum()) if (a * a).sum() > 0 else 0.0
+    if wrong:
+        return float((np.abs(g * a - b) > 0.25 * b.mean()).mean())
     return float(np.abs(g * a - b).mean() / b.mean())
 
 
@@ -264,13 +286,19 @@ def gain_fitted_error(image: np.ndarray, truth: np.ndarray, where: np.ndarray) -
 def test_coverage_mask_matches_cycles(name: str, folder: Path) -> None:
     """Issue 21: the tracer's alpha > 0.5 against Cycles' alpha > 0.5, IoU >= 0.99 (every frame rendered)."""
     result = renders(name, folder)
-    values = []
+    values, by_colour = [], []
     for frame in result.built.frames:
         image = tracer_frame(result, name, frame)
         truth = result.cycles[frame]
-        values.append(iou(mask(image), mask(truth)))
         assert image.shape == truth.shape, measured(name, shape=[image.shape[:2], truth.shape[:2]])
-    message = measured(name, iou=round(min(values), 4), cycles_coverage=round(float(mask(truth).mean()), 4))
+        values.append(iou(mask(image), mask(truth)))
+        by_colour.append(iou(colour_mask(image, truth), mask(truth)))
+    message = measured(
+        name,
+        iou=round(min(values), 4),
+        colour_iou=round(min(by_colour), 4),
+        cycles_coverage=round(float(mask(truth).mean()), 4),
+    )
     assert min(values) >= 0.99, message
 
 
@@ -286,14 +314,23 @@ def test_visibility_follows_blender(name: str, folder: Path) -> None:
     measured(name, alpha_wrong=round(wrong, 4))
 
 
-def _centroid_errors(name: str, result: Renders, images: dict) -> list[float]:
+def _centroid_errors(name: str, result: Renders, images: dict, masks=None) -> list[float]:
     errors = []
     for frame in result.built.frames:
         truth = centroid(mask(result.cycles[frame]))
         assert truth is not None, f"{name}: Cycles shows nothing at frame {frame}"
-        found = centroid(mask(images[frame])) if frame in images else None
+        if frame not in images:
+            errors.append(float("inf"))
+            continue
+        found = centroid(mask(images[frame]) if masks is None else masks(images[frame], result.cycles[frame]))
         errors.append(float("inf") if found is None else float(np.linalg.norm(found - truth)))
     return errors
+
+
+def _colour_centroids(name: str, result: Renders, images: dict, key: str) -> None:
+    """Diagnostic only: the centroid errors of the colour mask (colour_mask), reported beside the asserted ones."""
+    errors = _centroid_errors(name, result, images, colour_mask)
+    measured(name, **{key: [round(error, 2) for error in errors]})
 
 
 def _cycles_moves(name: str, result: Renders) -> None:
@@ -309,6 +346,7 @@ def test_keyed_motion_per_frame_f12(name: str, folder: Path) -> None:
     _cycles_moves(name, result)
     for frame in result.built.frames:
         tracer_frame(result, name, frame)
+    _colour_centroids(name, result, result.tracer, "colour_centroid_px_f12")
     errors = _centroid_errors(name, result, result.tracer)
     assert max(errors) <= 1.0, measured(name, centroid_px_f12=[round(error, 2) for error in errors])
     measured(name, centroid_px_f12=[round(error, 2) for error in errors])
@@ -320,9 +358,25 @@ def test_keyed_motion_animation_render(name: str, folder: Path) -> None:
     result = renders(name, folder)
     _cycles_moves(name, result)
     assert "animation" not in result.errors, f"{name}: {result.errors['animation']}"
+    _colour_centroids(name, result, result.animation, "colour_centroid_px_animation")
     errors = _centroid_errors(name, result, result.animation)
     assert max(errors) <= 1.0, measured(name, centroid_px_animation=[round(error, 2) for error in errors])
     measured(name, centroid_px_animation=[round(error, 2) for error in errors])
+
+
+@pytest.mark.parametrize("name", ["excluded_collection", "shadow_ray_visibility_off"])
+def test_excluded_light_and_shadow_visibility_shade_as_cycles(name: str, folder: Path) -> None:
+    """Issue 21: the 1000 W point light in the excluded collection lights nothing; a sphere with Shadow ray
+    visibility off casts no shadow. After one least-squares gain (the sun's units are issue 22's) the shading differs
+    from Cycles' by at most 5% of its mean and by more than a quarter of the mean on at most 1% of the pixels (with the
+    excluded light used: 0.45 and 74%; with the sphere's shadow cast: 0.037 and 3.5%)."""
+    result = renders(name, folder)
+    image, truth = tracer_frame(result, name), result.cycles[1]
+    where = mask(image) & mask(truth)
+    assert where.sum() > 0.5 * mask(truth).sum(), measured(name, common=int(where.sum()))
+    error, wrong = gain_fitted_error(image, truth, where), gain_fitted_error(image, truth, where, wrong=True)
+    message = measured(name, shading_error=round(error, 4), wrong_pixels=round(wrong, 4))
+    assert error <= 0.05 and wrong <= 0.01, message
 
 
 @pytest.mark.parametrize("name", ["smooth_suzanne"])
@@ -419,6 +473,22 @@ def test_spot_cone_coverage(name: str, folder: Path) -> None:
     measured(name, cone_iou=round(value, 4), cycles_lit=round(cycles_lit, 4))
 
 
+@pytest.mark.parametrize("name", ["back_facing_plane"])
+def test_back_facing_plane_is_lit_as_in_blender(name: str, folder: Path) -> None:
+    """Issue 22: a plane whose normal faces away from the camera and the sun shades as the one facing them (Blender
+    lights both sides): right-over-left brightness is Cycles' within 5% (the documented one-sided rule gives 0)."""
+    result = renders(name, folder)
+    image, truth = tracer_frame(result, name), result.cycles[1]
+    half, covered = truth.shape[1] // 2, mask(truth)
+    ratios = []
+    for picture in (image, truth):
+        left = luminance(picture)[:, :half][covered[:, :half]].mean()
+        right = luminance(picture)[:, half:][covered[:, half:]].mean()
+        ratios.append(float(right / left) if left > 0 else float("nan"))  # nan: both black
+    message = measured(name, brightness_ratio=[round(ratio, 3) for ratio in ratios])
+    assert abs(ratios[0] - ratios[1]) <= 0.05 * ratios[1], message
+
+
 @pytest.mark.parametrize("name", ["emission_plane"])
 def test_emission_plane(name: str, folder: Path) -> None:
     """Issue 22: an emission-only plane's mean colour within 2% of Cycles' per channel."""
@@ -438,6 +508,9 @@ def test_world_colour_background(name: str, folder: Path) -> None:
     world = np.array([0.05, 0.15, 0.3]) * 2.0
     background = np.all(np.abs(truth[..., :3] - world) < 1e-3, axis=2)
     assert background.mean() > 0.5  # Cycles shows the world on most of the frame
+    # not the pixels next to the cube's edge (a pixel centre a hair's breadth from it may go either way)
+    padded = np.pad(background, 1, constant_values=True)
+    background &= padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:]
     difference = np.abs(image[..., :3] - truth[..., :3])[background]
     message = measured(
         name,
@@ -447,9 +520,10 @@ def test_world_colour_background(name: str, folder: Path) -> None:
     assert difference.max() <= 0.002, message
 
 
-@pytest.mark.parametrize("name", ["mirror_scene"])
+@pytest.mark.parametrize("name", ["mirror_scene", "glossy_ray_visibility_off"])
 def test_metallic_mirror_psnr(name: str, folder: Path) -> None:
-    """Issue 22: metallic 1 roughness 0 as a mirror, PSNR >= 35 dB against Cycles over the frame."""
+    """Issue 22: metallic 1 roughness 0 as a mirror, PSNR >= 35 dB against Cycles over the frame (issue 21: also with
+    one cube's Glossy ray visibility off, so that it is missing from the mirror)."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
     assert image.shape == truth.shape
