@@ -225,7 +225,7 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
     roughness = min(1.0, max(0.0, value_input(node.inputs["Roughness"], "Roughness", notes)))
     level = value_input(compat.principled_socket(node, "specular"), "Specular", notes)
     f0 = compat.principled_f0(node, level)
-    lobes.diffuse = [(1.0 - metallic) * (1.0 - f0) * c for c in base]
+    lobes.diffuse = [(1.0 - metallic) * compat.principled_diffuse_factor(roughness, f0) * c for c in base]
     lobes.add_specular([metallic * c + (1.0 - metallic) * f0 for c in base], roughness)
     emission = color_input(compat.principled_socket(node, "emission"), material, "Emission", notes)
     strength = value_input(node.inputs["Emission Strength"], "Emission Strength", notes)

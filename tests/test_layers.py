@@ -30,7 +30,14 @@ ADDON_LAYERS: tuple[tuple[str, ...], ...] = (
         "light_convert",
         "world_convert",
     ),
-    ("build", "animation", "export", "twin", "properties"),  # the scene the add-on builds, reads and keys
+    (
+        "build",
+        "animation",
+        "export",
+        "twin",
+        "properties",
+        "conversion_report",
+    ),  # the scene the add-on builds, reads and keys
     ("viewport", "engine"),  # the render engine and the Rendered view
     ("operators", "panels", "render_panels"),  # what the user clicks
     ("__init__",),  # registration

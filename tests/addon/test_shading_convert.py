@@ -55,7 +55,9 @@ def test_a_red_principled_is_a_red_diffuse_with_a_white_highlight() -> None:
     material = principled(**{"Base Color": (0.8, 0.05, 0.05, 1.0), "Roughness": 0.5})
     document, notes = material_convert.convert_material(material)
     f0 = 0.04  # IOR 1.5 (4.0+) and Specular 0.5 (3.4)
-    assert document["color"] == pytest.approx([0.8 * (1 - f0), 0.05 * (1 - f0), 0.05 * (1 - f0)], rel=1e-5)
+    k = compat.principled_diffuse_factor(0.5, f0)  # 1 - F0 in 4.0+; Disney diffuse's albedo in 3.x
+    assert k == pytest.approx(1 - f0 if bpy.app.version >= (4, 0, 0) else 1.009)
+    assert document["color"] == pytest.approx([0.8 * k, 0.05 * k, 0.05 * k], rel=1e-5)
     assert document["reflective"] == 0.0 and document["two_sided"] is True
     n = 2 / 0.5**4 - 2  # 30: the twin's exponent for roughness 0.5
     assert document["specular"] == pytest.approx(n / 3.0)
@@ -144,7 +146,8 @@ def test_an_image_texture_on_base_color_is_its_mean_colour_named() -> None:
     texture.image = image
     tree.links.new(texture.outputs["Color"], next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED").inputs[0])
     document, notes = material_convert.convert_material(material)
-    assert document["color"] == pytest.approx([0.5 * 0.96, 0.5 * 0.96, 0.5 * 0.96], rel=1e-5)
+    k = compat.principled_diffuse_factor(0.5, 0.04)
+    assert document["color"] == pytest.approx([0.5 * k, 0.5 * k, 0.5 * k], rel=1e-5)
     assert notes == ["image texture on Base Color: mean colour"]
 
 
@@ -528,7 +531,8 @@ def test_the_factory_startup_scene_converts_with_its_approximations_named() -> N
     node = next(n for n in cube.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
     material, notes = material_convert.convert_material(cube)
     f0 = compat.principled_f0(node, compat.principled_socket(node, "specular").default_value)  # IOR 1.45 in 4.x
-    expected = [(1 - f0) * c for c in node.inputs["Base Color"].default_value[:3]]
+    k = compat.principled_diffuse_factor(node.inputs["Roughness"].default_value, f0)
+    expected = [k * c for c in node.inputs["Base Color"].default_value[:3]]
     assert material["color"] == pytest.approx(expected, rel=1e-5) and material["two_sided"] and notes == []
     light, notes = light_convert.convert_light(bpy.data.objects["Light"])
     assert light["intensity"] == pytest.approx(1000.0 / (4 * math.pi**2)) and light["falloff"] == "inverse_square"
