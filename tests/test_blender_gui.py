@@ -1,6 +1,7 @@
 """Blender 3.4.1 in a real window under Xvfb: the add-on enabled, the Weathervane tab open beside the built vane, the
-tracer as the render engine (its Render and Output Properties, F12, the 3D View in Rendered shading), screenshots in
-out/, and no Python error from any draw or operator in Blender's log."""
+tracer as the render engine (its Render and Output Properties, F12, the 3D View in Rendered shading), a foreign scene
+added with Blender's own operators (Suzanne with subdivision, a text, a collection instance) in F12 and the Rendered
+view, screenshots in out/, and no Python error from any draw or operator in Blender's log."""
 
 from __future__ import annotations
 
@@ -18,6 +19,8 @@ from PIL import Image
 ROOT = Path(__file__).resolve().parents[1]
 BLENDER, XVFB = shutil.which("blender"), shutil.which("xvfb-run")
 SCREENSHOT = ROOT / "out" / "weathervane-gui.png"
+FOREIGN_F12 = SCREENSHOT.with_name("weathervane-gui-foreign-f12.png")
+FOREIGN_VIEW = SCREENSHOT.with_name("weathervane-gui-foreign-rendered.png")
 
 
 @pytest.mark.skipif(
@@ -44,7 +47,8 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
         check=True,
     )
     SCREENSHOT.parent.mkdir(exist_ok=True)
-    SCREENSHOT.unlink(missing_ok=True)
+    for stale in (SCREENSHOT, FOREIGN_F12, FOREIGN_VIEW):
+        stale.unlink(missing_ok=True)
     result = subprocess.run(
         [
             XVFB,
@@ -88,6 +92,49 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
     assert "WEATHERVANE-GUI rendered view stopped with Solid shading" in log
     check_f12_is_the_command_lines_png(tmp_path)
     check_rendered_view_is_the_tracers_image(tmp_path, SCREENSHOT.with_name("weathervane-gui-rendered.png"))
+    assert "WEATHERVANE-GUI foreign scene added" in log and "foreign rendered screenshot" in log, log[-4000:]
+    check_foreign_scene(tmp_path)
+
+
+def covered(empty: np.ndarray, shown: np.ndarray, box: list, name: str, where: str) -> None:
+    """The pixels inside an object's projected bounding box that differ from the image without the new objects
+    (shadows and reflections differ too, but only on the ground): enough of them, spanning the box's width and
+    height, so that the object is drawn where Blender projects it and at its size."""
+    changed = np.abs(shown.astype(int) - empty.astype(int)).max(axis=2) > 3
+    left, top = max(0, int(np.floor(box[0]))), max(0, int(np.floor(box[1])))
+    right, bottom = min(changed.shape[1], int(np.ceil(box[2]))), min(changed.shape[0], int(np.ceil(box[3])))
+    assert right - left >= 20 and bottom - top >= 20, (name, where, box)  # inside the image, and big enough
+    inside = changed[top:bottom, left:right]
+    rows, columns = np.nonzero(inside)
+    fill = inside.mean()
+    spans = (
+        (columns.max() + 1 - columns.min()) / inside.shape[1] if fill else 0.0,
+        (rows.max() + 1 - rows.min()) / inside.shape[0] if fill else 0.0,
+    )
+    print(
+        f"WEATHERVANE-GUI foreign {where} {name}: box {inside.shape[1]}x{inside.shape[0]} px, {100 * fill:.0f}% "
+        f"drawn, spanning {100 * spans[0]:.0f}% of its width and {100 * spans[1]:.0f}% of its height"
+    )
+    assert fill >= 0.2 and min(spans) >= 0.7, (name, where, fill, spans)
+
+
+def check_foreign_scene(work: Path) -> None:
+    """Suzanne with a Subdivision Surface modifier, a text and a collection instance of a cone, added with Blender's
+    own operators: in F12 (against F12 of the vane alone) and in the Rendered view (against its first screenshot),
+    each drawn over its bounding box as Blender's camera and view projections place it."""
+    places = json.loads((work / "foreign.json").read_text())
+    with Image.open(work / "foreign-f12-empty.png") as empty, Image.open(FOREIGN_F12) as shown:
+        empty_f12, shown_f12 = np.asarray(empty.convert("RGB")), np.asarray(shown.convert("RGB"))
+    assert shown_f12.shape == empty_f12.shape == (places["f12"]["size"][1], places["f12"]["size"][0], 3)
+    for name, box in places["f12"]["boxes"].items():
+        covered(empty_f12, shown_f12, box, name, "f12")
+    # the view is laid out as for the first Rendered screenshot: the same region, only the new objects differ
+    first = json.loads((work / "rendered-region.json").read_text())
+    assert places["view"]["region"] == first, (places["view"]["region"], first)
+    with Image.open(SCREENSHOT.with_name("weathervane-gui-rendered.png")) as empty, Image.open(FOREIGN_VIEW) as shown:
+        empty_view, shown_view = np.asarray(empty.convert("RGB")), np.asarray(shown.convert("RGB"))
+    for name, box in places["view"]["boxes"].items():
+        covered(empty_view, shown_view, box, name, "rendered view")
 
 
 def check_f12_is_the_command_lines_png(work: Path) -> None:

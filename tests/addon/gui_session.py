@@ -1,14 +1,19 @@
 """A real Blender window (run under Xvfb by tests/test_blender_gui.py): install and enable the add-on, open the
 sidebar on the Weathervane tab, build the vane, take a screenshot; then, with the tracer as the engine, Output
-Properties, F12 and the 3D View in Rendered shading; quit.
+Properties, F12 and the 3D View in Rendered shading; then a foreign scene added with Blender's own operators
+(Suzanne with a Subdivision Surface modifier, a text, a collection instance of a cone) in F12 and in the Rendered
+view; File > Export; quit.
 
     blender --factory-startup --python tests/addon/gui_session.py -- ADDON_ZIP SCREENSHOT.png WORK_FOLDER
 
 Beside SCREENSHOT it writes SCREENSHOT-output.png (Output Properties with the tracer as the engine),
 SCREENSHOT-rendered.png (the 3D View in Rendered shading, nothing over it), SCREENSHOT-rendered-ui.png (the same
-with the interface) and SCREENSHOT-export-menu.png; in WORK_FOLDER, f12.png (F12's image saved as PNG),
-f12-scene.json (the scene exported at that moment), rendered-scene.json (the scene seen from the Rendered view, for
-the test to trace) and the view region's place in the window (rendered-region.json).
+with the interface), SCREENSHOT-foreign-f12.png (F12 of the vane with the foreign scene, 320 x 240),
+SCREENSHOT-foreign-rendered.png (the Rendered view with it, laid out as SCREENSHOT-rendered.png) and
+SCREENSHOT-export-menu.png; in WORK_FOLDER, f12.png (F12's image saved as PNG), f12-scene.json (the scene exported
+at that moment), rendered-scene.json (the scene seen from the Rendered view, for the test to trace), the view
+region's place in the window (rendered-region.json), foreign-f12-empty.png (F12 at 320 x 240 before the foreign
+scene) and foreign.json (each new object's bounding box projected into F12's image and into the window).
 
 Blender 3.4 has no API to choose a sidebar tab (Region.active_panel_category came later); the sidebar opens on
 its first category. The built-in panels of "Item" are written in C and registered first, but they only show with
@@ -313,9 +318,9 @@ def render_f12() -> float | None:
     return guarded(show_rendered)
 
 
-def show_rendered() -> float | None:
+def show_rendered(then=None) -> float | None:
     """The 3D View in Rendered shading, nothing drawn over it (overlays, gizmos, headers, sidebar, toolbar, the
-    camera view's darkened margin)."""
+    camera view's darkened margin); then the next step (capture_rendered)."""
 
     _, area, _ = view3d()
     space = area.spaces.active
@@ -325,28 +330,31 @@ def show_rendered() -> float | None:
     space.show_gizmo = False
     bpy.context.scene.camera.data.show_passepartout = False
     space.shading.type = "RENDERED"
-    return full_image_then(capture_rendered)
+    return full_image_then(then or capture_rendered, idle=then is None)
 
 
-def full_image_then(step) -> float | None:
-    """Wait until the Rendered view shows its full image at the view's size, then run step."""
+def full_image_then(step, idle: bool = True) -> float | None:
+    """Wait until the Rendered view shows its full image at the view's size, then run step. With idle, also until
+    its thread has kept the image's ray trees for edits (the status line then says done), which takes longer than
+    the image on a scene of many triangles."""
     import time
 
     started = time.perf_counter()
 
     def wait() -> float | None:
-        _, _, region = view3d()
+        _, area, region = view3d()
         sessions = list(sys.modules["weathervane.viewport"]._sessions)
         level = sessions[0].progressive.latest() if sessions else None
         if (
             level is None
             or level.divisor != 1
             or level.image.shape[:2] != (region.height, region.width)
-            or sessions[0].progressive.busy
+            or (idle and sessions[0].progressive.busy)
         ):
             assert time.perf_counter() - started < RENDERED_WAIT_SECONDS, "the Rendered view did not finish"
             return 0.5
         print(f"WEATHERVANE-GUI rendered view {region.width}x{region.height} traced in {level.seconds:.2f} s")
+        area.tag_redraw()  # drawn with that image before the next step
         return guarded(step)
 
     return guarded(wait)
@@ -396,8 +404,12 @@ def check_rendered_view_stopped(waited: list = [0]) -> float | None:  # noqa: B0
         assert waited[0] < 40, "the Rendered view's tracing thread outlived the view's Rendered shading"
         return 0.25
     print("WEATHERVANE-GUI rendered view stopped with Solid shading")
+    return guarded(render_empty_f12)
+
+
+def open_export_menu() -> float | None:
     window, area, region = view3d()
-    # File > Export, opened as a click on the menu would: the add-on's entry is in it
+    # File > Export, opened as a click on the menu would: the add-on's entry is in it (last: the menu stays open)
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.wm.call_menu(name="TOPBAR_MT_file_export")
     bpy.app.timers.register(capture_menu, first_interval=1.0)
@@ -409,6 +421,185 @@ def capture_menu() -> float | None:
     print("WEATHERVANE-GUI export menu", target)
     bpy.app.timers.register(lambda: bpy.ops.wm.quit_blender() and None, first_interval=0.5)
     return None
+
+
+FOREIGN_F12 = (320, 240)  # F12's size for the foreign scene: each new object spans dozens of pixels
+
+
+def foreign_f12(target: str) -> None:
+    import os
+
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = FOREIGN_F12
+    scene.render.filepath = target
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    assert os.path.exists(target), target
+
+
+def render_empty_f12() -> float | None:
+    """F12 of the vane alone at the foreign scene's size: what the new objects' pixels are compared with."""
+    import os
+    import time
+
+    FOREIGN_START[0] = time.perf_counter()
+    foreign_f12(os.path.join(WORK, "foreign-f12-empty.png"))
+    print(f"WEATHERVANE-GUI foreign f12 without the new objects in {time.perf_counter() - FOREIGN_START[0]:.2f} s")
+    return guarded(add_foreign_scene)
+
+
+def add_foreign_scene() -> float | None:
+    """Objects that Build did not make, added as a user would with Add menus and the Properties editor: Suzanne
+    with a Subdivision Surface modifier (flat shaded), a text object and an instance of a collection that holds a
+    cone (the collection itself excluded from the view layer, as an asset collection is), each placed where the
+    camera sees it beside the vane."""
+    import math
+    import time
+
+    from mathutils import Vector
+
+    window, area, region = view3d()
+    camera = bpy.context.scene.camera
+    heading = camera.matrix_world.to_euler()[2]  # turned to face the camera
+
+    def seen_at(right: float, up: float, distance: float) -> Vector:
+        return camera.matrix_world @ Vector((right, up, -distance))
+
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        # Add > Mesh > Monkey, then Add Modifier > Subdivision Surface (viewport level 1, render level 2)
+        assert bpy.ops.mesh.primitive_monkey_add(
+            size=1.0, location=seen_at(-1.55, 0.75, 7.5), rotation=(0, 0, heading)
+        ) == {"FINISHED"}
+        assert bpy.ops.object.modifier_add(type="SUBSURF") == {"FINISHED"}
+        suzanne = bpy.context.active_object
+        # Add > Text, typed over in Edit Mode
+        rotation = (math.radians(90.0), 0.0, heading)
+        assert bpy.ops.object.text_add(location=seen_at(1.2, 1.0, 7.5), rotation=rotation) == {"FINISHED"}
+        text = bpy.context.active_object
+        bpy.ops.object.mode_set(mode="EDIT")
+        bpy.ops.font.delete(type="PREVIOUS_WORD")
+        bpy.ops.font.text_insert(text="Vane")
+        bpy.ops.object.mode_set(mode="OBJECT")
+        # Add > Mesh > Cone, M > New Collection, the collection unchecked in the Outliner, Add > Collection Instance
+        assert bpy.ops.mesh.primitive_cone_add(radius1=0.5, depth=1.2, location=(0.0, 0.0, 0.6)) == {"FINISHED"}
+        assert bpy.ops.object.move_to_collection(collection_index=0, is_new=True, new_collection_name="Cones") == {
+            "FINISHED"
+        }
+        bpy.context.view_layer.layer_collection.children["Cones"].exclude = True
+        ground = seen_at(-1.3, -0.9, 8.0)
+        assert bpy.ops.object.collection_instance_add(collection="Cones", location=(ground.x, ground.y, 0.0)) == {
+            "FINISHED"
+        }
+        instance = bpy.context.active_object
+    assert text.data.body == "Vane", text.data.body
+    assert not any(face.use_smooth for face in suzanne.data.polygons)
+    FOREIGN[:] = [suzanne.name, text.name, instance.name]
+    print("WEATHERVANE-GUI foreign scene added", *FOREIGN, f"at {time.perf_counter() - FOREIGN_START[0]:.1f} s")
+    return guarded(render_foreign_f12)
+
+
+FOREIGN: list = []  # the new objects' names
+FOREIGN_START = [0.0]  # when the foreign scene's steps began
+
+
+def projected_boxes(project) -> dict:
+    """Each new object's bounding box as Blender evaluates it (a text's mesh, the cone at the instance's matrix),
+    its 8 corners projected by project(world point) -> (x, y) pixels, as [left, top, right, bottom]."""
+    from mathutils import Vector
+
+    boxes: dict = {}
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        owner = instance.parent.original if instance.is_instance and instance.parent is not None else obj.original
+        if owner.name not in FOREIGN or obj.type != "MESH":
+            continue
+        # the box of the object the instance was made from, as evaluated: Blender 3.4 leaks a block (reported at
+        # quit) when a text's mesh instance, a temporary object, is asked for its own bound_box
+        corners = obj.original.evaluated_get(depsgraph).bound_box
+        points = [project(instance.matrix_world @ Vector(corner)) for corner in corners]
+        xs, ys = [p[0] for p in points], [p[1] for p in points]
+        box = boxes.setdefault(owner.name, [min(xs), min(ys), max(xs), max(ys)])
+        box[:] = [min(box[0], *xs), min(box[1], *ys), max(box[2], *xs), max(box[3], *ys)]
+    assert sorted(boxes) == sorted(FOREIGN), boxes
+    return boxes
+
+
+def write_foreign(key: str, value: dict) -> None:
+    """WORK/foreign.json: the new objects' projected boxes in F12's image and in the window, for the test."""
+    import json
+    import os
+
+    PLACES[key] = value
+    with open(os.path.join(WORK, "foreign.json"), "w") as file:
+        json.dump(PLACES, file)
+
+
+PLACES: dict = {}
+
+
+def render_foreign_f12() -> float | None:
+    """F12 of the vane with the new objects, and where Blender's camera projection puts each of them."""
+    import time
+
+    from bpy_extras.object_utils import world_to_camera_view
+
+    scene = bpy.context.scene
+    width, height = FOREIGN_F12
+
+    def project(point):
+        x, y, _ = world_to_camera_view(scene, scene.camera, point)
+        return x * width, (1.0 - y) * height  # pixels from the image's top left
+
+    started = time.perf_counter()
+    foreign_f12(SCREENSHOT.replace(".png", "-foreign-f12.png"))
+    print(
+        f"WEATHERVANE-GUI foreign f12 rendered in {time.perf_counter() - started:.2f} s, "
+        f"at {time.perf_counter() - FOREIGN_START[0]:.1f} s"
+    )
+    write_foreign("f12", {"size": list(FOREIGN_F12), "boxes": projected_boxes(project)})
+    return guarded(show_foreign_rendered)
+
+
+def show_foreign_rendered() -> float | None:
+    """The 3D View in Rendered shading again, laid out as for the first Rendered screenshot (nothing over it)."""
+    return show_rendered(then=capture_foreign_rendered)
+
+
+def capture_foreign_rendered() -> float | None:
+    import time
+
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+
+    window, area, region = view3d()
+    view = area.spaces.active.region_3d
+
+    def project(point):
+        x, y = location_3d_to_region_2d(region, view, point)
+        return region.x + x, window.height - (region.y + y)  # window pixels from the top left
+
+    place = {"x": region.x, "y": region.y, "width": region.width, "height": region.height, "window": window.height}
+    write_foreign("view", {"region": place, "boxes": projected_boxes(project)})
+    target = screenshot("-foreign-rendered")
+    print(
+        f"WEATHERVANE-GUI foreign rendered screenshot {target} ({time.perf_counter() - FOREIGN_START[0]:.1f} s in all)"
+    )
+    # back to the interface and Solid shading, the view's tracing stopped, as before the foreign scene
+    space = area.spaces.active
+    space.show_region_header = space.show_region_tool_header = True
+    space.overlay.show_overlays = space.show_gizmo = True
+    space.shading.type = "SOLID"
+    area.tag_redraw()
+    return guarded(foreign_view_stopped)
+
+
+def foreign_view_stopped(waited: list = [0]) -> float | None:  # noqa: B006 - counts this step's polls
+    import threading
+
+    if any(thread.name == "weathervane-progressive" for thread in threading.enumerate()):
+        waited[0] += 1
+        assert waited[0] < 40, "the Rendered view's tracing thread outlived the view's Rendered shading"
+        return 0.25
+    return guarded(open_export_menu)
 
 
 bpy.app.timers.register(prepare, first_interval=1.0)
