@@ -48,13 +48,18 @@ def read(obj) -> MeshArrays | None:
         mesh.loop_triangles.foreach_get("normal", face_normals)
         slots = np.empty(count, dtype=np.int32)
         mesh.loop_triangles.foreach_get("material_index", slots)
+        polygons = np.empty(count, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("polygon_index", polygons)
+        smooth_faces = np.empty(len(mesh.polygons), dtype=bool)
+        mesh.polygons.foreach_get("use_smooth", smooth_faces)
     finally:
         obj.to_mesh_clear()
+    smooth = smooth_faces[polygons]
     corner_normals = normals.astype(np.float64).reshape(count, 3, 3)
-    face_normals = face_normals.astype(np.float64).reshape(count, 1, 3)
-    spans_area = np.linalg.norm(face_normals, axis=2)[:, 0] > 0.5  # a zero-area triangle has no normal to match
-    deviation = np.abs(corner_normals - face_normals)[spans_area]
-    flat = deviation.size == 0 or deviation.max() <= 1e-5
+    # a flat face shades with each triangle's own normal, as Cycles does (a non-planar quad's split normal is the
+    # polygon's, which neither triangle has): only smooth faces carry corner normals
+    corner_normals[~smooth] = face_normals.astype(np.float64).reshape(count, 1, 3)[~smooth]
+    flat = not smooth.any()
     return MeshArrays(
         vertices=vertices.astype(np.float64).reshape(-1, 3),
         triangles=triangles.astype(np.int64).reshape(count, 3),

@@ -281,3 +281,14 @@ def test_build_names_the_scenes_other_objects_that_render_beside_the_vane(capfd)
     assert f"also rendered with the vane: {cube.name} (hide them in renders" in line
     assert "Cone" not in line
     assert cube.name in by_name(export())  # and it is rendered, as said
+
+
+def test_flat_faces_that_are_not_planar_shade_with_each_triangles_own_normal() -> None:
+    """A flat Suzanne (its quads are not planar): no corner normals, so each triangle shades with its own normal, as
+    Cycles does; a smooth one carries them."""
+    bpy.ops.mesh.primitive_monkey_add()
+    suzanne = bpy.context.object
+    suzanne.modifiers.new("Subdivision", "SUBSURF")
+    assert "normals" not in by_name(export())[suzanne.name]
+    bpy.ops.object.shade_smooth()
+    assert "normals" in by_name(export())[suzanne.name]
