@@ -391,3 +391,14 @@ def test_blender_fields_at_their_limits_render_finite_pixels(dtype: str, numeric
     ]  # fmt: skip
     result = render(scene_from_dict(document), workers=1)
     assert np.all(np.isfinite(result.image)) and (result.alpha is None or np.all(np.isfinite(result.alpha)))
+
+
+def test_render_border_with_a_clipped_orthographic_camera_and_samples() -> None:
+    from tracer.geometry.camera import border_window
+
+    scene = default_scene().with_render(width=48, height=36, samples=4)
+    scene = replace(scene, camera=replace(scene.camera, type="ORTHO", ortho_scale=8.0, clip_start=1.0, clip_end=30.0))
+    whole = render(scene, workers=1).image
+    bordered = scene.with_render(border=(0.1, 0.2, 0.6, 0.9), crop=True)
+    x0, x1, y0, y1 = border_window(bordered.render)
+    np.testing.assert_array_equal(render(bordered, workers=2).image, whole[y0:y1, x0:x1])

@@ -108,9 +108,13 @@ def test_edits_of_scenes_with_blender_fields_give_the_whole_render(seed: int) ->
     document["render"]["depth"] = max(document["render"]["depth"], 3)
     scene = scene_from_dict(document)
     image = edits.EditableImage(scene)
-    assert np.array_equal(image.image, render(scene, workers=1).image)
+    whole = render(scene, workers=1)
+    assert np.array_equal(image.image, whole.image)
+    assert (image.alpha is None) == (whole.alpha is None)
     rng = random.Random(seed)
     for _ in range(6):
         edit = random_edit(image.scene, rng)
         edited = image.apply(edit)
-        assert np.array_equal(edited, render(image.scene, workers=1).image), edit
+        whole = render(image.scene, workers=1)
+        assert np.array_equal(edited, whole.image), edit
+        assert whole.alpha is None or np.array_equal(image.alpha, whole.alpha), edit

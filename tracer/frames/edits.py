@@ -79,8 +79,9 @@ def edits_between(old: sc.Scene, new: sc.Scene) -> list[Edit] | None:
 
 
 class EditableImage:
-    """A scene's image that edits update in place of a whole render (one process). Colour only: a scene's alpha
-    (film_transparent, holdouts) is not kept, and a render border is not applied (the whole image is traced).
+    """A scene's image that edits update in place of a whole render (one process). alpha: (height, width) where the
+    scene has one (film_transparent, holdouts), else None; a render border is not applied (the whole image is
+    traced).
 
     The segments are kept in chunks, one per trace; a pixel traced again makes its older segments stale (each chunk
     notes the pixel's generation it was traced in), so an edit costs its own segments, not a copy of all of them;
@@ -96,6 +97,7 @@ class EditableImage:
         self.generation = np.zeros(self.pixels, dtype=np.int32)  # how often each pixel was traced again
         self.chunks: list[tuple[Segments, np.ndarray]] = []  # segments and the generation they belong to
         self.image = np.empty((settings.height, settings.width, 3), dtype=settings.dtype)
+        self.alpha = np.empty((settings.height, settings.width), dtype=settings.dtype) if scene.has_alpha else None
         self.rays = RayCounts()
         pieces = max(1, self.pixels * settings.samples // BUILD_PIECE_SAMPLES)
         for piece in np.array_split(np.arange(self.pixels), pieces):
@@ -126,7 +128,9 @@ class EditableImage:
     def _trace(self, scene: sc.Scene, pixels: np.ndarray) -> None:
         store = RayStore()
         colors, self.rays = PreparedScene(scene).render_pixels(pixels, band_samples(scene.render), store)
-        self.image.reshape(-1, 3)[pixels] = colors[:, :3]  # colour only: a film's alpha is not kept here
+        self.image.reshape(-1, 3)[pixels] = colors[:, :3]
+        if self.alpha is not None and colors.shape[1] == 4:
+            self.alpha.reshape(-1)[pixels] = colors[:, 3]
         chunk = store.segments()
         self.chunks.append((chunk, self.generation.take(chunk.pixel)))
         self.last_traced = len(pixels)

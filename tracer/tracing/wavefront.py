@@ -139,16 +139,22 @@ class PreparedScene:
                     light.grid = CoverageGrid.from_direction(light.vector.ravel().astype(np.float64), *boxes)
 
     def _materials(self, objects: tuple[sc.SceneObject, ...]) -> None:
-        """The materials as arrays (3, M) and (M,), and each object's (or a mesh's each triangle's) index into them."""
+        """The materials as arrays (3, M) and (M,), and each object's (or a mesh's each triangle's) index into them.
+        Without per-triangle materials the rows are the objects' own materials (M = objects): a hit's object is its
+        row, as in the documented tracer (no index to look up per hit)."""
         names = list(self.scene.materials)
         number = {name: index for index, name in enumerate(names)}
-        table = [self.scene.materials[name] for name in names]
-        self.object_material = np.asarray([number[obj.material] for obj in objects], dtype=np.intp)
+        self.object_material: np.ndarray | None = None
         self.triangle_materials: dict[int, np.ndarray] = {}
         for index, obj in enumerate(objects):
             if getattr(obj, "material_indices", None) is not None:
                 slots = np.asarray([number[name] for name in obj.materials], dtype=np.intp)
                 self.triangle_materials[index] = slots.take(np.asarray(obj.material_indices, dtype=np.intp))
+        if self.triangle_materials:
+            table = [self.scene.materials[name] for name in names]
+            self.object_material = np.asarray([number[obj.material] for obj in objects], dtype=np.intp)
+        else:
+            table = [self.scene.materials[obj.material] for obj in objects]
         as_columns = lambda values: np.asarray(values, dtype=self.dtype).T.reshape(3, -1)  # noqa: E731
         self.colors = as_columns([m.color for m in table])  # (3, materials)
         self.specular = np.asarray([m.specular for m in table], dtype=self.dtype)
@@ -175,6 +181,8 @@ class PreparedScene:
 
     def material_of(self, obj: np.ndarray, part: np.ndarray) -> np.ndarray:
         """Each hit's index into the material arrays (n,): its object's material, or its triangle's."""
+        if self.object_material is None:
+            return obj
         material = self.object_material.take(obj)
         for index, table in self.triangle_materials.items():
             rows = indices(obj == index)

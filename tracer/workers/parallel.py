@@ -69,9 +69,9 @@ class RenderResult:
     rays: RayCounts
     seconds: float
     touched: np.ndarray | None = None  # (height, width) bool: pixels whose ray trees met the volume asked about
-    # (height, width): the share of each pixel's camera samples that met a visible object other than a holdout;
-    # None where the scene has neither a transparent film nor a holdout (Scene.has_alpha). The colours are then
-    # premultiplied by it (a missing sample adds 0).
+    # (height, width): the share of each pixel's camera samples that met a visible object other than a holdout (0
+    # outside a render border); None where the scene has no transparent film, no holdout and no uncropped border
+    # (Scene.has_alpha). The colours are then premultiplied by it (a missing sample adds 0).
     alpha: np.ndarray | None = None
 
     @property
