@@ -134,26 +134,32 @@ def _srgb_to_linear(c: float) -> float:
     return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
 
 
-def image_mean(image) -> tuple[float, float, float] | None:
-    """An image's mean linear colour (cached by name, size and file); None where it has no pixels."""
-    key = ("image", image.name, tuple(image.size), image.filepath)
-    if key in _means:
-        return _means[key]
+def linear_rgb(image):
+    """An image's pixels as (height, width, 3) linear float64 (grey images repeated to three channels; 8-bit sRGB
+    decoded); None where it has no pixels."""
+    import numpy as np
+
     width, height = image.size
     if width * height == 0:
         return None
-    import numpy as np
-
     pixels = np.empty(width * height * image.channels, dtype=np.float32)
     image.pixels.foreach_get(pixels)
-    rgb = pixels.reshape(-1, image.channels)[:, :3].astype(np.float64)
-    if image.channels < 3:
-        rgb = np.repeat(pixels.reshape(-1, image.channels)[:, :1], 3, axis=1).astype(np.float64)
+    channels = pixels.reshape(height, width, image.channels).astype(np.float64)
+    rgb = channels[..., :3] if image.channels >= 3 else np.repeat(channels[..., :1], 3, axis=2)
     if not image.is_float and image.colorspace_settings.name in ("sRGB", "sRGB - Display"):
         rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
-    mean = tuple(float(c) for c in rgb.mean(axis=0))
-    _means[key] = mean
-    return mean
+    return rgb
+
+
+def image_mean(image) -> tuple[float, float, float] | None:
+    """An image's mean linear colour (cached by name, size and file); None where it has no pixels."""
+    key = ("image", image.name, tuple(image.size), image.filepath)
+    if key not in _means:
+        rgb = linear_rgb(image)
+        if rgb is None:
+            return None
+        _means[key] = tuple(float(c) for c in rgb.reshape(-1, 3).mean(axis=0))
+    return _means[key]
 
 
 def attribute_mean(material, attribute_name: str) -> tuple[float, float, float] | None:

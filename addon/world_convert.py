@@ -20,7 +20,7 @@ import math
 
 import bpy
 
-from . import compat
+from . import compat, material_convert
 
 OWN_WORLD = "WV World"  # twin.WORLD
 SKY_MEAN = (0.2, 0.35, 0.6)  # a clear day's sky, mean radiance at strength 1 (an estimate, named where used)
@@ -32,23 +32,15 @@ _means: dict[tuple, tuple[float, float, float]] = {}
 def environment_mean(image) -> tuple[float, float, float] | None:
     """An equirectangular image's mean linear colour over the sphere (rows weighted by cos(latitude)), cached."""
     key = (image.name, tuple(image.size), image.filepath)
-    if key in _means:
-        return _means[key]
-    width, height = image.size
-    if width * height == 0:
-        return None
-    import numpy as np
-
-    pixels = np.empty(width * height * image.channels, dtype=np.float32)
-    image.pixels.foreach_get(pixels)
-    rgb = pixels.reshape(height, width, image.channels)[..., :3].astype(np.float64)
-    if not image.is_float and image.colorspace_settings.name in ("sRGB", "sRGB - Display"):
-        rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
-    latitude = (np.arange(height) + 0.5) / height * math.pi - math.pi / 2.0
-    weights = np.cos(latitude)
-    mean = tuple(float(c) for c in (rgb.mean(axis=1) * weights[:, None]).sum(axis=0) / weights.sum())
-    _means[key] = mean
-    return mean
+    if key not in _means:
+        rgb = material_convert.linear_rgb(image)
+        if rgb is None:
+            return None
+        height = rgb.shape[0]
+        weights = [math.cos((row + 0.5) / height * math.pi - math.pi / 2.0) for row in range(height)]
+        rows = rgb.mean(axis=1)  # (height, 3)
+        _means[key] = tuple(float(c) for c in (rows * [[weight] for weight in weights]).sum(axis=0) / sum(weights))
+    return _means[key]
 
 
 def _own_background(blender_scene) -> dict:

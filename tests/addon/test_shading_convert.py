@@ -592,3 +592,11 @@ def test_a_sharp_glossy_is_a_mirror_and_a_tinted_specular_is_named() -> None:
     tint = next(n for n in tinted.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled").inputs["Specular Tint"]
     tint.default_value = (1.0, 0.0, 0.0, 1.0) if tint.type == "RGBA" else 0.5
     assert material_convert.convert_material(tinted)[1] == ["specular tint: white highlight"]
+
+
+def test_an_environment_texture_is_its_mean_over_the_sphere() -> None:
+    """Rows of an equirectangular image weigh by the cosine of their latitude: three rows at -60, 0 and 60 degrees
+    weigh 1/2, 1, 1/2, so a bright equator row of 1 gives a mean of 1/2 (a plain mean would give 1/3)."""
+    image = bpy.data.images.new("equator", 4, 3, float_buffer=True)
+    image.pixels[:] = [value for row in (0.0, 1.0, 0.0) for _ in range(4) for value in (row, row, row, 1.0)]
+    assert world_convert.environment_mean(image) == pytest.approx((0.5, 0.5, 0.5))
