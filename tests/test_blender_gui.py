@@ -86,7 +86,10 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
     assert "WEATHERVANE-GUI tooltips one line" in log, log[-4000:]
     for page in (1, 2, 3):
         assert SCREENSHOT.with_name(f"weathervane-gui-sidebar-{page}.png").exists()
-    assert "Traceback" not in log and "Error: Python" not in log, log[-4000:]
+    # no Python error anywhere before the quit; at the quit, only Blender 3.4's readonly state (below)
+    before, _, at_quit = log.partition("WEATHERVANE-GUI quitting during F12")
+    assert "Traceback" not in before and "Error: Python" not in before, before[-4000:]
+    check_quit_errors(at_quit)
     with Image.open(SCREENSHOT) as image:
         assert image.size == (1600, 900)
         colors = image.convert("RGB").getcolors(maxcolors=1 << 20)
@@ -103,6 +106,18 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
     check_rendered_view_is_the_tracers_image(tmp_path, SCREENSHOT.with_name("weathervane-gui-rendered.png"))
     assert "WEATHERVANE-GUI foreign scene added" in log and "foreign rendered screenshot" in log, log[-4000:]
     check_foreign_scene(tmp_path)
+
+
+def check_quit_errors(at_quit: str) -> None:
+    """Blender 3.4 keeps one process-wide "Python may not write" flag, saved and restored around every Python
+    callback: a render engine's render() on the F12 job's thread that starts while a panel draws on the main thread
+    restores it to "readonly" when it ends, and Blender's quit then cannot unregister any add-on ("can't run in readonly
+    state", seen in one quit in four). That, and nothing else, may be in the log after the quit; the worker processes
+    are checked separately (none may be left either way)."""
+    blocks = at_quit.split("Traceback (most recent call last):")[1:]
+    for block in blocks:
+        assert "addon_utils.py" in block and "can't run in readonly state" in block, block[:2000]
+    print(f"WEATHERVANE-GUI add-ons that could not unregister at the quit (Blender's readonly state): {len(blocks)}")
 
 
 def check_no_worker_left(config: Path) -> None:

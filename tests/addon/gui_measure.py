@@ -247,7 +247,7 @@ def measure(context, sidebar_width: int, properties_width: int | None) -> tuple[
     and the tooltips that are not one whole line."""
     import blf
 
-    scale = context.preferences.system.ui_scale
+    scale = context.preferences.system.ui_scale or 1.0  # 0 in background mode
     if bpy.app.version >= (4, 0, 0):
         blf.size(0, 11 * scale)
     else:
