@@ -101,6 +101,8 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
     for tab in ("material-part", "data-light", "world-part", "data-part"):
         assert f"WEATHERVANE-GUI shading panels {tab.replace('-', ' ')}" in log, log[-4000:]
         assert SCREENSHOT.with_name(f"weathervane-gui-{tab}.png").exists(), tab
+    # a small edit in the Rendered view: only the new scene's status lines were drawn, up to the edited image
+    assert "WEATHERVANE-GUI small edit in the Rendered view" in log, log[-4000:]
     assert "WEATHERVANE-GUI rendered view stopped with Solid shading" in log
     check_f12_is_the_command_lines_png(tmp_path)
     check_rendered_view_is_the_tracers_image(tmp_path, SCREENSHOT.with_name("weathervane-gui-rendered.png"))

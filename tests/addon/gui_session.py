@@ -386,15 +386,43 @@ def capture_rendered() -> float | None:
 
 
 def capture_rendered_with_the_interface() -> float | None:
-    _, area, _ = view3d()
     screenshot("-rendered-ui")
     (session,) = list(sys.modules["weathervane.viewport"]._sessions)
     print("WEATHERVANE-GUI rendered screenshot with the interface, status:", session.status)
     assert session.status.startswith("Weathervane Tracer: done in"), session.status
-    # back to Solid shading: Blender frees the view's engine, which stops its thread and workers
-    area.spaces.active.shading.type = "SOLID"
-    area.tag_redraw()
-    return guarded(check_rendered_view_stopped)
+    return guarded(edit_in_rendered_view)
+
+
+def edit_in_rendered_view() -> float | None:
+    """A small edit (the tail fin's colour, as the Materials panel sets it) in the Rendered view: every status line
+    drawn from then on is the new scene's ("updating", then the edit's or a level's), never the previous scene's
+    "done" or a stale "1/1 resolution"; the time to the edited image is recorded (not asserted)."""
+    import time
+
+    (session,) = list(sys.modules["weathervane.viewport"]._sessions)
+    before, generation = session.status, session.progressive.generation
+    materials = {entry.name: entry for entry in bpy.context.scene.weathervane.materials}
+    materials["verdigris"].color = (0.9, 0.2, 0.1)
+    started, seen = time.perf_counter(), []
+
+    def poll() -> float | None:
+        if session.progressive.generation > generation and (not seen or seen[-1] != session.status):
+            seen.append(session.status)
+        if seen and session.progressive.done and not session.status.startswith("Weathervane Tracer: updating"):
+            print(
+                f"WEATHERVANE-GUI small edit in the Rendered view: {time.perf_counter() - started:.2f} s to "
+                f"{session.status!r}; statuses drawn: {seen}"
+            )
+            assert before not in seen and not any("1/1 resolution" in status for status in seen), seen
+            _, area, _ = view3d()
+            # back to Solid shading: Blender frees the view's engine, which stops its thread and workers
+            area.spaces.active.shading.type = "SOLID"
+            area.tag_redraw()
+            return guarded(check_rendered_view_stopped)
+        assert time.perf_counter() - started < RENDERED_WAIT_SECONDS, f"the edit was not drawn: {seen}"
+        return 0.02
+
+    return guarded(poll)
 
 
 def check_rendered_view_stopped(waited: list = [0]) -> float | None:  # noqa: B006 - counts this step's polls
