@@ -119,8 +119,8 @@ def setup() -> None:
 
 
 def open_every_panel() -> None:
-    """The add-on's sidebar panels registered again without DEFAULT_CLOSED, before the sidebar is first drawn: the
-    window shows every panel and sub-panel open (Blender 3.4 has no API to open a panel)."""
+    """The add-on's panels registered again without DEFAULT_CLOSED, before they are first drawn: the window shows
+    every panel and sub-panel open (Blender 3.4 has no API to open a panel)."""
     for cls in reversed(PANELS()):
         bpy.utils.unregister_class(cls)
     for cls in PANELS():
@@ -129,7 +129,9 @@ def open_every_panel() -> None:
 
 
 def PANELS() -> list:  # noqa: N802 - read like a constant
-    return [cls for cls in sys.modules["weathervane.panels"].CLASSES if issubclass(cls, bpy.types.Panel)]
+    """The add-on's panels: the sidebar's, and its own in the Properties editor (Scene Conversion opens too)."""
+    classes = sys.modules["weathervane.panels"].CLASSES + sys.modules["weathervane.render_panels"].CLASSES
+    return [cls for cls in classes if issubclass(cls, bpy.types.Panel)]
 
 
 def measure_labels() -> None:
