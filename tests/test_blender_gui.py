@@ -114,8 +114,9 @@ def check_quit_errors(at_quit: str) -> None:
     """Blender 3.4 keeps one process-wide "Python may not write" flag, saved and restored around every Python
     callback: a render engine's render() on the F12 job's thread that starts while a panel draws on the main thread
     restores it to "readonly" when it ends, and Blender's quit then cannot unregister any add-on ("can't run in readonly
-    state", seen in one quit in four). That, and nothing else, may be in the log after the quit; the worker processes
-    are checked separately (none may be left either way)."""
+    state": seen in one of six quits here, a run with the base code's pools; the mechanism is inferred, not traced).
+    That, and nothing else, may be in the log after the quit; the worker processes are checked separately (none may
+    be left either way)."""
     blocks = at_quit.split("Traceback (most recent call last):")[1:]
     for block in blocks:
         assert "addon_utils.py" in block and "can't run in readonly state" in block, block[:2000]
