@@ -27,16 +27,23 @@ _turning: dict[
 ] = {}  # per pool: the last scene's pixels that the vane can change (tracer/frames/incremental.py)
 
 
+_closing = [False]  # set while the add-on is disabled or Blender quits: no pool is started again
+
+
 def _renderer(workers: int):
-    """The pool for a worker count, kept across frames."""
+    """The pool for a worker count, kept across frames; none once the engine is closing (Blender quits during a
+    render: its thread would otherwise start new worker processes after the pools were closed)."""
+    if _closing[0]:
+        raise RenderCancelledError
     if workers not in _renderers:
         _renderers[workers] = module("workers.parallel").Renderer(workers, start_method=spawn_with_blenders_python())
     return _renderers[workers]
 
 
 def close_renderers() -> None:
+    _closing[0] = True
     for renderer in _renderers.values():
-        renderer.close()
+        renderer.close(final=True)  # a render still running on it (Blender quitting) starts no worker again
     _renderers.clear()
     _turning.clear()
 
@@ -130,7 +137,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             workers = scene.render.workers
             turning = _turning.setdefault(workers, module("frames.incremental").TurningFrames())
             result = turning.render(_renderer(workers), scene, progress, band_done)
-        except RenderCancelledError:
+        except (RenderCancelledError, pool.PoolClosedError):  # Esc, or Blender quitting (its pools closed)
             self.end_result(render_result)  # the bands finished before the cancel
             return
         except (resources.ResourceError, pool.WorkerLostError, pool.TaskFailedError) as error:
@@ -157,6 +164,9 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         try:
             base = np.zeros((height, width, 4 if scene.has_alpha else 3), dtype=np.dtype(scene.render.dtype))
             result = _renderer(scene.render.workers).render_pixels(scene, pixels, base)
+        except (RenderCancelledError, pool.PoolClosedError):  # the engine is closing
+            self.end_result(render_result, cancel=True)
+            return
         except (resources.ResourceError, pool.WorkerLostError, pool.TaskFailedError) as error:
             self.end_result(render_result, cancel=True)
             self.report({"ERROR"}, str(error))
@@ -204,6 +214,7 @@ _register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLAS
 
 
 def register() -> None:
+    _closing[0] = False
     _register_classes()
 
 

@@ -16,6 +16,28 @@ from . import animation, build, camera, lights
 from ._tracer import module
 from .export import other_lights
 
+_RESULT: list[str] = ["", "INFO"]  # the last operator's result line and its kind, shown in the sidebar
+
+
+def result_line() -> tuple[str, str]:
+    """The last result line of the add-on's operators and its kind (INFO, WARNING, ERROR): the sidebar shows it
+    until the next one, since Blender's status bar shows a report only for a while, and not at all for an operator
+    run from a script or a menu search in some versions."""
+    return _RESULT[0], _RESULT[1]
+
+
+def clear_result(*_args) -> None:
+    _RESULT[:] = ["", "INFO"]
+
+
+def report(operator, kinds: set[str], message: str) -> None:
+    """operator.report, and the sidebar's result line: the last report of the run (an error wins over the lines
+    before it). (A report method on the operator class would not be called: Blender's own comes first.)"""
+    operator.report(kinds, message)
+    kind = next(iter(kinds), "INFO")
+    if not _RESULT[0] or _RESULT[1] != "ERROR" or kind == "ERROR":
+        _RESULT[:] = [message, kind]
+
 
 def reports_errors(execute):
     """An operator's execute that never lets an exception reach the user: an unexpected one becomes one report line
@@ -23,11 +45,12 @@ def reports_errors(execute):
 
     @functools.wraps(execute)
     def guarded(self, context):
+        clear_result()
         try:
             return execute(self, context)
         except Exception as error:  # the last line of defence: one line for the user, the details for a report
             traceback.print_exc(file=sys.stderr)
-            self.report({"ERROR"}, f"{self.bl_label} failed: {type(error).__name__}: {error}")
+            report(self, {"ERROR"}, f"{self.bl_label} failed: {type(error).__name__}: {error}")
             return {"CANCELLED"}
 
     return guarded
@@ -41,10 +64,11 @@ def _load_scene(path: str):
 
 
 class WEATHERVANE_OT_build(bpy.types.Operator):
-    """Build the weathervane (the default one, or the scene file) in its own collection. Building again from the
-    same file remakes only its geometry and keeps your materials, wind, motion, lights, camera and render settings
-    (Reset Weathervane starts over)"""
-
+    # one line: Blender shows a docstring's line breaks and indentation in the tooltip, and cuts at 239 bytes
+    bl_description = (
+        "Build the weathervane (default, or the scene file) in its own collection. Again from the same file: "
+        "new geometry, your materials, wind, lights, camera and render settings kept (Reset starts over)"
+    )
     bl_idname = "weathervane.build"
     bl_label = "Build Weathervane"
     bl_options = {"REGISTER", "UNDO"}
@@ -67,12 +91,12 @@ def _build_from(operator: bpy.types.Operator, context, path: str, reset: bool = 
         scene = _load_scene(path)
     except module("scene.loader").SceneError as error:
         for problem in error.problems[:8]:
-            operator.report({"ERROR"}, f"{error.source}: {problem}")
+            report(operator, {"ERROR"}, f"{error.source}: {problem}")
         return {"CANCELLED"}
     problems = build.name_problems(scene)
     if problems:
         for problem in problems[:8]:
-            operator.report({"ERROR"}, f"{path or 'default scene'}: {problem}")
+            report(operator, {"ERROR"}, f"{path or 'default scene'}: {problem}")
         return {"CANCELLED"}
     keep = not reset and build.kept_for_rebuild(context, path)
     build.build(context, scene, path, keep)
@@ -93,7 +117,7 @@ def _build_from(operator: bpy.types.Operator, context, path: str, reset: bool = 
     beside = _other_renderables(context.scene)
     if beside:
         warnings.append(f"also rendered with the vane: {_names(beside)} (hide them in renders to leave them out)")
-    operator.report({"WARNING"} if warnings else {"INFO"}, "; ".join([built, *warnings]))
+    report(operator, {"WARNING"} if warnings else {"INFO"}, "; ".join([built, *warnings]))
     return {"FINISHED"}
 
 
@@ -114,9 +138,10 @@ def _other_renderables(blender_scene) -> list[str]:
 
 
 class WEATHERVANE_OT_reset(bpy.types.Operator):
-    """Build the weathervane afresh from its scene file: its materials, wind, motion, lights, camera and render
-    settings go back to the file's (asks first)"""
-
+    bl_description = (
+        "Build the weathervane afresh from its scene file: its materials, wind, motion, lights, camera and render "
+        "settings go back to the file's (asks first)"
+    )
     bl_idname = "weathervane.reset"
     bl_label = "Reset Weathervane"
     bl_options = {"REGISTER", "UNDO"}
@@ -218,12 +243,14 @@ class WEATHERVANE_OT_bake(bpy.types.Operator):
         try:
             keys, frames = animation.bake(context, lambda share: window_manager.progress_update(int(share * 100)))
         except (LookupError, ValueError) as error:
-            self.report({"ERROR"}, str(error))
+            report(self, {"ERROR"}, str(error))
             return {"CANCELLED"}
         finally:
             window_manager.progress_end()
-        self.report(
-            {"INFO"}, f"Baked {frames} frames into {keys} keys (within {context.scene.weathervane.tolerance:g} degrees)"
+        report(
+            self,
+            {"INFO"},
+            f"Baked {frames} frames into {keys} keys (within {context.scene.weathervane.tolerance:g} degrees)",
         )
         return {"FINISHED"}
 
@@ -245,20 +272,20 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
             module("scene.loader").scene_from_dict(json.loads(json.dumps(document)), "export")
         except module("scene.loader").SceneError as error:
             for problem in named_problems(error.problems, document)[:8]:
-                self.report({"ERROR"}, f"cannot export: {problem}")
+                report(self, {"ERROR"}, f"cannot export: {problem}")
             return {"CANCELLED"}
         target = Path(bpy.path.abspath(self.filepath))
         try:
             with module("tracing.images").atomic_path(target) as temporary:  # nothing is left behind if it fails
                 temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
         except OSError as error:
-            self.report({"ERROR"}, f"cannot write {target}: {error.strerror or error}")
+            report(self, {"ERROR"}, f"cannot write {target}: {error.strerror or error}")
             return {"CANCELLED"}
         left_out = camera.unsupported(context.scene)
         if left_out:
-            self.report({"WARNING"}, f"Wrote {target}; the tracer does not render: {', '.join(left_out)}")
+            report(self, {"WARNING"}, f"Wrote {target}; the tracer does not render: {', '.join(left_out)}")
         else:
-            self.report({"INFO"}, f"Wrote {target}")
+            report(self, {"INFO"}, f"Wrote {target}")
         return {"FINISHED"}
 
 
@@ -291,6 +318,7 @@ class WEATHERVANE_OT_light_add(bpy.types.Operator):
             obj = lights.create(self.kind, entry.intensity, name, collection, vector)
             entry.object_name = obj.name
         settings.light_index = len(settings.lights) - 1
+        report(self, {"INFO"}, f"Added a {self.kind.title()} light")
         return {"FINISHED"}
 
 
@@ -311,14 +339,17 @@ class WEATHERVANE_OT_light_remove(bpy.types.Operator):
         settings = context.scene.weathervane
         entry = settings.lights[settings.light_index]
         obj = bpy.data.objects.get(entry.object_name) if entry.object_name else None
+        removed = f" and its object {obj.name!r}" if obj is not None else ""
         collection = build.own_collection(context, create=False)
         if obj is not None and collection is not None and obj.name in collection.objects:
             data = obj.data
             bpy.data.objects.remove(obj, do_unlink=True)
             if data is not None and data.users == 0:
                 bpy.data.lights.remove(data)
+        kind = entry.kind.title()
         settings.lights.remove(settings.light_index)
         settings.light_index = min(settings.light_index, len(settings.lights) - 1)
+        report(self, {"INFO"}, f"Removed the {kind} light{removed}")
         return {"FINISHED"}
 
 
@@ -386,6 +417,7 @@ MENUS = (
 
 def register() -> None:
     _register_classes()
+    bpy.app.handlers.load_post.append(clear_result)  # another file: the last file's result line is not about it
     bpy.utils.register_class(WEATHERVANE_MT_object)
     for menu, entry in MENUS:
         getattr(bpy.types, menu).append(entry)
@@ -395,4 +427,6 @@ def unregister() -> None:
     for menu, entry in MENUS:
         getattr(bpy.types, menu).remove(entry)
     bpy.utils.unregister_class(WEATHERVANE_MT_object)
+    if clear_result in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(clear_result)
     _unregister_classes()

@@ -10,6 +10,7 @@ import bpy
 
 from . import build
 from .export import entry_kind, other_lights
+from .operators import result_line
 
 LIGHT_ICONS = {
     "AMBIENT": "WORLD",
@@ -46,6 +47,19 @@ def draw_background(layout, settings, text: str | None = None) -> None:
         layout.prop(settings, "zenith")
 
 
+def wrapped(text: str, width: int, indent: int = 0) -> list[str]:
+    """text wrapped into lines that fit a panel of width pixels, less indent pixels (an icon, a box): about 6.3 pixels a
+    character at 11 points (the real-window test measures the lines with Blender's font)."""
+    import textwrap
+
+    scale = (bpy.context.preferences.system.ui_scale if bpy.context else 1.0) or 1.0  # 0 in background mode
+    characters = max(12, int((width / scale - 2 * 14 - 12 - indent) / 6.3))
+    return textwrap.wrap(text, characters) or [""]
+
+
+RESULT_ICONS = {"INFO": "INFO", "WARNING": "ERROR", "ERROR": "CANCEL"}
+
+
 class WeathervanePanel:
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
@@ -66,6 +80,13 @@ class WEATHERVANE_PT_main(WeathervanePanel, bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("weathervane.export", icon="EXPORT", text="Export")
         row.operator("weathervane.reset", icon="LOOP_BACK", text="Reset")
+        # the last action's result line, kept until the next one (Blender's status bar shows it only for a while)
+        line, kind = result_line()
+        if line:
+            column = layout.box().column(align=True)
+            width = context.region.width if context.region else 229
+            for index, text in enumerate(wrapped(line, width, indent=30)):
+                column.label(text=text, icon=RESULT_ICONS.get(kind, "INFO") if index == 0 else "BLANK1")
 
 
 class WEATHERVANE_PT_wind(WeathervanePanel, bpy.types.Panel):
@@ -153,15 +174,16 @@ class WEATHERVANE_PT_materials(WeathervanePanel, bpy.types.Panel):
             column.prop(entry, "color")
             column.prop(entry, "specular")
             column.prop(entry, "reflective")
-            column.label(text=f"Parts: {entry.parts}")
+            for line in wrapped(f"Parts: {entry.parts}", context.region.width if context.region else 229):
+                column.label(text=line)
 
 
 class WEATHERVANE_UL_lights(bpy.types.UIList):
     def draw_item(self, _context, layout, _data, item, _icon, _active_data, _active_property, _index):
-        row = layout.row(align=True)
+        # the type's name only: beside a value field "Directional" is cut at the sidebar's default width (the
+        # intensity is the field under the list)
         kind = entry_kind(item)
-        row.label(text=kind.title(), icon=LIGHT_ICONS.get(kind, "LIGHT"))
-        row.prop(item, "intensity", text="")
+        layout.label(text=kind.title(), icon=LIGHT_ICONS.get(kind, "LIGHT"))
 
 
 class WEATHERVANE_PT_lights(WeathervanePanel, bpy.types.Panel):
@@ -213,10 +235,16 @@ class WEATHERVANE_PT_camera(WeathervanePanel, bpy.types.Panel):
         if camera is None:
             layout.label(text="The scene has no camera", icon="INFO")
             return
-        layout.prop(camera, "location")
-        layout.prop(camera, "rotation_euler", text="Rotation")
+        # Blender's own Object Properties layout: "Location X", "Y", "Z" in a label column beside the values (in a
+        # row the label and three values share the sidebar's width and all four are cut)
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.column(align=True).prop(camera, "location")
+        layout.column(align=True).prop(camera, "rotation_euler", text="Rotation")
         if camera.type == "CAMERA":
-            layout.prop(camera.data, "lens")
+            column = layout.column()
+            column.use_property_split = False  # the label inside the field: a label column cuts "Focal Length"
+            column.prop(camera.data, "lens", text="Focal Length")
 
 
 class WEATHERVANE_PT_render(WeathervanePanel, bpy.types.Panel):

@@ -91,10 +91,12 @@ class ViewportSession:
         self._shown_key: str | None = None
         self._texture = None
         self._texture_level = None
+        self.status = ""  # the status line last drawn
         _sessions.add(self)
 
     def close(self) -> None:
         self.progressive.close()
+        self._texture = self._texture_level = None  # the GPU texture freed now, not when Python ends
         _sessions.discard(self)
 
     def update_scene(self, context, depsgraph) -> None:
@@ -145,12 +147,19 @@ class ViewportSession:
         from gpu_extras.presets import draw_texture_2d
 
         draw_texture_2d(self._texture, (0, 0), region.width, region.height)
+        self.status = self._status(level)
+        return self.status
+
+    def _status(self, level) -> str:
+        """The view's status line for the level drawn: never a previous scene's figures as the new one's."""
         if self.error or self.progressive.error:
             return self.error or self.progressive.error
+        if level.generation != self.progressive.generation:  # the previous scene's image, until the change is traced
+            return "Weathervane Tracer: updating"
         whole = level.image.shape[0] * level.image.shape[1]
         if level.divisor == 1 and level.traced < whole:
             return f"Weathervane Tracer: edit, {level.traced} of {whole} pixels traced again in {level.seconds:.2f} s"
-        if level.divisor == 1 and not self.progressive.busy:
+        if level.divisor == 1:  # done, even while the ray trees for edits are kept in the background
             return f"Weathervane Tracer: done in {level.seconds:.2f} s"
         return f"Weathervane Tracer: 1/{level.divisor} resolution ({level.seconds:.2f} s)"
 
@@ -181,7 +190,9 @@ def _redraw_rendered_views() -> float | None:
         for area in window.screen.areas:
             if area.type == "VIEW_3D" and area.spaces.active.shading.type == "RENDERED":
                 area.tag_redraw()
-    if any(session.progressive.busy for session in list(_sessions)):
+    # until every image is done (the ray trees kept afterwards change nothing on screen); this tick's redraw shows
+    # the last level and its "done"
+    if any(not session.progressive.done and session.progressive.busy for session in list(_sessions)):
         return REDRAW_SECONDS
     _redrawing = False
     return None

@@ -71,13 +71,25 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
     )
     log = result.stdout + result.stderr
     assert result.returncode == 0, log[-4000:]
+    # Blender was quit during an F12: nothing of Blender's memory leaked, and no worker process outlives it
+    assert "WEATHERVANE-GUI quitting during F12" in log, log[-4000:]
+    assert "Not freed memory blocks" not in log, log[-4000:]
+    check_no_worker_left(config)
     assert "WEATHERVANE-GUI built" in log and "WEATHERVANE-GUI screenshot" in log, log[-4000:]
     assert "WEATHERVANE-GUI undo and redo" in log, log[-4000:]
     assert "WEATHERVANE-GUI export menu" in log, log[-4000:]
     # every number field's label and value fit the sidebar at its default width (measured with the UI font)
     print(*(line for line in log.splitlines() if line.startswith("WEATHERVANE-GUI")), sep="\n")
+    # every text of every panel (open) in every state fits its room at the sidebar's and Properties' default widths,
+    # and every tooltip is one whole line (tests/addon/gui_measure.py)
     assert "WEATHERVANE-GUI labels fit" in log, log[-4000:]
-    assert "Traceback" not in log and "Error: Python" not in log, log[-4000:]
+    assert "WEATHERVANE-GUI tooltips one line" in log, log[-4000:]
+    for page in (1, 2, 3):
+        assert SCREENSHOT.with_name(f"weathervane-gui-sidebar-{page}.png").exists()
+    # no Python error anywhere before the quit; at the quit, only Blender 3.4's readonly state (below)
+    before, _, at_quit = log.partition("WEATHERVANE-GUI quitting during F12")
+    assert "Traceback" not in before and "Error: Python" not in before, before[-4000:]
+    check_quit_errors(at_quit)
     with Image.open(SCREENSHOT) as image:
         assert image.size == (1600, 900)
         colors = image.convert("RGB").getcolors(maxcolors=1 << 20)
@@ -89,11 +101,54 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
     for tab in ("material-part", "data-light", "world-part", "data-part"):
         assert f"WEATHERVANE-GUI shading panels {tab.replace('-', ' ')}" in log, log[-4000:]
         assert SCREENSHOT.with_name(f"weathervane-gui-{tab}.png").exists(), tab
+    # a small edit in the Rendered view: only the new scene's status lines were drawn, up to the edited image
+    assert "WEATHERVANE-GUI small edit in the Rendered view" in log, log[-4000:]
     assert "WEATHERVANE-GUI rendered view stopped with Solid shading" in log
     check_f12_is_the_command_lines_png(tmp_path)
     check_rendered_view_is_the_tracers_image(tmp_path, SCREENSHOT.with_name("weathervane-gui-rendered.png"))
     assert "WEATHERVANE-GUI foreign scene added" in log and "foreign rendered screenshot" in log, log[-4000:]
     check_foreign_scene(tmp_path)
+
+
+def check_quit_errors(at_quit: str) -> None:
+    """Blender 3.4 keeps one process-wide "Python may not write" flag, saved and restored around every Python
+    callback: a render engine's render() on the F12 job's thread that starts while a panel draws on the main thread
+    restores it to "readonly" when it ends, and Blender's quit then cannot unregister any add-on ("can't run in readonly
+    state": seen in one of six quits here, a run with the base code's pools; the mechanism is inferred, not traced).
+    That, and nothing else, may be in the log after the quit; the worker processes are checked separately (none may
+    be left either way)."""
+    blocks = at_quit.split("Traceback (most recent call last):")[1:]
+    for block in blocks:
+        assert "addon_utils.py" in block and "can't run in readonly state" in block, block[:2000]
+    print(f"WEATHERVANE-GUI add-ons that could not unregister at the quit (Blender's readonly state): {len(blocks)}")
+
+
+def check_no_worker_left(config: Path) -> None:
+    """No process with this Blender's environment (its worker processes inherit BLENDER_USER_CONFIG) is left once
+    Blender has exited: none started while it quit, none lingering (given a second for the last ones to be reaped)."""
+    import time
+
+    marker = f"BLENDER_USER_CONFIG={config}".encode()
+
+    def left() -> list[int]:
+        pids = []
+        for entry in Path("/proc").iterdir():
+            if entry.name.isdigit():
+                try:
+                    environment = (entry / "environ").read_bytes().split(b"\0")
+                except OSError:
+                    continue
+                if marker in environment:
+                    pids.append(int(entry.name))
+        return pids
+
+    started = time.perf_counter()
+    while left() and time.perf_counter() - started < 1.0:
+        time.sleep(0.1)
+    pids = left()
+    commands = [Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ")[:200] for pid in pids]
+    print(f"WEATHERVANE-GUI processes left after Blender quit during F12: {len(pids)} {commands}")
+    assert not pids, commands
 
 
 def covered(empty: np.ndarray, shown: np.ndarray, box: list, name: str, where: str) -> None:
@@ -130,6 +185,7 @@ def check_foreign_scene(work: Path) -> None:
         covered(empty_f12, shown_f12, box, name, "f12")
     # the view is laid out as for the first Rendered screenshot: the same region, only the new objects differ
     first = json.loads((work / "rendered-region.json").read_text())
+    first.pop("hud", None)
     assert places["view"]["region"] == first, (places["view"]["region"], first)
     with Image.open(SCREENSHOT.with_name("weathervane-gui-rendered.png")) as empty, Image.open(FOREIGN_VIEW) as shown:
         empty_view, shown_view = np.asarray(empty.convert("RGB")), np.asarray(shown.convert("RGB"))
@@ -161,6 +217,11 @@ def check_rendered_view_is_the_tracers_image(work: Path, screenshot: Path) -> No
         shown = np.asarray(image.convert("RGB"))[top : top + place["height"], place["x"] : place["x"] + place["width"]]
     expected = to_8bit(render(load_scene(work / "rendered-scene.json"), workers=2).image, srgb=True)
     assert shown.shape == expected.shape
+    shown = shown.copy()
+    for x, y, width, height in place.get("hud", []):  # the last operator's panel over the view: not compared
+        left, hud_top = x - place["x"], place["window"] - y - height - top
+        shown[max(0, hud_top) : hud_top + height, max(0, left) : left + width] = 0
+        expected[max(0, hud_top) : hud_top + height, max(0, left) : left + width] = 0
     # Blender draws the area's border and rounded corners (and the corners' split widgets) over the view's edge
     margin = 10
     shown, expected = shown[margin:-margin, margin:-margin], expected[margin:-margin, margin:-margin]

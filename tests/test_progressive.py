@@ -178,3 +178,33 @@ def test_the_edits_between_two_scenes_are_found_or_refused() -> None:
     sphere = next(obj for obj in scene.objects if isinstance(obj, sc.Sphere))
     grown = tuple(replace(obj, radius=obj.radius * 2) if obj is sphere else obj for obj in scene.objects)
     assert edits_between(scene, replace(scene, objects=grown)) is None
+
+
+def test_done_once_the_full_image_is_the_latest_even_while_its_ray_trees_are_kept() -> None:
+    seen: list = []
+    progressive = ProgressiveRender(1)
+    progressive._on_level = lambda level: seen.append((level.divisor, progressive.done, progressive.busy))
+    try:
+        assert not progressive.done and progressive.generation == 0
+        scene = small_scene()
+        generation = progressive.show(scene)
+        assert progressive.generation == generation
+        assert progressive.wait(120)
+        # coarse levels are not done; the full one is, while the thread goes on to keep its ray trees (busy)
+        assert seen == [(8, False, True), (4, False, True), (2, False, True), (1, True, True)]
+        assert progressive.done and not progressive.busy
+        # a newer scene: the shown image is the previous scene's until the new one's first level
+        progressive.show(scene.with_heading(40.0))
+        assert not progressive.done or progressive.latest().generation == progressive.generation
+        assert progressive.wait(120) and progressive.done
+    finally:
+        progressive.close()
+
+
+def test_no_ray_trees_are_kept_for_a_scene_whose_full_level_took_long(monkeypatch) -> None:
+    monkeypatch.setattr(progressive_module, "EDITABLE_SECONDS", 0.0)
+    scene = small_scene()
+    with shown(scene) as (progressive, levels):
+        progressive.show(edits()[0][1](scene))  # a small edit, but nothing kept to apply it to
+        assert progressive.wait(120)
+        assert [level.divisor for level in levels] == list(LEVELS)

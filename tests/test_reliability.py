@@ -327,3 +327,31 @@ def test_output_through_a_symbolic_link_replaces_what_it_points_to_and_keeps_the
     assert link.is_symlink() and link.resolve() == real
     assert real.read_bytes().startswith(b"\x89PNG")
     assert sorted(path.name for path in tmp_path.iterdir()) == ["link.png", "real.png"]
+
+
+def test_a_renderer_closed_for_good_from_another_thread_stops_its_render_and_starts_no_worker_again() -> None:
+    """Blender quitting during F12: the add-on closes its pools on the main thread while the render's thread waits
+    on them. The render ends with PoolClosedError, the workers it ended are not replaced, and nothing starts more."""
+    import threading
+
+    from tracer.workers.pool import PoolClosedError
+
+    renderer = Renderer(2, start_method="spawn")
+    scene = default_scene().with_render(width=320, height=240)
+    renderer.render(scene.with_render(width=8, height=8))  # the pool is up
+    pool = renderer._pool
+    failures: list = []
+
+    def closing(done: int, _total: int) -> None:
+        if done == 1:
+            threading.Thread(target=renderer.close, kwargs={"final": True}).start()
+            time.sleep(0.5)
+
+    try:
+        renderer.render(scene, progress=closing)
+    except PoolClosedError as error:
+        failures.append(error)
+    assert failures and pool.restarts == 0 and pool.pids() == []
+    with pytest.raises(PoolClosedError):
+        renderer.render(scene)
+    assert renderer._pool is None

@@ -84,7 +84,8 @@ def prepare() -> float | None:
 def setup() -> None:
     assert bpy.ops.preferences.addon_install(filepath=ADDON_ZIP, overwrite=True) == {"FINISHED"}
     assert bpy.ops.preferences.addon_enable(module="weathervane") == {"FINISHED"}
-    bring_tab_forward()
+    open_every_panel()
+    bring_tab_forward()  # after: the other tabs' panels registered last, the Weathervane tab first
     cube = bpy.data.objects.get("Cube")
     if cube is not None:
         bpy.data.objects.remove(cube)
@@ -117,104 +118,95 @@ def setup() -> None:
     bpy.app.timers.register(capture, first_interval=2.0)
 
 
-class Recorder:
-    """A stand-in for a panel's layout that notes what is drawn: each item as (text, pixels it needs beside the
-    text, its share of the row) in a row of its own, so that buttons side by side each get their share."""
-
-    def __init__(self, rows: list, horizontal: bool = False) -> None:
-        self.rows = rows
-        self.horizontal = horizontal
-        self.items: list = []
-        if horizontal:
-            rows.append(self.items)
-        self.active = True
-
-    def __getattr__(self, name: str):
-        if name in ("row", "split"):
-            return lambda *args, **kwargs: Recorder(self.rows, horizontal=True)
-        if name in ("column", "box"):
-            return lambda *args, **kwargs: Recorder(self.rows)
-        return lambda *args, **kwargs: None
-
-    def _add(self, text: str, beside: float) -> None:
-        if self.horizontal:
-            self.items.append((text, beside))
-        else:
-            self.rows.append([(text, beside)])
-
-    def prop(self, data, name: str, text: str | None = None, expand: bool = False, **kwargs) -> None:
-        rna = data.bl_rna.properties[name]
-        label = text if text is not None else rna.name
-        if rna.type == "ENUM":
-            if expand:
-                for item in rna.enum_items:
-                    self._add(item.name, 0.0)  # one button each
-            else:
-                shown = next(item.name for item in rna.enum_items if item.identifier == getattr(data, name))
-                self._add(shown if text == "" else f"{label} {shown}", 20.0)  # the menu's arrow
-        elif rna.type in ("FLOAT", "INT") and getattr(rna, "array_length", 0) == 0:
-            if text != "":
-                self._add(label, VALUE_ROOM)
-        elif rna.type == "BOOLEAN":
-            if text != "":
-                self._add(label, 20.0)  # the checkbox
-        elif text != "":
-            self._add(label, 0.0)  # a vector's or colour's label above or beside it
-
-    def label(self, text: str = "", **kwargs) -> None:
-        self._add(text, 20.0)  # an icon
-
-    def operator(self, idname: str, text: str | None = None, icon: str = "NONE", **kwargs) -> None:
-        module, name = idname.split(".")
-        label = text if text is not None else getattr(bpy.ops, module).__getattr__(name).get_rna_type().name
-        if label:
-            self._add(label, 20.0 if icon != "NONE" else 0.0)
-
-    def operator_menu_enum(self, *args, text: str = "", **kwargs) -> None:
-        if text:
-            self._add(text, 20.0)
+def open_every_panel() -> None:
+    """The add-on's panels registered again without DEFAULT_CLOSED, before they are first drawn: the window shows
+    every panel and sub-panel open (Blender 3.4 has no API to open a panel)."""
+    for cls in reversed(PANELS()):
+        bpy.utils.unregister_class(cls)
+    for cls in PANELS():
+        cls.bl_options = set(getattr(cls, "bl_options", set())) - {"DEFAULT_CLOSED"}
+        bpy.utils.register_class(cls)
 
 
-VALUE_ROOM = 60.0  # a number field's value: about 8 characters ("600 ms", "200°") at 11 points
+def PANELS() -> list:  # noqa: N802 - read like a constant
+    """The add-on's panels: the sidebar's, and its own in the Properties editor (Scene Conversion opens too)."""
+    classes = sys.modules["weathervane.panels"].CLASSES + sys.modules["weathervane.render_panels"].CLASSES
+    return [cls for cls in classes if issubclass(cls, bpy.types.Panel)]
 
 
 def measure_labels() -> None:
-    """Every text the Weathervane panels draw (labels, field labels with room for their values, menu and button
-    texts at their share of a row), in Blender's UI font, against the sidebar's width at its default size."""
-    import blf
+    """Every text of every panel in every state against its room (tests/addon/gui_measure.py), at the sidebar's
+    and the Properties editor's widths as the window has them; and every tooltip one whole line."""
+    import os
 
-    _, area, _ = view3d()
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import gui_measure
+
+    window, area, _ = view3d()
     sidebar = next(r for r in area.regions if r.type == "UI")
-    scale = bpy.context.preferences.system.ui_scale
-    if bpy.app.version >= (4, 0, 0):
-        blf.size(0, 11 * scale)
-    else:
-        blf.size(0, 11, int(72 * scale))
-    rows: list = []
-    holder = type("Panel", (), {})()
-    for cls in bpy.types.Panel.__subclasses__():
-        if getattr(cls, "bl_category", "") == "Weathervane" and cls.is_registered:
-            holder.layout = Recorder(rows)
-            cls.draw(holder, bpy.context)
-    width = sidebar.width - 2 * 14 * scale  # the panel's margins
-    needs = {}
-    for row in rows:
-        for text, beside in row:
-            room = width / len(row) - 12 * scale  # a field's padding
-            needs[text] = max(needs.get(text, 0.0), (blf.dimensions(0, text)[0] + beside * scale) / room)
-    too_wide = sorted(text for text, share in needs.items() if share > 1.0)
-    widest = max(needs, key=needs.get)
+    editor = next(a for a in window.screen.areas if a.type == "PROPERTIES")
+    properties = next(r for r in editor.regions if r.type == "WINDOW")
+    found, tips = gui_measure.measure(bpy.context, sidebar.width, properties.width)
+    too_wide = sorted((text, where, share) for text, (share, where) in found.items() if share > 1.0)
+    widest = max(found, key=lambda text: found[text][0])
     print(
-        f"WEATHERVANE-GUI sidebar {sidebar.width} px, {len(needs)} texts, the widest {widest!r} needs "
-        f"{100 * needs[widest]:.0f}% of its room"
+        f"WEATHERVANE-GUI sidebar {sidebar.width} px, Properties {properties.width} px: {len(found)} texts, the "
+        f"widest {widest!r} ({found[widest][1]}) needs {100 * found[widest][0]:.0f}% of its room"
     )
     print("WEATHERVANE-GUI labels fit" if not too_wide else f"WEATHERVANE-GUI labels too wide: {too_wide}")
+    print("WEATHERVANE-GUI tooltips one line" if not tips else f"WEATHERVANE-GUI tooltips cut: {tips}")
+
+
+def screenshot_sidebar() -> None:
+    """The sidebar with every panel open, scrolled a page at a time: SCREENSHOT-sidebar-N.png."""
+    window, area, _ = view3d()
+    sidebar = next(r for r in area.regions if r.type == "UI")
+    for page in range(3):
+        if page:
+            with bpy.context.temp_override(window=window, area=area, region=sidebar):
+                bpy.ops.view2d.scroll_down(page=True)
+            sidebar.tag_redraw()
+            bpy.ops.wm.redraw_timer(type="DRAW_WIN_SWAP", iterations=1)
+        screenshot(f"-sidebar-{page + 1}")
+    with bpy.context.temp_override(window=window, area=area, region=sidebar):
+        for _ in range(3):
+            bpy.ops.view2d.scroll_up(page=True)
+    bpy.ops.wm.redraw_timer(type="DRAW_WIN_SWAP", iterations=1)
 
 
 def capture() -> float | None:
     measure_labels()
+    screenshot_sidebar()
     screenshot()
     print("WEATHERVANE-GUI screenshot", SCREENSHOT)
+    return guarded(reset_in_camera_view)
+
+
+def result_line() -> str:
+    """The add-on's last result line as the sidebar shows it (kind: text)."""
+    line, kind = sys.modules["weathervane.operators"].result_line()
+    return f"{kind}: {line}"
+
+
+def reset_in_camera_view() -> float | None:
+    """Reset (as its dialog's OK runs it) while the 3D View looks through the camera: the view stays the camera
+    view once Blender has redrawn, and the sidebar shows Reset's result line."""
+    window, area, region = view3d()
+    assert area.spaces.active.region_3d.view_perspective == "CAMERA"
+    print("WEATHERVANE-GUI result line after Build:", result_line())
+    assert result_line().startswith(("INFO: Built", "WARNING: Built")), result_line()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        assert bpy.ops.weathervane.reset("EXEC_DEFAULT", True) == {"FINISHED"}
+    return guarded(check_reset_kept_camera_view)
+
+
+def check_reset_kept_camera_view() -> float | None:
+    _, area, _ = view3d()
+    perspective = area.spaces.active.region_3d.view_perspective
+    assert perspective == "CAMERA", f"Reset left the camera view for {perspective}"
+    assert result_line().startswith(("INFO: Built", "WARNING: Built")), result_line()
+    screenshot("-after-reset")
+    print("WEATHERVANE-GUI reset kept the camera view; result line:", result_line())
     return guarded(show_output_properties)
 
 
@@ -314,7 +306,8 @@ def render_f12() -> float | None:
     scene.render.filepath = os.path.join(WORK, "f12.png")
     assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
     assert bpy.ops.weathervane.export(filepath=os.path.join(WORK, "f12-scene.json")) == {"FINISHED"}
-    print("WEATHERVANE-GUI f12 rendered")
+    assert result_line().startswith("INFO: Wrote"), result_line()
+    print("WEATHERVANE-GUI f12 rendered; result line after Export:", result_line())
     return guarded(show_rendered)
 
 
@@ -353,7 +346,11 @@ def full_image_then(step, idle: bool = True) -> float | None:
         ):
             assert time.perf_counter() - started < RENDERED_WAIT_SECONDS, "the Rendered view did not finish"
             return 0.5
-        print(f"WEATHERVANE-GUI rendered view {region.width}x{region.height} traced in {level.seconds:.2f} s")
+        busy = sessions[0].progressive.busy
+        print(
+            f"WEATHERVANE-GUI rendered view {region.width}x{region.height} traced in {level.seconds:.2f} s "
+            f"({'keeping its ray trees' if busy else 'idle'} {time.perf_counter() - started:.1f} s into the wait)"
+        )
         area.tag_redraw()  # drawn with that image before the next step
         return guarded(step)
 
@@ -374,6 +371,10 @@ def capture_rendered() -> float | None:
     with open(os.path.join(WORK, "rendered-scene.json"), "w") as file:
         json.dump(document, file)
     place = {"x": region.x, "y": region.y, "width": region.width, "height": region.height, "window": window.height}
+    # the last operator's panel (Reset's "Adjust Last Operation") drawn over the view's corner, in window pixels
+    # (hiding it with show_region_hud crashes Blender 3.4.1 when the view then goes Rendered)
+    huds = [r for r in area.regions if r.type == "HUD" and r.width > 1 and r.height > 1]
+    place["hud"] = [[r.x, r.y, r.width, r.height] for r in huds]
     with open(os.path.join(WORK, "rendered-region.json"), "w") as file:
         json.dump(place, file)
     screenshot("-rendered")
@@ -387,13 +388,43 @@ def capture_rendered() -> float | None:
 
 
 def capture_rendered_with_the_interface() -> float | None:
-    _, area, _ = view3d()
     screenshot("-rendered-ui")
-    print("WEATHERVANE-GUI rendered screenshot with the interface")
-    # back to Solid shading: Blender frees the view's engine, which stops its thread and workers
-    area.spaces.active.shading.type = "SOLID"
-    area.tag_redraw()
-    return guarded(check_rendered_view_stopped)
+    (session,) = list(sys.modules["weathervane.viewport"]._sessions)
+    print("WEATHERVANE-GUI rendered screenshot with the interface, status:", session.status)
+    assert session.status.startswith("Weathervane Tracer: done in"), session.status
+    return guarded(edit_in_rendered_view)
+
+
+def edit_in_rendered_view() -> float | None:
+    """A small edit (the tail fin's colour, as the Materials panel sets it) in the Rendered view: every status line
+    drawn from then on is the new scene's ("updating", then the edit's or a level's), never the previous scene's
+    "done" or a stale "1/1 resolution"; the time to the edited image is recorded (not asserted)."""
+    import time
+
+    (session,) = list(sys.modules["weathervane.viewport"]._sessions)
+    before, generation = session.status, session.progressive.generation
+    materials = {entry.name: entry for entry in bpy.context.scene.weathervane.materials}
+    materials["verdigris"].color = (0.9, 0.2, 0.1)
+    started, seen = time.perf_counter(), []
+
+    def poll() -> float | None:
+        if session.progressive.generation > generation and (not seen or seen[-1] != session.status):
+            seen.append(session.status)
+        if seen and session.progressive.done and not session.status.startswith("Weathervane Tracer: updating"):
+            print(
+                f"WEATHERVANE-GUI small edit in the Rendered view: {time.perf_counter() - started:.2f} s to "
+                f"{session.status!r}; statuses drawn: {seen}"
+            )
+            assert before not in seen and not any("1/1 resolution" in status for status in seen), seen
+            _, area, _ = view3d()
+            # back to Solid shading: Blender frees the view's engine, which stops its thread and workers
+            area.spaces.active.shading.type = "SOLID"
+            area.tag_redraw()
+            return guarded(check_rendered_view_stopped)
+        assert time.perf_counter() - started < RENDERED_WAIT_SECONDS, f"the edit was not drawn: {seen}"
+        return 0.02
+
+    return guarded(poll)
 
 
 def check_rendered_view_stopped(waited: list = [0]) -> float | None:  # noqa: B006 - counts this step's polls
@@ -419,7 +450,35 @@ def open_export_menu() -> float | None:
 def capture_menu() -> float | None:
     target = screenshot("-export-menu")
     print("WEATHERVANE-GUI export menu", target)
-    bpy.app.timers.register(lambda: bpy.ops.wm.quit_blender() and None, first_interval=0.5)
+    return guarded(f12_then_quit)
+
+
+QUIT_DURING_F12 = (1280, 720)  # F12's size when Blender is quit during it: several seconds of tracing here
+
+
+def f12_then_quit() -> float | None:
+    """F12 as the key starts it (a render job beside the window), and Blender quit while it traces: the test then
+    checks that Blender's log has no leaked memory blocks and that no worker process outlives Blender."""
+    import time
+
+    window, area, region = view3d()
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = QUIT_DURING_F12
+    scene.render.use_lock_interface = False
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        assert bpy.ops.render.render("INVOKE_DEFAULT") == {"RUNNING_MODAL"}
+    started = time.perf_counter()
+
+    def quit_while_tracing() -> float | None:
+        if not bpy.app.is_job_running("RENDER"):
+            assert time.perf_counter() - started < 30, "F12 did not start"
+            return 0.1
+        print(f"WEATHERVANE-GUI quitting during F12, {time.perf_counter() - started:.1f} s after it started")
+        sys.stdout.flush()
+        bpy.ops.wm.quit_blender()
+        return None
+
+    bpy.app.timers.register(quit_while_tracing, first_interval=1.0)
     return None
 
 

@@ -142,3 +142,19 @@ def test_a_scene_the_tracer_cannot_render_shows_one_line_in_the_view() -> None:
         assert session.progressive.latest() is None and not session.progressive.busy
     finally:
         session.close()
+
+
+def test_the_status_line_never_shows_a_previous_scenes_figures_and_says_done_with_the_full_image() -> None:
+    """After an edit the view first shows the previous image: its status says the change is being traced, not the
+    previous scene's "1/1 resolution (time)"; a full image is "done" even while its ray trees are kept for edits."""
+    session = viewport.ViewportSession.__new__(viewport.ViewportSession)
+    session.error = None
+    level = SimpleNamespace(image=np.zeros((4, 6, 3)), divisor=1, generation=1, seconds=0.5, traced=24)
+    session.progressive = SimpleNamespace(error=None, generation=1, busy=True)  # keeping the ray trees
+    assert session._status(level) == "Weathervane Tracer: done in 0.50 s"
+    session.progressive.generation = 2  # an edit handed over, nothing of it traced yet
+    assert session._status(level) == "Weathervane Tracer: updating"
+    coarse = SimpleNamespace(image=np.zeros((1, 1, 3)), divisor=8, generation=2, seconds=0.1, traced=1)
+    assert session._status(coarse) == "Weathervane Tracer: 1/8 resolution (0.10 s)"
+    edited = SimpleNamespace(image=np.zeros((4, 6, 3)), divisor=1, generation=2, seconds=0.05, traced=3)
+    assert session._status(edited) == "Weathervane Tracer: edit, 3 of 24 pixels traced again in 0.05 s"

@@ -10,7 +10,8 @@ While nothing changes after the full level, the thread traces the scene once mor
 pixel's ray tree (edits.py; up to EDITABLE_SAMPLES). A next scene that differs by one edit (a material, a light's
 intensity, an object moved) touching at most EDIT_SHARE of the pixels then skips the coarse levels: those pixels
 are traced again over the kept image, the same bytes as a whole render. (Dragging a slider is one edit after
-another.)
+another.) Keeping the trees is skipped where the full level took longer than EDITABLE_SECONDS per worker; while they
+are kept, done is already true (the image is finished) though busy is not yet false.
 """
 
 from __future__ import annotations
@@ -31,6 +32,10 @@ LEVELS = (8, 4, 2, 1)  # divisors of the image's width and height, coarse to fin
 # bytes a sample on the default scene: 216 MB at 1280x720, traced again in 1.3 s in one process, in pieces), so that
 # a later scene that differs by one small edit is answered at full size by tracing only the pixels it changes.
 EDITABLE_SAMPLES = 1 << 20
+# Nor when the full level took longer than this many seconds times the pool's workers: the ray trees are traced again
+# in one process, and a scene of many triangles (a subdivided Suzanne in a 1321x786 view) kept them for 16 s after
+# its image was done, its CPU taken from the next edit's coarse levels.
+EDITABLE_SECONDS = 1.5
 # An edit that changes more than this share of the pixels goes coarse to fine instead: its re-trace in one process
 # would come later than the pool's first coarse level (the ground's material: 57% of the default scene's pixels).
 EDIT_SHARE = 0.2
@@ -107,6 +112,20 @@ class ProgressiveRender:
             return self._busy
 
     @property
+    def generation(self) -> int:
+        """The newest scene's generation (counted from 1 as scenes are handed over; 0 before any)."""
+        with self._condition:
+            return self._generation
+
+    @property
+    def done(self) -> bool:
+        """Whether the newest scene's full-size image is the latest level (the thread may still be keeping its ray
+        trees for edits: busy, but with nothing more to show)."""
+        with self._condition:
+            latest = self._latest
+            return latest is not None and latest.generation == self._generation and latest.divisor == 1
+
+    @property
     def closed(self) -> bool:
         with self._condition:
             return self._closed
@@ -149,11 +168,17 @@ class ProgressiveRender:
                         self._deliver(level, handed_over)
                     else:
                         editable = None
+                        full_seconds = 0.0
                         for divisor in self._levels:
+                            started = time.perf_counter()
                             result = renderer.render(level_scene(scene, divisor), progress=check)
+                            full_seconds = time.perf_counter() - started
                             count = result.image.shape[0] * result.image.shape[1]
                             self._deliver(Level(result.image, divisor, generation, 0.0, count), handed_over)
-                        if scene.render.width * scene.render.height * scene.render.samples <= EDITABLE_SAMPLES:
+                        if (
+                            scene.render.width * scene.render.height * scene.render.samples <= EDITABLE_SAMPLES
+                            and full_seconds <= EDITABLE_SECONDS * renderer.workers
+                        ):
                             editable = EditableImage(scene, between_pieces=check)
                     error = None
                 except _SupersededError:

@@ -25,7 +25,7 @@ from ..geometry.camera import border_window
 from ..geometry.footprint import Volume
 from ..scene import scene as sc
 from ..tracing.wavefront import PreparedScene, RayCounts
-from .pool import Task, WorkerPool
+from .pool import PoolClosedError, Task, WorkerPool
 from .resources import band_samples, check_resources
 
 BLOCK_ROWS = 16
@@ -195,6 +195,7 @@ class Renderer:
         default = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
         self._start_method = start_method or default
         self._shared = hasattr(os, "memfd_create")
+        self._final = False  # closed for good: no pool is started again
 
     def __enter__(self) -> Renderer:
         return self
@@ -202,12 +203,17 @@ class Renderer:
     def __exit__(self, *_exc: object) -> None:
         self.close()
 
-    def close(self) -> None:
+    def close(self, final: bool = False) -> None:
+        """Stop the workers (a later render starts them again, unless final: it then raises PoolClosedError, as
+        does a render waiting on them in another thread)."""
+        self._final = self._final or final
         if self._pool is not None:
             self._pool.close()
             self._pool = None
 
     def _start_pool(self) -> WorkerPool:
+        if self._final:
+            raise PoolClosedError("the renderer is closed")
         if self._pool is None:
             self._pool = WorkerPool(self.workers, self._start_method)
         return self._pool

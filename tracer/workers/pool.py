@@ -40,6 +40,10 @@ class WorkerLostError(RuntimeError):
     """A task's workers died MAX_ATTEMPTS times (killed by a signal, out of memory, ...)."""
 
 
+class PoolClosedError(RuntimeError):
+    """The pool was closed (from another thread) while tasks were waiting on it: no worker is started again."""
+
+
 class TaskFailedError(RuntimeError):
     """A task raised in a worker; details holds the worker's traceback."""
 
@@ -142,6 +146,7 @@ class WorkerPool:
         self._workers: list[_Worker] = []
         self._queue: deque[Task] = deque()
         self.restarts = 0  # workers replaced after a death, over the pool's life
+        self._closed = False  # set by close(), from any thread: no worker is started or replaced after it
         for _ in range(workers):
             self._start_worker()
 
@@ -149,6 +154,8 @@ class WorkerPool:
 
     def submit(self, function: Callable[..., Any], args: tuple, descriptor: int | None = None) -> Task:
         """Queue function(*args) (plus descriptor, received in the worker as a descriptor of its own)."""
+        if self._closed:
+            raise PoolClosedError("the worker pool is closed")
         task = Task(function, args, descriptor)
         self._queue.append(task)
         self._dispatch()
@@ -177,6 +184,8 @@ class WorkerPool:
     # ---- workers -----------------------------------------------------------------------------------------------
 
     def _start_worker(self) -> None:
+        if self._closed:
+            return
         parent_end, child_end = multiprocessing.Pipe(duplex=True)
         inherited = []
         if self._context.get_start_method() == "fork":
@@ -210,8 +219,14 @@ class WorkerPool:
                 worker.tasks.append(task)
 
     def _wait(self) -> None:
-        """Block until a worker sends a result or dies; handle it and refill the workers."""
-        ready = connection.wait([w.conn for w in self._workers] + [w.process.sentinel for w in self._workers])
+        """Block until a worker sends a result or dies; handle it and refill the workers. Raises PoolClosedError once
+        the pool is closed (another thread closed it while this one waited: the workers it ended are not replaced)."""
+        workers = list(self._workers)
+        if self._closed or not workers:
+            raise PoolClosedError("the worker pool is closed")
+        ready = connection.wait([w.conn for w in workers] + [w.process.sentinel for w in workers])
+        if self._closed:
+            raise PoolClosedError("the worker pool is closed")
         for worker in list(self._workers):
             # a dead worker's pipe reads as ready too (end of file), after any results it sent before dying
             if (worker.conn in ready or worker.process.sentinel in ready) and not self._receive(worker):
@@ -251,11 +266,13 @@ class WorkerPool:
                 )
             elif not task.cancelled:
                 self._queue.appendleft(task)
-        self.restarts += 1
-        self._start_worker()
+        if not self._closed:
+            self.restarts += 1
+            self._start_worker()
 
     def close(self) -> None:
-        """Stop every worker now (running tasks are abandoned)."""
+        """Stop every worker now (running tasks are abandoned; a thread waiting on them gets PoolClosedError)."""
+        self._closed = True
         workers, self._workers = self._workers, []
         self._queue.clear()
         for worker in workers:
