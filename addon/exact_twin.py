@@ -8,11 +8,12 @@ falloff; Phong or Blinn-Phong highlights, added where N.L <= 0 too, as the listi
 
     local * emission() + r * reflection(N),      local = intensity x color x (1 - r)
 
-so a camera path is listing 3.1's TraceRay: Cycles follows the perfect mirror closure (glossy bounces = depth, no
-diffuse bounces, no Russian roulette), the emission is the local term of each hit, and a miss sees the documented
-background (a world that lights nothing). No scene light is sampled: the lights are hidden for the render (their
-values live in the script) and nothing else emits. The parameters come from what the tracer renders: the add-on's
-export of the same scene, so both paths read one document.
+so a camera path is listing 3.1's TraceRay: Cycles follows the perfect mirror closure for depth mirror rays (its
+glossy bounces = depth - 1, as Cycles counts them), with no diffuse bounces and no Russian roulette; the emission is
+the local term of each hit, and a miss sees the documented background (a world that lights nothing). No scene light
+is sampled: the lights are hidden for the render (their values live in the script) and nothing else emits. The
+parameters come from what the tracer renders: the add-on's export of the same scene, so both paths read one
+document.
 
 What stays different from the tracer: Blender's meshes for the analytic sphere and cylinder (the add-on's adaptive
 tessellation) and their smooth normals, Cycles' random pixel samples against the tracer's stratified ones, float32.
@@ -316,9 +317,13 @@ def apply(
     )
     options = blender_scene.cycles
     options.shading_system = True
-    options.max_bounces = options.glossy_bounces = scene.render.depth
+    # Cycles' max bounces N still follows an (N + 1)-th scattering to the next surface and adds its emission (that
+    # is how direct light is "0 bounces"); here the emission is the whole local term, so the listing's depth D
+    # (D mirror rays after the camera ray) is N = D - 1. Depth 0 has no mirror closure at all (shader_source).
+    bounces = max(scene.render.depth - 1, 0)
+    options.max_bounces = options.glossy_bounces = bounces
     options.diffuse_bounces = options.transmission_bounces = options.volume_bounces = 0
-    options.min_light_bounces = scene.render.depth + 1  # no Russian roulette: every mirror path runs to its depth
+    options.min_light_bounces = bounces + 1  # no Russian roulette: every mirror path runs to its depth
     if hasattr(options, "min_transparent_bounces"):
         options.min_transparent_bounces = 0
     state.source = shader_source(scene)

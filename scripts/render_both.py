@@ -221,10 +221,12 @@ def frames_on_cluster(args: argparse.Namespace, frames: range) -> dict[int, dict
     with tempfile.TemporaryDirectory(prefix="weathervane-cluster-") as folder:
         blend = Path(folder) / "scene.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
-        options = ["--width", str(args.width), "--height", str(args.height), "--engines", ",".join(args.engines)]
+        # the exact twin is the worker's own choice (its Blender's OSL), as here: only what differs from that goes
+        engines = [name for name in args.engines if name != "exact" or args.twin == "exact"]
+        options = ["--width", str(args.width), "--height", str(args.height), "--engines", ",".join(engines)]
         options += ["--cycles-samples", str(args.cycles_samples), "--eevee-samples", str(args.eevee_samples)]
         options += ["--tracer-samples", str(args.tracer_samples)]
-        options += ["--twin", "exact" if "exact" in args.engines else "physical"]
+        options += ["--twin", args.twin] if args.twin else []
         options += ["--pixel-centres"] if args.pixel_centres else []
         runs: list[list[int]] = []  # runs of consecutive frames, --chunk at most
         for frame in wanted:
