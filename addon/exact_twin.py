@@ -18,8 +18,9 @@ document.
 What stays different from the tracer: Blender's meshes for the analytic sphere and cylinder (the add-on's adaptive
 tessellation) and their smooth normals, Cycles' random pixel samples against the tracer's stratified ones, float32.
 
-apply() changes the scene for the render and returns an ExactTwin whose restore() puts every material, light and
-setting back.
+apply() changes the scene for the render and returns an ExactTwin whose restore() puts every material, light, the
+world and the shading system back; the render settings stay the twin's (Cycles, samples, bounces, filter, the
+Standard view), as twin.cycles() leaves them for the physical twin.
 """
 
 from __future__ import annotations
@@ -311,10 +312,9 @@ def apply(
     if document is None:
         document = export.scene_document(context)
     scene = module("scene.loader").scene_from_dict(json.loads(json.dumps(document)), "export")
+    world = blender_scene.world
     twin.cycles(blender_scene, samples, seed)
-    state = ExactTwin(
-        scene=blender_scene, world=blender_scene.world, shading_system=blender_scene.cycles.shading_system
-    )
+    state = ExactTwin(scene=blender_scene, world=world, shading_system=blender_scene.cycles.shading_system)
     options = blender_scene.cycles
     options.shading_system = True
     # Cycles' max bounces N still follows an (N + 1)-th scattering to the next surface and adds its emission (that
