@@ -270,6 +270,11 @@ class ExactTwin:
     world: object = None
     shading_system: bool = False
     source: str = ""
+    approximated: list = field(default_factory=list)  # what of the tracer's scene the twin does not render as it
+
+    def line(self) -> str:
+        """One line naming what the exact twin renders differently from the tracer's scene; empty when nothing."""
+        return f"exact twin: approximates {'; '.join(self.approximated)}" if self.approximated else ""
 
     def restore(self) -> None:
         for slot, material in self.slots:
@@ -358,4 +363,18 @@ def apply(
     if pixel_centres:
         options.pixel_filter_type = "GAUSSIAN"
         options.filter_width = 0.01
+    state.approximated = approximated(scene)
     return state
+
+
+def approximated(scene) -> list[str]:
+    """What the exact twin renders differently from the tracer's Scene, one short phrase each. Camera and mirror
+    visibility and holdouts stay Blender's own object settings, which Cycles honours; but OSL's trace() sees every
+    object, so one that casts no shadow still does. The twin's film is never transparent (twin.cycles)."""
+    notes = []
+    names = [obj.name for obj in scene.objects if not getattr(obj, "visible_shadow", True)]
+    if names:
+        notes.append(f"{len(names)} object{'s' if len(names) > 1 else ''} casting no shadow (they cast one here)")
+    if scene.render.film_transparent:
+        notes.append("a transparent film (the background is rendered)")
+    return notes

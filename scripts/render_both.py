@@ -160,6 +160,8 @@ def render_frame(args: argparse.Namespace, folder: Path) -> dict:
             from addon import exact_twin
 
             state = exact_twin.apply(bpy.context, args.cycles_samples, pixel_centres=args.pixel_centres)
+            if state.line():
+                print(state.line(), flush=True)
             try:
                 image = render_blender(folder, name)
             finally:
