@@ -16,7 +16,9 @@ parameters come from what the tracer renders: the add-on's export of the same sc
 document.
 
 What stays different from the tracer: Blender's meshes for the analytic sphere and cylinder (the add-on's adaptive
-tessellation) and their smooth normals, Cycles' random pixel samples against the tracer's stratified ones, float32.
+tessellation) and their smooth normals, Cycles' pixel samples against the tracer's stratified ones, float32, and
+where a mirror ray starts (listing 3.1 skips t < 0.01; Cycles' mirror closure starts at the surface, leaving out only
+the surface itself). docs/comparison.md measures what the first three cost.
 
 apply() changes the scene for the render and returns an ExactTwin whose restore() puts every material, light, the
 world and the shading system back; the render settings stay the twin's (Cycles, samples, bounces, filter, the
