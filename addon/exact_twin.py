@@ -27,6 +27,7 @@ Standard view), as twin.cycles() leaves them for the physical twin.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -53,12 +54,15 @@ def unavailable() -> str | None:
     try:
         _oslquery()
     except ImportError:
-        return f"Blender {version} has no oslquery module to read compiled OSL shaders"
+        import _cycles
+
+        if not hasattr(_cycles, "osl_update_node"):  # before 4.3 Cycles read the compiled shader itself
+            return f"Blender {version} has no oslquery module to read compiled OSL shaders"
     return None
 
 
 def _oslquery():
-    """Cycles' update_script_node imports oslquery, which the bpy wheel keeps in its own site-packages."""
+    """Cycles' update_script_node imports oslquery (from 4.3), which the bpy wheel keeps in its own site-packages."""
     try:
         import oslquery
     except ImportError:
@@ -217,7 +221,8 @@ def _script(name: str, source: str):
 def _script_node(tree, text):
     from cycles import osl  # Blender's own Cycles add-on
 
-    _oslquery()
+    with contextlib.suppress(ImportError):  # Cycles before 4.3 does without it (unavailable() has checked)
+        _oslquery()
     node = tree.nodes.new("ShaderNodeScript")
     node.mode = "INTERNAL"
     node.script = text
