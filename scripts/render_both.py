@@ -83,15 +83,20 @@ def parse(argv: list[str]) -> argparse.Namespace:
 def choose_twin(args: argparse.Namespace) -> None:
     """Add the exact twin before the physical one (engine `cycles`) where this Blender can render it; else say in
     one line why not and render the physical twin only."""
-    if args.twin == "physical" or "cycles" not in args.engines or "exact" in args.engines:
+    asked = "exact" in args.engines  # by name in --engines
+    if not asked and (args.twin == "physical" or "cycles" not in args.engines):
         return
     from addon import exact_twin
 
     reason = exact_twin.unavailable()
     if reason is not None:
-        print(f"exact twin: not rendered, {reason}; rendering the physical twin only (addon/twin.py)", flush=True)
+        rest = "rendering the physical twin only (addon/twin.py)" if "cycles" in args.engines else "left out"
+        print(f"exact twin: not rendered, {reason}; {rest}", flush=True)
+        if asked:
+            args.engines.remove("exact")
         return
-    args.engines.insert(args.engines.index("cycles"), "exact")
+    if not asked:
+        args.engines.insert(args.engines.index("cycles"), "exact")
 
 
 def prepare(args: argparse.Namespace) -> None:
