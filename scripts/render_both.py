@@ -1,12 +1,15 @@
 """A scene (the default, a scene file or a .blend) -> the documented tracer's and Blender's images of it, compared.
 
     python scripts/render_both.py [SCENE.json|SCENE.blend] --out out/compare [--engines tracer,cycles,eevee,workbench]
+        [--twin exact|physical]
     blender -b [SCENE.blend] --python scripts/render_both.py -- [SCENE.json] --out out/compare
 
 Both paths render the same Blender scene: the add-on builds it (or the .blend is opened), the tracer renders what
-the add-on exports from it, and Cycles renders its twin set-up (addon/twin.py). Writes <engine>.npy (linear) and
-.png, a FLIP heat map per pair, metrics.json, timings.json and report.html into the output folder (one folder per
-frame with --frames A-B), and prints the headline numbers.
+the add-on exports from it, and Cycles renders its twins. The exact twin (`exact`, addon/exact_twin.py: the
+documented model itself in OSL) where this Blender's Cycles has OSL, beside the physically based twin (`cycles`,
+addon/twin.py); --twin physical, or a Blender without OSL, renders the physical one only. Writes <engine>.npy
+(linear) and .png, a FLIP heat map per pair, metrics.json, timings.json and report.html into the output folder (one
+folder per frame with --frames A-B), and prints the headline numbers.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
-ENGINES = ("tracer", "cycles", "eevee", "workbench")
+ENGINES = ("tracer", "exact", "cycles", "eevee", "workbench")
 
 
 def parse(argv: list[str]) -> argparse.Namespace:
@@ -37,7 +40,18 @@ def parse(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--width", type=int, default=640)
     parser.add_argument("--height", type=int, default=480)
     parser.add_argument("--engines", default="tracer,cycles", help=f"comma-separated, from {', '.join(ENGINES)}")
-    parser.add_argument("--cycles-samples", type=int, default=256)
+    parser.add_argument(
+        "--twin",
+        choices=("exact", "physical"),
+        help="exact (default where Cycles has OSL): the exact twin beside the physical one; physical: that one only",
+    )
+    parser.add_argument("--cycles-samples", type=int, default=256, help="samples of either Cycles twin")
+    parser.add_argument(
+        "--pixel-centres",
+        action="store_true",
+        help="the tracer at one sample per pixel and the exact twin's samples at the pixel centres (Cycles' narrowest "
+        "filter): compares shading without the two renderers' different pixel samples",
+    )
     parser.add_argument("--eevee-samples", type=int, default=64)
     parser.add_argument("--tracer-samples", type=int, default=16, help="a perfect square: 16 is 4 x 4")
     parser.add_argument("--frames", help="A-B: render every frame of the baked motion")
@@ -61,7 +75,28 @@ def parse(argv: list[str]) -> argparse.Namespace:
     if args.width < 1 or args.height < 1:
         parser.error("--width and --height must be >= 1")
     args.engines = engines
+    if args.pixel_centres:
+        args.tracer_samples = 1
     return args
+
+
+def choose_twin(args: argparse.Namespace) -> None:
+    """Add the exact twin before the physical one (engine `cycles`) where this Blender can render it; else say in
+    one line why not and render the physical twin only."""
+    asked = "exact" in args.engines  # by name in --engines
+    if not asked and (args.twin == "physical" or "cycles" not in args.engines):
+        return
+    from addon import exact_twin
+
+    reason = exact_twin.unavailable()
+    if reason is not None:
+        rest = "rendering the physical twin only (addon/twin.py)" if "cycles" in args.engines else "left out"
+        print(f"exact twin: not rendered, {reason}; {rest}", flush=True)
+        if asked:
+            args.engines.remove("exact")
+        return
+    if not asked:
+        args.engines.insert(args.engines.index("cycles"), "exact")
 
 
 def prepare(args: argparse.Namespace) -> None:
@@ -126,6 +161,16 @@ def render_frame(args: argparse.Namespace, folder: Path) -> dict:
         started = time.perf_counter()
         if name == "tracer":
             image = render_tracer(args.tracer_samples)
+        elif name == "exact":
+            from addon import exact_twin
+
+            state = exact_twin.apply(bpy.context, args.cycles_samples, pixel_centres=args.pixel_centres)
+            if state.line():
+                print(state.line(), flush=True)
+            try:
+                image = render_blender(folder, name)
+            finally:
+                state.restore()
         else:
             if name == "cycles":
                 twin.cycles(scene, args.cycles_samples)
@@ -183,9 +228,13 @@ def frames_on_cluster(args: argparse.Namespace, frames: range) -> dict[int, dict
     with tempfile.TemporaryDirectory(prefix="weathervane-cluster-") as folder:
         blend = Path(folder) / "scene.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
-        options = ["--width", str(args.width), "--height", str(args.height), "--engines", ",".join(args.engines)]
+        # the exact twin is the worker's own choice (its Blender's OSL), as here: only what differs from that goes
+        engines = [name for name in args.engines if name != "exact" or args.twin == "exact"]
+        options = ["--width", str(args.width), "--height", str(args.height), "--engines", ",".join(engines)]
         options += ["--cycles-samples", str(args.cycles_samples), "--eevee-samples", str(args.eevee_samples)]
         options += ["--tracer-samples", str(args.tracer_samples)]
+        options += ["--twin", args.twin] if args.twin else []
+        options += ["--pixel-centres"] if args.pixel_centres else []
         runs: list[list[int]] = []  # runs of consecutive frames, --chunk at most
         for frame in wanted:
             if runs and len(runs[-1]) < args.chunk and runs[-1][-1] == frame - 1:
@@ -247,6 +296,7 @@ def main() -> None:
 
     args = parse(script_arguments())
     prepare(args)
+    choose_twin(args)
     scene = bpy.context.scene
     if args.frames:
         first, _, last = args.frames.partition("-")

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 DASK = Path(sys.executable).with_name("dask")
+ROOT = Path(__file__).resolve().parents[1]
 START_SECONDS = 60.0
 
 
@@ -28,8 +29,17 @@ class LocalCluster:
 
     def _start(self, *arguments: str, log: str) -> subprocess.Popen:
         with open(self.folder / log, "wb") as output:
+            # the workers import this checkout's code, not the one the environment has installed (a worktree's)
+            environment = {
+                **os.environ,
+                "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
+            }
             process = subprocess.Popen(
-                [str(DASK), *arguments], stdout=output, stderr=subprocess.STDOUT, start_new_session=True
+                [str(DASK), *arguments],
+                stdout=output,
+                stderr=subprocess.STDOUT,
+                start_new_session=True,
+                env=environment,
             )
         self.processes.append(process)
         return process

@@ -35,6 +35,7 @@ ADDON_LAYERS: tuple[tuple[str, ...], ...] = (
         "animation",
         "export",
         "twin",
+        "exact_twin",
         "properties",
         "conversion_report",
     ),  # the scene the add-on builds, reads and keys
