@@ -8,7 +8,9 @@ round runs one fresh process per side (REF, the working tree, and for the peer's
 order, so that both see the same load on a shared machine. A process renders one warm-up frame (pool start, scene
 preparation) and then FRAMES frames with one persistent Renderer, timed around Renderer.render (rt3.py: around its
 raytrace() call, as it times itself); the process reports the median of its frames. The figure of a side is the
-median over rounds, and the ratio printed is the median of the per-round ratios (new / REF), with its range.
+median over rounds, and the ratio printed is the median of the per-round ratios (new / REF), with its range. The
+CPU time per frame (user + system of the process and its workers, over the FRAMES frames) is reported beside the
+wall time: on a shared machine the wall time follows the other processes' load, the CPU time much less.
 
 Cases:
   default64, default32  the built-in scene, 640x480, depth 3, 1 sample, 2 workers, float64 / float32
@@ -70,7 +72,28 @@ CASES = {
     "peer32": {"scene": PEER_SCENE, "dtype": "float32", "workers": 1},
 }
 
-TRACER_CHILD = """
+# CPU seconds (user + system) of this process and its children (the workers), from /proc where there is one: on a
+# shared machine the wall time follows the other processes' load, the CPU time much less
+CPU_TIME = """
+import os
+def cpu_seconds():
+    total = sum(os.times()[:2])
+    tick = os.sysconf("SC_CLK_TCK")
+    for name in os.listdir("/proc") if os.path.isdir("/proc") else []:
+        if name.isdigit():
+            try:
+                with open(f"/proc/{name}/stat") as stat:
+                    fields = stat.read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == os.getpid():
+                total += (int(fields[11]) + int(fields[12])) / tick
+    return total
+"""
+
+TRACER_CHILD = (
+    CPU_TIME
+    + """
 import hashlib, json, statistics, sys, time
 import tracer
 case = json.loads(sys.argv[1])
@@ -81,16 +104,22 @@ else:
 with tracer.Renderer(case["workers"]) as renderer:
     result = renderer.render(scene)  # warm-up: pool start, imports, caches
     times = []
+    cpu = cpu_seconds()
     for _ in range(case["frames"]):
         started = time.perf_counter()
         result = renderer.render(scene)
         times.append(time.perf_counter() - started)
+    cpu = (cpu_seconds() - cpu) / case["frames"]
 rays = result.rays
-print(json.dumps({"seconds": statistics.median(times), "md5": hashlib.md5(result.image.tobytes()).hexdigest(),
+md5 = hashlib.md5(result.image.tobytes()).hexdigest()
+print(json.dumps({"seconds": statistics.median(times), "cpu": cpu, "md5": md5,
                   "rays": [rays.camera, rays.shadow, rays.reflection]}))
 """
+)
 
-PEER_CHILD = """
+PEER_CHILD = (
+    CPU_TIME
+    + """
 import json, statistics, sys, time
 source = open(sys.argv[1]).read()
 source = source.replace("from PIL import Image", "").split("t0 = time.time()")[0]
@@ -100,13 +129,16 @@ vec3, raytrace, scene, E, x, y = (namespace[k] for k in ("vec3", "raytrace", "sc
 frames = int(sys.argv[2])
 raytrace(E, (vec3(x, y, 0) - E).norm(), scene)  # warm-up
 times = []
+cpu = cpu_seconds()
 for _ in range(frames):
     started = time.perf_counter()
     Q = vec3(x, y, 0)
     raytrace(E, (Q - E).norm(), scene)
     times.append(time.perf_counter() - started)
-print(json.dumps({"seconds": statistics.median(times)}))
+cpu = (cpu_seconds() - cpu) / frames
+print(json.dumps({"seconds": statistics.median(times), "cpu": cpu}))
 """
+)
 
 
 def export(ref: str, into: Path) -> Path:
@@ -131,11 +163,65 @@ def run_peer(frames: int) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
+def compare(case: dict, old_root: Path, new_root: Path, rounds: int, frames: int) -> dict:
+    """One case: per side the median over rounds of the per-process median wall time and mean CPU time per frame
+    (ms), and the medians of the per-round ratios."""
+    sides = ["ref", "new"] + (["rt3"] if case["scene"] is not None else [])
+    wall = {side: [] for side in sides}
+    cpu = {side: [] for side in sides}
+    md5s, rays = {}, {}
+    for round_index in range(rounds):
+        for side in sides if round_index % 2 == 0 else list(reversed(sides)):
+            if side == "rt3":
+                measured = run_peer(frames)
+            else:
+                measured = run_tracer(old_root if side == "ref" else new_root, case, frames)
+                md5s[side], rays[side] = measured["md5"], measured["rays"]
+            wall[side].append(measured["seconds"])
+            cpu[side].append(measured["cpu"])
+
+    def ratio(times: dict, mine: str, theirs: str) -> float:
+        return round(statistics.median(a / b for a, b in zip(times[mine], times[theirs], strict=True)), 3)
+
+    entry = {
+        "wall_ms": {side: round(1000 * statistics.median(times), 2) for side, times in wall.items()},
+        "cpu_ms": {side: round(1000 * statistics.median(times), 2) for side, times in cpu.items()},
+        "new_over_ref_wall": ratio(wall, "new", "ref"),
+        "new_over_ref_wall_range": [
+            round(min(a / b for a, b in zip(wall["new"], wall["ref"], strict=True)), 3),
+            round(max(a / b for a, b in zip(wall["new"], wall["ref"], strict=True)), 3),
+        ],
+        "new_over_ref_cpu": ratio(cpu, "new", "ref"),
+        "same_bytes": md5s["new"] == md5s["ref"],
+        "rays_new": rays["new"],
+        "rays_ref": rays["ref"],
+    }
+    if "rt3" in sides:
+        for side in ("new", "ref"):
+            entry[f"{side}_over_rt3_wall"] = ratio(wall, side, "rt3")
+            entry[f"{side}_over_rt3_cpu"] = ratio(cpu, side, "rt3")
+    return entry
+
+
+def summary(name: str, entry: dict) -> str:
+    wall, cpu = entry["wall_ms"], entry["cpu_ms"]
+    low, high = entry["new_over_ref_wall_range"]
+    line = f"{name:10s} wall ref {wall['ref']:7.1f} new {wall['new']:7.1f} ms new/ref {entry['new_over_ref_wall']:.3f}"
+    line += f" [{low:.2f}-{high:.2f}] | cpu ref {cpu['ref']:7.1f} new {cpu['new']:7.1f} ms"
+    line += f" new/ref {entry['new_over_ref_cpu']:.3f}"
+    if "rt3" in wall:
+        line += f" | rt3 wall {wall['rt3']:6.1f} cpu {cpu['rt3']:6.1f} ms; new/rt3 wall"
+        line += f" {entry['new_over_rt3_wall']:.3f} cpu {entry['new_over_rt3_cpu']:.3f}"
+        line += f"; ref/rt3 wall {entry['ref_over_rt3_wall']:.3f} cpu {entry['ref_over_rt3_cpu']:.3f}"
+    return line + " | bytes " + ("same" if entry["same_bytes"] else "DIFFER") + f" rays {entry['rays_new']}"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ref", required=True, help="the commit to compare the working tree with")
+    parser.add_argument("--new", default=None, help="a commit to take as the new side instead of the working tree")
     parser.add_argument("--rounds", type=int, default=7)
-    parser.add_argument("--frames", type=int, default=5, help="frames per process after its warm-up")
+    parser.add_argument("--frames", type=int, default=10, help="frames per process after its warm-up")
     parser.add_argument("--cases", default=",".join(CASES))
     args = parser.parse_args()
     cases = [name.strip() for name in args.cases.split(",") if name.strip()]
@@ -144,45 +230,22 @@ def main() -> None:
         parser.error(f"--cases: unknown {', '.join(unknown)}; expected some of {', '.join(CASES)}")
     folder = Path(tempfile.mkdtemp(prefix="bench-compare-"))
     try:
-        old_root = export(args.ref, folder)
-        report = {"ref": args.ref, "rounds": args.rounds, "frames": args.frames, "cases": {}}
+        (folder / "ref").mkdir()
+        old_root = export(args.ref, folder / "ref")
+        new_root = ROOT
+        if args.new is not None:
+            (folder / "new").mkdir()
+            new_root = export(args.new, folder / "new")
+        report = {
+            "ref": args.ref,
+            "new": args.new or "working tree",
+            "rounds": args.rounds,
+            "frames": args.frames,
+            "cases": {},
+        }
         for name in cases:
-            case = CASES[name]
-            sides = {"ref": [], "new": []}
-            if case["scene"] is not None:
-                sides["rt3"] = []
-            md5s, rays = {}, {}
-            for round_index in range(args.rounds):
-                order = list(sides) if round_index % 2 == 0 else list(reversed(sides))
-                for side in order:
-                    if side == "rt3":
-                        sides[side].append(run_peer(args.frames)["seconds"])
-                        continue
-                    measured = run_tracer(old_root if side == "ref" else ROOT, case, args.frames)
-                    sides[side].append(measured["seconds"])
-                    md5s[side], rays[side] = measured["md5"], measured["rays"]
-            ratios = [new / old for new, old in zip(sides["new"], sides["ref"], strict=True)]
-            entry = {
-                "ms": {side: round(1000 * statistics.median(times), 2) for side, times in sides.items()},
-                "new_over_ref": round(statistics.median(ratios), 3),
-                "new_over_ref_range": [round(min(ratios), 3), round(max(ratios), 3)],
-                "same_bytes": md5s["new"] == md5s["ref"],
-                "rays_new": rays["new"],
-                "rays_ref": rays["ref"],
-            }
-            if "rt3" in sides:
-                for side in ("new", "ref"):
-                    peer = [mine / theirs for mine, theirs in zip(sides[side], sides["rt3"], strict=True)]
-                    entry[f"{side}_over_rt3"] = round(statistics.median(peer), 3)
-            report["cases"][name] = entry
-            ms = entry["ms"]
-            line = f"{name:10s} ref {ms['ref']:8.2f} ms  new {ms['new']:8.2f} ms  new/ref {entry['new_over_ref']:.3f}"
-            line += f" [{entry['new_over_ref_range'][0]:.3f}-{entry['new_over_ref_range'][1]:.3f}]"
-            if "rt3" in sides:
-                line += f"  rt3 {ms['rt3']:7.2f} ms  new/rt3 {entry['new_over_rt3']:.3f}"
-                line += f"  ref/rt3 {entry['ref_over_rt3']:.3f}"
-            line += "  bytes " + ("same" if entry["same_bytes"] else "DIFFER") + f"  rays {entry['rays_new']}"
-            print(line, flush=True)
+            report["cases"][name] = compare(CASES[name], old_root, new_root, args.rounds, args.frames)
+            print(summary(name, report["cases"][name]), flush=True)
         print(json.dumps(report))
     finally:
         shutil.rmtree(folder, ignore_errors=True)

@@ -136,8 +136,12 @@ def _receive_tasks(conn: connection.Connection, tasks: queue.SimpleQueue) -> Non
 class WorkerPool:
     """workers processes that run Tasks; results are collected by the parent calling wait()."""
 
-    def __init__(self, workers: int, start_method: str = "fork") -> None:
+    def __init__(
+        self, workers: int, start_method: str = "fork", private: Callable[[], list[int]] | None = None
+    ) -> None:
+        """private: the parent's other descriptors that a forked worker must not keep (files the parent reuses)."""
         self.size = workers
+        self._private = private
         self._context = multiprocessing.get_context(start_method)
         self._workers: list[_Worker] = []
         self._queue: deque[Task] = deque()
@@ -183,6 +187,7 @@ class WorkerPool:
             inherited = [w.conn.fileno() for w in self._workers] + [parent_end.fileno()]
             inherited += [t.descriptor for t in self._queue if t.descriptor is not None]
             inherited += [t.descriptor for w in self._workers for t in w.tasks if t.descriptor is not None]
+            inherited += self._private() if self._private is not None else []
         process = self._context.Process(
             target=_worker_main, args=(child_end, sorted(set(inherited))), daemon=True, name="weathervane-worker"
         )
