@@ -10,7 +10,10 @@ preparation) and then FRAMES frames with one persistent Renderer, timed around R
 raytrace() call, as it times itself); the process reports the median of its frames. The figure of a side is the
 median over rounds, and the ratio printed is the median of the per-round ratios (new / REF), with its range. The
 CPU time per frame (user + system of the process and its workers, over the FRAMES frames) is reported beside the
-wall time: on a shared machine the wall time follows the other processes' load, the CPU time much less.
+wall time: on a shared machine the wall time follows the other processes' load, the CPU time much less. The span
+is the CPU time per frame of the busiest process (the parent or one worker): what a frame would take on an idle
+machine with a core for each process; it shows what the workers' overlap buys where the machine is too busy for
+the wall time to show it.
 
 Cases:
   default64, default32  the built-in scene, 640x480, depth 3, 1 sample, 2 workers, float64 / float32
@@ -76,8 +79,9 @@ CASES = {
 # shared machine the wall time follows the other processes' load, the CPU time much less
 CPU_TIME = """
 import os
-def cpu_seconds():
-    total = sum(os.times()[:2])
+def cpu_times():
+    # CPU seconds (user + system) of this process and of each of its children (the workers), by process id
+    times = {os.getpid(): sum(os.times()[:2])}
     tick = os.sysconf("SC_CLK_TCK")
     for name in os.listdir("/proc") if os.path.isdir("/proc") else []:
         if name.isdigit():
@@ -87,8 +91,12 @@ def cpu_seconds():
             except OSError:
                 continue
             if int(fields[1]) == os.getpid():
-                total += (int(fields[11]) + int(fields[12])) / tick
-    return total
+                times[int(name)] = (int(fields[11]) + int(fields[12])) / tick
+    return times
+def cpu_spent(before, after, frames):
+    # (all processes' CPU seconds per frame, the busiest process's CPU seconds per frame)
+    spent = [after[pid] - before.get(pid, 0.0) for pid in after]
+    return sum(spent) / frames, max(spent) / frames
 """
 
 TRACER_CHILD = (
@@ -104,15 +112,15 @@ else:
 with tracer.Renderer(case["workers"]) as renderer:
     result = renderer.render(scene)  # warm-up: pool start, imports, caches
     times = []
-    cpu = cpu_seconds()
+    before = cpu_times()
     for _ in range(case["frames"]):
         started = time.perf_counter()
         result = renderer.render(scene)
         times.append(time.perf_counter() - started)
-    cpu = (cpu_seconds() - cpu) / case["frames"]
+    cpu, span = cpu_spent(before, cpu_times(), case["frames"])
 rays = result.rays
 md5 = hashlib.md5(result.image.tobytes()).hexdigest()
-print(json.dumps({"seconds": statistics.median(times), "cpu": cpu, "md5": md5,
+print(json.dumps({"seconds": statistics.median(times), "cpu": cpu, "span": span, "md5": md5,
                   "rays": [rays.camera, rays.shadow, rays.reflection]}))
 """
 )
@@ -129,14 +137,14 @@ vec3, raytrace, scene, E, x, y = (namespace[k] for k in ("vec3", "raytrace", "sc
 frames = int(sys.argv[2])
 raytrace(E, (vec3(x, y, 0) - E).norm(), scene)  # warm-up
 times = []
-cpu = cpu_seconds()
+before = cpu_times()
 for _ in range(frames):
     started = time.perf_counter()
     Q = vec3(x, y, 0)
     raytrace(E, (Q - E).norm(), scene)
     times.append(time.perf_counter() - started)
-cpu = (cpu_seconds() - cpu) / frames
-print(json.dumps({"seconds": statistics.median(times), "cpu": cpu}))
+cpu, span = cpu_spent(before, cpu_times(), frames)
+print(json.dumps({"seconds": statistics.median(times), "cpu": cpu, "span": span}))
 """
 )
 
@@ -169,6 +177,7 @@ def compare(case: dict, old_root: Path, new_root: Path, rounds: int, frames: int
     sides = ["ref", "new"] + (["rt3"] if case["scene"] is not None else [])
     wall = {side: [] for side in sides}
     cpu = {side: [] for side in sides}
+    span = {side: [] for side in sides}
     md5s, rays = {}, {}
     for round_index in range(rounds):
         for side in sides if round_index % 2 == 0 else list(reversed(sides)):
@@ -179,6 +188,7 @@ def compare(case: dict, old_root: Path, new_root: Path, rounds: int, frames: int
                 md5s[side], rays[side] = measured["md5"], measured["rays"]
             wall[side].append(measured["seconds"])
             cpu[side].append(measured["cpu"])
+            span[side].append(measured["span"])
 
     def ratio(times: dict, mine: str, theirs: str) -> float:
         return round(statistics.median(a / b for a, b in zip(times[mine], times[theirs], strict=True)), 3)
@@ -192,6 +202,8 @@ def compare(case: dict, old_root: Path, new_root: Path, rounds: int, frames: int
             round(max(a / b for a, b in zip(wall["new"], wall["ref"], strict=True)), 3),
         ],
         "new_over_ref_cpu": ratio(cpu, "new", "ref"),
+        "span_ms": {side: round(1000 * statistics.median(times), 2) for side, times in span.items()},
+        "new_over_ref_span": ratio(span, "new", "ref"),
         "same_bytes": md5s["new"] == md5s["ref"],
         "rays_new": rays["new"],
         "rays_ref": rays["ref"],
@@ -209,6 +221,8 @@ def summary(name: str, entry: dict) -> str:
     line = f"{name:10s} wall ref {wall['ref']:7.1f} new {wall['new']:7.1f} ms new/ref {entry['new_over_ref_wall']:.3f}"
     line += f" [{low:.2f}-{high:.2f}] | cpu ref {cpu['ref']:7.1f} new {cpu['new']:7.1f} ms"
     line += f" new/ref {entry['new_over_ref_cpu']:.3f}"
+    line += f" | span ref {entry['span_ms']['ref']:6.1f} new {entry['span_ms']['new']:6.1f} ms"
+    line += f" new/ref {entry['new_over_ref_span']:.3f}"
     if "rt3" in wall:
         line += f" | rt3 wall {wall['rt3']:6.1f} cpu {cpu['rt3']:6.1f} ms; new/rt3 wall"
         line += f" {entry['new_over_rt3_wall']:.3f} cpu {entry['new_over_rt3_cpu']:.3f}"

@@ -327,3 +327,17 @@ def test_output_through_a_symbolic_link_replaces_what_it_points_to_and_keeps_the
     assert link.is_symlink() and link.resolve() == real
     assert real.read_bytes().startswith(b"\x89PNG")
     assert sorted(path.name for path in tmp_path.iterdir()) == ["link.png", "real.png"]
+
+
+def test_a_frame_of_two_bands_goes_to_both_of_two_workers() -> None:
+    """Tasks are dealt to the least busy worker: two tasks on two workers run in two processes (filling one
+    worker's TASKS_AHEAD first gave both bands of the default frame to one worker)."""
+    from tracer.workers.pool import WorkerPool
+
+    pool = WorkerPool(2)
+    try:
+        tasks = [pool.submit(os.getpid, ()) for _ in range(2)]
+        pids = {task.result for task in pool.as_completed(tasks)}
+        assert pids == set(pool.pids())
+    finally:
+        pool.close()
