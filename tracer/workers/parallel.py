@@ -179,8 +179,9 @@ def _mapped(descriptor: int, keep: bool) -> mmap.mmap:
     kept = _worker_cache.get("mapping")
     if keep and kept is not None and kept[0] == key:
         return kept[1]
-    flags = mmap.MAP_SHARED | getattr(mmap, "MAP_POPULATE", 0)  # its pages mapped at once, not fault by fault
-    mapping = mmap.mmap(descriptor, 0, flags=flags)
+    # not MAP_POPULATE: a large image goes in many bands, and each band would map all of the image's pages (at
+    # 1920x1080 float64, 35 bands: 2.6 s a frame instead of 1.8 s, and 180 MB at the peak instead of 140 MB)
+    mapping = mmap.mmap(descriptor, 0)
     if keep:
         if kept is not None:
             kept[1].close()
