@@ -74,6 +74,9 @@ class RenderResult:
     # outside a render border); None where the scene has no transparent film, no holdout and no uncropped border
     # (Scene.has_alpha). The colours are then premultiplied by it (a missing sample adds 0).
     alpha: np.ndarray | None = None
+    # (base, flat pixels (P,)): the image is base (the array given to render_pixels) with those pixels traced again
+    # and every other pixel base's; None for a whole frame. A writer can then convert only those pixels to 8 bits.
+    retraced: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def mrays_per_second(self) -> float:
@@ -292,7 +295,9 @@ class Renderer:
         image = base.copy()
         colors, counts = self._prepared_here(scene).render_pixels(pixels, band_samples(scene.render))
         image.reshape(-1, image.shape[-1])[pixels] = colors[:, : image.shape[-1]]
-        return _result(image, counts, time.perf_counter() - started)
+        result = _result(image, counts, time.perf_counter() - started)
+        result.retraced = (base, np.asarray(pixels))
+        return result
 
     def render_frames(self, scenes: Iterable[sc.Scene]) -> Iterator[RenderResult]:
         """render() for each scene in turn, results in order. With workers the next frame's bands wait in the
@@ -363,7 +368,7 @@ class Renderer:
         scene_bytes = pickle.dumps(scene)
         count = max(1, min(len(pixels), pieces or self.workers))
         tasks = [(piece, pool.submit(_render_pixels, (scene_bytes, piece))) for piece in np.array_split(pixels, count)]
-        return _Frame(pool, base.copy(), tasks, None, started, pixels=True)
+        return _Frame(pool, base.copy(), tasks, None, started, pixels=True, base=(base, np.asarray(pixels)))
 
 
 @dataclass
@@ -378,6 +383,7 @@ class _Frame:
     touched: np.ndarray | None = None
     pixels: bool = False
     settings: sc.RenderSettings | None = None  # a whole frame's: its render border may crop the image
+    base: tuple[np.ndarray, np.ndarray] | None = None  # a pixel frame's base and pixels (RenderResult.retraced)
 
     def finish(self, progress: Progress | None = None, band_done: BandDone | None = None) -> RenderResult:
         counts = RayCounts()
@@ -401,7 +407,9 @@ class _Frame:
                     progress(done, len(self.tasks))
         finally:
             self.abandon()
-        return _result(self.image, counts, time.perf_counter() - self.started, self.touched, self.settings)
+        result = _result(self.image, counts, time.perf_counter() - self.started, self.touched, self.settings)
+        result.retraced = self.base
+        return result
 
     def abandon(self) -> None:
         """Forget the bands not yet finished (their workers may still write into the image: it is this frame's own
