@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
 SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
-.PHONY: demo test test-slow lint bench bench-reliability bench-viewport bench-cluster docs study addon system-deps blender-wheels clean
+.PHONY: demo test test-slow lint bench bench-compare bench-peers bench-stages bench-reliability bench-viewport bench-cluster docs study addon system-deps blender-wheels clean
 
 # Blender versions as bpy wheels besides 5.0.1 (tests/addon/wheels.txt): one virtual environment each
 BPY_WHEELS := $(shell sed -e 's/\#.*//' tests/addon/wheels.txt)
@@ -58,6 +58,20 @@ test-slow: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_tracer.py
+
+# same-run comparison of the working tree with a commit (REF=<commit>, default HEAD), alternating processes
+REF ?= HEAD
+bench-compare: $(STAMP)
+	$(BIN)/python scripts/bench_compare.py --ref $(REF) --rounds 7
+
+# the peer rt3.py on its own scene against the tracer (one process), alternating in the same run
+bench-peers: $(STAMP)
+	$(BIN)/python scripts/bench_compare.py --ref $(REF) --rounds 9 --cases peer64,peer32
+
+# where the time goes: CPU ms per stage of the default frame, float64 and float32
+bench-stages: $(STAMP)
+	$(BIN)/python scripts/bench_stages.py --dtype float64
+	$(BIN)/python scripts/bench_stages.py --dtype float32
 
 bench-reliability: $(STAMP)
 	$(BIN)/python scripts/bench_reliability.py --repeats 3

@@ -68,3 +68,22 @@ def test_bad_frames_and_scenes_without_a_vane(tmp_path: Path) -> None:
     result = run(str(scene), "-o", str(tmp_path / "x"), "--frames", "1-2")
     assert result.returncode == 2 and "vane: is required to animate" in result.stderr
     assert "Traceback" not in result.stderr and not (tmp_path / "x").exists()
+
+
+def test_incremental_frames_convert_only_their_retraced_pixels_to_the_same_png_pixels(tmp_path: Path) -> None:
+    """An incremental frame's 8 bits are its run's base's with the re-traced pixels converted again: the PNGs'
+    pixels are those of whole frames, in linear and sRGB, with 1 and 2 workers."""
+    from tracer.frames.animate import animate
+
+    scene = default_scene().with_render(width=48, height=36)
+    for workers in (1, 2):
+        for srgb in (False, True):
+            folders = {}
+            for incremental in (True, False):
+                folder = tmp_path / f"{workers}-{srgb}-{incremental}"
+                animate(scene.with_render(workers=workers), folder, 20, 27, srgb=srgb, incremental=incremental)
+                folders[incremental] = folder
+            for frame in range(20, 28):
+                name = f"frame_{frame:04d}.png"
+                with Image.open(folders[True] / name) as fast, Image.open(folders[False] / name) as whole:
+                    assert np.array_equal(np.asarray(fast), np.asarray(whole)), (workers, srgb, name)

@@ -231,3 +231,36 @@ def test_render_frames_gives_each_frame_in_order_and_cleans_up_when_stopped_earl
     assert all(np.array_equal(image, want) for image, want in zip(images, expected, strict=True))
     assert np.array_equal(first.image, expected[0])
     assert leftovers() == before
+
+
+def test_kept_image_files_are_used_again_only_when_free_and_closed_with_the_renderer() -> None:
+    """A Renderer keeps small image files for later frames: a held result keeps its bytes, every frame equals the
+    one-process image, and closing the Renderer leaves no image file open."""
+    import os
+
+    from tracer.workers.parallel import Renderer
+
+    def open_images() -> int:
+        """Image files this process has open (a mapping holds a descriptor of its own)."""
+        files = set()
+        for name in os.listdir("/proc/self/fd"):
+            try:
+                if "weathervane-image" in os.readlink(f"/proc/self/fd/{name}"):
+                    files.add(os.stat(f"/proc/self/fd/{name}").st_ino)
+            except OSError:  # the listing's own descriptor, closed by now
+                pass
+        return len(files)
+
+    before = open_images()
+    scenes = [default_scene().with_render(width=48, height=36).with_heading(angle) for angle in (0.0, 50.0, 100.0)]
+    expected = [render(scene, workers=1).image for scene in scenes]
+    with Renderer(2) as renderer:
+        held = renderer.render(scenes[0]).image
+        for _ in range(2):
+            for scene, want in zip(scenes, expected, strict=True):
+                assert np.array_equal(renderer.render(scene).image, want)
+        assert np.array_equal(held, expected[0])
+        assert open_images() - before <= 2
+    assert open_images() - before == 1  # the held image's
+    del held
+    assert open_images() == before

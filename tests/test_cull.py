@@ -74,7 +74,9 @@ def test_screen_rectangles_hold_every_pixel_that_sees_a_sphere() -> None:
     distance = np.linalg.norm(O + D * along - C, axis=0)
     seen = np.flatnonzero((distance <= 0.6) & (along > 0))
     assert seen.size > 100
-    ((kernel, rays),) = prepared.screen.rays(rows)
+    origin = np.asarray(scene.camera.location, dtype=np.float64)
+    screen = ScreenRectangles.build(scene.camera, scene.render, origin, prepared.hierarchy.boxes)
+    ((kernel, rays),) = screen.rays(rows)
     assert kernel == 0
     assert np.isin(seen, rays).all()
     assert rays.size < 0.5 * D.shape[1]  # and it culls: the ball covers a small part of the picture
@@ -108,3 +110,42 @@ def test_a_grid_keeps_rays_it_cannot_resolve() -> None:
     far[0, 0] = 3e7
     rays, bits = grid.select(far)
     assert rays.tolist() == [0, 1] and bits is None
+
+
+def _hierarchies(prepared: PreparedScene) -> list:
+    return [prepared.camera_hierarchy, prepared.shadow_hierarchy, prepared.mirror_hierarchy]
+
+
+@pytest.mark.parametrize("dtype, numerics", MODES)
+def test_brute_force_and_the_walk_give_the_same_bytes(dtype: str, numerics: str) -> None:
+    """Every kernel on every ray (no boxes, no culls) or the hierarchy's walk: the same pixels and ray counts."""
+    for seed in range(40):
+        scene = scene_from_dict(random_scene_document(seed, 64, 48)).with_render(dtype=dtype, numerics=numerics)
+        results = []
+        for brute in (True, False):
+            prepared = PreparedScene(scene)
+            for hierarchy in _hierarchies(prepared):
+                hierarchy.brute = brute and hierarchy.root is not None
+            results.append(prepared.render_rows(np.arange(scene.render.height)))
+        (brute_image, brute_counts), (walked_image, walked_counts) = results
+        assert np.array_equal(brute_image, walked_image), f"seed {seed}"
+        assert brute_counts == walked_counts
+
+
+def test_brute_force_is_chosen_for_a_few_spheres_and_the_walk_for_the_vane() -> None:
+    """The cost estimate (Hierarchy.choose_brute): rt3.py's scene (4 spheres, one of them the floor) is tested by
+    brute force, the default weathervane (13 bounded objects) walks its hierarchy and keeps its culls."""
+    spheres = [([0.75, 1, 0.1], 0.6), ([-0.75, 2.25, 0.1], 0.6), ([-2.75, 3.5, 0.1], 0.6), ([0, 0, -99999.5], 99999)]
+    document = {
+        "materials": {"m": {"color": [0.5, 0.5, 0.5], "specular": 50, "reflective": 0.5}},
+        "objects": [{"type": "sphere", "material": "m", "location": c, "radius": r} for c, r in spheres],
+        "lights": [{"type": "ambient", "intensity": 0.05}, {"type": "point", "location": [5, -10, 5], "intensity": 1}],
+        "camera": {"location": [0, -1, 0.35], "rotation": [90, 0, 0], "fov": 90, "shift_y": -0.05},
+        "render": {"width": 400, "height": 300, "depth": 2},
+    }
+    for dtype in ("float64", "float32"):
+        peer = PreparedScene(scene_from_dict(document).with_render(dtype=dtype))
+        assert all(hierarchy.brute for hierarchy in _hierarchies(peer))
+        vane = PreparedScene(default_scene().with_render(dtype=dtype))
+        assert not any(hierarchy.brute for hierarchy in _hierarchies(vane))
+        assert vane.screen is not None

@@ -355,3 +355,17 @@ def test_a_renderer_closed_for_good_from_another_thread_stops_its_render_and_sta
     with pytest.raises(PoolClosedError):
         renderer.render(scene)
     assert renderer._pool is None
+
+
+def test_a_frame_of_two_bands_goes_to_both_of_two_workers() -> None:
+    """Tasks are dealt to the least busy worker: two tasks on two workers run in two processes (filling one
+    worker's TASKS_AHEAD first gave both bands of the default frame to one worker)."""
+    from tracer.workers.pool import WorkerPool
+
+    pool = WorkerPool(2)
+    try:
+        tasks = [pool.submit(os.getpid, ()) for _ in range(2)]
+        pids = {task.result for task in pool.as_completed(tasks)}
+        assert pids == set(pool.pids())
+    finally:
+        pool.close()

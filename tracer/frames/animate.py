@@ -19,7 +19,7 @@ import numpy as np
 from ..scene import scene as sc
 from ..scene.keyframes import DEFAULT_TOLERANCE, reduce_keys
 from ..scene.motion import Motion, iter_headings
-from ..tracing.images import atomic_path, write_image
+from ..tracing.images import atomic_path, to_8bit, write_image
 from ..tracing.wavefront import RayCounts
 from ..workers.parallel import Renderer, RenderResult
 from .incremental import render_frames as incremental_frames
@@ -150,13 +150,12 @@ def animate(
         contextlib.closing(frame_results(renderer, scene, plan.wanted, incremental)) as results,
     ):  # the results are closed before the pool stops
         pending: Future | None = None
+        converted: dict[str, np.ndarray] = {}  # the writer's: the base of the frames being re-traced, in 8 bits
         for frame, result in results:
             if pending is not None:
                 pending.result()  # raises here if that write failed
             target = frame_path(folder, frame)
-            pending = writer.submit(
-                write_image, result.image, target, srgb=srgb, compress_level=FRAME_COMPRESSION, alpha=result.alpha
-            )
+            pending = writer.submit(_write_frame, result, target, srgb, converted)
             rays.add(result.rays)
             done += 1
             if progress is not None:
@@ -165,6 +164,26 @@ def animate(
             pending.result()
     keys = plan.count_keys()
     return AnimationResult(plan.rendered, plan.skipped, time.perf_counter() - started, rays, keys, total)
+
+
+def _write_frame(result: RenderResult, target: Path, srgb: bool, converted: dict[str, np.ndarray]) -> None:
+    """Write a frame's PNG. A frame that is its run's base with some pixels traced again (RenderResult.retraced) is
+    converted to 8 bits in those pixels only, over the base's 8 bits kept from the run's earlier frames: the same
+    bytes (the conversion is per pixel), without converting the whole image each frame (at 640x480 with 7.5% of the
+    pixels re-traced, measured alternating: 0.9 ms against 7.1 ms for the whole image)."""
+    pixels8 = None
+    if result.retraced is not None and result.alpha is None:
+        base, pixels = result.retraced
+        if base.shape == result.image.shape:
+            if converted.get("base") is not base:
+                converted.clear()
+                converted["base"], converted["base8"] = base, to_8bit(base, srgb)
+            pixels8 = converted["base8"].copy()
+            flat = result.image.reshape(-1, result.image.shape[-1])  # take(): a row gather 5x faster than flat[pixels]
+            pixels8.reshape(-1, pixels8.shape[-1])[pixels] = to_8bit(flat.take(pixels, axis=0)[None], srgb)[0]
+    write_image(
+        result.image, target, srgb=srgb, compress_level=FRAME_COMPRESSION, alpha=result.alpha, converted=pixels8
+    )
 
 
 def frame_results(

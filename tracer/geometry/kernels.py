@@ -84,6 +84,11 @@ def slab(O: np.ndarray, inverse: np.ndarray, lower: np.ndarray, upper: np.ndarra
     return near, far
 
 
+def _unlimited(t_max: float | np.ndarray) -> bool:
+    """Whether t_max is the single number +inf (no upper limit)."""
+    return np.ndim(t_max) == 0 and t_max == np.inf
+
+
 def _nearest(best_t: np.ndarray, best_part: np.ndarray, t: np.ndarray, ok: np.ndarray, part: int) -> None:
     """Keep t where it is valid and strictly nearer (the reference's `t < closest_t`, first candidate on ties)."""
     closer = ok & (t < best_t)
@@ -170,6 +175,12 @@ class Kernel:
         return None
 
 
+def shared_terms(D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A sphere test's terms that depend on the rays' directions (3, N) alone: 4 k1 and 2 k1 (N,), k1 = D.D."""
+    k1 = dot(D, D)
+    return 4.0 * k1, 2.0 * k1
+
+
 class SphereKernel(Kernel):
     cost = 6.0
     batch_attributes = ("center", "radius_squared")
@@ -184,19 +195,31 @@ class SphereKernel(Kernel):
     def bounds(self):
         return self.lower, self.upper
 
-    def _hit(self, O, D, t_min, t_max):
+    def _hit(self, O, D, t_min, t_max, shared=None):
+        """shared: shared_terms(D), when several spheres test the same rays (the same numbers, computed once)."""
+        four_k1, twice_k1 = shared_terms(D) if shared is None else shared
         CO = O - self.center
-        k1 = dot(D, D)
         k2 = 2.0 * dot(CO, D)
         k3 = dot(CO, CO) - self.radius_squared
-        discriminant = k2 * k2 - 4.0 * k1 * k3
-        real = discriminant >= 0.0
-        root = np.sqrt(np.where(real, discriminant, 0.0))
-        best_t = np.full(ray_count(O, D), np.inf, dtype=self.dtype)
-        best_part = np.zeros(best_t.shape, dtype=np.int8)
-        for t in ((-k2 + root) / (2.0 * k1), (-k2 - root) / (2.0 * k1)):
-            _nearest(best_t, best_part, t, real & (t > t_min) & (t < t_max), 0)
-        return best_t, best_part
+        discriminant = k2 * k2 - four_k1 * k3
+        # the roots (-k2 +- root) / (2 k1) as _nearest would keep them, in fewer passes: a negative discriminant
+        # gives a NaN root and NaN roots, which no comparison accepts (the listing's "no real root"); the first root
+        # fills the empty best (inf stays inf), the second replaces it where strictly nearer; with no upper limit
+        # t < t_max is left out (an infinite t is never nearer than best); the part is always 0
+        root = np.sqrt(discriminant)
+        minus_k2 = -k2
+        t = (minus_k2 + root) / twice_k1
+        ok = t > t_min
+        if not _unlimited(t_max):
+            ok &= t < t_max
+        best_t = np.where(ok, t, np.inf).astype(self.dtype, copy=False)
+        t = (minus_k2 - root) / twice_k1
+        ok = t > t_min
+        if not _unlimited(t_max):
+            ok &= t < t_max
+        ok &= t < best_t
+        np.copyto(best_t, t, where=ok)
+        return best_t, np.zeros(best_t.shape, dtype=np.int8)
 
     def normal(self, P, part):
         return P - self.center

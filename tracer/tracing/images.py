@@ -73,14 +73,20 @@ def atomic_path(target: Path) -> Iterator[Path]:
 
 
 def encode_png(
-    image: np.ndarray, srgb: bool = False, compress_level: int = 6, alpha: np.ndarray | None = None
+    image: np.ndarray,
+    srgb: bool = False,
+    compress_level: int = 6,
+    alpha: np.ndarray | None = None,
+    converted: np.ndarray | None = None,
 ) -> bytes:
     """compress_level: zlib's, 0-9; 6 is Pillow's default, 3 about half the time for files about 40% larger.
-    alpha (H, W): an RGBA PNG, the colours as they are (premultiplied, as rendered), alpha never sRGB-encoded."""
+    alpha (H, W): an RGBA PNG, the colours as they are (premultiplied, as rendered), alpha never sRGB-encoded.
+    converted: to_8bit(image, srgb) where the caller has it already (an animation's frame made of the last one's
+    bytes and its re-traced pixels)."""
     from PIL import Image  # the CLI's need only; the tracer itself runs on NumPy alone
 
     buffer = io.BytesIO()
-    pixels = to_8bit(image, srgb)
+    pixels = to_8bit(image, srgb) if converted is None else converted
     if alpha is None:
         made = Image.fromarray(pixels, mode="RGB")
     else:
@@ -95,14 +101,15 @@ def write_image(
     srgb: bool = False,
     compress_level: int = 6,
     alpha: np.ndarray | None = None,
+    converted: np.ndarray | None = None,
 ) -> Path:
     """Write (H, W, 3) linear floats to target (.png or .npy) atomically; returns the path. alpha (H, W): an RGBA
-    .png, or an H x W x 4 .npy."""
+    .png, or an H x W x 4 .npy. converted: the image's to_8bit() where the caller has it (encode_png)."""
     target = Path(target)
     suffix = target.suffix.lower()
     if suffix not in SUFFIXES:
         raise ValueError(f"output must end in .png or .npy, got {target.name!r}")
-    payload = encode_png(image, srgb, compress_level, alpha) if suffix == ".png" else None
+    payload = encode_png(image, srgb, compress_level, alpha, converted) if suffix == ".png" else None
     with atomic_path(target) as temporary:
         if payload is not None:
             temporary.write_bytes(payload)

@@ -93,6 +93,7 @@ class PreparedScene:
         self.camera_hierarchy = seen_by("visible_camera")
         self.shadow_hierarchy = seen_by("visible_shadow")
         self.mirror_hierarchy = seen_by("visible_reflection")
+        self._choose_brute_force()
         self.holdout = np.asarray([obj.holdout for obj in objects], dtype=bool)
         self.any_holdout = bool(self.holdout.any())
         self.has_alpha = self.scene.has_alpha
@@ -126,17 +127,37 @@ class PreparedScene:
             self.documented_color = column(background.sky(direction[2]), self.dtype)
         self.origin = column(self.scene.camera.location, self.dtype)
         self.screen = None  # which camera rays each bounded kernel can meet
-        if self.camera_hierarchy.boxes is not None:
+        if self.camera_hierarchy.boxes is not None and not self.camera_hierarchy.brute:
             self.screen = ScreenRectangles.build(
                 self.scene.camera, settings, self.origin.ravel().astype(np.float64), self.camera_hierarchy.boxes
             )
-        if self.shadow_hierarchy.boxes is not None:
+        if self.shadow_hierarchy.boxes is not None and not self.shadow_hierarchy.brute:
             boxes = self.shadow_hierarchy.boxes
             for light in self.lights:
                 if light.kind == "point":
                     light.grid = CoverageGrid.from_point(light.vector.ravel().astype(np.float64), *boxes)
                 elif light.kind == "directional":
                     light.grid = CoverageGrid.from_direction(light.vector.ravel().astype(np.float64), *boxes)
+
+    def _choose_brute_force(self) -> None:
+        """Whether each hierarchy is walked or every kernel tests every ray (Hierarchy.choose_brute), decided on a
+        32 x 24 grid of the camera's rays (the same bytes either way: only the work differs)."""
+        settings, camera = self.scene.render, self.scene.camera
+        if all(h.root is None for h in (self.camera_hierarchy, self.shadow_hierarchy, self.mirror_hierarchy)):
+            return
+        columns = np.unique(np.linspace(0, settings.width - 1, 32).astype(np.int64))
+        rows = np.unique(np.linspace(0, settings.height - 1, 24).astype(np.int64))
+        pixels = (rows[:, None] * settings.width + columns[None, :]).ravel()
+        with quiet():
+            D = cam.pixel_directions(camera, settings, pixels)
+            O = column(camera.location, np.float64)
+            if not cam.shares_origin(camera):
+                O = cam.pixel_starts(camera, settings, pixels, D)[0]
+            O, D = O.astype(self.dtype), D.astype(self.dtype)
+        for hierarchy in {
+            id(h): h for h in (self.camera_hierarchy, self.shadow_hierarchy, self.mirror_hierarchy)
+        }.values():
+            hierarchy.choose_brute(O, D)
 
     def _materials(self, objects: tuple[sc.SceneObject, ...]) -> None:
         """The materials as arrays (3, M) and (M,), and each object's (or a mesh's each triangle's) index into them.
@@ -412,8 +433,12 @@ class PreparedScene:
                 covering = None if covering is None else covering.take(keep)
             bits.append(covering)
             shadows.append((needed, blocked, rest))
-            origins.append(take(origin, rest))
-            vectors.append(np.broadcast_to(vector, (3, rest.size)) if vector.shape[1] == 1 else take(vector, rest))
+            every = light.grid is None and rest.size == needed.size  # nothing left out: no need to gather
+            origins.append(origin if every and origin.shape[1] == rest.size else take(origin, rest))
+            if vector.shape[1] == 1:
+                vectors.append(np.broadcast_to(vector, (3, rest.size)))
+            else:
+                vectors.append(vector if every and vector.shape[1] == rest.size else take(vector, rest))
             limits.append(np.full(rest.size, light.t_max, dtype=self.dtype))
         if not shadows:
             return []

@@ -1,0 +1,94 @@
+"""Where the time goes: CPU milliseconds per stage of one frame of the default scene, all bands in this process.
+
+Usage: python scripts/bench_stages.py [--dtype float64|float32] [--repeats 7] [--width 640 --height 480 --depth 3]
+Each stage (the hierarchy's closest hits, the shadow rays, FindIntensity's arithmetic, normals, TraceRay's loop,
+the camera rays and band assembly, a scene's preparation) is wrapped with a thread-CPU timer; the figures are
+medians over the repeats. CPU time, not wall time: the machine is shared (docs/performance.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import statistics
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from tracer.geometry import bvh
+from tracer.scene.loader import default_scene
+from tracer.tracing import wavefront
+from tracer.workers import parallel
+
+spent: collections.Counter = collections.Counter()
+
+
+def timed(owner: type, name: str, label: str) -> None:
+    original = getattr(owner, name)
+
+    def wrapper(*args, **kwargs):
+        started = time.thread_time()
+        try:
+            return original(*args, **kwargs)
+        finally:
+            spent[label] += time.thread_time() - started
+
+    setattr(owner, name, wrapper)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--dtype", default="float64", choices=["float64", "float32"])
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--width", type=int, default=640)
+    parser.add_argument("--height", type=int, default=480)
+    parser.add_argument("--depth", type=int, default=3)
+    args = parser.parse_args()
+    scene = default_scene().with_render(
+        width=args.width, height=args.height, depth=args.depth, samples=1, dtype=args.dtype
+    )
+    timed(bvh.Hierarchy, "closest", "closest")
+    timed(wavefront.PreparedScene, "_lit", "shadow")
+    timed(wavefront.PreparedScene, "find_intensity", "intensity")
+    timed(wavefront.PreparedScene, "normals", "normals")
+    timed(wavefront.PreparedScene, "trace", "trace")
+    timed(wavefront.PreparedScene, "render_rows", "rows")
+    parallel.tune_allocator()
+    prepared = parallel.PreparedScene(scene)
+    bands = parallel.bands(scene.render)
+    for rows in bands:  # warm-up: camera rays cached, allocator warmed
+        prepared.render_rows(rows)
+    samples = collections.defaultdict(list)
+    for _ in range(args.repeats):
+        spent.clear()
+        started = time.thread_time()
+        parallel.PreparedScene(scene)
+        preparation = time.thread_time() - started
+        for rows in bands:
+            prepared.render_rows(rows)
+        ms = {key: 1000 * value for key, value in spent.items()}
+        stages = {
+            "closest hits (camera and mirror rays)": ms["closest"],
+            "shadow rays (planes, coverage grids, any-hit)": ms["shadow"],
+            "shading arithmetic (FindIntensity without its shadow rays)": ms["intensity"] - ms["shadow"],
+            "normals": ms["normals"],
+            "TraceRay's loop: gathers, sky, accumulation, materials": ms["trace"]
+            - ms["closest"]
+            - ms["intensity"]
+            - ms["normals"],
+            "camera rays, box filter, band assembly": ms["rows"] - ms["trace"],
+            "one frame's tracing, all bands": ms["rows"],
+            "preparing the scene (once per scene)": 1000 * preparation,
+        }
+        for label, value in stages.items():
+            samples[label].append(value)
+    print(f"| stage ({args.dtype}, {args.width}x{args.height}, depth {args.depth}) | CPU ms |")
+    print("| --- | --- |")
+    for label, values in samples.items():
+        print(f"| {label} | {statistics.median(values):.1f} |")
+
+
+if __name__ == "__main__":
+    main()
