@@ -101,6 +101,8 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
     for tab in ("material-part", "data-light", "world-part", "data-part"):
         assert f"WEATHERVANE-GUI shading panels {tab.replace('-', ' ')}" in log, log[-4000:]
         assert SCREENSHOT.with_name(f"weathervane-gui-{tab}.png").exists(), tab
+    # a light's type changed in Blender's Light tab is what Export writes and what the sidebar shows
+    assert "WEATHERVANE-GUI light type changed in the Light tab: exported" in log, log[-4000:]
     # a small edit in the Rendered view: only the new scene's status lines were drawn, up to the edited image
     assert "WEATHERVANE-GUI small edit in the Rendered view" in log, log[-4000:]
     assert "WEATHERVANE-GUI rendered view stopped with Solid shading" in log

@@ -290,9 +290,31 @@ def open_shading_tab(index: int) -> float | None:
 def capture_shading_tab(index: int) -> float | None:
     tab, active, _ = SHADING_TABS[index]
     screenshot(f"-{tab.lower()}-{active}")
+    if active == "light":
+        change_the_light_type_in_its_tab()
     bpy.context.view_layer.objects.active.select_set(False)
     bpy.context.view_layer.objects.active = None
     return guarded(lambda: show_shading_tab(index + 1))
+
+
+def change_the_light_type_in_its_tab() -> None:
+    """The Light tab's Type set to Spot on a light of the add-on's Lights panel: Export writes a spot light and the
+    sidebar shows 'Spot'; then back to the type it had, so the steps after see the scene as built."""
+    import json
+    import os
+
+    entry_kind = sys.modules["weathervane.export"].entry_kind  # what the sidebar's Lights panel draws
+    light = bpy.context.view_layer.objects.active
+    entry = next(entry for entry in bpy.context.scene.weathervane.lights if entry.object_name == light.name)
+    before = light.data.type
+    light.data.type = "SPOT"
+    target = os.path.join(WORK, "light-type.json")
+    assert bpy.ops.weathervane.export(filepath=target) == {"FINISHED"}
+    with open(target, encoding="utf-8") as file:
+        kinds = [document["type"] for document in json.load(file)["lights"]]
+    assert "spot" in kinds and entry_kind(entry) == "SPOT", (kinds, entry_kind(entry))
+    light.data.type = before
+    print(f"WEATHERVANE-GUI light type changed in the Light tab: exported {kinds}, sidebar Spot")
 
 
 def render_f12() -> float | None:
