@@ -8,6 +8,7 @@ the lower object index, as the reference's loop over objects does.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,6 +72,49 @@ def _build(indices: np.ndarray, lower: np.ndarray, upper: np.ndarray, costs: np.
     )
 
 
+_STILL: OrderedDict[tuple, Node] = OrderedDict()
+STILL_CACHE_SIZE = 8
+
+
+def _still_subtree(
+    indices: np.ndarray, lower: np.ndarray, upper: np.ndarray, costs: np.ndarray, dtype: np.dtype
+) -> Node:
+    """_build() of kernels that stay put between frames, kept under its exact inputs (nodes never change once
+    built): an animation's frames share the still part of their hierarchies."""
+    key = (dtype.str, indices.tobytes(), lower.tobytes(), upper.tobytes(), costs.tobytes())
+    node = _STILL.get(key)
+    if node is None:
+        node = _STILL[key] = _build(indices, lower, upper, costs, dtype)
+        if len(_STILL) > STILL_CACHE_SIZE:
+            _STILL.popitem(last=False)
+    else:
+        _STILL.move_to_end(key)
+    return node
+
+
+def _split_build(
+    indices: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    costs: np.ndarray,
+    dtype: np.dtype,
+    owners: list[int],
+    moving: frozenset[int] | None,
+) -> Node:
+    """The root over the bounded kernels indices (n,): the surface-area split of them all, or, where moving names
+    some of their owners and not all, a node over the still kernels' kept subtree and the moving ones' own."""
+    if moving:
+        moves = np.array([owners[i] in moving for i in indices.tolist()], dtype=bool)
+        if moves.any() and not moves.all():
+            still, turned = ~moves, moves
+            children = [
+                _still_subtree(indices[still], lower[still], upper[still], costs[still], dtype),
+                _build(indices[turned], lower[turned], upper[turned], costs[turned], dtype),
+            ]
+            return Node(*padded_box(lower.min(axis=0), upper.max(axis=0), dtype), objects=[], children=children)
+    return _build(indices, lower, upper, costs, dtype)
+
+
 # The cost model of the choice between walking the hierarchy and brute force (choose_brute), in the units of
 # Kernel.cost (one box test over a ray): walking gathers each ray's origin and direction at every node and leaf
 # kernel it reaches (GATHER_COST each); brute force tests every kernel on every ray in place and offers each result
@@ -87,8 +131,19 @@ BRUTE_SCALE = 0.25
 class Hierarchy:
     """Closest-hit and any-hit queries over all kernels of a scene."""
 
-    def __init__(self, kernels: list[Kernel], dtype: np.dtype, owners: list[int] | None = None) -> None:
-        """kernels are the hierarchy's leaves; owners[i] is the scene object kernel i belongs to (default: i)."""
+    def __init__(
+        self,
+        kernels: list[Kernel],
+        dtype: np.dtype,
+        owners: list[int] | None = None,
+        moving: frozenset[int] | None = None,
+    ) -> None:
+        """kernels are the hierarchy's leaves; owners[i] is the scene object kernel i belongs to (default: i).
+
+        moving: the owners that move between the frames of an animation (the vane's parts). Where some bounded
+        kernels move and some do not, the root has two children, the still kernels' subtree (kept between frames,
+        _still_subtree) and the moving kernels' subtree (built each time): a frame then builds only the latter.
+        Boxes only decide which rays a kernel sees, so the images are the same bytes with either tree."""
         self.kernels = kernels
         self.owners = owners if owners is not None else list(range(len(kernels)))
         self.dtype = dtype
@@ -115,7 +170,7 @@ class Hierarchy:
             upper = np.array([boxes[i][1] for i in bounded.tolist()], dtype=np.float64)
             self.boxes = (bounded.tolist(), lower, upper)
             costs = np.array([kernels[i].cost for i in bounded.tolist()], dtype=np.float64)
-            self.root = _build(bounded, lower, upper, costs, dtype)
+            self.root = _split_build(bounded, lower, upper, costs, dtype, self.owners, moving)
             self.brute_cost = float(costs.sum()) + BRUTE_OFFER_COST * len(bounded)
 
     def choose_brute(self, O: np.ndarray, D: np.ndarray) -> bool:

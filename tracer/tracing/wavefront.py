@@ -82,13 +82,18 @@ class PreparedScene:
         ]
         objects = self.scene.objects
         owners = list(range(len(leaf_kernels)))
-        self.hierarchy = Hierarchy(leaf_kernels, self.dtype, owners)
+        # the vane's parts in a subtree of their own, the rest kept between an animation's frames (bvh.py)
+        vane = self.scene.vane
+        moving = None
+        if vane is not None:
+            moving = frozenset(index for index, obj in enumerate(objects) if obj.name in vane.parts)
+        self.hierarchy = Hierarchy(leaf_kernels, self.dtype, owners, moving)
 
         def seen_by(flag: str) -> Hierarchy:  # the objects one kind of ray sees (Blender's ray visibility)
             chosen = [index for index, obj in enumerate(objects) if getattr(obj, flag)]
             if len(chosen) == len(objects):
                 return self.hierarchy
-            return Hierarchy([leaf_kernels[index] for index in chosen], self.dtype, chosen)
+            return Hierarchy([leaf_kernels[index] for index in chosen], self.dtype, chosen, moving)
 
         self.camera_hierarchy = seen_by("visible_camera")
         self.shadow_hierarchy = seen_by("visible_shadow")
