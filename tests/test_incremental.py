@@ -133,3 +133,30 @@ def test_turning_scenes_with_blender_fields_are_whole_frames(seed: int) -> None:
     for obj in document["objects"]:
         obj["holdout"] = False
     assert_frames_are_whole_frames(scene_from_dict(document), turns, workers=1)
+
+
+@pytest.mark.parametrize("seed", range(8))
+@pytest.mark.parametrize(
+    ("dtype", "numerics"),
+    [("float64", "documented"), ("float32", "documented"), ("float64", "robust"), ("float32", "robust")],
+)
+def test_the_vanes_own_subtree_traces_the_same_bytes(
+    seed: int, dtype: str, numerics: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The hierarchy with the vane's parts in a subtree of their own (the still objects' kept between frames) gives
+    the images of the one surface-area tree over all objects, bit for bit, at any heading."""
+    from tracer.geometry import bvh
+    from tracer.tracing.wavefront import PreparedScene
+    from tracer.workers.resources import band_samples
+
+    def image(scene: sc.Scene) -> np.ndarray:
+        rows = np.arange(scene.render.height)
+        return PreparedScene(scene).render_rows(rows, band_samples(scene.render))[0]
+
+    base = turning_scene(seed, dtype, numerics)
+    turns = random_headings(seed, 3)
+    split = [image(base.with_heading(turn)) for turn in turns]
+    joined = bvh._split_build
+    monkeypatch.setattr(bvh, "_split_build", lambda *args: joined(*args[:-1], None))
+    for turn, expected in zip(turns, split, strict=True):
+        assert np.array_equal(image(base.with_heading(turn)), expected), f"heading {turn}"
