@@ -232,15 +232,20 @@ def _script_node(tree, text):
     return node
 
 
-def _exact_material(name: str, values: dict, text):
-    material = bpy.data.materials.get(PREFIX + name) or bpy.data.materials.new(PREFIX + name)
-    compat.enable_nodes(material)
-    tree = material.node_tree
+def _scripted(owner, text, output_type: str, closure: str):
+    """owner's (a material's or the world's) node tree made anew: the OSL script node's closure into its output."""
+    compat.enable_nodes(owner)
+    tree = owner.node_tree
     tree.nodes.clear()
     node = _script_node(tree, text)
-    output = tree.nodes.new("ShaderNodeOutputMaterial")
-    tree.links.new(node.outputs["BSDF"], output.inputs["Surface"])
-    inputs = node.inputs
+    output = tree.nodes.new(output_type)
+    tree.links.new(node.outputs[closure], output.inputs["Surface"])
+    return node
+
+
+def _exact_material(name: str, values: dict, text):
+    material = bpy.data.materials.get(PREFIX + name) or bpy.data.materials.new(PREFIX + name)
+    inputs = _scripted(material, text, "ShaderNodeOutputMaterial", "BSDF").inputs
     inputs["Color"].default_value = (*values.get("color", (0.8, 0.8, 0.8)), 1.0)
     inputs["Specular"].default_value = float(values.get("specular", 0.0))
     inputs["Reflective"].default_value = float(values.get("reflective", 0.0))
@@ -256,12 +261,7 @@ def _exact_material(name: str, values: dict, text):
 
 def _world(text):
     world = bpy.data.worlds.get(WORLD) or bpy.data.worlds.new(WORLD)
-    compat.enable_nodes(world)
-    tree = world.node_tree
-    tree.nodes.clear()
-    node = _script_node(tree, text)
-    output = tree.nodes.new("ShaderNodeOutputWorld")
-    tree.links.new(node.outputs["Background"], output.inputs["Surface"])
+    _scripted(world, text, "ShaderNodeOutputWorld", "Background")
     compat.no_world_sampling(world)
     return world
 

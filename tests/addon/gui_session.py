@@ -442,20 +442,30 @@ def edit_in_rendered_view() -> float | None:
             # back to Solid shading: Blender frees the view's engine, which stops its thread and workers
             area.spaces.active.shading.type = "SOLID"
             area.tag_redraw()
-            return guarded(check_rendered_view_stopped)
+            return guarded(when_the_rendered_view_stopped(rendered_view_stopped))
         assert time.perf_counter() - started < RENDERED_WAIT_SECONDS, f"the edit was not drawn: {seen}"
         return 0.02
 
     return guarded(poll)
 
 
-def check_rendered_view_stopped(waited: list = [0]) -> float | None:  # noqa: B006 - counts this step's polls
+def when_the_rendered_view_stopped(then):
+    """A step polling until the Rendered view's tracing thread has ended (after Solid shading), then `then`."""
     import threading
 
-    if any(thread.name == "weathervane-progressive" for thread in threading.enumerate()):
-        waited[0] += 1
-        assert waited[0] < 40, "the Rendered view's tracing thread outlived the view's Rendered shading"
-        return 0.25
+    waited = [0]
+
+    def poll() -> float | None:
+        if any(thread.name == "weathervane-progressive" for thread in threading.enumerate()):
+            waited[0] += 1
+            assert waited[0] < 40, "the Rendered view's tracing thread outlived the view's Rendered shading"
+            return 0.25
+        return then()
+
+    return poll
+
+
+def rendered_view_stopped() -> float | None:
     print("WEATHERVANE-GUI rendered view stopped with Solid shading")
     return guarded(render_empty_f12)
 
@@ -674,17 +684,7 @@ def capture_foreign_rendered() -> float | None:
     space.overlay.show_overlays = space.show_gizmo = True
     space.shading.type = "SOLID"
     area.tag_redraw()
-    return guarded(foreign_view_stopped)
-
-
-def foreign_view_stopped(waited: list = [0]) -> float | None:  # noqa: B006 - counts this step's polls
-    import threading
-
-    if any(thread.name == "weathervane-progressive" for thread in threading.enumerate()):
-        waited[0] += 1
-        assert waited[0] < 40, "the Rendered view's tracing thread outlived the view's Rendered shading"
-        return 0.25
-    return guarded(open_export_menu)
+    return guarded(when_the_rendered_view_stopped(lambda: guarded(open_export_menu)))
 
 
 bpy.app.timers.register(prepare, first_interval=1.0)

@@ -384,15 +384,22 @@ def test_cycles_world_lights_a_white_plane_to_its_colour() -> None:
 # --- Blender's own panels, and the Scene Conversion panel ------------------------------------------------------------
 
 
+def triangle(scene):
+    """A one-triangle mesh object linked to the scene."""
+    mesh = bpy.data.meshes.new("mesh")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    obj = bpy.data.objects.new("mesh", mesh)
+    scene.collection.objects.link(obj)
+    return obj
+
+
 def test_blenders_material_light_world_and_mesh_panels_show_for_the_engine() -> None:
     from addon import render_panels
 
     scene = bpy.context.scene
     scene.render.engine = "WEATHERVANE_TRACER"
-    mesh = bpy.data.meshes.new("mesh")
-    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
-    obj = bpy.data.objects.new("mesh", mesh)
-    scene.collection.objects.link(obj)
+    obj = triangle(scene)
+    mesh = obj.data
     material = principled("shown")
     mesh.materials.append(material)
     spot = light_object("SPOT", 10.0)
@@ -435,10 +442,8 @@ def test_the_scene_conversion_panel_converts_once_per_change(monkeypatch) -> Non
 
     scene = bpy.context.scene
     scene.render.engine = "WEATHERVANE_TRACER"
-    mesh = bpy.data.meshes.new("mesh")
-    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
-    obj = bpy.data.objects.new("mesh", mesh)
-    scene.collection.objects.link(obj)
+    obj = triangle(scene)
+    mesh = obj.data
     material = principled("glass", **{"Alpha": 0.5})
     mesh.materials.append(material)
     light_object("AREA", 100.0)
