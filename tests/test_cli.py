@@ -264,3 +264,42 @@ def test_kept_image_files_are_used_again_only_when_free_and_closed_with_the_rend
     assert open_images() - before == 1  # the held image's
     del held
     assert open_images() == before
+
+
+def _address_space_limit() -> None:
+    import resource
+
+    resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+
+
+def test_an_address_space_limit_refuses_a_huge_render_in_one_line(tmp_path: Path) -> None:
+    """Under RLIMIT_AS 4 GiB a 16384x16384 float64 render (about 8 GB) is refused before tracing: one line that says
+    what it needs and what the limit leaves, exit 1, no traceback, no file (it died of a NumPy MemoryError before)."""
+    out = tmp_path / "huge.png"
+    result = run(
+        "render", "--width", "16384", "--height", "16384", "-o", str(out), "--quiet", preexec_fn=_address_space_limit
+    )
+    assert result.returncode == 1, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
+    assert "memory" in lines[0] and "16384x16384" in lines[0] and "Traceback" not in result.stderr
+    assert not out.exists() and not list(tmp_path.iterdir())
+
+
+def test_running_out_of_memory_midway_is_one_line_and_writes_nothing(tmp_path: Path, monkeypatch, capsys) -> None:
+    """A MemoryError the up-front check could not foresee (another process grew) ends in one line naming the render
+    and what to change, exit 1, and leaves an existing output file as it was."""
+    from tracer import cli
+    from tracer.workers import parallel
+
+    def exhausted(self, scene, progress=None):
+        raise MemoryError("Unable to allocate 6.00 GiB for an array")
+
+    monkeypatch.setattr(parallel.Renderer, "render", exhausted)
+    out = tmp_path / "kept.png"
+    out.write_bytes(b"the user's file")
+    code = cli.main(["render", "--width", "64", "--height", "48", "--workers", "1", "-o", str(out), "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1, err
+    assert err[0].startswith("error: out of memory during a 64x48 float64 render") and "no image written" in err[0]
+    assert out.read_bytes() == b"the user's file"

@@ -18,7 +18,7 @@ from .scene.loader import SceneError, check_samples, default_scene, load_scene
 from .tracing.images import SUFFIXES, write_image
 from .workers.parallel import Renderer, worker_count
 from .workers.pool import TaskFailedError, WorkerLostError
-from .workers.resources import ResourceError, check_disk, check_resources, output_bytes
+from .workers.resources import ResourceError, check_disk, check_resources, out_of_memory_message, output_bytes
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
@@ -241,17 +241,23 @@ def run_render(args: argparse.Namespace) -> int:
     if scene is None:
         return EXIT_BAD_INPUT
     progress = ProgressBar("render", enabled=None if not args.quiet else False)
-    with Renderer(scene.render.workers) as renderer:
-        suffix = args.output.suffix.lower()
-        check_resources(scene.render, renderer.workers, output=suffix)
-        check_disk(args.output, output_bytes(scene.render, suffix, 4 if scene.has_alpha else 3))
-        result = renderer.render(scene, progress)
-        workers = renderer.workers
-    progress.close()
+    workers = scene.render.workers
     try:
-        write_image(result.image, args.output, srgb=args.srgb, alpha=result.alpha)
-    except OSError as error:
-        print(_write_problem(args.output, error), file=sys.stderr)
+        with Renderer(scene.render.workers) as renderer:
+            workers = renderer.workers
+            suffix = args.output.suffix.lower()
+            check_resources(scene.render, renderer.workers, output=suffix)
+            check_disk(args.output, output_bytes(scene.render, suffix, 4 if scene.has_alpha else 3))
+            result = renderer.render(scene, progress)
+        progress.close()
+        try:
+            write_image(result.image, args.output, srgb=args.srgb, alpha=result.alpha)
+        except OSError as error:
+            print(_write_problem(args.output, error), file=sys.stderr)
+            return EXIT_FAILED
+    except MemoryError:  # a limit the check could not see (address space, a cgroup, other processes' growth)
+        progress.close()
+        print(f"error: {out_of_memory_message(scene.render, workers)}; no image written", file=sys.stderr)
         return EXIT_FAILED
     if not args.quiet:
         print(_summary(args.output, scene, workers, result))
@@ -355,6 +361,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except TerminatedError:
         print(f"terminated: {written}", file=sys.stderr)
         return EXIT_TERMINATED
+    except MemoryError:
+        print(f"error: out of memory: {written}; try a smaller --width/--height or --dtype float32", file=sys.stderr)
+        return EXIT_FAILED
     except (ResourceError, WorkerLostError) as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_FAILED

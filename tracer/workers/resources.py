@@ -58,7 +58,14 @@ def memory_needed(settings: sc.RenderSettings, workers: int, frames: int = 1, ou
 
 
 def available_memory() -> int | None:
-    """What the kernel says can be allocated without swapping (Linux's MemAvailable), or None where unknown."""
+    """What can be allocated now, the least of three limits, or None where none is known: the kernel's
+    MemAvailable (without swapping), this process's address-space limit (RLIMIT_AS) less what it has mapped, and
+    its cgroup's memory.max less memory.current (a container's limit)."""
+    limits = [limit for limit in (_meminfo_available(), _address_space_left(), _cgroup_left()) if limit is not None]
+    return min(limits) if limits else None
+
+
+def _meminfo_available() -> int | None:
     try:
         with open("/proc/meminfo", encoding="ascii") as meminfo:
             for line in meminfo:
@@ -67,6 +74,58 @@ def available_memory() -> int | None:
     except (OSError, ValueError, IndexError):
         return None
     return None
+
+
+def _address_space_left() -> int | None:
+    """RLIMIT_AS (soft) less this process's mapped size (VmSize); None where there is no such limit."""
+    try:
+        import resource  # POSIX only
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        if soft == resource.RLIM_INFINITY:
+            return None
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmSize:"):
+                    return max(0, soft - int(line.split()[1]) * 1024)
+    except (ImportError, OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def _cgroup_left() -> int | None:
+    """The cgroup v2 memory.max less memory.current of this process's cgroup; None where unlimited or unknown."""
+    try:
+        with open("/proc/self/cgroup", encoding="ascii") as cgroup:
+            path = next((line.split(":", 2)[2].strip() for line in cgroup if line.startswith("0::")), None)
+        if path is None:
+            return None
+        folder = Path("/sys/fs/cgroup") / path.lstrip("/")
+        limit = (folder / "memory.max").read_text(encoding="ascii").strip()
+        if limit == "max":
+            return None
+        return max(0, int(limit) - int((folder / "memory.current").read_text(encoding="ascii").strip()))
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def out_of_memory_message(settings: sc.RenderSettings, workers: int) -> str:
+    """The one line for a render that ran out of memory midway (a limit check_resources could not see)."""
+    return (
+        f"out of memory during a {settings.width}x{settings.height} {settings.dtype} render with {max(1, workers)}"
+        f" workers ({_size(memory_needed(settings, workers))} estimated, {_size(available_memory() or 0)} available"
+        f" now); try {', '.join(_advice(settings, workers))}"
+    )
+
+
+def _advice(settings: sc.RenderSettings, workers: int) -> list[str]:
+    advice = []
+    if settings.dtype == "float64":
+        advice.append("--dtype float32")
+    if workers > 1:
+        advice.append("fewer --workers")
+    advice.append("a smaller --width/--height")
+    return advice
 
 
 def _size(count: int) -> str:
@@ -82,12 +141,7 @@ def check_resources(settings: sc.RenderSettings, workers: int, frames: int = 1, 
     available = available_memory()
     if available is None or needed * HEADROOM <= available:
         return
-    advice = []
-    if settings.dtype == "float64":
-        advice.append("--dtype float32")
-    if workers > 1:
-        advice.append("fewer --workers")
-    advice.append("a smaller --width/--height")
+    advice = _advice(settings, workers)
     raise ResourceError(
         f"a {settings.width}x{settings.height} {settings.dtype} render with {max(1, workers)} workers needs about "
         f"{_size(needed)} of memory and {_size(available)} is available; try {', '.join(advice)}"
@@ -119,4 +173,12 @@ def check_disk(target: Path, needed: int) -> None:
         )
 
 
-__all__ = ["ResourceError", "available_memory", "check_disk", "check_resources", "memory_needed", "output_bytes"]
+__all__ = [
+    "ResourceError",
+    "available_memory",
+    "check_disk",
+    "check_resources",
+    "memory_needed",
+    "out_of_memory_message",
+    "output_bytes",
+]
