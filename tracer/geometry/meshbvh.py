@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import transforms as tf
-from .kernels import Kernel, padded_box, ray_count, slab
+from .kernels import Kernel, ray_count, slab
 
 LEAF_TRIANGLES = 8
 MESH_HIERARCHY_TRIANGLES = 32  # a mesh of more triangles gets its own hierarchy; below, one test over all of them
@@ -30,41 +30,79 @@ class MeshHierarchy:
     leaf its row of leaf_triangles (L, LEAF_TRIANGLES) (indices into the mesh; real marks the filled slots)."""
 
     def __init__(self, triangles: np.ndarray, dtype: np.dtype) -> None:
-        """triangles (T, 3 vertices, 3) float64."""
+        """triangles (T, 3 vertices, 3) float64.
+
+        Median splits on the centroids' longest axis, built a level at a time: every node of a level is a range of
+        one order of the triangles, and one pass of segment reductions and one stable sort serve them all (a
+        node-by-node build cost 0.9 s of Python per 100,000 triangles, most of a million-triangle scene's
+        preparation). Nodes are numbered level by level; the splits depend on the mesh only."""
+        count = len(triangles)
         centroids = triangles.mean(axis=1)
         low_all, high_all = triangles.min(axis=1), triangles.max(axis=1)
-        lowers, uppers, left, right, leaf_row, rows = [], [], [], [], [], []
-        order = np.arange(len(triangles))
-        # median splits on the centroids' longest axis, depth first with an explicit stack
-        stack = [(0, len(triangles), -1, False)]
-        while stack:
-            start, stop, parent, is_right = stack.pop()
-            node = len(lowers)
-            members = order[start:stop]
-            lowers.append(low_all[members].min(axis=0))
-            uppers.append(high_all[members].max(axis=0))
-            left.append(-1)
-            right.append(-1)
-            leaf_row.append(-1)
-            if parent >= 0:
-                (right if is_right else left)[parent] = node
-            if stop - start <= LEAF_TRIANGLES:
-                leaf_row[node] = len(rows)
-                rows.append(members)
-                continue
-            points = centroids[members]
-            axis = int(np.argmax(points.max(axis=0) - points.min(axis=0)))
-            middle = (stop - start) // 2
-            # a stable order by the centroid along the axis: the split depends on the mesh only
-            order[start:stop] = members[np.argsort(points[:, axis], kind="stable")]
-            stack.append((start + middle, stop, node, True))
-            stack.append((start, start + middle, node, False))
-        self.left, self.right, self.leaf_row = np.array(left), np.array(right), np.array(leaf_row)
-        padded = [padded_box(lo, hi, dtype) for lo, hi in zip(lowers, uppers, strict=True)]
-        self.lower = np.concatenate([lo for lo, _ in padded], axis=1)  # (3, M)
-        self.upper = np.concatenate([hi for _, hi in padded], axis=1)
-        self.leaf_triangles = np.array([np.resize(row, LEAF_TRIANGLES) for row in rows])  # (L, K): repeats pad
-        self.real = np.array([np.arange(LEAF_TRIANGLES) < len(row) for row in rows])  # (L, K)
+        order = np.arange(count)
+        starts, stops = np.array([0]), np.array([count])
+        first_node = 0
+        lowers, uppers, lefts, leaf_rows, leaf_starts, leaf_stops = [], [], [], [], [], []
+        leaves = 0
+        while starts.size:
+            lowers.append(_segments(np.minimum, low_all[order], starts, stops))  # (n, 3): each node's box
+            uppers.append(_segments(np.maximum, high_all[order], starts, stops))
+            sizes = stops - starts
+            is_leaf = sizes <= LEAF_TRIANGLES
+            inner = (~is_leaf).nonzero()[0]
+            leaf = is_leaf.nonzero()[0]
+            rows = np.full(starts.size, -1, dtype=np.int64)
+            rows[leaf] = leaves + np.arange(leaf.size)
+            leaves += leaf.size
+            leaf_rows.append(rows)
+            leaf_starts.append(starts[leaf])
+            leaf_stops.append(stops[leaf])
+            # children of the inner nodes: the next level's nodes, left then right for each parent in turn
+            left = np.full(starts.size, -1, dtype=np.int64)
+            left[inner] = first_node + starts.size + 2 * np.arange(inner.size)
+            lefts.append(left)
+            first_node += starts.size
+            if not inner.size:
+                break
+            inner_starts, inner_stops = starts[inner], stops[inner]
+            points = centroids[order]
+            extent = _segments(np.maximum, points, inner_starts, inner_stops) - _segments(
+                np.minimum, points, inner_starts, inner_stops
+            )
+            axis = np.argmax(extent, axis=1)
+            # a stable order by the centroid along each node's axis, within each node's range
+            lengths = inner_stops - inner_starts
+            segment = np.repeat(np.arange(inner.size), lengths)
+            positions = np.arange(segment.size) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+            positions += np.repeat(inner_starts, lengths)
+            keys = points[positions, np.repeat(axis, lengths)]
+            resorted = positions[np.lexsort((keys, segment))]
+            order[positions] = order[resorted]
+            middle = inner_starts + lengths // 2
+            starts = np.stack((inner_starts, middle), axis=1).ravel()
+            stops = np.stack((middle, inner_stops), axis=1).ravel()
+        lower, upper = np.concatenate(lowers), np.concatenate(uppers)  # (M, 3)
+        self.left = np.concatenate(lefts)
+        self.right = np.where(self.left >= 0, self.left + 1, -1)
+        self.leaf_row = np.concatenate(leaf_rows)
+        relative = 1e-6 if dtype == np.float64 else 1e-4
+        # padded_box() for every node at once: the same margin, from the same numbers
+        size = np.maximum(np.abs(lower).max(axis=1), np.abs(upper).max(axis=1)) + (upper - lower).max(axis=1)
+        pad = (relative * size + 1e-9)[:, None]
+        self.lower = (lower - pad).astype(dtype).T.copy()  # (3, M)
+        self.upper = (upper + pad).astype(dtype).T.copy()
+        starts, stops = np.concatenate(leaf_starts), np.concatenate(leaf_stops)
+        slots = starts[:, None] + np.arange(LEAF_TRIANGLES)[None, :]  # (L, K)
+        self.real = slots < stops[:, None]
+        # repeats pad a short leaf, as np.resize did: slot k holds member k mod the leaf's size
+        wrapped = starts[:, None] + np.arange(LEAF_TRIANGLES)[None, :] % (stops - starts)[:, None]
+        self.leaf_triangles = order[wrapped]
+
+
+def _segments(ufunc: np.ufunc, values: np.ndarray, starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
+    """ufunc's reduction (n, 3) of values (P, 3) over each non-empty range [starts, stops)."""
+    padded = np.concatenate((values, values[-1:]))  # a stop may be P: one row more keeps reduceat in range
+    return ufunc.reduceat(padded, np.stack((starts, stops), axis=1).ravel(), axis=0)[0::2]
 
 
 class MeshKernel(Kernel):
