@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
 SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
-.PHONY: demo test test-slow lint bench bench-compare bench-peers bench-stages bench-reliability bench-viewport bench-cluster docs study addon system-deps blender-wheels clean
+.PHONY: demo test test-slow lint bench bench-compare bench-peers bench-stages bench-meshes bench-reliability bench-viewport bench-cluster docs study addon system-deps blender-wheels clean
 
 # Blender versions as bpy wheels besides 5.0.1 (tests/addon/wheels.txt): one virtual environment each
 BPY_WHEELS := $(shell sed -e 's/\#.*//' tests/addon/wheels.txt)
@@ -72,6 +72,10 @@ bench-peers: $(STAMP)
 bench-stages: $(STAMP)
 	$(BIN)/python scripts/bench_stages.py --dtype float64
 	$(BIN)/python scripts/bench_stages.py --dtype float32
+
+# meshes against the default frame (one process, same rounds) and a million triangles' first frame and peak memory
+bench-meshes: $(STAMP)
+	$(BIN)/python scripts/bench_meshes.py --rounds 5 --frames 5
 
 bench-reliability: $(STAMP)
 	$(BIN)/python scripts/bench_reliability.py --repeats 3

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import jsonschema
+import numpy as np
 import pytest
 
 from tracer.scene import scene as sc
@@ -194,3 +195,29 @@ def test_degenerate_triangles_are_refused() -> None:
     assert caught.value.problems == [
         "objects[14].triangles[1]: must span an area (its vertices 0, 1, 2 are on one line)"
     ]
+
+
+def test_a_valid_mesh_checked_as_arrays_loads_the_same_scene_as_the_per_entry_loop(monkeypatch) -> None:
+    """The array check of a mesh's vertices and triangles (large meshes) gives the scene the loop gives, and leaves
+    every invalid mesh to the loop, which names the entry."""
+    from tracer.scene import loader as loader_module
+
+    rng = np.random.default_rng(7)
+    vertices = rng.uniform(-2, 2, (40, 3)).round(6).tolist()
+    vertices[0] = [1, 2, 3]  # integers too
+    triangles = [[int(a), int(b), int(c)] for a, b, c in rng.permuted(np.tile(np.arange(40), (60, 1)), axis=1)[:, :3]]
+    document = default_scene_dict()
+    document["objects"].append({"name": "m", "type": "mesh", "material": "iron", "vertices": vertices,
+                                "triangles": triangles})  # fmt: skip
+    fast = scene_from_dict(document)
+    assert loader_module._mesh_arrays(vertices, triangles) is not None
+    monkeypatch.setattr(loader_module, "_mesh_arrays", lambda *args: None)
+    assert scene_from_dict(document) == fast
+    monkeypatch.undo()
+    for bad, field in (([[0, 1, True]], "triangles[0]"), ([[0, 1, 40]], "triangles[0]"), ([[0, 0, 1]], "triangles[0]")):
+        assert loader_module._mesh_arrays(vertices, bad) is None
+        broken = json.loads(json.dumps(document))
+        broken["objects"][-1]["triangles"] = bad
+        with pytest.raises(SceneError) as error:
+            scene_from_dict(broken)
+        assert any(field in problem for problem in error.value.problems), error.value.problems

@@ -320,6 +320,17 @@ def _object(reader: _Reader, materials: dict[str, sc.Material], index: int) -> s
 def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Material]) -> sc.TriangleMesh:
     raw_vertices = reader.raw("vertices")
     raw_triangles = reader.raw("triangles")
+    fast = _mesh_arrays(raw_vertices, raw_triangles)
+    if fast is not None:  # every vertex and triangle valid: checked as arrays, the same numbers as the loop below
+        vertices_array, triangles_array = fast
+        count = len(triangles_array)
+        return sc.TriangleMesh(
+            vertices=tuple(map(tuple, vertices_array.tolist())),
+            triangles=tuple(map(tuple, triangles_array.tolist())),
+            normals=_corner_normals(reader, count),
+            **dict(zip(("materials", "material_indices"), _mesh_materials(reader, count, materials), strict=True)),
+            **common,
+        )
     vertices: list[sc.Vec3] = []
     triangles: list[tuple[int, int, int]] = []
     if raw_vertices is not ...:
@@ -367,6 +378,46 @@ def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Mater
         material_indices=indices,
         **common,
     )
+
+
+def _mesh_arrays(raw_vertices: Any, raw_triangles: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """A mesh's vertices (V, 3) float64 and triangles (T, 3) int64 where every entry is valid (numbers within the
+    coordinate limit; integer indices of vertices; triangles that span an area), checked with array operations (a
+    million-triangle mesh in a fraction of the per-entry loop's time); None where any is not, for the loop to
+    name it."""
+    if not isinstance(raw_vertices, list) or not raw_vertices or not isinstance(raw_triangles, list):
+        return None
+    if not raw_triangles:
+        return None
+    vertices = _number_array(raw_vertices, (len(raw_vertices), 3))
+    if vertices is None:
+        return None
+    try:
+        objects = np.asarray(raw_triangles, dtype=object)
+    except ValueError:
+        return None
+    if objects.shape != (len(raw_triangles), 3) or not set(map(type, objects.ravel().tolist())) <= {int}:
+        return None
+    try:
+        triangles = objects.astype(np.int64)
+    except OverflowError:
+        return None
+    if not (np.all(triangles >= 0) and np.all(triangles < len(vertices))):
+        return None
+    # the loop's cross product, in the same float64 operations
+    v0, v1, v2 = (vertices[triangles[:, k]] for k in range(3))
+    e1, e2 = v1 - v0, v2 - v0
+    normal = np.stack(
+        (
+            e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1],
+            e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
+            e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0],
+        ),
+        axis=1,
+    )
+    if np.any(np.all(normal == 0.0, axis=1)):
+        return None
+    return vertices, triangles
 
 
 def _corner_normals(reader: _Reader, count: int) -> tuple | None:
