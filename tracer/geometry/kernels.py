@@ -65,10 +65,16 @@ def padded_box(
     """A box grown by a margin far above the rounding of the slab test, as (3, 1) columns in dtype.
 
     reach: the largest coordinate magnitude the test subtracts (the box's own, or its frame's origin's)."""
-    relative = 1e-6 if dtype == np.float64 else 1e-4
     size = float(np.max(np.abs(np.concatenate((lower, upper)))) + np.max(upper - lower)) + reach
-    pad = relative * size + 1e-9
+    pad = box_margin(size, dtype)
     return (lower - pad).astype(dtype).reshape(3, 1), (upper + pad).astype(dtype).reshape(3, 1)
+
+
+def box_margin(size, dtype: np.dtype):
+    """padded_box's margin for a box of size (its largest coordinate magnitude plus its longest side): a number, or
+    one per box (n,) where size is an array."""
+    relative = 1e-6 if dtype == np.float64 else 1e-4
+    return relative * size + 1e-9
 
 
 def slab(O: np.ndarray, inverse: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

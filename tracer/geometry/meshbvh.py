@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import transforms as tf
-from .kernels import Kernel, ray_count, slab
+from .kernels import Kernel, box_margin, ray_count, slab
 
 LEAF_TRIANGLES = 8
 MESH_HIERARCHY_TRIANGLES = 32  # a mesh of more triangles gets its own hierarchy; below, one test over all of them
@@ -85,10 +85,9 @@ class MeshHierarchy:
         self.left = np.concatenate(lefts)
         self.right = np.where(self.left >= 0, self.left + 1, -1)
         self.leaf_row = np.concatenate(leaf_rows)
-        relative = 1e-6 if dtype == np.float64 else 1e-4
         # padded_box() for every node at once: the same margin, from the same numbers
         size = np.maximum(np.abs(lower).max(axis=1), np.abs(upper).max(axis=1)) + (upper - lower).max(axis=1)
-        pad = (relative * size + 1e-9)[:, None]
+        pad = box_margin(size, dtype)[:, None]
         self.lower = (lower - pad).astype(dtype).T.copy()  # (3, M)
         self.upper = (upper + pad).astype(dtype).T.copy()
         starts, stops = np.concatenate(leaf_starts), np.concatenate(leaf_stops)

@@ -324,11 +324,14 @@ def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Mater
     if fast is not None:  # every vertex and triangle valid: checked as arrays, the same numbers as the loop below
         vertices_array, triangles_array = fast
         count = len(triangles_array)
+        normals = _corner_normals(reader, count)
+        names, indices = _mesh_materials(reader, count, materials)
         return sc.TriangleMesh(
             vertices=tuple(map(tuple, vertices_array.tolist())),
             triangles=tuple(map(tuple, triangles_array.tolist())),
-            normals=_corner_normals(reader, count),
-            **dict(zip(("materials", "material_indices"), _mesh_materials(reader, count, materials), strict=True)),
+            normals=normals,
+            materials=names,
+            material_indices=indices,
             **common,
         )
     vertices: list[sc.Vec3] = []
