@@ -11,6 +11,7 @@ import pytest
 from tracer.geometry import transforms as tf
 from tracer.geometry.kernels import make_kernel, quiet
 from tracer.geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
+from tracer.geometry.meshpicture import View
 from tracer.geometry.robust import make_robust_kernel
 from tracer.scene import scene as sc
 from tracer.tracing.reference import render_reference
@@ -85,3 +86,63 @@ def test_a_mesh_renders_the_same_bytes_with_one_worker_or_two_and_in_robust_mode
         one = render(scene.with_render(numerics=numerics), workers=1).image
         two = render(scene.with_render(numerics=numerics), workers=2).image
         assert np.array_equal(one, two)
+
+
+def picture_rays(mesh: tf.WorldTriangles, kind: str, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rays that share a point or a direction, as a mesh's pictures see them (meshpicture.py): a camera's (one
+    origin (3, 1) outside the mesh), a point light's shadow rays (each from a point before, among or beyond the
+    triangles, toward the light: t in (0, 1) ends there) or a directional light's (one direction (3, 1))."""
+    rng = np.random.default_rng(seed)
+    centres = np.asarray(mesh.triangles).mean(axis=1)
+    targets = centres[rng.integers(0, len(centres), count)].T + rng.normal(0, 0.2, (3, count))
+    if kind == "camera":
+        O = np.array([[9.0], [-7.0], [5.0]])
+        return O, targets - O
+    if kind == "light":
+        light = np.array([[6.0], [5.0], [8.0]])
+        O = light + (targets - light) * rng.uniform(0.3, 2.0, count)
+        return O, light - O
+    direction = np.array([[0.3], [-0.5], [0.8]])
+    return targets - 12.0 * direction + rng.normal(0, 0.05, (3, count)), direction
+
+
+@pytest.mark.parametrize("build", [make_kernel, make_robust_kernel])
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+@pytest.mark.parametrize("kind", ["camera", "light", "sun"])
+@pytest.mark.parametrize(("count", "seed"), [(300, 4), (1500, 5)])
+def test_the_mesh_pictures_find_the_whole_mesh_tests_hits(build, dtype, kind, count, seed) -> None:
+    mesh = soup(count, seed)
+    whole = build(mesh, np.dtype(dtype))
+    kernel = MeshKernel(whole, mesh)
+    O, D = (array.astype(dtype) for array in picture_rays(mesh, kind, 4000, seed))
+    views = None
+    if kind == "light":  # shadow rays show nothing shared: the light is named, as the tracer's shadow query does
+        views = ([View("point", (6.0, 5.0, 8.0), reverse=True)], np.zeros(D.shape[1], dtype=np.int64))
+    limits = ((0.001, 1.0),) if kind == "light" else ((0.5, 9.0), (0.0, np.inf))
+    with quiet():
+        for t_min, t_max in limits:
+            shape = (3, max(O.shape[1], D.shape[1]))
+            expected_t, expected_part = whole.hit(O, np.broadcast_to(D, shape), t_min, t_max)
+            t, part = kernel.hit(O, D, t_min, t_max, views=views)
+            assert np.array_equal(t, expected_t)
+            hit = expected_t < np.inf
+            assert np.array_equal(part[hit], expected_part[hit])  # the lowest index on ties, as the whole test
+            occluded, _ = kernel.hit(O, D, t_min, t_max, any_hit=True, views=views)
+            assert np.array_equal(occluded < np.inf, hit)
+    assert 0.2 < hit.mean() < 1.0
+    # the picture answered (not the walk): it exists and the walk was never needed
+    assert [picture is not None for picture in kernel.pictures.values()] == [True]
+
+
+def test_a_point_among_the_triangles_has_no_picture_and_the_walk_answers() -> None:
+    mesh = soup(300, 6)
+    whole = make_kernel(mesh, np.dtype("float64"))
+    kernel = MeshKernel(whole, mesh)
+    O = np.zeros((3, 1))  # the middle of the soup
+    D = np.random.default_rng(6).normal(size=(3, 3000))
+    with quiet():
+        expected_t, expected_part = whole.hit(O, D, 0.0, np.inf)
+        t, part = kernel.hit(O, D, 0.0, np.inf)
+    assert list(kernel.pictures.values()) == [None]
+    assert np.array_equal(t, expected_t)
+    assert np.array_equal(part[t < np.inf], expected_part[t < np.inf])

@@ -26,6 +26,7 @@ from .kernels import (
     take,
 )
 from .meshbvh import MeshKernel
+from .meshpicture import View
 
 
 @dataclass
@@ -322,11 +323,13 @@ class Hierarchy:
         t_max: float | np.ndarray,
         planes: bool = True,
         sets: list[tuple[int, np.ndarray]] | None = None,
+        views: tuple[list[View], np.ndarray] | None = None,
     ) -> np.ndarray:
         """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first.
 
         t_max is one number or one per ray (N,); planes=False leaves out the unbounded surfaces (for rays already
-        tested with blocked_by_planes()); sets as for closest()."""
+        tested with blocked_by_planes()); sets as for closest(); views: the views (k,) that the rays share a point
+        or a direction of (a light's), and each ray's index (N,) among them, for the meshes' pictures."""
         with quiet():
             blocked = self._blocked_by_planes(O, L, t_min, t_max) if planes else np.zeros(ray_count(O, L), bool)
             if self.brute:
@@ -335,9 +338,9 @@ class Hierarchy:
                     t, _ = self._brute_hit(index, O, L, t_min, t_max, t_max, shared)
                     blocked |= t < np.inf
                 return blocked
-            if sets is not None:
-                return self._occluded_in_sets(O, L, t_min, t_max, blocked, sets)
-            return self._occluded(O, L, t_min, t_max, blocked)
+            if sets is None:
+                sets = self._walk(O, L, indices(~blocked), t_min, t_max)  # rays the planes block go no further
+            return self._occluded_in_sets(O, L, t_min, t_max, blocked, sets, views)
 
     def blocked_by_planes(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
         """occluded() over the unbounded surfaces only: bool (N,)."""
@@ -359,8 +362,9 @@ class Hierarchy:
         t_max: float | np.ndarray,
         blocked: np.ndarray,
         sets: list[tuple[int, np.ndarray]],
+        views: tuple[list[View], np.ndarray] | None = None,
     ) -> np.ndarray:
-        for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, sets, any_hit=True):
+        for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, sets, any_hit=True, views=views):
             blocked.put(rays.take(indices(t < np.inf)), True)
         return blocked
 
@@ -372,18 +376,20 @@ class Hierarchy:
         t_max: float | np.ndarray,
         sets: list[tuple[int, np.ndarray]],
         any_hit: bool = False,
+        views: tuple[list[View], np.ndarray] | None = None,
     ) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
         """(kernel index, rays (n,)) sets -> (kernel index, rays (m,), t (m,), part (m,)) for the rays that pass its
         oriented box; kernels of one class that allow it are tested together in one batch (Kernel.batched), since
         here each NumPy call costs more than the arithmetic on a few hundred rays. any_hit: only whether a ray hits
-        matters (shadow rays), which lets a mesh's own hierarchy stop at its first hit."""
+        matters (shadow rays), which lets a mesh's own hierarchy stop at its first hit; views as for occluded()."""
         results, batches = [], {}
         for index, rays in sets:
             kernel = self.kernels[index]
             O_r, D_r = take(O, rays), take(D, rays)
             limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
             if isinstance(kernel, MeshKernel):
-                results.append((index, rays, *kernel.hit(O_r, D_r, t_min, limit, any_hit=any_hit)))
+                chosen = None if views is None else (views[0], views[1].take(rays))
+                results.append((index, rays, *kernel.hit(O_r, D_r, t_min, limit, any_hit=any_hit, views=chosen)))
                 continue
             if not kernel.batch_attributes:
                 results.append((index, rays, *kernel.hit(O_r, D_r, t_min, limit)))
@@ -408,17 +414,6 @@ class Hierarchy:
                 results.append((index, rays, t[start : start + size], part[start : start + size]))
                 start += size
         return results
-
-    def _occluded(
-        self,
-        O: np.ndarray,
-        L: np.ndarray,
-        t_min: float,
-        t_max: float | np.ndarray,
-        blocked: np.ndarray,
-    ) -> np.ndarray:
-        sets = self._walk(O, L, indices(~blocked), t_min, t_max)  # rays the planes block go no further
-        return self._occluded_in_sets(O, L, t_min, t_max, blocked, sets)
 
 
 def _join(parts: list, sizes: list[int]):

@@ -25,7 +25,7 @@ CELLS = 128  # along the picture's longer side
 DEPTH_MARGIN = 1e-3  # of the scene's size: a perspective picture needs every box at least this far in front
 
 
-def _frame(forward: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def picture_axes(forward: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unit forward (3,) -> (right, up, forward) orthonormal rows."""
     helper = np.eye(3)[int(np.argmin(np.abs(forward)))]
     right = np.cross(forward, helper)
@@ -42,6 +42,41 @@ def _corners(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """Boxes (k, 3) -> their corners (k, 8, 3)."""
     pick = np.array([[(i >> axis) & 1 for axis in range(3)] for i in range(8)], dtype=bool)  # (8, 3)
     return np.where(pick[None], upper[:, None, :], lower[:, None, :])
+
+
+def project(axes: np.ndarray, Q: np.ndarray, perspective: bool, reverse: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Rays (3, n) -> their points u, v (n,) in a picture with axes (3, 3) (right, up, forward rows), computed in
+    Q's own dtype (projection_error() bounds that rounding too).
+
+    Q is, for a perspective picture, each ray's vector from the shared point, or with reverse its vector toward
+    the point; for a parallel one, a point of each ray. A perspective ray that points away from the picture (or is
+    NaN) gets u = -inf: it stays on the point's side away from everything in the picture."""
+    right, up, forward = axes.astype(Q.dtype)
+    u = right[0] * Q[0] + right[1] * Q[1] + right[2] * Q[2]
+    v = up[0] * Q[0] + up[1] * Q[1] + up[2] * Q[2]
+    if perspective:
+        depth = forward[0] * Q[0] + forward[1] * Q[1] + forward[2] * Q[2]
+        behind = ~(depth < 0.0) if reverse else ~(depth > 0.0)  # NaN included
+        depth[behind] = 1.0
+        u /= depth
+        v /= depth
+        u[behind] = -math.inf
+    return u, v
+
+
+def projection_error(dtype: np.dtype, q_reach: float, reach: float, depth: float | None, picture_reach: float) -> float:
+    """A bound on how far rounding in the rays' dtype moves a ray's picture point (a generous one: 64 units in the
+    last place of the largest coordinate involved), both the rays' own rounding and that of project().
+
+    q_reach: the largest coordinate of the rays' Q (see project()); reach: the largest coordinate of what the
+    picture holds and of the shared point; depth: the nearest depth in front of the shared point (None: a parallel
+    picture); picture_reach: 1 + the largest picture coordinate."""
+    eps = float(np.finfo(dtype).eps)
+    error = 64.0 * eps * (q_reach + 2.0 * reach)
+    if depth is not None:
+        error *= picture_reach / depth  # a point moved by e at depth >= d moves by e (1 + |uv|) / d
+        error += 16.0 * eps * picture_reach**2  # u = (r . Q) / (f . Q): 3 eps (1 + |u|) |Q| / depth
+    return error
 
 
 class CoverageGrid:
@@ -88,7 +123,7 @@ class CoverageGrid:
         distance = float(np.linalg.norm(forward))
         if distance == 0.0:
             return None
-        axes = np.stack(_frame(forward / distance))
+        axes = np.stack(picture_axes(forward / distance))
         corners = _corners(lower, upper) - point  # (k, 8, 3)
         local = corners @ axes.T
         size = float(np.max(upper.max(axis=0) - lower.min(axis=0))) + distance
@@ -103,7 +138,7 @@ class CoverageGrid:
         cls, direction: np.ndarray, kernels: list[int], lower: np.ndarray, upper: np.ndarray
     ) -> CoverageGrid:
         """Rays along a shared direction (3,) toward boxes (k, 3) of kernels (k,)."""
-        axes = np.stack(_frame(direction / np.linalg.norm(direction)))
+        axes = np.stack(picture_axes(direction / np.linalg.norm(direction)))
         local = _corners(lower, upper) @ axes.T
         rectangles = _rectangles(local[..., 0], local[..., 1])
         return cls(axes, rectangles, float(max(np.abs(lower).max(), np.abs(upper).max())), None, kernels)
@@ -123,19 +158,7 @@ class CoverageGrid:
         point of each ray (its origin)."""
         if Q.shape[1] == 0 or not self._resolves(Q):
             return np.arange(Q.shape[1]), None
-        # in the rays' own dtype: _resolves() bounds this rounding too
-        right, up, forward = self.axes.astype(Q.dtype)
-        u = right[0] * Q[0] + right[1] * Q[1] + right[2] * Q[2]
-        v = up[0] * Q[0] + up[1] * Q[1] + up[2] * Q[2]
-        if self.perspective:
-            depth = forward[0] * Q[0] + forward[1] * Q[1] + forward[2] * Q[2]
-            behind = (
-                ~(depth < 0.0) if reverse else ~(depth > 0.0)
-            )  # NaN included; such a ray stays on the point's side away from every box
-            depth[behind] = 1.0
-            u /= depth
-            v /= depth
-            u[behind] = -math.inf
+        u, v = project(self.axes, Q, self.perspective, reverse)
         origin, scale = self.origin.astype(Q.dtype), Q.dtype.type(self.scale)
         column = np.clip((u - origin[0]) * scale + 1.0, 0.0, self.columns - 1.0)
         row = np.clip((v - origin[1]) * scale + 1.0, 0.0, self.rows - 1.0)
@@ -149,11 +172,8 @@ class CoverageGrid:
         """Whether rounding in Q's dtype moves any ray's picture point by less than half a cell (a generous bound:
         64 units in the last place of the largest coordinate involved), both the rays' own rounding and that of
         projecting them in that dtype."""
-        eps = float(np.finfo(Q.dtype).eps)
-        error = 64.0 * eps * (float(np.abs(Q).max()) + 2.0 * self.reach)
-        if self.perspective:
-            error *= self.picture_reach / self.depth  # a point moved by e at depth >= d moves by e (1 + |uv|) / d
-            error += 16.0 * eps * self.picture_reach**2  # u = (r . Q) / (f . Q): 3 eps (1 + |u|) |Q| / depth
+        depth = self.depth if self.perspective else None
+        error = projection_error(Q.dtype, float(np.abs(Q).max()), self.reach, depth, self.picture_reach)
         return error < 0.5 / self.scale
 
 

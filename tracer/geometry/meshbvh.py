@@ -1,13 +1,15 @@
 """A large triangle mesh -> one kernel with a bounding-volume hierarchy over its triangles, traversed a level at a
-time for all rays at once.
+time for all rays at once, and pictures of it for the rays that share a point or a direction (meshpicture.py).
 
 A hierarchy walked node by node costs NumPy calls per node, so its time grows with the number of nodes a frame
 visits, not with the rays: that is what made a 10,000-triangle mesh grow as n^0.58. Here every query keeps (ray,
 node) pairs and moves them down one level per step: one slab test over all pairs of a level, the leaves' triangles
 tested over all (pair, triangle) at once, the inner nodes' children as the next level's pairs. Before that walk each
 ray follows one path, always into the child it enters first, and tests that leaf: its hit (usually the nearest, or
-for a shadow ray any) prunes every node beyond it. A query costs a few dozen NumPy calls per level, about
-log2(n / LEAF_TRIANGLES) levels, and arithmetic in proportion to the pairs.
+for a shadow ray any) prunes every node beyond it, and the walk starts from the children that path passed by, so no
+box is tested twice. A query costs a few dozen NumPy calls per level, about log2(n / LEAF_TRIANGLES) levels, and
+arithmetic in proportion to the pairs. Camera rays and shadow rays skip all of it where the mesh has a picture
+from their shared point or direction: a few triangle tests per ray and no box.
 The exact test per triangle is the mesh kernel's own (Moller-Trumbore as the seed writes it, or the watertight
 test of the robust numerics), with the same operations, so the hits are the ones the whole-mesh kernel finds:
 nearest t, then the lowest triangle index on ties.
@@ -15,14 +17,19 @@ nearest t, then the lowest triangle index on ties.
 
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import numpy as np
 
 from . import transforms as tf
-from .kernels import Kernel, box_margin, ray_count, slab
+from .kernels import Kernel, box_margin, ray_count, slab, take
+from .meshpicture import TrianglePicture, View
 
 LEAF_TRIANGLES = 8
 MESH_HIERARCHY_TRIANGLES = 32  # a mesh of more triangles gets its own hierarchy; below, one test over all of them
 BIG = np.iinfo(np.int64).max
+PICTURES_KEPT = 8  # views per mesh kernel: the camera's and the lights'
+PAIRS = 1 << 17  # (ray, triangle) pairs per pass of a picture search: its temporaries stay a few MB
 
 
 class MeshHierarchy:
@@ -113,80 +120,194 @@ class MeshKernel(Kernel):
         self.dtype = inner.dtype
         self.frame = inner.frame
         self.lower, self.upper = inner.lower, inner.upper
-        self.hierarchy = MeshHierarchy(np.asarray(mesh.triangles, dtype=np.float64), inner.dtype)
+        self.triangles = np.asarray(mesh.triangles, dtype=np.float64)  # (T, 3, 3): the pictures are made of them
+        self.hierarchy = MeshHierarchy(self.triangles, inner.dtype)
         self.packed = inner.pack(self.hierarchy.leaf_triangles)  # (9, L, K): each leaf's triangles, gathered once
+        self.flat_packed = self.packed.reshape(9, -1, 1)  # (9, L K, 1): by slot, as packed_t takes them
         self.cost = 3.0 + 4.0 * np.log2(max(2, len(mesh.triangles)))
+        # a picture's entries are slots of the packed leaves (each triangle's one real slot), so that its search
+        # gathers the same packed numbers as the walk and keeps no copy of its own
+        self.slot_triangle = self.hierarchy.leaf_triangles.ravel()  # (L K,): the triangle in each slot
+        filled = self.hierarchy.real.ravel().nonzero()[0]
+        self.slots = np.empty(len(self.triangles), dtype=np.int64)
+        self.slots[self.slot_triangle.take(filled)] = filled
+        self.pictures: OrderedDict[View, TrianglePicture | None] = OrderedDict()
 
     def bounds(self):
         return self.lower, self.upper
 
-    def hit(self, O, D, t_min, t_max, any_hit: bool = False):
+    def hit(self, O, D, t_min, t_max, any_hit: bool = False, views: tuple[list[View], np.ndarray] | None = None):
         """Kernel.hit (rays outside the mesh's oriented box skip the search); any_hit: stop at a ray's first hit,
-        whose t is then any hit's, not the nearest."""
+        whose t is then any hit's, not the nearest.
+
+        Rays that share a point or a direction are searched in the mesh's picture from there (meshpicture.py): a
+        shared (3, 1) origin is a point, a shared direction a direction, and views (the views (k,) and each ray's
+        index (N,) among them) name them for rays that do not show it (shadow rays). The others walk the
+        hierarchy. Either way the same hits."""
         count = ray_count(O, D)
         rays = self.in_box(O, D, t_min, t_max)
         t = np.full(count, np.inf, dtype=self.dtype)
         part = np.zeros(count, dtype=np.int64)
-        if rays.size:
-            limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
-            O_r = np.broadcast_to(O, (3, count)).take(rays, axis=1)
-            D_r = np.broadcast_to(D, (3, count)).take(rays, axis=1)
-            found_t, found_part = self._search(O_r, D_r, t_min, limit, any_hit)
-            t.put(rays, found_t)
-            part.put(rays, found_part)
+        if not rays.size:
+            return t, part
+        limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
+        O_r, D_r = take(O, rays), take(D, rays)
+        if views is not None:
+            listed, which = views[0], views[1].take(rays)
+            groups = [(listed[k], (which == k).nonzero()[0]) for k in np.unique(which).tolist()]
+        elif O.shape[1] == 1:  # camera rays
+            groups = [(View("point", tuple(O[:, 0].astype(np.float64).tolist())), None)]
+        elif D.shape[1] == 1:  # an orthographic camera's rays
+            groups = [(View("direction", tuple(D[:, 0].astype(np.float64).tolist())), None)]
+        else:
+            groups = [(None, None)]
+        for view, members in groups:
+            if members is None:
+                O_g, D_g, limit_g, chosen = O_r, D_r, limit, rays
+            else:
+                O_g, D_g, chosen = take(O_r, members), take(D_r, members), rays.take(members)
+                limit_g = limit.take(members) if isinstance(limit, np.ndarray) else limit
+            found_t, found_part = self._find(O_g, D_g, t_min, limit_g, any_hit, view)
+            t.put(chosen, found_t)
+            part.put(chosen, found_part)
         return t, part
+
+    def picture(self, view: View, rays: int) -> TrianglePicture | None:
+        """The mesh seen in view, made on first use (for about as many rays as that use brings) and kept (a few
+        views: the camera and the lights)."""
+        if view in self.pictures:
+            self.pictures.move_to_end(view)
+            return self.pictures[view]
+        made = self.pictures[view] = TrianglePicture.build(self.triangles, self.slots, view, self.dtype, rays)
+        if len(self.pictures) > PICTURES_KEPT:
+            self.pictures.popitem(last=False)
+        return made
+
+    def _find(self, O, D, t_min, t_max, any_hit, view: View | None):
+        """Rays (3, n) (either may be a shared column) -> (t, part) (n,), through the view's picture where it has
+        one and resolves these rays, else the walk."""
+        count = ray_count(O, D)
+        picture = None if view is None else self.picture(view, count)
+        found = None
+        if picture is not None:
+            found = picture.cells(D if view.perspective else np.broadcast_to(O, (3, count)))
+        if found is None:
+            return self._search(np.broadcast_to(O, (3, count)), np.broadcast_to(D, (3, count)), t_min, t_max, any_hit)
+        return self._search_cells(O, np.broadcast_to(D, (3, count)), t_min, t_max, any_hit, picture, *found)
+
+    def _search_cells(self, O, D, t_min, t_max, any_hit, picture: TrianglePicture, rays, cells):
+        """Rays (n,) of O, D (3, N) in picture cells (n,) -> (t, part) (N,): each ray's nearest hit among its
+        cell's triangles (the lowest triangle index on ties), in chunks of about PAIRS (ray, triangle) pairs."""
+        count = D.shape[1]
+        best_t = np.full(count, np.inf, dtype=self.dtype)
+        best_part = np.zeros(count, dtype=np.int64)
+        first = picture.starts.take(cells)
+        counts = picture.starts.take(cells + 1) - first
+        ends = np.cumsum(counts)
+        start = 0
+        while start < rays.size:
+            stop = max(start + 1, int(np.searchsorted(ends, ends[start] - counts[start] + PAIRS, side="right")))
+            sizes = counts[start:stop]
+            segments = np.cumsum(sizes) - sizes
+            pairs = int(sizes.sum())
+            local = np.repeat(np.arange(sizes.size), sizes)
+            entry = np.arange(pairs) - np.repeat(segments - first[start:stop], sizes)
+            slot = picture.entries.take(entry)
+            members = rays[start:stop].take(local)
+            O_p = O if O.shape[1] == 1 else O.take(members, axis=1)
+            t = self.inner.packed_t(O_p, D.take(members, axis=1), self.flat_packed.take(slot, axis=1), t_min)[:, 0]
+            if isinstance(t_max, np.ndarray):
+                t[t >= t_max.take(members)] = np.inf
+            elif t_max != np.inf:
+                t[t >= t_max] = np.inf
+            nearest = np.minimum.reduceat(t, segments)
+            hit = (nearest < np.inf).nonzero()[0]
+            chosen = rays[start:stop].take(hit)
+            best_t.put(chosen, nearest.take(hit))
+            if not any_hit:
+                candidates = np.where(t == nearest.take(local), self.slot_triangle.take(slot), BIG)
+                best_part.put(chosen, np.minimum.reduceat(candidates, segments).take(hit))
+            start = stop
+        return best_t, best_part
 
     def _hit(self, O, D, t_min, t_max):
         count = ray_count(O, D)
         return self._search(np.broadcast_to(O, (3, count)), np.broadcast_to(D, (3, count)), t_min, t_max, False)
 
     def _search(self, O, D, t_min, t_max, any_hit):
+        """Rays (3, N) -> (t, part) (N,) through the hierarchy: first one path per ray, always into the child it
+        enters first, whose leaf usually holds its nearest hit (or, for a shadow ray, a hit at all); each child
+        the path passed by (its box met too) is kept with its entry t, and afterwards these are walked a level at
+        a time, each node's children tested as it is reached, leaving out every node that begins beyond the ray's
+        best hit so far. Every node is box-tested once, by its parent."""
         count = O.shape[1]
         inverse = 1.0 / D
         best_t = np.broadcast_to(np.asarray(t_max, dtype=self.dtype), (count,)).copy()
         best_part = np.full(count, BIG, dtype=np.int64)
         tree = self.hierarchy
-        # first one path per ray, always into the child entered first: its leaf usually holds the nearest hit (or,
-        # for a shadow ray, a hit at all), so that the full walk below can leave out every node beyond it
+        passed_rays, passed_nodes, passed_near = [], [], []
         rays = np.arange(count)
         nodes = np.zeros(count, dtype=np.int64)
-        dived = np.full(count, -1, dtype=np.int64)  # the leaf each ray's path ended in
         while rays.size:
-            inner = (tree.left.take(nodes) >= 0).nonzero()[0]
-            leaf = (tree.left.take(nodes) < 0).nonzero()[0]
+            is_leaf = tree.left.take(nodes) < 0
+            leaf = is_leaf.nonzero()[0]
             if leaf.size:
-                dived[rays.take(leaf)] = nodes.take(leaf)
                 self._test_leaves(O, D, t_min, rays.take(leaf), nodes.take(leaf), best_t, best_part)
-            rays, nodes = rays.take(inner), nodes.take(inner)
-            O_n, inverse_n = O.take(rays, axis=1), inverse.take(rays, axis=1)
-            left, right = tree.left.take(nodes), tree.right.take(nodes)
-            near_left, far_left = slab(O_n, inverse_n, tree.lower[:, left], tree.upper[:, left])
-            near_right, far_right = slab(O_n, inverse_n, tree.lower[:, right], tree.upper[:, right])
-            meets_left = (near_left <= far_left) & (far_left > t_min) & (near_left <= best_t.take(rays))
-            meets_right = (near_right <= far_right) & (far_right > t_min) & (near_right <= best_t.take(rays))
+                inner = (~is_leaf).nonzero()[0]
+                rays, nodes = rays.take(inner), nodes.take(inner)
+            if not rays.size:
+                break
+            left, right, near_left, near_right, meets_left, meets_right = self._children(
+                O, inverse, rays, nodes, t_min, best_t
+            )
             go_right = meets_right & (~meets_left | (near_right < near_left))
+            both = (meets_left & meets_right).nonzero()[0]
+            if both.size:
+                passed_rays.append(rays.take(both))
+                passed_nodes.append(np.where(go_right, left, right).take(both))
+                passed_near.append(np.where(go_right, near_left, near_right).take(both))
             going = (meets_left | meets_right).nonzero()[0]
             rays, nodes = rays.take(going), np.where(go_right, right, left).take(going)
-        # for any-hit queries only the rays that found nothing on their path go on
-        rays = (best_part == BIG).nonzero()[0] if any_hit else np.arange(count)
-        nodes = np.zeros(rays.size, dtype=np.int64)
+        if not passed_rays:
+            return self._found(best_t, best_part)
+        rays, nodes, near = np.concatenate(passed_rays), np.concatenate(passed_nodes), np.concatenate(passed_near)
         while rays.size:
-            near, far = slab(
-                O.take(rays, axis=1), inverse.take(rays, axis=1), tree.lower[:, nodes], tree.upper[:, nodes]
-            )
-            keep = ((near <= far) & (far > t_min) & (near <= best_t.take(rays))).nonzero()[0]
+            keep = near <= best_t.take(rays)
+            if any_hit:  # only the rays that found nothing yet go on
+                keep &= best_part.take(rays) == BIG
+            keep = keep.nonzero()[0]
             rays, nodes = rays.take(keep), nodes.take(keep)
-            leaf = tree.left.take(nodes) < 0
-            at_leaf = (leaf & (nodes != dived.take(rays))).nonzero()[0]  # a path's own leaf is tested already
-            if at_leaf.size:
-                self._test_leaves(O, D, t_min, rays.take(at_leaf), nodes.take(at_leaf), best_t, best_part)
-            inner = (~leaf).nonzero()[0]
-            rays, nodes = rays.take(inner), nodes.take(inner)
-            if any_hit:
-                still = (best_part.take(rays) == BIG).nonzero()[0]
-                rays, nodes = rays.take(still), nodes.take(still)
-            rays = np.concatenate((rays, rays))
-            nodes = np.concatenate((tree.left.take(nodes), tree.right.take(nodes)))
+            is_leaf = tree.left.take(nodes) < 0
+            leaf = is_leaf.nonzero()[0]
+            if leaf.size:
+                self._test_leaves(O, D, t_min, rays.take(leaf), nodes.take(leaf), best_t, best_part)
+                inner = (~is_leaf).nonzero()[0]
+                rays, nodes = rays.take(inner), nodes.take(inner)
+            if not rays.size:
+                break
+            left, right, near_left, near_right, meets_left, meets_right = self._children(
+                O, inverse, rays, nodes, t_min, best_t
+            )
+            on_left, on_right = meets_left.nonzero()[0], meets_right.nonzero()[0]
+            rays = np.concatenate((rays.take(on_left), rays.take(on_right)))
+            nodes = np.concatenate((left.take(on_left), right.take(on_right)))
+            near = np.concatenate((near_left.take(on_left), near_right.take(on_right)))
+        return self._found(best_t, best_part)
+
+    def _children(self, O, inverse, rays, nodes, t_min, best_t):
+        """The children (P,) of inner nodes (P,) met by rays (P,), their entry t (P,), and whether each child's
+        box meets its ray within (t_min, the ray's best t]."""
+        tree = self.hierarchy
+        O_n, inverse_n = O.take(rays, axis=1), inverse.take(rays, axis=1)
+        best = best_t.take(rays)
+        left, right = tree.left.take(nodes), tree.right.take(nodes)
+        near_left, far_left = slab(O_n, inverse_n, tree.lower.take(left, axis=1), tree.upper.take(left, axis=1))
+        near_right, far_right = slab(O_n, inverse_n, tree.lower.take(right, axis=1), tree.upper.take(right, axis=1))
+        meets_left = (near_left <= far_left) & (far_left > t_min) & (near_left <= best)
+        meets_right = (near_right <= far_right) & (far_right > t_min) & (near_right <= best)
+        return left, right, near_left, near_right, meets_left, meets_right
+
+    def _found(self, best_t, best_part):
         found = best_part != BIG
         return np.where(found, best_t, np.inf).astype(self.dtype, copy=False), np.where(found, best_part, 0)
 

@@ -20,6 +20,7 @@ from ..geometry.cull import CoverageGrid, ScreenRectangles, kernel_sets
 from ..geometry.footprint import Footprint, Volume
 from ..geometry.kernels import Kernel, PlaneKernel, column, dot, indices, make_kernel, quiet, take
 from ..geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
+from ..geometry.meshpicture import View
 from ..geometry.robust import make_robust_kernel, offset_origins
 from ..scene import scene as sc
 from .raystore import RayStore
@@ -56,6 +57,13 @@ class _Light:
     inverse_square: bool = False  # a point or spot light's terms divided by |L|^2
     spot: sc.SpotLight | None = None  # a spot light: its terms multiplied by spot_attenuation()
     axis: np.ndarray | None = None  # a spot light's unit axis (3, 1)
+
+    @property
+    def view(self) -> View:
+        """What the light's shadow rays share, for the meshes' pictures: they end at a point light (their vectors
+        point toward it) and run along a directional light's direction."""
+        vector = tuple(self.vector.ravel().astype(np.float64).tolist())
+        return View("point", vector, reverse=True) if self.kind == "point" else View("direction", vector)
 
 
 @dataclass
@@ -415,7 +423,7 @@ class PreparedScene:
         t from 0; the documented ones start on the surface and search t from 0.001 (listing 3.2)."""
         lights = [(index, light) for index, light in enumerate(self.lights) if light.kind != "ambient"]
         t_min = 0.0 if self.robust else SHADOW_T_MIN
-        shadows, origins, vectors, limits, bits = [], [], [], [], []
+        shadows, origins, vectors, limits, bits, views = [], [], [], [], [], []
         for (index, light), (L, *_, needed, _) in zip(lights, terms, strict=True):
             vector = take(L, needed)  # a directional light's vector stays a shared column
             origin = take(P, needed)
@@ -445,11 +453,14 @@ class PreparedScene:
             else:
                 vectors.append(vector if every and vector.shape[1] == rest.size else take(vector, rest))
             limits.append(np.full(rest.size, light.t_max, dtype=self.dtype))
+            views.append(light.view)
         if not shadows:
             return []
         # where every light's grid told which boxes each ray may meet, the hierarchy is not walked
         hierarchy = self.shadow_hierarchy
         sets = None if any(b is None for b in bits) else kernel_sets(hierarchy.boxes[0], np.concatenate(bits))
+        # which light's point or direction each ray shares, for the meshes' pictures
+        which = np.repeat(np.arange(len(views)), [rest.size for *_, rest in shadows])
         blocked_by_objects = hierarchy.occluded(
             np.concatenate(origins, axis=1),
             np.concatenate(vectors, axis=1),
@@ -457,6 +468,7 @@ class PreparedScene:
             np.concatenate(limits),
             planes=False,
             sets=sets,
+            views=(views, which),
         )
         lit, start = [], 0
         for needed, blocked, rest in shadows:
