@@ -29,6 +29,7 @@ LEAF_TRIANGLES = 8
 MESH_HIERARCHY_TRIANGLES = 32  # a mesh of more triangles gets its own hierarchy; below, one test over all of them
 BIG = np.iinfo(np.int64).max
 PICTURES_KEPT = 8  # views per mesh kernel: the camera's and the lights'
+PICTURE_PAYOFF = 0.5  # rays per triangle that a view's queries bring before its picture is made
 PAIRS = 1 << 17  # (ray, triangle) pairs per pass of a picture search: its temporaries stay a few MB
 
 
@@ -120,8 +121,12 @@ class MeshKernel(Kernel):
         self.dtype = inner.dtype
         self.frame = inner.frame
         self.lower, self.upper = inner.lower, inner.upper
-        self.triangles = np.asarray(mesh.triangles, dtype=np.float64)  # (T, 3, 3): the pictures are made of them
-        self.hierarchy = MeshHierarchy(self.triangles, inner.dtype)
+        triangles = np.asarray(mesh.triangles, dtype=np.float64)  # (T, 3, 3)
+        self.count = len(triangles)
+        self.hierarchy = MeshHierarchy(triangles, inner.dtype)
+        # (3 corners, 3 axes, T): the pictures are made of them, a contiguous row per corner and axis
+        self.corners = np.ascontiguousarray(triangles.transpose(1, 2, 0))
+        del triangles
         self.packed = inner.pack(self.hierarchy.leaf_triangles)  # (9, L, K): each leaf's triangles, gathered once
         self.flat_packed = self.packed.reshape(9, -1, 1)  # (9, L K, 1): by slot, as packed_t takes them
         self.cost = 3.0 + 4.0 * np.log2(max(2, len(mesh.triangles)))
@@ -129,9 +134,10 @@ class MeshKernel(Kernel):
         # gathers the same packed numbers as the walk and keeps no copy of its own
         self.slot_triangle = self.hierarchy.leaf_triangles.ravel()  # (L K,): the triangle in each slot
         filled = self.hierarchy.real.ravel().nonzero()[0]
-        self.slots = np.empty(len(self.triangles), dtype=np.int64)
+        self.slots = np.empty(self.count, dtype=np.int64)
         self.slots[self.slot_triangle.take(filled)] = filled
         self.pictures: OrderedDict[View, TrianglePicture | None] = OrderedDict()
+        self.asked: dict[View, int] = {}  # rays that asked for a view's picture before it was made
 
     def bounds(self):
         return self.lower, self.upper
@@ -173,12 +179,21 @@ class MeshKernel(Kernel):
         return t, part
 
     def picture(self, view: View, rays: int) -> TrianglePicture | None:
-        """The mesh seen in view, made on first use (for about as many rays as that use brings) and kept (a few
-        views: the camera and the lights)."""
+        """The mesh seen in view, or None: made (for about as many rays as this query brings) once the rays that
+        asked for it add up to PICTURE_PAYOFF times the triangles, and kept (a few views: the camera and the
+        lights). Making one costs about a microsecond per triangle and saves about two per ray, so a
+        million-triangle mesh walks its first frame's rays and an animation's later frames use the pictures."""
         if view in self.pictures:
             self.pictures.move_to_end(view)
             return self.pictures[view]
-        made = self.pictures[view] = TrianglePicture.build(self.triangles, self.slots, view, self.dtype, rays)
+        if len(self.asked) > 4 * PICTURES_KEPT:  # a moving view (the viewport's camera) asks under ever new names
+            self.asked.clear()
+        self.asked[view] = self.asked.get(view, 0) + rays
+        if self.asked[view] < PICTURE_PAYOFF * self.count:
+            return None
+        made = self.pictures[view] = TrianglePicture.build(
+            self.corners, self.lower, self.upper, self.slots, view, self.dtype, rays
+        )
         if len(self.pictures) > PICTURES_KEPT:
             self.pictures.popitem(last=False)
         return made

@@ -25,6 +25,7 @@ MIN_CELLS = 1 << 12
 CELLS_PER_RAY = 4
 MAX_CELLS = 1 << 18  # about a 640 x 480 image's pixels: finer cells than the rays cost more to fill than they save
 MAX_ENTRIES = 1 << 24  # 64 MB of int32 entries; coarser cells beyond
+SMALL = 4  # cells of a triangle's rectangle that are kept without testing the triangle against each
 BUILD_TRIANGLES = 1 << 16  # triangles binned per pass: the pass's temporaries stay tens of MB
 MARGIN_SAFETY = 4.0  # the margin a picture is built with, over the rounding bound of rays of the expected reach
 HIT_TOLERANCE = {np.dtype(np.float64): 1e-6, np.dtype(np.float32): 1e-4}  # of the picture's size, as padded boxes
@@ -76,40 +77,53 @@ class TrianglePicture:
 
     @classmethod
     def build(
-        cls, triangles: np.ndarray, slots: np.ndarray, view: View, dtype: np.dtype, rays: int = MAX_CELLS
+        cls,
+        corners: np.ndarray,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        slots: np.ndarray,
+        view: View,
+        dtype: np.dtype,
+        rays: int = MAX_CELLS,
     ) -> TrianglePicture | None:
-        """triangles (T, 3 corners, 3) float64 and each one's slot (T,) -> the picture, or None where a perspective
-        picture cannot hold the mesh (the point among or beside its triangles).
+        """corners (3 corners, 3 axes, T) float64 of the triangles, their box lower, upper (3,), and each
+        triangle's slot (T,) -> the picture, or None where a perspective picture cannot hold the mesh (the point
+        among or beside its triangles).
 
         rays: about how many rays a query brings (the first one's count): cells much finer than the rays cost more
         to fill than they save, so there are at most CELLS_PER_RAY times as many (and MAX_CELLS)."""
         vector = np.asarray(view.vector, dtype=np.float64)
-        lower, upper = triangles.min(axis=(0, 1)), triangles.max(axis=(0, 1))
+        depth = None
         if view.perspective:
             forward = (lower + upper) / 2.0 - vector
             distance = float(np.linalg.norm(forward))
             if distance == 0.0:
                 return None
             axes = np.stack(picture_axes(forward / distance))
-            local = (triangles - vector) @ axes.T  # (T, 3, 3)
-            depth = float(local[..., 2].min())
+            u, v, depths = zip(*(_local(corner, axes, vector) for corner in corners), strict=True)  # 3 x (T,)
+            depth = min(float(z.min()) for z in depths)
             if depth <= DEPTH_MARGIN * (float(np.max(upper - lower)) + distance):
                 return None
-            u, v = local[..., 0] / local[..., 2], local[..., 1] / local[..., 2]
+            for z, x, y in zip(depths, u, v, strict=True):
+                x /= z
+                y /= z
+            del depths
         else:
             axes = np.stack(picture_axes(vector / np.linalg.norm(vector)))
-            local = triangles @ axes.T
-            depth, u, v = None, local[..., 0], local[..., 1]
-        del local
-        u_low, u_high, v_low, v_high = u.min(axis=1), u.max(axis=1), v.min(axis=1), v.max(axis=1)  # (T,)
+            u, v, _ = zip(*(_local(corner, axes, np.zeros(3)) for corner in corners), strict=True)
+        u_low, u_high = np.minimum(np.minimum(u[0], u[1]), u[2]), np.maximum(np.maximum(u[0], u[1]), u[2])  # (T,)
+        v_low, v_high = np.minimum(np.minimum(v[0], v[1]), v[2]), np.maximum(np.maximum(v[0], v[1]), v[2])
         reach = float(max(np.abs(lower).max(), np.abs(upper).max(), np.abs(vector).max()))
-        picture_reach = 1.0 + float(max(np.abs(bound).max() for bound in (u_low, u_high, v_low, v_high)))
+        picture_reach = 1.0 + float(max(-u_low.min(), u_high.max(), -v_low.min(), v_high.max(), 0.0))
         size = float(max(u_high.max() - u_low.min(), v_high.max() - v_low.min()))
         # rays of Q up to a few times the scene's reach resolve (shadow rays toward a light come from anywhere in
         # it); a query of rays beyond that is refused and walked (cells())
         expected = projection_error(dtype, 4.0 * reach + 1.0, reach, depth, picture_reach)
         margin = MARGIN_SAFETY * expected + HIT_TOLERANCE[np.dtype(dtype)] * size
-        u_low, v_low, u_high, v_high = u_low - margin, v_low - margin, u_high + margin, v_high + margin
+        u_low -= margin
+        v_low -= margin
+        u_high += margin
+        v_high += margin
         low = np.array([u_low.min(), v_low.min()])
         extent = np.array([u_high.max(), v_high.max()]) - low
         typical = float(np.median(np.maximum(u_high - u_low, v_high - v_low)))
@@ -125,26 +139,26 @@ class TrianglePicture:
             last_row = np.minimum(((v_high - low[1]) / cell).astype(np.int64), rows - 1)
             widths, heights = last_column - first_column + 1, last_row - first_row + 1
             counts = widths * heights  # (T,)
-            total = int(counts.sum())
-            if total <= MAX_ENTRIES:
+            if int(counts.sum()) <= MAX_ENTRIES:
                 break
             cell *= 1.5
-        # every (triangle, cell) of the triangles' rectangles whose cell the triangle itself touches, triangle by
-        # triangle, a slice of the mesh at a time (bounded temporaries); then grouped by cell (a stable sort keeps
-        # each cell's triangles in the mesh's order)
+        del u_low, u_high, v_low, v_high, last_column, last_row, heights
+        # every (triangle, cell) of the triangles' rectangles whose cell the triangle itself touches, a slice of
+        # the mesh at a time (bounded temporaries); then grouped by cell (the order within a cell does not matter:
+        # a search takes the nearest hit and the lowest triangle index on ties)
         owners, cells = [], []
         for start in range(0, len(counts), BUILD_TRIANGLES):
             chunk = slice(start, start + BUILD_TRIANGLES)
             owner, cell_index = _touched(
-                u[chunk], v[chunk], first_column[chunk], first_row[chunk], widths[chunk], counts[chunk], low, cell,
-                margin, columns,
+                tuple(x[chunk] for x in u), tuple(y[chunk] for y in v), first_column[chunk], first_row[chunk],
+                widths[chunk], counts[chunk], low, cell, margin, columns,
             )  # fmt: skip
             owners.append(owner + start)
             cells.append(cell_index)
-        owner, cell_index = np.concatenate(owners), np.concatenate(cells)
+        owner, cell_index = np.concatenate(owners), np.concatenate(cells).astype(np.int32)
         del owners, cells
-        order = np.argsort(cell_index, kind="stable")
-        entries = slots.take(owner.take(order)).astype(np.int32 if slots.max(initial=0) < 2**31 else np.int64)
+        entries = slots.take(owner.take(np.argsort(cell_index)))
+        entries = entries.astype(np.int32 if len(slots) and entries.max(initial=0) < 2**31 else np.int64)
         starts = np.zeros(rows * columns + 1, dtype=np.int64)
         np.cumsum(np.bincount(cell_index, minlength=rows * columns), out=starts[1:])
         return cls(view, axes, low, cell, (rows, columns), starts, entries, margin, reach, depth, picture_reach)
@@ -170,9 +184,15 @@ class TrianglePicture:
         return rays.take(full), cell.take(full)
 
 
+def _local(corner: np.ndarray, axes: np.ndarray, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One corner of every triangle (3 axes, T) -> its coordinates (T,) x 3 along axes (3, 3) from origin (3,)."""
+    relative = [corner[axis] - origin[axis] for axis in range(3)]
+    return tuple(row[0] * relative[0] + row[1] * relative[1] + row[2] * relative[2] for row in axes)
+
+
 def _touched(
-    u: np.ndarray,
-    v: np.ndarray,
+    u: tuple[np.ndarray, ...],
+    v: tuple[np.ndarray, ...],
     first_column: np.ndarray,
     first_row: np.ndarray,
     widths: np.ndarray,
@@ -182,38 +202,53 @@ def _touched(
     margin: float,
     columns: int,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Triangles' pictures (corners u, v (T, 3)) and their rectangles' cells (first column and row, width in
-    cells, cell count (T,)) -> (triangle (E,), cell (E,)) for each cell, grown by margin, that its triangle touches:
-    a cell and a triangle are apart where one of the triangle's edge normals separates them (the rectangle already
-    decides the cells' own axes), so about half of a sliver's rectangle drops out."""
-    total = int(counts.sum())
-    owner = np.repeat(np.arange(len(counts)), counts)
-    within = np.arange(total, dtype=np.float64) - np.repeat(np.cumsum(counts) - counts, counts)
-    # row and column within the rectangle by float division (exact for these small integers, and far faster than
-    # integer // and % in NumPy)
-    row_width = widths.astype(np.float64).take(owner)
-    row = np.floor((within + 0.5) / row_width)
-    column = within - row * row_width
-    del within, row_width
-    row += first_row.take(owner)
-    column += first_column.take(owner)
+    """Triangles' pictures (corners u, v: 3 x (T,)) and their rectangles' cells (first column and row, width in
+    cells, cell count (T,)) -> (triangle (E,), cell (E,)) for each cell, grown by margin, that its triangle touches.
+
+    A cell and a triangle are apart where one of the triangle's edge normals separates them (the rectangle already
+    decides the cells' own axes): about half of a sliver's rectangle drops out. Triangles of at most SMALL cells
+    keep them all (little to drop, and the test would cost more than it saves)."""
+    large = counts > SMALL
+    owner, row, column = _cells(first_column, first_row, widths, counts, ~large)
+    owner_large, row_large, column_large = _cells(first_column, first_row, widths, counts, large)
     # each edge's normal n (per triangle): the cell of centre c and half side h is apart from the triangle where
     # n.c + h (|n_u| + |n_v|) < min or n.c - h (|n_u| + |n_v|) > max of the corners' n.p; with
     # c = low + (column + 1/2, row + 1/2) cell, n.c = n_u cell column + n_v cell row + n.(low + cell / 2)
     half = cell / 2.0 + margin
-    apart = np.zeros(total, dtype=bool)
+    apart = np.zeros(owner_large.size, dtype=bool)
     for a in range(3):
         b, c = (a + 1) % 3, (a + 2) % 3
-        normal_u, normal_v = v[:, a] - v[:, b], u[:, b] - u[:, a]  # the edge a -> b turned a quarter (T,)
-        edge = normal_u * u[:, a] + normal_v * v[:, a]  # a and b project here, c elsewhere
-        other = normal_u * u[:, c] + normal_v * v[:, c]
+        normal_u, normal_v = v[a] - v[b], u[b] - u[a]  # the edge a -> b turned a quarter (T,)
+        edge = normal_u * u[a] + normal_v * v[a]  # a and b project here, c elsewhere
+        other = normal_u * u[c] + normal_v * v[c]
         offset = normal_u * (low[0] + cell / 2.0) + normal_v * (low[1] + cell / 2.0)
         radius = half * (np.abs(normal_u) + np.abs(normal_v))
         below = np.minimum(edge, other) - radius - offset  # n.c - n.(low + cell / 2) must reach this
         above = np.maximum(edge, other) + radius - offset
-        centre = (normal_u * cell).take(owner) * column
-        centre += (normal_v * cell).take(owner) * row
-        apart |= (centre < below.take(owner)) | (centre > above.take(owner))
+        centre = (normal_u * cell).take(owner_large) * column_large
+        centre += (normal_v * cell).take(owner_large) * row_large
+        apart |= (centre < below.take(owner_large)) | (centre > above.take(owner_large))
     kept = (~apart).nonzero()[0]
-    cells = row.take(kept).astype(np.int64) * columns + column.take(kept).astype(np.int64)
-    return owner.take(kept), cells
+    owner = np.concatenate((owner, owner_large.take(kept)))
+    row = np.concatenate((row, row_large.take(kept)))
+    column = np.concatenate((column, column_large.take(kept)))
+    return owner, row.astype(np.int64) * columns + column.astype(np.int64)
+
+
+def _cells(
+    first_column: np.ndarray, first_row: np.ndarray, widths: np.ndarray, counts: np.ndarray, chosen: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The chosen (T,) triangles' rectangles -> every (triangle (E,), row (E,), column (E,)) of them, as floats for
+    the rows and columns (exact for these small integers, and float division is far faster than integer // and %
+    in NumPy)."""
+    triangles = chosen.nonzero()[0]
+    counts = counts.take(triangles)
+    total = int(counts.sum())
+    owner = np.repeat(triangles, counts)
+    within = np.arange(total, dtype=np.float64) - np.repeat(np.cumsum(counts) - counts, counts)
+    row_width = widths.astype(np.float64).take(owner)
+    row = np.floor((within + 0.5) / row_width)
+    column = within - row * row_width
+    row += first_row.take(owner)
+    column += first_column.take(owner)
+    return owner, row, column
