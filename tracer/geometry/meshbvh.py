@@ -121,12 +121,8 @@ class MeshKernel(Kernel):
         self.dtype = inner.dtype
         self.frame = inner.frame
         self.lower, self.upper = inner.lower, inner.upper
-        triangles = np.asarray(mesh.triangles, dtype=np.float64)  # (T, 3, 3)
-        self.count = len(triangles)
-        self.hierarchy = MeshHierarchy(triangles, inner.dtype)
-        # (3 corners, 3 axes, T): the pictures are made of them, a contiguous row per corner and axis
-        self.corners = np.ascontiguousarray(triangles.transpose(1, 2, 0))
-        del triangles
+        self.count = len(mesh.triangles)
+        self.hierarchy = MeshHierarchy(np.asarray(mesh.triangles, dtype=np.float64), inner.dtype)
         self.packed = inner.pack(self.hierarchy.leaf_triangles)  # (9, L, K): each leaf's triangles, gathered once
         self.flat_packed = self.packed.reshape(9, -1, 1)  # (9, L K, 1): by slot, as packed_t takes them
         self.cost = 3.0 + 4.0 * np.log2(max(2, len(mesh.triangles)))
@@ -191,9 +187,15 @@ class MeshKernel(Kernel):
         self.asked[view] = self.asked.get(view, 0) + rays
         if self.asked[view] < PICTURE_PAYOFF * self.count:
             return None
-        made = self.pictures[view] = TrianglePicture.build(
-            self.corners, self.lower, self.upper, self.slots, view, self.dtype, rays
+        # the corners as the test sees them: its v0, v0 + e1, v0 + e2 (3 corners, 3 axes, T), made for the picture
+        v0, e1, e2 = (
+            np.asarray(array[:, :, 0], dtype=np.float64) for array in (self.inner.v0, self.inner.e1, self.inner.e2)
         )
+        corners = np.stack((v0, v0 + e1, v0 + e2))
+        made = self.pictures[view] = TrianglePicture.build(
+            corners, self.lower, self.upper, self.slots, view, self.dtype, rays
+        )
+        del corners
         if len(self.pictures) > PICTURES_KEPT:
             self.pictures.popitem(last=False)
         return made
