@@ -146,3 +146,23 @@ def test_a_point_among_the_triangles_has_no_picture_and_the_walk_answers() -> No
     assert list(kernel.pictures.values()) == [None]
     assert np.array_equal(t, expected_t)
     assert np.array_equal(part[t < np.inf], expected_part[t < np.inf])
+
+
+def test_a_deep_stack_of_triangles_is_walked_not_pictured() -> None:
+    """100 squares one behind another, seen face-on: every ray's cell would hold all 200 triangles, so the picture
+    declines (meshpicture.MAX_DEPTH) and the walk, nearest first, finds the same hits."""
+    square = np.array([[[-1, -1, 0], [1, -1, 0], [1, 1, 0]], [[-1, -1, 0], [1, 1, 0], [-1, 1, 0]]], dtype=float)
+    triangles = np.concatenate([square + np.array([0.0, 0.0, depth]) for depth in range(100)])
+    normals = tuple((0.0, 0.0, 1.0) for _ in triangles)
+    mesh = tf.WorldTriangles("m", tuple(tuple(map(tuple, triangle)) for triangle in triangles), normals)
+    whole = make_kernel(mesh, np.dtype("float64"))
+    kernel = MeshKernel(whole, mesh)
+    rng = np.random.default_rng(7)
+    O = np.array([[0.0], [0.0], [-10.0]])
+    D = np.vstack((rng.uniform(-0.08, 0.08, (2, 2000)), np.ones((1, 2000))))
+    with quiet():
+        expected_t, expected_part = whole.hit(O, D, 0.0, np.inf)
+        t, part = kernel.hit(O, D, 0.0, np.inf)
+    assert list(kernel.pictures.values()) == [None]
+    assert np.array_equal(t, expected_t) and np.array_equal(part, expected_part)
+    assert (t < np.inf).all()

@@ -25,6 +25,7 @@ MIN_CELLS = 1 << 12
 CELLS_PER_RAY = 4
 MAX_CELLS = 1 << 18  # about a 640 x 480 image's pixels: finer cells than the rays cost more to fill than they save
 MAX_ENTRIES = 1 << 24  # 64 MB of int32 entries; coarser cells beyond
+MAX_DEPTH = 32  # candidates per ray (triangle-weighted mean over cells) beyond which the walk is cheaper
 SMALL = 4  # cells of a triangle's rectangle that are kept without testing the triangle against each
 BUILD_TRIANGLES = 1 << 16  # triangles binned per pass: the pass's temporaries stay tens of MB
 MARGIN_SAFETY = 4.0  # the margin a picture is built with, over the rounding bound of rays of the expected reach
@@ -159,8 +160,13 @@ class TrianglePicture:
         del owners, cells
         entries = slots.take(owner.take(np.argsort(cell_index)))
         entries = entries.astype(np.int32 if len(slots) and entries.max(initial=0) < 2**31 else np.int64)
+        occupancy = np.bincount(cell_index, minlength=rows * columns)
+        # a ray meets about this many candidates where triangles lie (a cell weighted by its own count): deep
+        # stacks (a dense mesh seen edge-on, a crumpled soup) are better walked, nearest first, than all tested
+        if float(np.dot(occupancy, occupancy)) > MAX_DEPTH * float(occupancy.sum()):
+            return None
         starts = np.zeros(rows * columns + 1, dtype=np.int64)
-        np.cumsum(np.bincount(cell_index, minlength=rows * columns), out=starts[1:])
+        np.cumsum(occupancy, out=starts[1:])
         return cls(view, axes, low, cell, (rows, columns), starts, entries, margin, reach, depth, picture_reach)
 
     def cells(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
