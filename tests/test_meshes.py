@@ -2,21 +2,26 @@
 
 from __future__ import annotations
 
+import pickle
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tracer.frames import edits
 from tracer.geometry import transforms as tf
 from tracer.geometry.kernels import make_kernel, quiet
 from tracer.geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
 from tracer.geometry.robust import make_robust_kernel
 from tracer.scene import scene as sc
+from tracer.scene.loader import scene_from_dict
 from tracer.tracing.reference import render_reference
 from tracer.workers.parallel import render
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import mesh_scenes
 from study import triangles as uv_sphere
 
 
@@ -85,3 +90,83 @@ def test_a_mesh_renders_the_same_bytes_with_one_worker_or_two_and_in_robust_mode
         one = render(scene.with_render(numerics=numerics), workers=1).image
         two = render(scene.with_render(numerics=numerics), workers=2).image
         assert np.array_equal(one, two)
+
+
+# ---- meshes as arrays (issue 23 item 3) --------------------------------------------------------------------------
+
+
+def as_tuples(value: object) -> object:
+    """Nested lists -> nested tuples (a mesh as a scene made in code gives it)."""
+    return tuple(as_tuples(item) for item in value) if isinstance(value, list) else value
+
+
+def smooth_mesh(count: int, as_arrays: bool) -> sc.TriangleMesh:
+    """A turned, moved UV sphere with corner normals and two materials, given as tuples or as arrays."""
+    mesh = uv_sphere(count).objects[1]
+    vertices, faces = mesh.vertices, mesh.triangles
+    corners = vertices[faces] * 1.01  # (T, 3, 3): not unit, as a file may give them
+    indices = np.arange(len(faces)) // 17 % 2
+    fields = {"vertices": vertices, "triangles": faces, "normals": corners, "material_indices": indices}
+    if not as_arrays:
+        fields = {name: as_tuples(value.tolist()) for name, value in fields.items()}
+    return sc.TriangleMesh(
+        name="mesh",
+        material="copper",
+        location=(0.1, -0.2, 2.0),
+        rotation=(10.0, 20.0, 30.0),
+        materials=("copper", "brass"),
+        **fields,
+    )
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_a_mesh_given_as_tuples_or_as_arrays_renders_the_same_bytes(dtype: str) -> None:
+    base = uv_sphere(600).with_render(width=48, height=36, depth=3, dtype=dtype)
+    images = []
+    for as_arrays in (False, True):
+        scene = replace(base, objects=(base.objects[0], smooth_mesh(600, as_arrays)))
+        images.append(render(scene, workers=1).image)
+    assert np.array_equal(images[0], images[1])
+    assert images[0].std() > 0.0
+
+
+def test_a_meshs_arrays_are_read_only_and_its_own() -> None:
+    vertices = np.array([(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)])
+    mesh = sc.TriangleMesh(name="t", material="m", vertices=vertices, triangles=[(0, 1, 2)], normals=[[0, 0, 1] * 3])
+    vertices[1, 0] = 5.0  # the caller's array: the mesh has a copy
+    assert mesh.vertices[1, 0] == 1.0
+    assert (mesh.vertices.dtype, mesh.triangles.dtype, mesh.normals.shape) == (np.float64, np.int64, (1, 3, 3))
+    for array in (mesh.vertices, mesh.triangles, mesh.normals, pickle.loads(pickle.dumps(mesh)).vertices):
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = 0
+    assert replace(mesh, location=(1.0, 2.0, 3.0)).vertices is mesh.vertices  # nothing copied again
+    loaded = scene_from_dict(mesh_scenes.mesh_scene(*mesh_scenes.uv_sphere(100))).objects[1]
+    assert not loaded.vertices.flags.writeable and not loaded.triangles.flags.writeable
+
+
+def test_meshes_are_equal_by_their_arrays_bits() -> None:
+    one, two = smooth_mesh(300, True), smooth_mesh(300, False)
+    assert one == two and hash(one) == hash(two) and one.vertices is not two.vertices
+    assert pickle.loads(pickle.dumps(one)) == one
+    moved = replace(one, vertices=np.where(one.vertices == 0.0, -0.0, one.vertices))  # -0.0 where 0.0 was
+    assert moved != one
+    old = uv_sphere(300)
+    new = replace(old, objects=(old.objects[0], replace(old.objects[1], location=(0.0, 0.0, 2.5))))
+    assert edits.edits_between(old, new) == [edits.TransformEdit("mesh", (0.0, 0.0, 2.5), (0.0, 0.0, 0.0))]
+
+
+def test_the_world_transform_on_arrays_gives_the_per_vertex_functions_numbers() -> None:
+    mesh = smooth_mesh(400, True)
+    vane = sc.Vane(parts=("mesh",), pivot=(0.3, 0.0, 0.1), axis=(0.1, 0.2, 1.0), heading=37.0)
+    world = tf.world_primitive(mesh, vane)
+    rotation, location = tf.object_frame(mesh, vane)
+    points = [tf.add(location, tf.apply(rotation, vertex)) for vertex in mesh.vertices.tolist()]  # the old loop
+    expected = np.array([[points[k] for k in face] for face in mesh.triangles.tolist()])
+    normals = []
+    for v0, v1, v2 in expected.tolist():
+        n = tf.cross(tf.sub(v1, v0), tf.sub(v2, v0))
+        size = tf.length(n)
+        normals.append((n[0] / size, n[1] / size, n[2] / size) if size > 0.0 else (0.0, 0.0, 0.0))
+    assert world.triangles.tobytes() == expected.tobytes()
+    assert world.normals.tobytes() == np.array(normals).tobytes()
+    assert world == tf.world_primitive(mesh, vane) and hash(world) == hash(tf.world_primitive(mesh, vane))
