@@ -18,6 +18,7 @@ from tracer.geometry.robust import make_robust_kernel
 from tracer.scene import scene as sc
 from tracer.scene.loader import scene_from_dict
 from tracer.tracing.reference import render_reference
+from tracer.workers import parallel
 from tracer.workers.parallel import render
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
@@ -170,3 +171,23 @@ def test_the_world_transform_on_arrays_gives_the_per_vertex_functions_numbers() 
     assert world.triangles.tobytes() == expected.tobytes()
     assert world.normals.tobytes() == np.array(normals).tobytes()
     assert world == tf.world_primitive(mesh, vane) and hash(world) == hash(tf.world_primitive(mesh, vane))
+
+
+def test_a_large_meshs_arrays_go_to_the_workers_once_in_a_shared_file(monkeypatch) -> None:
+    monkeypatch.setattr(parallel, "SHARED_SCENE_BYTES", 0)  # the shared path for a small mesh
+    base = replace(uv_sphere(600), objects=(uv_sphere(600).objects[0], smooth_mesh(600, True)))
+    vane = sc.Vane(parts=("mesh",), pivot=(0.2, 0.0, 0.0), axis=(0.0, 0.0, 1.0))
+    scenes = [
+        replace(base, vane=replace(vane, heading=heading)).with_render(width=40, height=30) for heading in (0, 90)
+    ]
+    expected = [render(scene, workers=1).image for scene in scenes]
+    with parallel.Renderer(2) as renderer:
+        first, file = renderer._scenes.message(scenes[0])
+        second, same_file = renderer._scenes.message(scenes[1])
+        assert first.offsets is not None and same_file is file and first.key != second.key  # arrays written once
+        file.users -= 2
+        frames = list(renderer.render_frames(scenes * 2))  # pipelined: one frame's tasks wait while one is traced
+        pixels = renderer.render_pixels(scenes[1], np.arange(0, 1200, 7), frames[0].image).image
+    assert all(np.array_equal(frame.image, expected[k % 2]) for k, frame in enumerate(frames))
+    assert np.array_equal(pixels.reshape(-1, 3)[::7], expected[1].reshape(-1, 3)[::7])
+    assert file.descriptor is None  # closed with the renderer, once no frame used it
