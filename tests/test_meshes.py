@@ -171,6 +171,9 @@ def test_the_world_transform_on_arrays_gives_the_per_vertex_functions_numbers() 
     assert world.triangles.tobytes() == expected.tobytes()
     assert world.normals.tobytes() == np.array(normals).tobytes()
     assert world == tf.world_primitive(mesh, vane) and hash(world) == hash(tf.world_primitive(mesh, vane))
+    # the kernel cache's key: the scene's own arrays, not the world's (equal for a mesh of the same bits)
+    key, other = world.cache_key, tf.world_primitive(smooth_mesh(400, False), vane).cache_key
+    assert key.vertices is mesh.vertices and key == other and hash(key) == hash(other)
 
 
 def test_a_large_meshs_arrays_go_to_the_workers_once_in_a_shared_file(monkeypatch) -> None:

@@ -144,10 +144,18 @@ class WorldTriangles:
     normals: np.ndarray
     rotation: Matrix3 = IDENTITY  # the object's frame: world = rotation @ local + location
     location: sc.Vec3 = (0.0, 0.0, 0.0)
+    # what the triangles were made from, where that is a mesh's (vertices, faces): the kernel cache's key then holds
+    # these (the scene's own arrays) instead of the world's triangles and normals (96 MB at a million triangles)
+    source: tuple[np.ndarray, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "triangles", sc.frozen_array(self.triangles, np.float64, (-1, 3, 3)))
         object.__setattr__(self, "normals", sc.frozen_array(self.normals, np.float64, (-1, 3)))
+
+    @property
+    def cache_key(self) -> object:
+        """What names these triangles in a cache: equal keys, the same triangles and normals."""
+        return self if self.source is None else MeshSource(self.material, self.rotation, self.location, *self.source)
 
     def __eq__(self, other: object) -> bool:
         if other.__class__ is not self.__class__:
@@ -161,6 +169,31 @@ class WorldTriangles:
 
     def __hash__(self) -> int:
         return hash((self.material, self.rotation, self.location, self.triangles.shape))
+
+
+@dataclass(frozen=True, eq=False)
+class MeshSource:
+    """A mesh's local vertices (V, 3) and faces (T, 3) placed by a frame: the same ones (by their bits) give the same
+    world triangles (_triangles is a function of them)."""
+
+    material: str
+    rotation: Matrix3
+    location: sc.Vec3
+    vertices: np.ndarray
+    faces: np.ndarray
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        assert isinstance(other, MeshSource)
+        return (
+            (self.material, self.rotation, self.location) == (other.material, other.rotation, other.location)
+            and sc.same_arrays(self.vertices, other.vertices)
+            and sc.same_arrays(self.faces, other.faces)
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.material, self.rotation, self.location, self.vertices.shape, self.faces.shape))
 
 
 WorldPrimitive = WorldSphere | WorldPlane | WorldCylinder | WorldTriangles
@@ -209,6 +242,7 @@ def _triangles(
     location: sc.Vec3,
     vertices: np.ndarray | list[sc.Vec3],
     faces: np.ndarray | tuple[tuple[int, int, int], ...],
+    source: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> WorldTriangles:
     """vertices (V, 3) and faces (T, 3) -> the world's triangles and unit normals, as arrays: the operations of
     add(location, apply(rotation, v)), cross, length and the division per component in their order, so the same
@@ -230,7 +264,7 @@ def _triangles(
     normals = np.divide(n, size[:, None], out=np.zeros_like(n), where=area[:, None])  # (0, 0, 0) where no area
     for array in (triangles, normals):
         array.flags.writeable = False  # made here and owned: WorldTriangles keeps them without a copy
-    return WorldTriangles(material, triangles, normals, rotation, location)
+    return WorldTriangles(material, triangles, normals, rotation, location, source)
 
 
 def world_primitive(obj: sc.SceneObject, vane: sc.Vane | None) -> WorldPrimitive:
@@ -251,7 +285,7 @@ def world_primitive(obj: sc.SceneObject, vane: sc.Vane | None) -> WorldPrimitive
         return _triangles(obj.material, rotation, location, box_vertices(obj.size), BOX_TRIANGLES)
     if isinstance(obj, sc.Pyramid):
         return _triangles(obj.material, rotation, location, pyramid_vertices(obj.size), PYRAMID_TRIANGLES)
-    return _triangles(obj.material, rotation, location, obj.vertices, obj.triangles)
+    return _triangles(obj.material, rotation, location, obj.vertices, obj.triangles, (obj.vertices, obj.triangles))
 
 
 def world_primitives(scene: sc.Scene) -> list[WorldPrimitive]:
