@@ -105,7 +105,7 @@ def primitive_mesh(scene, obj, world):
         return _mesh_from(name, transforms.box_vertices(obj.size), transforms.BOX_TRIANGLES)
     if isinstance(obj, sc.Pyramid):
         return _mesh_from(name, transforms.pyramid_vertices(obj.size), transforms.PYRAMID_TRIANGLES)
-    return _mesh_from(name, obj.vertices, obj.triangles)
+    return _mesh_from(name, obj.vertices.tolist(), obj.triangles.tolist())  # arrays -> Python numbers for bpy
 
 
 def _record(blender_object, obj) -> None:
@@ -113,7 +113,13 @@ def _record(blender_object, obj) -> None:
     import dataclasses
     import json
 
-    fields = {key: value for key, value in dataclasses.asdict(obj).items() if key not in ("location", "rotation")}
+    # a mesh's arrays as nested lists (the scene file's form; asdict would copy them and json cannot write them)
+    fields = {
+        field.name: value.tolist() if hasattr(value, "tolist") else value
+        for field in dataclasses.fields(obj)
+        if field.name not in ("location", "rotation")
+        for value in (getattr(obj, field.name),)
+    }
     fields["type"] = {
         "Sphere": "sphere",
         "Plane": "plane",

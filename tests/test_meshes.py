@@ -2,22 +2,28 @@
 
 from __future__ import annotations
 
+import pickle
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tracer.frames import edits
 from tracer.geometry import transforms as tf
 from tracer.geometry.kernels import make_kernel, quiet
 from tracer.geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
 from tracer.geometry.meshpicture import View
 from tracer.geometry.robust import make_robust_kernel
 from tracer.scene import scene as sc
+from tracer.scene.loader import scene_from_dict
 from tracer.tracing.reference import render_reference
+from tracer.workers import parallel
 from tracer.workers.parallel import render
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import mesh_scenes
 from study import triangles as uv_sphere
 
 
@@ -166,3 +172,106 @@ def test_a_deep_stack_of_triangles_is_walked_not_pictured() -> None:
     assert list(kernel.pictures.values()) == [None]
     assert np.array_equal(t, expected_t) and np.array_equal(part, expected_part)
     assert (t < np.inf).all()
+
+
+# ---- meshes as arrays (issue 23 item 3) --------------------------------------------------------------------------
+
+
+def as_tuples(value: object) -> object:
+    """Nested lists -> nested tuples (a mesh as a scene made in code gives it)."""
+    return tuple(as_tuples(item) for item in value) if isinstance(value, list) else value
+
+
+def smooth_mesh(count: int, as_arrays: bool) -> sc.TriangleMesh:
+    """A turned, moved UV sphere with corner normals and two materials, given as tuples or as arrays."""
+    mesh = uv_sphere(count).objects[1]
+    vertices, faces = mesh.vertices, mesh.triangles
+    corners = vertices[faces] * 1.01  # (T, 3, 3): not unit, as a file may give them
+    indices = np.arange(len(faces)) // 17 % 2
+    fields = {"vertices": vertices, "triangles": faces, "normals": corners, "material_indices": indices}
+    if not as_arrays:
+        fields = {name: as_tuples(value.tolist()) for name, value in fields.items()}
+    return sc.TriangleMesh(
+        name="mesh",
+        material="copper",
+        location=(0.1, -0.2, 2.0),
+        rotation=(10.0, 20.0, 30.0),
+        materials=("copper", "brass"),
+        **fields,
+    )
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_a_mesh_given_as_tuples_or_as_arrays_renders_the_same_bytes(dtype: str) -> None:
+    base = uv_sphere(600).with_render(width=48, height=36, depth=3, dtype=dtype)
+    images = []
+    for as_arrays in (False, True):
+        scene = replace(base, objects=(base.objects[0], smooth_mesh(600, as_arrays)))
+        images.append(render(scene, workers=1).image)
+    assert np.array_equal(images[0], images[1])
+    assert images[0].std() > 0.0
+
+
+def test_a_meshs_arrays_are_read_only_and_its_own() -> None:
+    vertices = np.array([(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)])
+    mesh = sc.TriangleMesh(name="t", material="m", vertices=vertices, triangles=[(0, 1, 2)], normals=[[0, 0, 1] * 3])
+    vertices[1, 0] = 5.0  # the caller's array: the mesh has a copy
+    assert mesh.vertices[1, 0] == 1.0
+    assert (mesh.vertices.dtype, mesh.triangles.dtype, mesh.normals.shape) == (np.float64, np.int64, (1, 3, 3))
+    for array in (mesh.vertices, mesh.triangles, mesh.normals, pickle.loads(pickle.dumps(mesh)).vertices):
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = 0
+    assert replace(mesh, location=(1.0, 2.0, 3.0)).vertices is mesh.vertices  # nothing copied again
+    loaded = scene_from_dict(mesh_scenes.mesh_scene(*mesh_scenes.uv_sphere(100))).objects[1]
+    assert not loaded.vertices.flags.writeable and not loaded.triangles.flags.writeable
+
+
+def test_meshes_are_equal_by_their_arrays_bits() -> None:
+    one, two = smooth_mesh(300, True), smooth_mesh(300, False)
+    assert one == two and hash(one) == hash(two) and one.vertices is not two.vertices
+    assert pickle.loads(pickle.dumps(one)) == one
+    moved = replace(one, vertices=np.where(one.vertices == 0.0, -0.0, one.vertices))  # -0.0 where 0.0 was
+    assert moved != one
+    old = uv_sphere(300)
+    new = replace(old, objects=(old.objects[0], replace(old.objects[1], location=(0.0, 0.0, 2.5))))
+    assert edits.edits_between(old, new) == [edits.TransformEdit("mesh", (0.0, 0.0, 2.5), (0.0, 0.0, 0.0))]
+
+
+def test_the_world_transform_on_arrays_gives_the_per_vertex_functions_numbers() -> None:
+    mesh = smooth_mesh(400, True)
+    vane = sc.Vane(parts=("mesh",), pivot=(0.3, 0.0, 0.1), axis=(0.1, 0.2, 1.0), heading=37.0)
+    world = tf.world_primitive(mesh, vane)
+    rotation, location = tf.object_frame(mesh, vane)
+    points = [tf.add(location, tf.apply(rotation, vertex)) for vertex in mesh.vertices.tolist()]  # the old loop
+    expected = np.array([[points[k] for k in face] for face in mesh.triangles.tolist()])
+    normals = []
+    for v0, v1, v2 in expected.tolist():
+        n = tf.cross(tf.sub(v1, v0), tf.sub(v2, v0))
+        size = tf.length(n)
+        normals.append((n[0] / size, n[1] / size, n[2] / size) if size > 0.0 else (0.0, 0.0, 0.0))
+    assert world.triangles.tobytes() == expected.tobytes()
+    assert world.normals.tobytes() == np.array(normals).tobytes()
+    assert world == tf.world_primitive(mesh, vane) and hash(world) == hash(tf.world_primitive(mesh, vane))
+    # the kernel cache's key: the scene's own arrays, not the world's (equal for a mesh of the same bits)
+    key, other = world.cache_key, tf.world_primitive(smooth_mesh(400, False), vane).cache_key
+    assert key.vertices is mesh.vertices and key == other and hash(key) == hash(other)
+
+
+def test_a_large_meshs_arrays_go_to_the_workers_once_in_a_shared_file(monkeypatch) -> None:
+    monkeypatch.setattr(parallel, "SHARED_SCENE_BYTES", 0)  # the shared path for a small mesh
+    base = replace(uv_sphere(600), objects=(uv_sphere(600).objects[0], smooth_mesh(600, True)))
+    vane = sc.Vane(parts=("mesh",), pivot=(0.2, 0.0, 0.0), axis=(0.0, 0.0, 1.0))
+    scenes = [
+        replace(base, vane=replace(vane, heading=heading)).with_render(width=40, height=30) for heading in (0, 90)
+    ]
+    expected = [render(scene, workers=1).image for scene in scenes]
+    with parallel.Renderer(2) as renderer:
+        first, file = renderer._scenes.message(scenes[0])
+        second, same_file = renderer._scenes.message(scenes[1])
+        assert first.offsets is not None and same_file is file and first.key != second.key  # arrays written once
+        file.users -= 2
+        frames = list(renderer.render_frames(scenes * 2))  # pipelined: one frame's tasks wait while one is traced
+        pixels = renderer.render_pixels(scenes[1], np.arange(0, 1200, 7), frames[0].image).image
+    assert all(np.array_equal(frame.image, expected[k % 2]) for k, frame in enumerate(frames))
+    assert np.array_equal(pixels.reshape(-1, 3)[::7], expected[1].reshape(-1, 3)[::7])
+    assert file.descriptor is None  # closed with the renderer, once no frame used it

@@ -1,4 +1,4 @@
-"""Scene objects -> world-space primitive parameters, in plain Python floats.
+"""Scene objects -> world-space primitive parameters: plain Python floats, and a mesh's triangles as arrays.
 
 Both the vectorized tracer and the per-pixel reference start from these numbers, so the two agree on geometry
 and differ only in how they trace. Rotations follow Blender: Euler XYZ in degrees, R = Rz @ Ry @ Rx.
@@ -131,15 +131,69 @@ class WorldCylinder:
     radius: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class WorldTriangles:
-    """Triangles (v0, v1, v2) with normals computed once before tracing (seed 2.6): unit (v1-v0) x (v2-v0)."""
+    """Triangles (T, 3 vertices, 3) float64 with normals (T, 3) computed once before tracing (seed 2.6): unit (v1-v0)
+    x (v2-v0), or 0 for a triangle of no area; read-only arrays (nested sequences are converted once, here).
+
+    Kernels are kept between frames keyed by their primitive (tracing/wavefront.py), so equality compares the
+    arrays' bits and the hash leaves them out (hashing a million triangles as tuples took 1.5 s a frame)."""
 
     material: str
-    triangles: tuple[tuple[sc.Vec3, sc.Vec3, sc.Vec3], ...]
-    normals: tuple[sc.Vec3, ...]
+    triangles: np.ndarray
+    normals: np.ndarray
     rotation: Matrix3 = IDENTITY  # the object's frame: world = rotation @ local + location
     location: sc.Vec3 = (0.0, 0.0, 0.0)
+    # what the triangles were made from, where that is a mesh's (vertices, faces): the kernel cache's key then holds
+    # these (the scene's own arrays) instead of the world's triangles and normals (96 MB at a million triangles)
+    source: tuple[np.ndarray, np.ndarray] | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "triangles", sc.frozen_array(self.triangles, np.float64, (-1, 3, 3)))
+        object.__setattr__(self, "normals", sc.frozen_array(self.normals, np.float64, (-1, 3)))
+
+    @property
+    def cache_key(self) -> object:
+        """What names these triangles in a cache: equal keys, the same triangles and normals."""
+        return self if self.source is None else MeshSource(self.material, self.rotation, self.location, *self.source)
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        assert isinstance(other, WorldTriangles)
+        return (
+            (self.material, self.rotation, self.location) == (other.material, other.rotation, other.location)
+            and sc.same_arrays(self.triangles, other.triangles)
+            and sc.same_arrays(self.normals, other.normals)
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.material, self.rotation, self.location, self.triangles.shape))
+
+
+@dataclass(frozen=True, eq=False)
+class MeshSource:
+    """A mesh's local vertices (V, 3) and faces (T, 3) placed by a frame: the same ones (by their bits) give the same
+    world triangles (_triangles is a function of them)."""
+
+    material: str
+    rotation: Matrix3
+    location: sc.Vec3
+    vertices: np.ndarray
+    faces: np.ndarray
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        assert isinstance(other, MeshSource)
+        return (
+            (self.material, self.rotation, self.location) == (other.material, other.rotation, other.location)
+            and sc.same_arrays(self.vertices, other.vertices)
+            and sc.same_arrays(self.faces, other.faces)
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.material, self.rotation, self.location, self.vertices.shape, self.faces.shape))
 
 
 WorldPrimitive = WorldSphere | WorldPlane | WorldCylinder | WorldTriangles
@@ -186,17 +240,31 @@ def _triangles(
     material: str,
     rotation: Matrix3,
     location: sc.Vec3,
-    vertices: list[sc.Vec3],
-    faces: tuple[tuple[int, int, int], ...],
+    vertices: np.ndarray | list[sc.Vec3],
+    faces: np.ndarray | tuple[tuple[int, int, int], ...],
+    source: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> WorldTriangles:
-    world = [add(location, apply(rotation, vertex)) for vertex in vertices]
-    triangles = tuple((world[a], world[b], world[c]) for a, b, c in faces)
-    normals = []
-    for v0, v1, v2 in triangles:
-        n = cross(sub(v1, v0), sub(v2, v0))
-        size = length(n)
-        normals.append((n[0] / size, n[1] / size, n[2] / size) if size > 0.0 else (0.0, 0.0, 0.0))
-    return WorldTriangles(material, triangles, tuple(normals), rotation, location)
+    """vertices (V, 3) and faces (T, 3) -> the world's triangles and unit normals, as arrays: the operations of
+    add(location, apply(rotation, v)), cross, length and the division per component in their order, so the same
+    float64 numbers as those functions give one vertex at a time (the reference's)."""
+    local = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    x, y, z = local[:, 0], local[:, 1], local[:, 2]
+    world = np.empty_like(local)
+    for axis in range(3):
+        row = rotation[axis]
+        world[:, axis] = location[axis] + (row[0] * x + row[1] * y + row[2] * z)
+    triangles = world[np.asarray(faces, dtype=np.int64).reshape(-1, 3)]  # (T, 3 vertices, 3)
+    v0 = triangles[:, 0]
+    ax, ay, az = (triangles[:, 1] - v0).T  # sub(v1, v0)
+    bx, by, bz = (triangles[:, 2] - v0).T
+    n = np.stack((ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx), axis=1)  # cross
+    nx, ny, nz = n.T
+    size = np.sqrt(nx * nx + ny * ny + nz * nz)  # length: math.sqrt(dot(n, n))
+    area = size > 0.0
+    normals = np.divide(n, size[:, None], out=np.zeros_like(n), where=area[:, None])  # (0, 0, 0) where no area
+    for array in (triangles, normals):
+        array.flags.writeable = False  # made here and owned: WorldTriangles keeps them without a copy
+    return WorldTriangles(material, triangles, normals, rotation, location, source)
 
 
 def world_primitive(obj: sc.SceneObject, vane: sc.Vane | None) -> WorldPrimitive:
@@ -217,7 +285,7 @@ def world_primitive(obj: sc.SceneObject, vane: sc.Vane | None) -> WorldPrimitive
         return _triangles(obj.material, rotation, location, box_vertices(obj.size), BOX_TRIANGLES)
     if isinstance(obj, sc.Pyramid):
         return _triangles(obj.material, rotation, location, pyramid_vertices(obj.size), PYRAMID_TRIANGLES)
-    return _triangles(obj.material, rotation, location, list(obj.vertices), obj.triangles)
+    return _triangles(obj.material, rotation, location, obj.vertices, obj.triangles, (obj.vertices, obj.triangles))
 
 
 def world_primitives(scene: sc.Scene) -> list[WorldPrimitive]:

@@ -327,8 +327,8 @@ def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Mater
         normals = _corner_normals(reader, count)
         names, indices = _mesh_materials(reader, count, materials)
         return sc.TriangleMesh(
-            vertices=tuple(map(tuple, vertices_array.tolist())),
-            triangles=tuple(map(tuple, triangles_array.tolist())),
+            vertices=vertices_array,
+            triangles=triangles_array,
             normals=normals,
             materials=names,
             material_indices=indices,
@@ -420,10 +420,11 @@ def _mesh_arrays(raw_vertices: Any, raw_triangles: Any) -> tuple[np.ndarray, np.
     )
     if np.any(np.all(normal == 0.0, axis=1)):
         return None
+    vertices.flags.writeable = triangles.flags.writeable = False  # the mesh keeps these arrays, without a copy
     return vertices, triangles
 
 
-def _corner_normals(reader: _Reader, count: int) -> tuple | None:
+def _corner_normals(reader: _Reader, count: int) -> np.ndarray | None:
     """A mesh's "normals": one [[x, y, z] x 3] per triangle, checked as one array (large meshes)."""
     raw = reader.raw("normals", None)
     if raw is None:
@@ -445,7 +446,8 @@ def _corner_normals(reader: _Reader, count: int) -> tuple | None:
         bad, corner = (int(x) for x in np.argwhere(short)[0])
         reader.fail(f"normals[{bad}][{corner}]", "must not be the zero vector (a normal needs a direction)")
         return None
-    return tuple(map(tuple, array.reshape(count, 9).tolist()))  # flat (x0, y0, z0, x1, ...): fewer tuples to make
+    array.flags.writeable = False  # (T, 3, 3): the mesh keeps it, without a copy
+    return array
 
 
 def _number_array(raw: list, shape: tuple[int, ...]) -> np.ndarray | None:
@@ -481,7 +483,7 @@ def _is_corner_triple(item: Any) -> bool:
 
 def _mesh_materials(
     reader: _Reader, count: int, materials: dict[str, sc.Material]
-) -> tuple[tuple[str, ...] | None, tuple[int, ...] | None]:
+) -> tuple[tuple[str, ...] | None, np.ndarray | None]:
     """A mesh's "materials" (names) and "material_indices" (one index into them per triangle), given together."""
     raw_names = reader.raw("materials", None)
     raw_indices = reader.raw("material_indices", None)
@@ -512,7 +514,9 @@ def _mesh_materials(
             f"material_indices[{bad}]", f"must be an integer in 0..{len(names) - 1}, got {_show(raw_indices[bad])}"
         )
         return None, None
-    return tuple(names), tuple(raw_indices)
+    indices = np.asarray(raw_indices, dtype=np.int64)  # (T,)
+    indices.flags.writeable = False
+    return tuple(names), indices
 
 
 def _light(reader: _Reader) -> sc.Light | None:

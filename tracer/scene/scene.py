@@ -6,8 +6,10 @@ linear RGB in [0, 1]. Every object has a location, a rotation, a size of its own
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Literal
+
+import numpy as np
 
 from .motion import Motion
 
@@ -93,20 +95,98 @@ class Pyramid(Primitive):
     size: Vec3 = (1.0, 1.0, 1.0)
 
 
-@dataclass(frozen=True, kw_only=True)
+def frozen_array(values: object, dtype: type, shape: tuple[int, ...]) -> np.ndarray:
+    """values as a read-only C-contiguous array of dtype and shape (one -1 allowed). An array that is already so,
+    and whose memory no writeable array can change (the loader's, or a mesh's passed on by dataclasses.replace), is
+    kept without a copy; anything else is copied, so that no caller's array can change a scene once it is made."""
+    array = values if isinstance(values, np.ndarray) else np.asarray(values, dtype=dtype)
+    if not (array.dtype == dtype and array.flags.c_contiguous and _immutable(array)):
+        array = np.array(array, dtype=dtype, order="C", copy=True)
+    if array.size == 0:  # an empty mesh (a scene made in code): its other axes still hold
+        array = np.zeros(tuple(0 if n == -1 else n for n in shape), dtype=dtype)
+    if array.ndim != len(shape) or any(n not in (-1, m) for n, m in zip(shape, array.shape, strict=True)):
+        array = array.reshape(shape)  # a view of a copy made above, or of an immutable array
+    array.flags.writeable = False
+    return array
+
+
+def _immutable(array: np.ndarray) -> bool:
+    """Whether nothing can write into the array's memory: it and every array it views are read-only, down to one
+    that owns its memory."""
+    while isinstance(array, np.ndarray):
+        if array.flags.writeable:
+            return False
+        if array.base is None:
+            return True
+        array = array.base
+    return False  # memory of another kind (a mapping, a buffer): someone may hold it writeable
+
+
+def same_arrays(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    """Whether two of a mesh's arrays hold the same bits (None only equals None): the same shape, dtype and bytes,
+    so that 0.0 and -0.0 differ (they can trace differently) where == on floats would call them equal."""
+    if a is b:
+        return True
+    if a is None or b is None or a.shape != b.shape or a.dtype != b.dtype:
+        return False
+    return bool(np.array_equal(a.reshape(-1).view(np.uint8), b.reshape(-1).view(np.uint8)))
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
 class TriangleMesh(Primitive):
     """Triangles in local coordinates (vertices and index triples), counter-clockwise seen from outside.
 
-    normals: None (flat) or per triangle its three corner normals (local frame), as three triples or flat
-    (x0, y0, z0, x1, ..., z2; the loader's form): the shading normal is their barycentric interpolation,
-    normalised. materials, material_indices: None (every triangle uses material) or the names of the mesh's
-    materials and each triangle's index into them."""
+    vertices (V, 3) float64 and triangles (T, 3) int64, read-only arrays (given as arrays or nested sequences: they
+    are converted once, here). normals: None (flat) or per triangle its three corner normals (local frame), (T, 3,
+    3) float64 (given as three triples or flat x0, y0, z0, x1, ..., z2 per triangle): the shading normal is their
+    barycentric interpolation, normalised. materials, material_indices: None (every triangle uses material) or the
+    names of the mesh's materials and each triangle's index into them, (T,) int64.
 
-    vertices: tuple[Vec3, ...] = ()
-    triangles: tuple[tuple[int, int, int], ...] = ()
-    normals: tuple[tuple[Vec3, Vec3, Vec3], ...] | tuple[tuple[float, ...], ...] | None = None
+    A million-triangle mesh as tuples of Python floats took 226 MB per process and seconds to make, transform and
+    pickle; as arrays it is 36 MB and goes to the kernels without a conversion. Equality compares the arrays' bits
+    (== on arrays is elementwise, which a dataclass's == cannot use); the hash leaves them out (cheap, and equal
+    meshes still hash the same)."""
+
+    vertices: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    triangles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
+    normals: np.ndarray | None = None
     materials: tuple[str, ...] | None = None
-    material_indices: tuple[int, ...] | None = None
+    material_indices: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        set_field = object.__setattr__  # frozen: the conversion happens once, before anyone sees the object
+        set_field(self, "vertices", frozen_array(self.vertices, np.float64, (-1, 3)))
+        set_field(self, "triangles", frozen_array(self.triangles, np.int64, (-1, 3)))
+        if self.normals is not None:
+            set_field(self, "normals", frozen_array(self.normals, np.float64, (-1, 3, 3)))
+        if self.materials is not None:
+            set_field(self, "materials", tuple(self.materials))
+        if self.material_indices is not None:
+            set_field(self, "material_indices", frozen_array(self.material_indices, np.int64, (-1,)))
+
+    def __setstate__(self, state: dict) -> None:
+        """Unpickled (a worker's copy): the arrays read-only again, as made (pickle does not keep the flag)."""
+        for value in state.values():
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+        self.__dict__.update(state)
+
+    def _plain(self) -> tuple:
+        return tuple(getattr(self, f.name) for f in fields(self) if f.name not in _MESH_ARRAYS)
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        assert isinstance(other, TriangleMesh)
+        return self._plain() == other._plain() and all(
+            same_arrays(getattr(self, name), getattr(other, name)) for name in _MESH_ARRAYS
+        )
+
+    def __hash__(self) -> int:
+        return hash((self._plain(), self.vertices.shape, self.triangles.shape))
+
+
+_MESH_ARRAYS = ("vertices", "triangles", "normals", "material_indices")
 
 
 SceneObject = Sphere | Plane | Cylinder | Box | Pyramid | TriangleMesh

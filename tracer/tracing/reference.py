@@ -7,6 +7,7 @@ a 640x480 frame). The vectorized tracer must equal it to 1e-9 on every pixel.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from ..geometry import camera as cam
 from ..geometry import transforms as tf
@@ -92,7 +93,24 @@ def _cylinder(O: sc.Vec3, D: sc.Vec3, c: tf.WorldCylinder) -> list[tuple[float, 
     return hits
 
 
-def _triangles(O: sc.Vec3, D: sc.Vec3, mesh: tf.WorldTriangles) -> list[tuple[float, int]]:
+@dataclass(frozen=True)
+class PlainTriangles:
+    """A mesh's world triangles and unit normals (tf.WorldTriangles' numbers) as tuples of Python floats: the oracle
+    computes in plain floats, one triangle at a time."""
+
+    triangles: tuple[tuple[sc.Vec3, sc.Vec3, sc.Vec3], ...]
+    normals: tuple[sc.Vec3, ...]
+
+
+def plain_primitive(primitive: tf.WorldPrimitive) -> tf.WorldPrimitive | PlainTriangles:
+    """The primitive with a mesh's arrays turned into tuples of floats (the same numbers); others as they are."""
+    if not isinstance(primitive, tf.WorldTriangles):
+        return primitive
+    triangles = tuple(tuple(map(tuple, triangle)) for triangle in primitive.triangles.tolist())
+    return PlainTriangles(triangles, tuple(map(tuple, primitive.normals.tolist())))
+
+
+def _triangles(O: sc.Vec3, D: sc.Vec3, mesh: PlainTriangles) -> list[tuple[float, int]]:
     """Moller-Trumbore as the seed writes it (2.29), one triangle at a time; part = triangle index."""
     hits: list[tuple[float, int]] = []
     for index, (V0, V1, V2) in enumerate(mesh.triangles):
@@ -112,7 +130,7 @@ def _triangles(O: sc.Vec3, D: sc.Vec3, mesh: tf.WorldTriangles) -> list[tuple[fl
     return hits
 
 
-def _hits(O: sc.Vec3, D: sc.Vec3, primitive: tf.WorldPrimitive) -> list[tuple[float, int]]:
+def _hits(O: sc.Vec3, D: sc.Vec3, primitive: tf.WorldPrimitive | PlainTriangles) -> list[tuple[float, int]]:
     if isinstance(primitive, tf.WorldSphere):
         return _sphere(O, D, primitive)
     if isinstance(primitive, tf.WorldPlane):
@@ -122,7 +140,7 @@ def _hits(O: sc.Vec3, D: sc.Vec3, primitive: tf.WorldPrimitive) -> list[tuple[fl
     return _triangles(O, D, primitive)
 
 
-def find_normal(primitive: tf.WorldPrimitive, part: int, P: sc.Vec3) -> sc.Vec3:
+def find_normal(primitive: tf.WorldPrimitive | PlainTriangles, part: int, P: sc.Vec3) -> sc.Vec3:
     """The surface normal at P (not yet normalised, as findNormal in listing 3.1)."""
     if isinstance(primitive, tf.WorldSphere):
         return sub(P, primitive.center)
@@ -182,7 +200,7 @@ class ReferenceTracer:
     def __init__(self, scene: sc.Scene) -> None:
         self.scene = scene
         self.settings = scene.render
-        self.primitives = tf.world_primitives(scene)
+        self.primitives = [plain_primitive(primitive) for primitive in tf.world_primitives(scene)]
         self.rays = {"camera": 0, "shadow": 0, "reflection": 0}
         self.documented_direction = cam.documented_background_direction(scene.camera, scene.render)
         self.corners = [tf.world_corner_normals(obj, scene.vane) for obj in scene.objects]

@@ -742,8 +742,11 @@ KERNEL_CACHE_SIZE = 512
 
 def _kernel(make, first: object, second: object):
     """make(first, second) (a primitive and a dtype, or a mesh's kernel and its primitive), kept for primitives that
-    stay put between frames (in an animation all but the vane's parts); kernels never change once made."""
-    key = (make, first, second.str if isinstance(second, np.dtype) else second)
+    stay put between frames (in an animation all but the vane's parts); kernels never change once made. A mesh's
+    key is its cache_key, which does not hold its world arrays alive."""
+    key = tuple(
+        part.str if isinstance(part, np.dtype) else getattr(part, "cache_key", part) for part in (make, first, second)
+    )
     made = _KERNELS.get(key)
     if made is None:
         made = _KERNELS[key] = make(first, second)

@@ -15,6 +15,7 @@ import multiprocessing
 import os
 import pickle
 import time
+import uuid
 import weakref
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
@@ -137,29 +138,54 @@ def _colour(image: np.ndarray) -> np.ndarray:
     return image if image.shape[-1] == 3 else image[..., :3]
 
 
-def _prepared_for(scene_bytes: bytes) -> PreparedScene:
-    """The prepared scene, rebuilt only when the scene changed since the last band (a few ms per build)."""
-    if _worker_cache.get("scene") != scene_bytes:
+@dataclass(frozen=True)
+class _SceneMessage:
+    """A scene as a task carries it. key: what names it (the same key, the same scene: a worker keeps what it
+    prepared for it). pickled: the whole pickle; or, with offsets (a scene with large arrays: a mesh), the pickle
+    without its arrays, which are in a shared file (the task's first descriptor) at these offsets, so that a task
+    carries no copy of them and every worker maps the same pages."""
+
+    key: bytes
+    pickled: bytes
+    offsets: tuple[tuple[int, int], ...] | None = None  # (offset, bytes) of each out-of-band buffer in the file
+
+
+def _prepared_for(scene: _SceneMessage, descriptors: tuple[int, ...]) -> tuple[PreparedScene, tuple[int, ...]]:
+    """The prepared scene, rebuilt only when the scene changed since the last band (a few ms per build; seconds
+    for a million-triangle mesh), and the descriptors the scene did not use."""
+    if scene.offsets is not None:
+        file, descriptors = descriptors[0], descriptors[1:]
+    if _worker_cache.get("scene") != scene.key:
         tune_allocator()
-        _worker_cache["scene"] = scene_bytes
-        _worker_cache["prepared"] = PreparedScene(pickle.loads(scene_bytes))
+        _worker_cache.pop("prepared", None)  # the last scene's kernels go before the next one's are built
+        if scene.offsets is None:
+            loaded = pickle.loads(scene.pickled)
+        else:
+            # read-only arrays on the shared pages themselves: no copy in any worker
+            mapping = memoryview(mmap.mmap(file, 0, access=mmap.ACCESS_READ))
+            buffers = [mapping[start : start + size] for start, size in scene.offsets]
+            loaded = pickle.loads(scene.pickled, buffers=buffers)
+        _worker_cache["scene"] = scene.key
+        _worker_cache["prepared"] = PreparedScene(loaded)
     prepared = _worker_cache["prepared"]
     assert isinstance(prepared, PreparedScene)
-    return prepared
+    return prepared, descriptors
 
 
 def _render_band(
-    scene_bytes: bytes,
+    scene: _SceneMessage,
     rows: np.ndarray,
     shape: tuple[int, int, int],
     dtype: str,
     volume: Volume | None = None,
     keep: bool = False,
-    image: int | None = None,
+    *descriptors: int,
 ) -> tuple[np.ndarray | None, RayCounts, np.ndarray | None]:
-    """Trace rows (R,) of the scene; the band (R, W, 3) goes into the shared image (a descriptor) or comes back,
-    with (R, W) touched where a volume is given (footprint.py). keep: the image's file is one the parent reuses."""
-    prepared = _prepared_for(scene_bytes)
+    """Trace rows (R,) of the scene; the band (R, W, 3) goes into the shared image (the descriptor after the
+    scene's, if any) or comes back, with (R, W) touched where a volume is given (footprint.py). keep: the image's
+    file is one the parent reuses."""
+    prepared, descriptors = _prepared_for(scene, descriptors)
+    image = descriptors[0] if descriptors else None
     touched = None if volume is None else np.zeros((len(rows), shape[1]), dtype=bool)
     band, counts = prepared.render_rows(rows, band_samples(prepared.scene.render), volume, touched)
     if image is None:
@@ -192,9 +218,9 @@ def _mapped(descriptor: int, keep: bool) -> mmap.mmap:
     return mapping
 
 
-def _render_pixels(scene_bytes: bytes, pixels: np.ndarray) -> tuple[np.ndarray, RayCounts]:
+def _render_pixels(scene: _SceneMessage, pixels: np.ndarray, *descriptors: int) -> tuple[np.ndarray, RayCounts]:
     """Trace the flat pixels (P,) of the scene: their colours (P, 3)."""
-    prepared = _prepared_for(scene_bytes)
+    prepared, _ = _prepared_for(scene, descriptors)
     return prepared.render_pixels(pixels, band_samples(prepared.scene.render))
 
 
@@ -221,6 +247,7 @@ class Renderer:
         default = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
         self._start_method = start_method or default
         self._images = _SharedImages() if hasattr(os, "memfd_create") else None
+        self._scenes = _SharedScenes(hasattr(os, "memfd_create"))
         self._final = False  # closed for good: no pool is started again
 
     def __enter__(self) -> Renderer:
@@ -238,14 +265,19 @@ class Renderer:
             self._pool = None
         if self._images is not None:
             self._images.close()
+        self._scenes.close()
 
     def _start_pool(self) -> WorkerPool:
         if self._final:
             raise PoolClosedError("the renderer is closed")
         if self._pool is None:
-            private = None if self._images is None else self._images.descriptors
-            self._pool = WorkerPool(self.workers, self._start_method, private)
+            self._pool = WorkerPool(self.workers, self._start_method, self._private_descriptors)
         return self._pool
+
+    def _private_descriptors(self) -> list[int]:
+        """The files this Renderer keeps open (images used again, the current scene's arrays): a forked worker
+        closes its copies."""
+        return (self._images.descriptors() if self._images is not None else []) + self._scenes.descriptors()
 
     def render(
         self,
@@ -359,22 +391,30 @@ class Renderer:
         image = np.empty(shape, dtype) if shared is None else shared.array(shape, dtype)
         descriptor = None if shared is None else shared.descriptor
         keep = shared is not None and shared.kept
-        scene_bytes = pickle.dumps(scene)
+        message, scene_file = self._scenes.message(scene)
+        descriptors = (() if scene_file is None else (scene_file.descriptor,)) + (
+            () if descriptor is None else (descriptor,)
+        )
         tasks = [
-            (rows, pool.submit(_render_band, (scene_bytes, rows, shape, dtype.str, volume, keep), descriptor))
+            (rows, pool.submit(_render_band, (message, rows, shape, dtype.str, volume, keep), descriptors))
             for rows in bands(settings)
         ]
         touched = None if volume is None else np.zeros(shape[:2], dtype=bool)
-        return _Frame(pool, image, tasks, shared, started, touched, settings=settings)
+        return _Frame(pool, image, tasks, shared, started, touched, settings=settings, scene_file=scene_file)
 
     def _submit_pixels(self, scene: sc.Scene, pixels: np.ndarray, base: np.ndarray, pieces: int = 0) -> _Frame:
         """A frame of base with pixels traced again, in the given number of tasks (0: one per worker)."""
         pool = self._start_pool()
         started = time.perf_counter()
-        scene_bytes = pickle.dumps(scene)
+        message, scene_file = self._scenes.message(scene)
+        descriptors = () if scene_file is None else (scene_file.descriptor,)
         count = max(1, min(len(pixels), pieces or self.workers))
-        tasks = [(piece, pool.submit(_render_pixels, (scene_bytes, piece))) for piece in np.array_split(pixels, count)]
-        return _Frame(pool, base.copy(), tasks, None, started, pixels=True, base=(base, np.asarray(pixels)))
+        tasks = [
+            (piece, pool.submit(_render_pixels, (message, piece), descriptors))
+            for piece in np.array_split(pixels, count)
+        ]
+        base_pixels = (base, np.asarray(pixels))
+        return _Frame(pool, base.copy(), tasks, None, started, pixels=True, base=base_pixels, scene_file=scene_file)
 
 
 @dataclass
@@ -390,6 +430,7 @@ class _Frame:
     pixels: bool = False
     settings: sc.RenderSettings | None = None  # a whole frame's: its render border may crop the image
     base: tuple[np.ndarray, np.ndarray] | None = None  # a pixel frame's base and pixels (RenderResult.retraced)
+    scene_file: _SceneFile | None = None  # the shared file of the scene's arrays that the tasks carry
 
     def finish(self, progress: Progress | None = None, band_done: BandDone | None = None) -> RenderResult:
         counts = RayCounts()
@@ -425,6 +466,9 @@ class _Frame:
             # a file may be used again only once no worker can write into it any more: every band done
             self.shared.release(finished=all(task.done for _, task in self.tasks))
             self.shared = None
+        if self.scene_file is not None:  # no task of this frame is sent any more: its descriptor may close
+            self.scene_file.release()
+            self.scene_file = None
 
 
 # Image files of at most this size are kept by a Renderer and used again for later frames once nothing uses the
@@ -509,6 +553,103 @@ class _SharedImages:
             image.kept = False
             image.close()
         self.kept = []
+
+
+# A scene whose arrays (a mesh's) are larger than this goes to the workers as a pickle without them and one shared file
+# that holds them: a million-triangle mesh's 36 MB pickled into every task was copied through each worker's pipe and
+# kept, unpickled, once more in each worker.
+SHARED_SCENE_BYTES = 1 << 20
+BUFFER_ALIGNMENT = 64  # each array's offset in the file: aligned as NumPy's own allocations
+
+
+class _SceneFile:
+    """A large scene's arrays in an anonymous shared file (memfd), each at an aligned offset. It stays open while
+    it is the Renderer's current one or a frame's tasks may still carry its descriptor (users)."""
+
+    def __init__(self, views: list[memoryview]) -> None:
+        self.views = views  # the arrays' bytes (views of the scene's own read-only arrays)
+        self.token = uuid.uuid4().bytes  # names the file's contents in the workers' keys
+        offsets, end = [], 0
+        for view in views:
+            offsets.append((end, view.nbytes))
+            end += -(-view.nbytes // BUFFER_ALIGNMENT) * BUFFER_ALIGNMENT
+        self.offsets = tuple(offsets)
+        self.users = 0
+        self.current = True
+        self.descriptor: int | None = os.memfd_create("weathervane-scene", os.MFD_CLOEXEC)
+        try:
+            os.ftruncate(self.descriptor, max(end, 1))
+            for (start, _), view in zip(offsets, views, strict=True):
+                written = 0
+                while written < view.nbytes:
+                    written += os.pwrite(self.descriptor, view[written:], start + written)
+        except BaseException:
+            self.current = False
+            self._close_if_unused()
+            raise
+
+    def release(self) -> None:
+        """A frame that used the file is done (its tasks finished or dropped: none will be sent)."""
+        self.users -= 1
+        self._close_if_unused()
+
+    def retire(self) -> None:
+        """No longer the current scene's file."""
+        self.current = False
+        self._close_if_unused()
+
+    def _close_if_unused(self) -> None:
+        if not self.current and self.users <= 0 and self.descriptor is not None:
+            os.close(self.descriptor)  # the file itself goes once no worker maps it any more
+            self.descriptor = None
+            self.views = []
+
+
+class _SharedScenes:
+    """A Renderer's scenes as tasks carry them (_SceneMessage), and the shared file of the current one's arrays
+    while they are large. A scene whose arrays are those of the last (an animation's frames: the same mesh, the
+    vane turned) uses its file again: its arrays are written once."""
+
+    def __init__(self, shared: bool) -> None:
+        self.shared = shared  # anonymous shared files exist here (memfd)
+        self.file: _SceneFile | None = None
+
+    def message(self, scene: sc.Scene) -> tuple[_SceneMessage, _SceneFile | None]:
+        """The scene's message, and the file its tasks carry (one user more: the frame releases it when done)."""
+        buffers: list[pickle.PickleBuffer] = []
+        pickled = pickle.dumps(scene, protocol=5, buffer_callback=buffers.append)  # arrays: views, not copies
+        views = [buffer.raw() for buffer in buffers]
+        if not self.shared or sum(view.nbytes for view in views) <= SHARED_SCENE_BYTES:
+            whole = pickle.dumps(scene, protocol=5)
+            return _SceneMessage(whole, whole), None
+        if self.file is None or not _same_bytes(views, self.file.views):
+            self.close()
+            self.file = _SceneFile(views)
+        self.file.users += 1
+        return _SceneMessage(self.file.token + pickled, pickled, self.file.offsets), self.file
+
+    def descriptors(self) -> list[int]:
+        return [] if self.file is None or self.file.descriptor is None else [self.file.descriptor]
+
+    def close(self) -> None:
+        if self.file is not None:
+            self.file.retire()
+            self.file = None
+
+
+def _same_bytes(views: list[memoryview], others: list[memoryview]) -> bool:
+    """Whether two scenes' arrays hold the same bytes (the same arrays, most often: a scene's arrays are
+    read-only)."""
+    if len(views) != len(others):
+        return False
+    for view, other in zip(views, others, strict=True):
+        if view.obj is other.obj:
+            continue
+        if view.nbytes != other.nbytes or not np.array_equal(
+            np.frombuffer(view, np.uint8), np.frombuffer(other, np.uint8)
+        ):
+            return False
+    return True
 
 
 def render(scene: sc.Scene, workers: int | None = None, progress: Progress | None = None) -> RenderResult:

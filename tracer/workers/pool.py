@@ -7,8 +7,9 @@ happens; its tasks go back to the queue and a fresh worker takes its place. A ta
 arguments, so a re-run gives the same bytes. Workers ignore Ctrl-C (the parent decides), and leave quietly when the
 parent is gone (their pipe closes).
 
-A task may carry a file descriptor (the shared image of a frame, a memfd): it goes to the worker over the pipe
-(SCM_RIGHTS) right after the task, so no file name is ever made that a killed parent could leave behind.
+A task may carry file descriptors (the shared image of a frame, a large scene's arrays: memfds): they go to the
+worker over the pipe (SCM_RIGHTS) right after the task, so no file name is ever made that a killed parent could
+leave behind.
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ class TaskFailedError(RuntimeError):
 class Task:
     function: Callable[..., Any]
     args: tuple
-    descriptor: int | None = None  # a file descriptor the worker receives as the function's last argument
+    descriptors: tuple[int, ...] = ()  # file descriptors the worker receives as the function's last arguments
     attempts: int = 0
     done: bool = False
     cancelled: bool = False
@@ -91,13 +92,13 @@ def _worker_main(conn: connection.Connection, inherited: list[int]) -> None:
         message = tasks.get()
         if message is None:  # stopped, or the parent is gone
             return
-        function, args, descriptor = message
+        function, args, descriptors = message
         try:
-            result = (True, function(*args, descriptor) if descriptor is not None else function(*args))
+            result = (True, function(*args, *descriptors))
         except Exception as error:
             result = (False, (f"{type(error).__name__}: {error}", traceback.format_exc()))
         finally:
-            if descriptor is not None:
+            for descriptor in descriptors:
                 os.close(descriptor)
         try:
             conn.send(result)
@@ -124,14 +125,14 @@ def _main_script_hidden(hide: bool) -> Iterator[None]:
 
 
 def _receive_tasks(conn: connection.Connection, tasks: queue.SimpleQueue) -> None:
-    """The worker's reader: (function, args, descriptor or None) for each task, then None."""
+    """The worker's reader: (function, args, descriptors) for each task, then None."""
     try:
         while True:
             message = conn.recv()
             if message is None:
                 break
-            function, args, carries_descriptor = message
-            tasks.put((function, args, reduction.recv_handle(conn) if carries_descriptor else None))
+            function, args, count = message
+            tasks.put((function, args, tuple(reduction.recv_handle(conn) for _ in range(count))))
     except (EOFError, OSError):  # the parent is gone
         pass
     tasks.put(None)
@@ -156,11 +157,11 @@ class WorkerPool:
 
     # ---- tasks -------------------------------------------------------------------------------------------------
 
-    def submit(self, function: Callable[..., Any], args: tuple, descriptor: int | None = None) -> Task:
-        """Queue function(*args) (plus descriptor, received in the worker as a descriptor of its own)."""
+    def submit(self, function: Callable[..., Any], args: tuple, descriptors: tuple[int, ...] = ()) -> Task:
+        """Queue function(*args, *descriptors), each descriptor received in the worker as one of its own."""
         if self._closed:
             raise PoolClosedError("the worker pool is closed")
-        task = Task(function, args, descriptor)
+        task = Task(function, args, descriptors)
         self._queue.append(task)
         self._dispatch()
         return task
@@ -194,8 +195,8 @@ class WorkerPool:
         inherited = []
         if self._context.get_start_method() == "fork":
             inherited = [w.conn.fileno() for w in self._workers] + [parent_end.fileno()]
-            inherited += [t.descriptor for t in self._queue if t.descriptor is not None]
-            inherited += [t.descriptor for w in self._workers for t in w.tasks if t.descriptor is not None]
+            inherited += [d for t in self._queue for d in t.descriptors]
+            inherited += [d for w in self._workers for t in w.tasks for d in t.descriptors]
             inherited += self._private() if self._private is not None else []
         process = self._context.Process(
             target=_worker_main, args=(child_end, sorted(set(inherited))), daemon=True, name="weathervane-worker"
@@ -223,9 +224,9 @@ class WorkerPool:
             worker = min(ready, key=lambda w: len(w.tasks))  # the first of the least busy
             task = self._queue.popleft()
             try:
-                worker.conn.send((task.function, task.args, task.descriptor is not None))
-                if task.descriptor is not None:
-                    reduction.send_handle(worker.conn, task.descriptor, worker.process.pid)
+                worker.conn.send((task.function, task.args, len(task.descriptors)))
+                for descriptor in task.descriptors:
+                    reduction.send_handle(worker.conn, descriptor, worker.process.pid)
             except OSError:  # the worker died: its sentinel says so in the next wait
                 self._queue.appendleft(task)
                 dead.add(id(worker))
