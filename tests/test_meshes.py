@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from tracer.frames import edits
+from tracer.geometry import meshpicture
 from tracer.geometry import transforms as tf
 from tracer.geometry.kernels import make_kernel, quiet
 from tracer.geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
@@ -116,7 +117,8 @@ def picture_rays(mesh: tf.WorldTriangles, kind: str, count: int, seed: int) -> t
 @pytest.mark.parametrize("dtype", ["float64", "float32"])
 @pytest.mark.parametrize("kind", ["camera", "light", "sun"])
 @pytest.mark.parametrize(("count", "seed"), [(300, 4), (1500, 5)])
-def test_the_mesh_pictures_find_the_whole_mesh_tests_hits(build, dtype, kind, count, seed) -> None:
+def test_the_mesh_pictures_find_the_whole_mesh_tests_hits(build, dtype, kind, count, seed, monkeypatch) -> None:
+    monkeypatch.setattr(meshpicture, "MAX_DEPTH", np.inf)  # a soup is deep: pictured here all the same
     mesh = soup(count, seed)
     whole = build(mesh, np.dtype(dtype))
     kernel = MeshKernel(whole, mesh)
