@@ -70,6 +70,15 @@ def padded_box(
     return (lower - pad).astype(dtype).reshape(3, 1), (upper + pad).astype(dtype).reshape(3, 1)
 
 
+def column_bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points (n, 3) -> their least and greatest coordinates (3,) each, a column at a time (a reduction along the
+    points' axis of an (n, 3) array runs an inner loop of 3 per point: ten times slower at a million triangles)."""
+    return (
+        np.array([points[:, axis].min() for axis in range(3)]),
+        np.array([points[:, axis].max() for axis in range(3)]),
+    )
+
+
 def box_margin(size, dtype: np.dtype):
     """padded_box's margin for a box of size (its largest coordinate magnitude plus its longest side): a number, or
     one per box (n,) where size is an array."""
@@ -398,12 +407,11 @@ class TrianglesKernel(Kernel):
         self.normals = np.asarray(mesh.normals, dtype=dtype).T  # (3, T)
         self.unit_normals = _unit(self.normals)
         self.cost = 3.0 + len(mesh.triangles)
-        self.lower = triangles.reshape(-1, 3).min(axis=0)
-        self.upper = triangles.reshape(-1, 3).max(axis=0)
+        self.lower, self.upper = column_bounds(triangles.reshape(-1, 3))
         self.dtype = dtype
         rotation, location = np.asarray(mesh.rotation), np.asarray(mesh.location)
         local = (triangles.reshape(-1, 3) - location) @ rotation  # rows: R^T (v - location)
-        self.set_frame(rotation, location, local.min(axis=0), local.max(axis=0))
+        self.set_frame(rotation, location, *column_bounds(local))
 
     def bounds(self):
         return self.lower, self.upper

@@ -52,7 +52,8 @@ class MeshHierarchy:
         centroids = (first + second + third) / 3.0
         # int32 positions and indices: the partitions below are a few passes over them per level
         index = np.int32 if count < 2**31 else np.int64
-        orders = [np.argsort(centroids[:, axis], kind="stable").astype(index) for axis in range(3)]
+        columns = [np.ascontiguousarray(centroids[:, axis]) for axis in range(3)]  # take() copies a strided one
+        orders = [np.argsort(column, kind="stable").astype(index) for column in columns]
         starts, stops = np.array([0]), np.array([count])
         first_node = 0
         lefts, leaf_rows, leaf_starts, leaf_stops, leaf_nodes, levels = [], [], [], [], [], []
@@ -81,8 +82,8 @@ class MeshHierarchy:
             inner_starts, inner_stops = starts[inner], stops[inner]
             extent = np.stack(
                 [
-                    centroids[:, along].take(orders[along].take(inner_stops - 1))
-                    - centroids[:, along].take(orders[along].take(inner_starts))
+                    columns[along].take(orders[along].take(inner_stops - 1))
+                    - columns[along].take(orders[along].take(inner_starts))
                     for along in range(3)
                 ],
                 axis=1,
