@@ -82,6 +82,30 @@ def test_the_default_animation_over_120_frames_and_what_it_saves() -> None:
     assert saved > 0.5  # most camera rays are not traced again
 
 
+def test_a_frame_traces_only_the_pixels_its_heading_changes() -> None:
+    """footprint.HeadingMarks: a frame at the run's first heading traces nothing (no part moved), a part on the axis
+    (the collar) has moved only at headings where the turn's rounding changes its primitive, and the default
+    animation's other frames trace far fewer pixels than the run's boxes hold; the frames are the whole frames."""
+    scene = default_scene().with_render(width=160, height=120)
+    turns = headings(scene, 30).tolist()
+    assert turns[1] == turns[0] != turns[-1]
+    with Renderer(1) as renderer:
+        results = dict(incremental.render_frames(renderer, scene, iter(list(enumerate(turns, 1)))))
+        for frame in (2, 20, 30):
+            whole = renderer.render(scene.with_heading(turns[frame - 1]))
+            assert np.array_equal(results[frame].image, whole.image)
+    marked = int(results[1].touched.sum())
+    assert results[2].rays.camera == 0 and results[2].retraced[1].size == 0
+    assert all(0 < results[frame].rays.camera < marked / 2 for frame in range(2, 31) if turns[frame - 1] != turns[0])
+    base = scene.with_heading(turns[0])
+    marks = incremental._marks(base, np.flatnonzero(results[1].touched), np.array(turns))
+    parts = [obj.name for obj in scene.objects if obj.name in scene.vane.parts]
+    first = int(np.searchsorted(marks.headings, turns[0]))
+    others = len(marks.headings) - 1
+    assert not marks.moved[:, first].any() and marks.moved[parts.index("tail_fin")].sum() == others
+    assert marks.moved[parts.index("collar")].sum() < others / 2
+
+
 def test_turning_frames_in_any_order_are_whole_frames() -> None:
     scene = turning_scene(3, "float64", "documented")
     turning = incremental.TurningFrames()

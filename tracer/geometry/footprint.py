@@ -10,7 +10,9 @@ pixel is traced once; only the pixels whose trees meet the volume are traced aga
 
 The volume is a box that holds the parts at every heading of the frames it serves (incremental.py takes runs of
 frames whose headings stay close), or at every heading at all (the parts' box revolved a whole turn about the
-vane's axis) where the headings to come are not known.
+vane's axis) where the headings to come are not known. Where the headings are known, HeadingMarks then tells, of the
+pixels the volume holds, which ones each heading changes: those whose trees meet a part that moved at the first
+heading or at that one, tested against the part's oriented box (its kernel's frame) at each heading.
 """
 
 from __future__ import annotations
@@ -128,3 +130,133 @@ class Footprint:
         (n,), -1 for none) or which light they seek (light) does not matter here."""
         if samples.size:
             self.touched[samples.take(indices(self.volume.meets(O, D, t_min, t_max)))] = True
+
+
+# ---- the pixels each heading of a run changes ----------------------------------------------------------------------
+#
+# A run's boxes (swept_volume) hold every part at every heading of the run: they tell which pixels may change at all.
+# A frame at heading h differs from the run's first (heading h0) only where a tree of h0 meets a part that moved: at
+# h0 (the part left) or at h (it arrived). So a frame traces again only the pixels whose h0 trees meet a moved part's
+# oriented box (its kernel's own frame: the object's axes, much tighter than the world box of a turned part) at h0
+# or at h; a part whose primitive is the same at h as at h0 (on the axis, symmetric about it) has not moved. On the
+# default animation that is 2.3% of the pixels a frame instead of 9.0% for the run's boxes.
+
+
+@dataclass
+class HeadingMarks:
+    """For a run's headings (H,) sorted, and pixel trees traced at the base heading: which pixels' trees meet each
+    part at each heading. pixels[p][k]: flat pixels (sorted) whose trees meet part p's oriented box at headings[k];
+    moved (parts, H): part p's primitive at headings[k] differs from the base's."""
+
+    headings: np.ndarray
+    base: float
+    moved: np.ndarray
+    pixels: list[list[np.ndarray]]
+
+    def at(self, heading: float) -> np.ndarray:
+        """The flat pixels (sorted) that may differ between the base heading's image and heading's (in the run)."""
+        k = int(np.searchsorted(self.headings, heading))
+        b = int(np.searchsorted(self.headings, self.base))
+        pieces = [self.pixels[p][j] for p in np.flatnonzero(self.moved[:, k]).tolist() for j in (b, k)]
+        if not pieces:
+            return np.empty(0, dtype=np.int64)
+        return np.unique(np.concatenate(pieces))
+
+    @classmethod
+    def joined(cls, parts: list[HeadingMarks]) -> HeadingMarks:
+        """The marks of disjoint sets of pixels, together."""
+        first = parts[0]
+        pixels = [
+            [np.unique(np.concatenate([part.pixels[p][k] for part in parts])) for k in range(len(first.headings))]
+            for p in range(len(first.pixels))
+        ]
+        return cls(first.headings, first.base, first.moved, pixels)
+
+
+def heading_marks(segments, scene: sc.Scene, dtype: np.dtype, headings: np.ndarray) -> HeadingMarks:
+    """segments (raystore.Segments, float64) of pixel trees traced with scene (its vane at the base heading) ->
+    HeadingMarks for the headings (degrees; the base among them or not), every part whose bounds are finite."""
+    vane = scene.vane
+    turns = np.unique(np.asarray(headings, dtype=np.float64))
+    parts = [obj for obj in scene.objects if obj.name in vane.parts]
+    moved = np.zeros((len(parts), turns.size), dtype=bool)
+    reach = float(np.abs(np.asarray(vane.pivot)).max())
+    boxes, frames = [], []
+    for p, obj in enumerate(parts):
+        base = tf.world_primitive(obj, vane)
+        boxes.append([])
+        frames.append([])
+        for k, heading in enumerate(turns.tolist()):
+            primitive = tf.world_primitive(obj, replace(vane, heading=heading))
+            moved[p, k] = primitive != base
+            kernel = make_kernel(primitive, dtype)  # the tracing dtype's kernel: its frame's own padding
+            lower, upper = kernel.bounds()
+            lower, upper = padded_box(lower, upper, dtype, reach + float(np.abs(np.concatenate((lower, upper))).max()))
+            boxes[p].append((lower.astype(np.float64), upper.astype(np.float64)))
+            if kernel.frame is None:  # a sphere: its world box
+                frames[p].append((None, None, *boxes[p][-1]))
+            else:
+                frames[p].append(tuple(x.astype(np.float64) for x in kernel.frame))
+    empty = [np.empty(0, dtype=np.int64)] * turns.size
+    marks = [empty] * len(parts)
+    turning = np.flatnonzero(moved.any(axis=1)).tolist()  # a part that never moves (on the axis) needs no marks
+    if turning:
+        with quiet():
+            inverse = 1.0 / segments.D
+        rays = _Rays(segments.O, segments.D, inverse, segments.start, segments.end, segments.pixel)
+        # first the segments that meet any turning part's box at any heading
+        lower = np.min([low for p in turning for low, _ in boxes[p]], axis=0)
+        upper = np.max([high for p in turning for _, high in boxes[p]], axis=0)
+        rays = rays.meeting(lower, upper)
+        for p in turning:
+            marks[p] = _part_marks(rays, boxes[p], frames[p])
+    return HeadingMarks(turns, float(vane.heading), moved, marks)
+
+
+@dataclass
+class _Rays:
+    """Segments as heading_marks tests them: origins, directions and their inverses (3, n), t ranges and pixels
+    (n,)."""
+
+    O: np.ndarray
+    D: np.ndarray
+    inverse: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    pixel: np.ndarray
+
+    def meeting(self, lower: np.ndarray, upper: np.ndarray) -> _Rays:
+        """Those that meet the box (lower, upper (3, 1)). Call inside quiet()."""
+        return self.take(indices(_segment_meets(self.O, self.inverse, self.start, self.end, lower, upper)))
+
+    def take(self, keep: np.ndarray) -> _Rays:
+        return _Rays(
+            self.O.take(keep, axis=1), self.D.take(keep, axis=1), self.inverse.take(keep, axis=1),
+            self.start.take(keep), self.end.take(keep), self.pixel.take(keep),
+        )  # fmt: skip
+
+
+def _part_marks(rays: _Rays, boxes: list, frames: list) -> list[np.ndarray]:
+    """For each heading k, the pixels (sorted) whose segments meet frames[k] (an oriented box); the headings are
+    halved recursively, each half's segments those of the whole that meet the box around its headings' world boxes
+    (boxes[k] holds frames[k]'s part), so that a segment meets few headings' oriented boxes. Call inside quiet()."""
+    lows = np.stack([low for low, _ in boxes])  # (H, 3, 1)
+    highs = np.stack([high for _, high in boxes])
+    result = [np.empty(0, dtype=np.int64)] * len(boxes)
+    pending = [(rays, 0, len(boxes))]
+    while pending:
+        rays, first, last = pending.pop()
+        rays = rays.meeting(lows[first:last].min(axis=0), highs[first:last].max(axis=0))
+        if not rays.pixel.size:
+            continue
+        if last - first > 1:
+            middle = (first + last) // 2
+            pending += [(rays, first, middle), (rays, middle, last)]
+            continue
+        to_local, origin, lower, upper = frames[first]
+        if to_local is not None:  # a sphere has none: the world box just met is its box
+            local_O = to_local @ (rays.O - origin)
+            local_inverse = 1.0 / (to_local @ rays.D)
+            rays = rays.take(indices(_segment_meets(local_O, local_inverse, rays.start, rays.end, lower, upper)))
+        result[first] = np.unique(rays.pixel)
+    return result
