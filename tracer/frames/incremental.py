@@ -1,13 +1,14 @@
 """Frames of a turning vane -> their images, tracing again only the pixels that the vane can change (footprint.py).
 
-Frames go in runs whose headings stay within RUN_DEGREES of each other (at most RUN_FRAMES long). The run's first
-frame is traced whole, noting which pixels' ray trees meet the boxes that hold the vane's parts at every heading of
-the run; the workers then trace those pixels' trees again at the first frame's heading and find, for each heading of
-the run, the pixels whose trees meet a part that moved, where it was or where it is (footprint.HeadingMarks: the
-parts' oriented boxes). Each later frame of the run is the first image with its heading's pixels traced again (none
-where its heading is the first's). Every frame is bit-identical to a whole trace of it. Where the boxes' pixels are
-more than FULL_SHARE of the image (a camera inside the vane's reach, a huge vane), the run's frames are traced whole
-instead, which costs nothing more than a plain animation.
+All frames start from one image of the scene without its vane's parts, traced whole while noting which pixels' ray
+trees meet the boxes that hold the parts at every heading (footprint.swept_volume). Frames then go in runs of at
+most RUN_FRAMES: for a run's headings the workers trace those pixels' trees again (without the parts) and find, for
+each heading, the pixels whose trees meet a part there (footprint.HeadingMarks: the parts' oriented boxes); each frame
+is the image without the parts with its heading's pixels traced again in the whole scene (a frame at the heading of
+the one before it is that frame's image). A tree that meets no part is the same with the parts there, so every frame
+is bit-identical to a whole trace of it. Where the boxes' pixels are more than FULL_SHARE of the image (a camera
+inside the vane's reach, a huge vane), or the animation is shorter than MIN_FRAMES, frames are traced whole instead,
+which costs nothing more than a plain animation.
 """
 
 from __future__ import annotations
@@ -21,31 +22,27 @@ import numpy as np
 from ..geometry.footprint import HeadingMarks, heading_marks, swept_volume
 from ..scene import scene as sc
 from ..tracing.raystore import RayStore
-from ..tracing.wavefront import PreparedScene
+from ..tracing.wavefront import PreparedScene, RayCounts
 from ..workers.parallel import BandDone, Progress, Renderer, RenderResult
 from ..workers.resources import band_samples
 
-# Runs: a frame's pixels (HeadingMarks) do not depend on the run's span, so a longer run means fewer whole frames;
-# what grows with it is the pixels the run's boxes hold (the marks' trace) and the headings whose marks are found.
-# Before the marks (every frame traced all of its run's pixels) runs of 90 degrees were best. With them, the default
-# 120 frames (PNGs written, CPU seconds of the parent and both workers, two runs each): runs of 90 degrees (4 runs:
-# whole frames with their footprint 1.5 s, marks 1.0 s) 9.4 / 10.0 s, of 180 (3 runs) 9.2 / 9.2 s, of a whole turn
-# (1 run: 0.4 s and 0.6 s) 8.9 / 8.8 s. Over a whole turn the boxes hold no more.
-RUN_DEGREES = 360.0
+# The image without the parts, with its footprint, costs about two plain frames and the marks of 120 headings about
+# three (the default animation, one process: 0.4 s and 0.6 s, a plain frame 0.21 s); a frame then traces its own
+# pixels (1.5% of the image there). Runs bound the marks kept at once (a list of pixels per heading) and the frames
+# a run's marks keep waiting; the image without the parts serves every run.
 RUN_FRAMES = 120
+MIN_FRAMES = 4  # an animation of fewer frames is traced whole: the image without the parts would cost more
 FULL_SHARE = 0.5
 
 
 def runs(frame_headings: Iterable[tuple[int, float]]) -> Iterator[list[tuple[int, float]]]:
-    """(frame, heading) pairs -> consecutive runs whose headings span at most RUN_DEGREES, RUN_FRAMES long at most."""
+    """(frame, heading) pairs -> consecutive runs of RUN_FRAMES (the last may be shorter)."""
     run: list[tuple[int, float]] = []
-    low = high = 0.0
-    for frame, heading in frame_headings:
-        if run and (len(run) == RUN_FRAMES or max(high, heading) - min(low, heading) > RUN_DEGREES):
+    for pair in frame_headings:
+        run.append(pair)
+        if len(run) == RUN_FRAMES:
             yield run
             run = []
-        low, high = (heading, heading) if not run else (min(low, heading), max(high, heading))
-        run.append((frame, heading))
     if run:
         yield run
 
@@ -54,42 +51,55 @@ def render_frames(
     renderer: Renderer, scene: sc.Scene, frame_headings: Iterable[tuple[int, float]]
 ) -> Iterator[tuple[int, RenderResult]]:
     """(frame, image) for each (frame, heading), in order: scene with its vane turned to each heading."""
+    dtype = np.dtype(scene.render.dtype)
+    # a scene with an alpha (a transparent film, a holdout) or a border is traced in whole frames (see below)
+    whole = scene.has_alpha or scene.render.border is not None
+    volume = None if whole else swept_volume(scene, dtype)  # every heading: one image without the vane serves all
+    still = None if volume is None else without_vane(scene)
+    base: RenderResult | None = None
     for run in runs(frame_headings):
-        headings = np.array([heading for _, heading in run])
-        # a scene with an alpha (a transparent film, a holdout) or a border is traced in whole frames (see below)
-        whole = scene.has_alpha or scene.render.border is not None
-        volume = None if whole else swept_volume(scene, np.dtype(scene.render.dtype), headings)
-        (first_frame, first_heading), rest = run[0], run[1:]
-        if volume is None or not rest:
-            for (frame, _), result in zip(
-                run, renderer.render_frames(scene.with_heading(h) for _, h in run), strict=True
-            ):
+        if base is None and still is not None and len(run) >= MIN_FRAMES:
+            base = renderer.render(still, volume=volume)
+            if base.touched.mean() > FULL_SHARE:
+                still = None
+        if base is None or still is None:
+            scenes = (scene.with_heading(heading) for _, heading in run)
+            for (frame, _), result in zip(run, renderer.render_frames(scenes), strict=True):
                 yield frame, result
             continue
-        base = scene.with_heading(first_heading)
-        first = renderer.render(base, volume=volume)
-        yield first_frame, first
-        if first.touched.mean() > FULL_SHARE:
-            results = renderer.render_frames(scene.with_heading(heading) for _, heading in rest)
-        else:
-            marks = run_marks(renderer, base, np.flatnonzero(first.touched), headings)
-            frames = ((scene.with_heading(heading), marks.at(heading)) for _, heading in rest)
-            results = renderer.render_pixel_frames(frames, first.image)
-        for (frame, _), result in zip(rest, results, strict=True):
-            yield frame, result
+        marks = run_marks(renderer, scene, still, np.flatnonzero(base.touched), np.array([h for _, h in run]))
+        # a frame at the heading of the one before it is that frame's image (the vane at rest): nothing to trace
+        traced = [k for k, (_, heading) in enumerate(run) if k == 0 or heading != run[k - 1][1]]
+        frames = ((scene.with_heading(run[k][1]), marks.at(run[k][1])) for k in traced)
+        results = renderer.render_pixel_frames(frames, base.image)
+        last = None
+        for k, (frame, heading) in enumerate(run):
+            if k == 0 or heading != run[k - 1][1]:
+                last = next(results)
+                yield frame, last
+            else:
+                yield frame, RenderResult(last.image, RayCounts(), 0.0, retraced=last.retraced)
 
 
-def run_marks(renderer: Renderer, base: sc.Scene, pixels: np.ndarray, headings: np.ndarray) -> HeadingMarks:
-    """Which of the pixels (P,) each heading of a run changes (footprint.HeadingMarks), their trees traced again at
-    the base's heading on the workers, a share of the pixels each."""
+def without_vane(scene: sc.Scene) -> sc.Scene | None:
+    """The scene without its vane's parts (None where nothing else is there)."""
+    objects = tuple(obj for obj in scene.objects if obj.name not in scene.vane.parts)
+    return replace(scene, objects=objects, vane=None) if objects else None
+
+
+def run_marks(
+    renderer: Renderer, scene: sc.Scene, still: sc.Scene, pixels: np.ndarray, headings: np.ndarray
+) -> HeadingMarks:
+    """Which of the pixels (P,) each heading of a run changes (footprint.HeadingMarks), their trees traced again in
+    still (scene without its vane) on the workers, a share of the pixels each."""
     pieces = np.array_split(pixels, max(1, min(renderer.workers, len(pixels))))
-    return HeadingMarks.joined(renderer.map(_marks, [(base, piece, headings) for piece in pieces]))
+    return HeadingMarks.joined(renderer.map(_marks, [(scene, still, piece, headings) for piece in pieces]))
 
 
-def _marks(scene: sc.Scene, pixels: np.ndarray, headings: np.ndarray) -> HeadingMarks:
-    """On a worker: the pixels' ray trees in scene (its vane at the run's base heading) -> their HeadingMarks."""
+def _marks(scene: sc.Scene, still: sc.Scene, pixels: np.ndarray, headings: np.ndarray) -> HeadingMarks:
+    """On a worker: the pixels' ray trees in still (scene without its vane) -> their HeadingMarks for scene's vane."""
     store = RayStore()
-    PreparedScene(scene).render_pixels(pixels, band_samples(scene.render), store)
+    PreparedScene(still).render_pixels(pixels, band_samples(still.render), store)
     return heading_marks(store.segments(), scene, np.dtype(scene.render.dtype), headings)
 
 
