@@ -125,7 +125,9 @@ def full_hd(dtype: str) -> dict:
 
 def animation(repeats: int) -> dict:
     """`animate` on the default scene: 120 frames at 640x480, 2 workers, PNG files written; whole frames against
-    incremental ones (the same bytes), alternating in the same run; and what share of pixels each frame traces."""
+    incremental ones (the same bytes), alternating in the same run, wall and CPU seconds (the process and its
+    workers); and what share of pixels each frame traces."""
+    import resource
     import statistics
     import tempfile
 
@@ -133,12 +135,21 @@ def animation(repeats: int) -> dict:
     from tracer.frames.animate import animate, headings
     from tracer.workers.parallel import Renderer
 
+    def cpu() -> float:
+        # this process and its finished children (the pool's workers, stopped when animate returns): on a shared
+        # machine the wall time follows the other processes' load, the CPU time much less
+        own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+        return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
     scene = default_scene().with_render(width=640, height=480, workers=2)
     seconds: dict[str, list[float]] = {"whole": [], "incremental": []}
+    cpu_seconds: dict[str, list[float]] = {"whole": [], "incremental": []}
     for _ in range(repeats):
         for name in seconds:
             with tempfile.TemporaryDirectory() as folder:
+                before = cpu()
                 result = animate(scene, Path(folder), 1, 120, incremental=name == "incremental")
+                cpu_seconds[name].append(cpu() - before)
             seconds[name].append(result.seconds)
     pixels = scene.render.width * scene.render.height
     shares, whole_frames = [], 0
@@ -157,6 +168,11 @@ def animation(repeats: int) -> dict:
         "seconds": round(fast, 2),
         "whole_median_seconds": round(whole, 2),
         "speedup": round(whole / fast, 2),
+        "whole_cpu_seconds": [round(x, 2) for x in cpu_seconds["whole"]],
+        "incremental_cpu_seconds": [round(x, 2) for x in cpu_seconds["incremental"]],
+        "cpu_speedup": round(
+            statistics.median(cpu_seconds["whole"]) / statistics.median(cpu_seconds["incremental"]), 2
+        ),
         "ms_per_frame": round(fast / 120 * 1000, 1),
         "whole_frames": whole_frames,
         "retraced_share_mean": round(statistics.mean(retraced), 4) if retraced else None,

@@ -87,3 +87,27 @@ def test_incremental_frames_convert_only_their_retraced_pixels_to_the_same_png_p
                 name = f"frame_{frame:04d}.png"
                 with Image.open(folders[True] / name) as fast, Image.open(folders[False] / name) as whole:
                     assert np.array_equal(np.asarray(fast), np.asarray(whole)), (workers, srgb, name)
+                # the files too: FramePng's reused pieces are the bytes of compressing them again
+                assert (folders[True] / name).read_bytes() == (folders[False] / name).read_bytes()
+
+
+def test_frame_pngs_reuse_unchanged_rows_and_decode_to_their_pixels() -> None:
+    """FramePng's files decode (Pillow) to the pixels given, RGB and RGBA, of any size, and a frame encoded after
+    another (its unchanged pieces reused) is the same bytes as the frame encoded on its own."""
+    import io
+
+    from tracer.tracing.images import PNG_ROWS, FramePng
+
+    rng = np.random.default_rng(7)
+    for height, width, channels in [(1, 1, 3), (PNG_ROWS * 3, 17, 3), (PNG_ROWS * 2 + 5, 9, 4)]:
+        frames = FramePng()
+        pixels = rng.integers(0, 256, (height, width, channels), dtype=np.uint8)
+        pixels[: height // 2] = 40  # flat rows: runs for the run-length strategy
+        for _ in range(4):
+            data = frames.encode(pixels)
+            assert data == FramePng().encode(pixels)
+            with Image.open(io.BytesIO(data)) as image:
+                assert image.mode == ("RGBA" if channels == 4 else "RGB")
+                assert np.array_equal(np.asarray(image), pixels)
+            pixels = pixels.copy()
+            pixels[rng.integers(0, height), rng.integers(0, width)] += 1  # one pixel of one piece changes

@@ -11,6 +11,7 @@ import pytest
 from tests.random_scenes import random_scene_document
 from tracer.frames import incremental
 from tracer.frames.animate import headings
+from tracer.geometry.footprint import swept_volume
 from tracer.scene import scene as sc
 from tracer.scene.loader import default_scene, scene_from_dict
 from tracer.workers.parallel import Renderer
@@ -76,10 +77,41 @@ def test_random_turning_scenes_with_two_workers(dtype: str, numerics: str) -> No
     assert_frames_are_whole_frames(scene, random_headings(11, 24), workers=2)
 
 
+def test_runs_share_the_image_without_the_vane(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Frames in several runs (each its own marks) over the one image without the parts, and an animation shorter
+    than MIN_FRAMES traced whole: the whole frames."""
+    monkeypatch.setattr(incremental, "RUN_FRAMES", 5)
+    scene = turning_scene(4, "float64", "robust")
+    assert_frames_are_whole_frames(scene, random_headings(4, 17), workers=1)
+    assert assert_frames_are_whole_frames(scene, random_headings(6, incremental.MIN_FRAMES - 1), workers=1) == 0.0
+
+
 def test_the_default_animation_over_120_frames_and_what_it_saves() -> None:
     scene = default_scene().with_render(width=64, height=48, samples=4)
     saved = assert_frames_are_whole_frames(scene, headings(scene, 120).tolist(), workers=2)
     assert saved > 0.5  # most camera rays are not traced again
+
+
+def test_a_frame_traces_only_the_pixels_its_heading_changes() -> None:
+    """Frames start from the image without the vane's parts and trace the pixels whose trees meet a part at their
+    heading (footprint.HeadingMarks): far fewer than the parts' boxes over every heading hold; a frame at the heading
+    of the one before it traces nothing; the frames are the whole frames."""
+    scene = default_scene().with_render(width=160, height=120)
+    turns = headings(scene, 30).tolist()
+    assert turns[1] == turns[0] != turns[-1]
+    with Renderer(1) as renderer:
+        results = dict(incremental.render_frames(renderer, scene, iter(list(enumerate(turns, 1)))))
+        for frame in (1, 2, 20, 30):
+            whole = renderer.render(scene.with_heading(turns[frame - 1]))
+            assert np.array_equal(results[frame].image, whole.image)
+        still = incremental.without_vane(scene)
+        volume = swept_volume(scene, np.dtype(scene.render.dtype))
+        held = int(renderer.render(still, volume=volume).touched.sum())
+    for frame in range(2, 31):
+        if turns[frame - 1] == turns[frame - 2]:
+            assert results[frame].rays.camera == 0 and results[frame].image is results[frame - 1].image
+        else:
+            assert 0 < results[frame].rays.camera < held / 4
 
 
 def test_turning_frames_in_any_order_are_whole_frames() -> None:

@@ -19,13 +19,12 @@ import numpy as np
 from ..scene import scene as sc
 from ..scene.keyframes import DEFAULT_TOLERANCE, reduce_keys
 from ..scene.motion import Motion, iter_headings
-from ..tracing.images import atomic_path, to_8bit, write_image
+from ..tracing.images import FramePng, atomic_path, encode_frame, to_8bit, write_frame
 from ..tracing.wavefront import RayCounts
 from ..workers.parallel import Renderer, RenderResult
 from .incremental import render_frames as incremental_frames
 
 FrameProgress = Callable[[int, int], None]
-FRAME_COMPRESSION = 3  # zlib level for frames: 7.8 ms and 38 KB a 640x480 frame here, against 13.4 ms and 27 KB at 6
 
 
 def frame_path(folder: Path, frame: int) -> Path:
@@ -151,11 +150,12 @@ def animate(
     ):  # the results are closed before the pool stops
         pending: Future | None = None
         converted: dict[str, np.ndarray] = {}  # the writer's: the base of the frames being re-traced, in 8 bits
+        png = FramePng()  # the writer's: the last frame's compressed rows, reused where a frame's rows are the same
         for frame, result in results:
             if pending is not None:
                 pending.result()  # raises here if that write failed
             target = frame_path(folder, frame)
-            pending = writer.submit(_write_frame, result, target, srgb, converted)
+            pending = writer.submit(_write_frame, result, target, srgb, converted, png)
             rays.add(result.rays)
             done += 1
             if progress is not None:
@@ -166,11 +166,14 @@ def animate(
     return AnimationResult(plan.rendered, plan.skipped, time.perf_counter() - started, rays, keys, total)
 
 
-def _write_frame(result: RenderResult, target: Path, srgb: bool, converted: dict[str, np.ndarray]) -> None:
-    """Write a frame's PNG. A frame that is its run's base with some pixels traced again (RenderResult.retraced) is
-    converted to 8 bits in those pixels only, over the base's 8 bits kept from the run's earlier frames: the same
-    bytes (the conversion is per pixel), without converting the whole image each frame (at 640x480 with 7.5% of the
-    pixels re-traced, measured alternating: 0.9 ms against 7.1 ms for the whole image)."""
+def _write_frame(
+    result: RenderResult, target: Path, srgb: bool, converted: dict[str, np.ndarray], png: FramePng
+) -> None:
+    """Write a frame's PNG (images.FramePng: the same bytes whether or not png holds the last frame's rows). A frame
+    that is its run's base with some pixels traced again (RenderResult.retraced) is converted to 8 bits in those
+    pixels only, over the base's 8 bits kept from the run's earlier frames: the same bytes (the conversion is per
+    pixel), without converting the whole image each frame (at 640x480 with 7.5% of the pixels re-traced, measured
+    alternating: 0.9 ms against 7.1 ms for the whole image)."""
     pixels8 = None
     if result.retraced is not None and result.alpha is None:
         base, pixels = result.retraced
@@ -181,9 +184,7 @@ def _write_frame(result: RenderResult, target: Path, srgb: bool, converted: dict
             pixels8 = converted["base8"].copy()
             flat = result.image.reshape(-1, result.image.shape[-1])  # take(): a row gather 5x faster than flat[pixels]
             pixels8.reshape(-1, pixels8.shape[-1])[pixels] = to_8bit(flat.take(pixels, axis=0)[None], srgb)[0]
-    write_image(
-        result.image, target, srgb=srgb, compress_level=FRAME_COMPRESSION, alpha=result.alpha, converted=pixels8
-    )
+    write_frame(target, encode_frame(result.image, srgb, result.alpha, pixels8, png))
 
 
 def frame_results(

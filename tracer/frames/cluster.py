@@ -18,11 +18,10 @@ from pathlib import Path
 from typing import TypeVar
 
 from ..scene import scene as sc
-from ..tracing.images import atomic_path, encode_png
+from ..tracing.images import FramePng, atomic_path, encode_frame
 from ..tracing.wavefront import RayCounts
 from ..workers.parallel import Renderer
 from .animate import (
-    FRAME_COMPRESSION,
     AnimationResult,
     FrameProgress,
     frame_path,
@@ -53,9 +52,10 @@ def render_chunk(scene: sc.Scene, frames: list[tuple[int, float]], srgb: bool, i
     started = time.perf_counter()
     rays = RayCounts()
     encoded = []
+    png = FramePng()
     with Renderer(1) as renderer:
         for frame, result in frame_results(renderer, scene, iter(frames), incremental):
-            encoded.append((frame, encode_png(result.image, srgb, FRAME_COMPRESSION, result.alpha)))
+            encoded.append((frame, encode_frame(result.image, srgb, result.alpha, frames=png)))
             rays.add(result.rays)
     return ChunkResult(encoded, rays, time.perf_counter() - started)
 

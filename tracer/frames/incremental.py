@@ -1,10 +1,14 @@
 """Frames of a turning vane -> their images, tracing again only the pixels that the vane can change (footprint.py).
 
-Frames go in runs whose headings stay within RUN_DEGREES of each other (at most RUN_FRAMES long). The run's first
-frame is traced whole, noting which pixels' ray trees meet the boxes that hold the vane's parts at every heading of
-the run; each later frame of the run is that image with those pixels traced again. Every frame is bit-identical to a
-whole trace of it. Where the boxes' pixels are more than FULL_SHARE of the image (a camera inside the vane's reach, a
-huge vane), the run's frames are traced whole instead, which costs nothing more than a plain animation.
+All frames start from one image of the scene without its vane's parts, traced whole while noting which pixels' ray
+trees meet the boxes that hold the parts at every heading (footprint.swept_volume). Frames then go in runs of at
+most RUN_FRAMES: for a run's headings the workers trace those pixels' trees again (without the parts) and find, for
+each heading, the pixels whose trees meet a part there (footprint.HeadingMarks: the parts' oriented boxes); each frame
+is the image without the parts with its heading's pixels traced again in the whole scene (a frame at the heading of
+the one before it is that frame's image). A tree that meets no part is the same with the parts there, so every frame
+is bit-identical to a whole trace of it. Where the boxes' pixels are more than FULL_SHARE of the image (a camera
+inside the vane's reach, a huge vane), or the animation is shorter than MIN_FRAMES, frames are traced whole instead,
+which costs nothing more than a plain animation.
 """
 
 from __future__ import annotations
@@ -15,29 +19,30 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..geometry.footprint import swept_volume
+from ..geometry.footprint import HeadingMarks, heading_marks, swept_volume
 from ..scene import scene as sc
+from ..tracing.raystore import RayStore
+from ..tracing.wavefront import PreparedScene, RayCounts
 from ..workers.parallel import BandDone, Progress, Renderer, RenderResult
+from ..workers.resources import band_samples
 
-# Runs: tighter boxes mean fewer pixels to trace again, a longer run fewer whole frames. On the default scene the
-# parts' boxes hold the ray trees of 3.6% of the pixels for one heading, 5% over 15 degrees, 6.2% over 30 and 7.9%
-# over 60; a whole frame with its footprint costs about 1.6 plain frames. The default 120 frames (no PNG): 6.9 s with
-# runs of 30 degrees, 5.8 s of 60, 5.5 s of 90, 5.3 s of 180, 5.9 s of a whole turn (one noisy run each).
-RUN_DEGREES = 90.0
+# The image without the parts, with its footprint, costs about two plain frames and the marks of 120 headings about
+# three (the default animation, one process: 0.4 s and 0.6 s, a plain frame 0.21 s); a frame then traces its own
+# pixels (1.5% of the image there). Runs bound the marks kept at once (a list of pixels per heading) and the frames
+# a run's marks keep waiting; the image without the parts serves every run.
 RUN_FRAMES = 120
+MIN_FRAMES = 4  # an animation of fewer frames is traced whole: the image without the parts would cost more
 FULL_SHARE = 0.5
 
 
 def runs(frame_headings: Iterable[tuple[int, float]]) -> Iterator[list[tuple[int, float]]]:
-    """(frame, heading) pairs -> consecutive runs whose headings span at most RUN_DEGREES, RUN_FRAMES long at most."""
+    """(frame, heading) pairs -> consecutive runs of RUN_FRAMES (the last may be shorter)."""
     run: list[tuple[int, float]] = []
-    low = high = 0.0
-    for frame, heading in frame_headings:
-        if run and (len(run) == RUN_FRAMES or max(high, heading) - min(low, heading) > RUN_DEGREES):
+    for pair in frame_headings:
+        run.append(pair)
+        if len(run) == RUN_FRAMES:
             yield run
             run = []
-        low, high = (heading, heading) if not run else (min(low, heading), max(high, heading))
-        run.append((frame, heading))
     if run:
         yield run
 
@@ -46,27 +51,56 @@ def render_frames(
     renderer: Renderer, scene: sc.Scene, frame_headings: Iterable[tuple[int, float]]
 ) -> Iterator[tuple[int, RenderResult]]:
     """(frame, image) for each (frame, heading), in order: scene with its vane turned to each heading."""
+    dtype = np.dtype(scene.render.dtype)
+    # a scene with an alpha (a transparent film, a holdout) or a border is traced in whole frames (see below)
+    whole = scene.has_alpha or scene.render.border is not None
+    volume = None if whole else swept_volume(scene, dtype)  # every heading: one image without the vane serves all
+    still = None if volume is None else without_vane(scene)
+    base: RenderResult | None = None
     for run in runs(frame_headings):
-        headings = np.array([heading for _, heading in run])
-        # a scene with an alpha (a transparent film, a holdout) or a border is traced in whole frames (see below)
-        whole = scene.has_alpha or scene.render.border is not None
-        volume = None if whole else swept_volume(scene, np.dtype(scene.render.dtype), headings)
-        (first_frame, first_heading), rest = run[0], run[1:]
-        if volume is None or not rest:
-            for (frame, _), result in zip(
-                run, renderer.render_frames(scene.with_heading(h) for _, h in run), strict=True
-            ):
+        if base is None and still is not None and len(run) >= MIN_FRAMES:
+            base = renderer.render(still, volume=volume)
+            if base.touched.mean() > FULL_SHARE:
+                still = None
+        if base is None or still is None:
+            scenes = (scene.with_heading(heading) for _, heading in run)
+            for (frame, _), result in zip(run, renderer.render_frames(scenes), strict=True):
                 yield frame, result
             continue
-        first = renderer.render(scene.with_heading(first_heading), volume=volume)
-        yield first_frame, first
-        if first.touched.mean() > FULL_SHARE:
-            results = renderer.render_frames(scene.with_heading(heading) for _, heading in rest)
-        else:
-            pixels = np.flatnonzero(first.touched)
-            results = renderer.render_pixel_frames((scene.with_heading(h) for _, h in rest), pixels, first.image)
-        for (frame, _), result in zip(rest, results, strict=True):
-            yield frame, result
+        marks = run_marks(renderer, scene, still, np.flatnonzero(base.touched), np.array([h for _, h in run]))
+        # a frame at the heading of the one before it is that frame's image (the vane at rest): nothing to trace
+        traced = [k for k, (_, heading) in enumerate(run) if k == 0 or heading != run[k - 1][1]]
+        frames = ((scene.with_heading(run[k][1]), marks.at(run[k][1])) for k in traced)
+        results = renderer.render_pixel_frames(frames, base.image)
+        last = None
+        for k, (frame, heading) in enumerate(run):
+            if k == 0 or heading != run[k - 1][1]:
+                last = next(results)
+                yield frame, last
+            else:
+                yield frame, RenderResult(last.image, RayCounts(), 0.0, retraced=last.retraced)
+
+
+def without_vane(scene: sc.Scene) -> sc.Scene | None:
+    """The scene without its vane's parts (None where nothing else is there)."""
+    objects = tuple(obj for obj in scene.objects if obj.name not in scene.vane.parts)
+    return replace(scene, objects=objects, vane=None) if objects else None
+
+
+def run_marks(
+    renderer: Renderer, scene: sc.Scene, still: sc.Scene, pixels: np.ndarray, headings: np.ndarray
+) -> HeadingMarks:
+    """Which of the pixels (P,) each heading of a run changes (footprint.HeadingMarks), their trees traced again in
+    still (scene without its vane) on the workers, a share of the pixels each."""
+    pieces = np.array_split(pixels, max(1, min(renderer.workers, len(pixels))))
+    return HeadingMarks.joined(renderer.map(_marks, [(scene, still, piece, headings) for piece in pieces]))
+
+
+def _marks(scene: sc.Scene, still: sc.Scene, pixels: np.ndarray, headings: np.ndarray) -> HeadingMarks:
+    """On a worker: the pixels' ray trees in still (scene without its vane) -> their HeadingMarks for scene's vane."""
+    store = RayStore()
+    PreparedScene(still).render_pixels(pixels, band_samples(still.render), store)
+    return heading_marks(store.segments(), scene, np.dtype(scene.render.dtype), headings)
 
 
 class TurningFrames:

@@ -10,7 +10,9 @@ pixel is traced once; only the pixels whose trees meet the volume are traced aga
 
 The volume is a box that holds the parts at every heading of the frames it serves (incremental.py takes runs of
 frames whose headings stay close), or at every heading at all (the parts' box revolved a whole turn about the
-vane's axis) where the headings to come are not known.
+vane's axis) where the headings to come are not known. Where the headings are known and the pixels' trees were
+traced without the parts, HeadingMarks then tells, of the pixels the volume holds, which ones each heading changes:
+those whose trees meet a part there, tested against the part's oriented box (its kernel's frame).
 """
 
 from __future__ import annotations
@@ -128,3 +130,117 @@ class Footprint:
         (n,), -1 for none) or which light they seek (light) does not matter here."""
         if samples.size:
             self.touched[samples.take(indices(self.volume.meets(O, D, t_min, t_max)))] = True
+
+
+# ---- the pixels each heading changes -------------------------------------------------------------------------------
+#
+# The frames of an animation can all start from one image of the scene without its vane (incremental.py): a frame at
+# heading h differs from it only in the pixels whose trees (traced without the vane) meet a part at h, since a tree
+# that meets no part is the same with the parts there. The volume (swept_volume) tells which pixels may change at
+# any heading; HeadingMarks which ones each heading changes, testing those pixels' segments against each part's
+# oriented box (its kernel's own frame: the object's axes, much tighter than the world box of a turned part). On the
+# default animation that is 1.5% of the pixels a frame, against 9.0% for boxes over 90 degrees of headings.
+
+
+@dataclass
+class HeadingMarks:
+    """For headings (H,) sorted, and pixel trees traced without the vane's parts: pixels[k], the flat pixels (sorted)
+    whose trees meet some part's oriented box at headings[k]."""
+
+    headings: np.ndarray
+    pixels: list[np.ndarray]
+
+    def at(self, heading: float) -> np.ndarray:
+        """The flat pixels (sorted) that the parts at heading (one of the headings) change."""
+        return self.pixels[int(np.searchsorted(self.headings, heading))]
+
+    @classmethod
+    def joined(cls, parts: list[HeadingMarks]) -> HeadingMarks:
+        """The marks of disjoint sets of pixels, together."""
+        pixels = [np.unique(np.concatenate([part.pixels[k] for part in parts])) for k in range(len(parts[0].headings))]
+        return cls(parts[0].headings, pixels)
+
+
+def heading_marks(segments, scene: sc.Scene, dtype: np.dtype, headings: np.ndarray) -> HeadingMarks:
+    """segments (raystore.Segments, float64) of pixel trees traced without scene's vane parts -> HeadingMarks for the
+    headings (degrees) of scene's vane, every part bounded."""
+    vane = scene.vane
+    turns = np.unique(np.asarray(headings, dtype=np.float64))
+    reach = float(np.abs(np.asarray(vane.pivot)).max())
+    with quiet():
+        inverse = 1.0 / segments.D
+    rays = _Rays(segments.O, segments.D, inverse, segments.start, segments.end, segments.pixel)
+    boxes, frames = [], []
+    for obj in scene.objects:
+        if obj.name not in vane.parts:
+            continue
+        boxes.append([])
+        frames.append([])
+        for heading in turns.tolist():
+            kernel = make_kernel(tf.world_primitive(obj, replace(vane, heading=heading)), dtype)  # its frame's padding
+            lower, upper = kernel.bounds()
+            lower, upper = padded_box(lower, upper, dtype, reach + float(np.abs(np.concatenate((lower, upper))).max()))
+            boxes[-1].append((lower.astype(np.float64), upper.astype(np.float64)))
+            if kernel.frame is None:  # a sphere: its world box
+                frames[-1].append((None, None, *boxes[-1][-1]))
+            else:
+                frames[-1].append(tuple(x.astype(np.float64) for x in kernel.frame))
+    with quiet():
+        # first the segments that meet any part's box at any heading
+        lower = np.min([low for part in boxes for low, _ in part], axis=0)
+        upper = np.max([high for part in boxes for _, high in part], axis=0)
+        rays = rays.meeting(lower, upper)
+        marks = [
+            _part_marks(rays, part_boxes, part_frames) for part_boxes, part_frames in zip(boxes, frames, strict=True)
+        ]
+    pixels = [np.unique(np.concatenate([part[k] for part in marks])) for k in range(turns.size)]
+    return HeadingMarks(turns, pixels)
+
+
+@dataclass
+class _Rays:
+    """Segments as heading_marks tests them: origins, directions and their inverses (3, n), t ranges and pixels
+    (n,)."""
+
+    O: np.ndarray
+    D: np.ndarray
+    inverse: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    pixel: np.ndarray
+
+    def meeting(self, lower: np.ndarray, upper: np.ndarray) -> _Rays:
+        """Those that meet the box (lower, upper (3, 1)). Call inside quiet()."""
+        return self.take(indices(_segment_meets(self.O, self.inverse, self.start, self.end, lower, upper)))
+
+    def take(self, keep: np.ndarray) -> _Rays:
+        return _Rays(
+            self.O.take(keep, axis=1), self.D.take(keep, axis=1), self.inverse.take(keep, axis=1),
+            self.start.take(keep), self.end.take(keep), self.pixel.take(keep),
+        )  # fmt: skip
+
+
+def _part_marks(rays: _Rays, boxes: list, frames: list) -> list[np.ndarray]:
+    """For each heading k, the pixels (sorted) whose segments meet frames[k] (an oriented box); the headings are
+    halved recursively, each half's segments those of the whole that meet the box around its headings' world boxes
+    (boxes[k] holds frames[k]'s part), so that a segment meets few headings' oriented boxes. Call inside quiet()."""
+    lows = np.stack([low for low, _ in boxes])  # (H, 3, 1)
+    highs = np.stack([high for _, high in boxes])
+    result = [np.empty(0, dtype=np.int64)] * len(boxes)
+    pending = [(rays, 0, len(boxes))]
+    while pending:
+        rays, first, last = pending.pop()
+        rays = rays.meeting(lows[first:last].min(axis=0), highs[first:last].max(axis=0))
+        if not rays.pixel.size:
+            continue
+        if last - first > 1:
+            middle = (first + last) // 2
+            pending += [(rays, first, middle), (rays, middle, last)]
+            continue
+        to_local, origin, lower, upper = frames[first]
+        if to_local is not None:  # a sphere has none: the world box just met is its box
+            local_O = to_local @ (rays.O - origin)
+            local_inverse = 1.0 / (to_local @ rays.D)
+            rays = rays.take(indices(_segment_meets(local_O, local_inverse, rays.start, rays.end, lower, upper)))
+        result[first] = np.unique(rays.pixel)
+    return result

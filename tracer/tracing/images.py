@@ -9,7 +9,9 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import struct
 import tempfile
+import zlib
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -93,6 +95,81 @@ def encode_png(
         made = Image.fromarray(np.concatenate((pixels, to_8bit(alpha[..., None])), axis=2), mode="RGBA")
     made.save(buffer, format="PNG", compress_level=compress_level)
     return buffer.getvalue()
+
+
+# An animation's frames are PNG files written here (not by Pillow): every row Sub-filtered (each byte minus the one a
+# pixel to its left, so a row's filtered bytes depend on that row alone) and deflated PNG_ROWS rows at a time, each
+# piece ending on a flush (no back-references into the rows before it), with zlib's run-length strategy. A piece's
+# bytes then depend on its own rows only, so a frame that shares most rows with the last one compresses only the
+# pieces that changed and reuses the others' bytes: the same file as compressing every piece. A 640x480 frame of
+# the default animation, one thread: Pillow's adaptive filters and zlib level 3 (before) 17.5 ms and 38 KB, level 6
+# 27 ms and 27 KB; this 3.9 ms and 33 KB for a whole frame, 2.5 ms where only the changed pieces are compressed.
+PNG_ROWS = 16
+PNG_LEVEL = 1  # with the run-length strategy the level changes little (level 6: 3.8 ms, the same 33 KB)
+
+
+class FramePng:
+    """8-bit frames -> PNG bytes (PNG_ROWS above), keeping the last frame's filtered rows and compressed pieces so
+    that the next frame compresses only the pieces whose rows changed. One instance per sequence of frames, used by
+    one thread at a time."""
+
+    def __init__(self) -> None:
+        self._rows: np.ndarray | None = None  # (H, 1 + W * C) the last frame's filtered rows
+        self._pieces: list[bytes] = []
+
+    def encode(self, pixels: np.ndarray) -> bytes:
+        """(H, W, 3) or (H, W, 4) uint8 -> an RGB or RGBA PNG file's bytes."""
+        height, width, channels = pixels.shape
+        flat = pixels.reshape(height, width * channels)
+        rows = np.empty((height, 1 + width * channels), dtype=np.uint8)
+        rows[:, 0] = 1  # filter type Sub
+        rows[:, 1 : 1 + channels] = flat[:, :channels]
+        np.subtract(flat[:, channels:], flat[:, :-channels], out=rows[:, 1 + channels :])  # modulo 256
+        last = self._rows
+        if last is None or last.shape != rows.shape:
+            changed = np.ones(-(-height // PNG_ROWS), dtype=bool)
+            self._pieces = [b""] * changed.size
+        else:
+            changed_rows = (rows != last).any(axis=1)
+            changed = np.logical_or.reduceat(changed_rows, np.arange(0, height, PNG_ROWS))
+        for piece in np.flatnonzero(changed).tolist():
+            start = piece * PNG_ROWS
+            deflate = zlib.compressobj(PNG_LEVEL, zlib.DEFLATED, -15, 9, zlib.Z_RLE)  # raw deflate: no header
+            data = rows[start : start + PNG_ROWS].tobytes()
+            self._pieces[piece] = deflate.compress(data) + deflate.flush(zlib.Z_FULL_FLUSH)
+        self._rows = rows
+        end = zlib.compressobj(PNG_LEVEL, zlib.DEFLATED, -15).flush()  # the final (empty) block
+        # zlib's header (deflate, 32K window, fastest; (0x78 * 256 + 0x01) % 31 == 0) and its Adler-32 at the end
+        stream = b"".join((b"\x78\x01", *self._pieces, end, struct.pack(">I", zlib.adler32(rows))))
+        header = struct.pack(">IIBBBBB", width, height, 8, 6 if channels == 4 else 2, 0, 0, 0)
+        return b"".join((b"\x89PNG\r\n\x1a\n", _chunk(b"IHDR", header), _chunk(b"IDAT", stream), _chunk(b"IEND", b"")))
+
+
+def _chunk(kind: bytes, data: bytes) -> bytes:
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(data, zlib.crc32(kind)))
+
+
+def encode_frame(
+    image: np.ndarray,
+    srgb: bool = False,
+    alpha: np.ndarray | None = None,
+    converted: np.ndarray | None = None,
+    frames: FramePng | None = None,
+) -> bytes:
+    """An animation frame's PNG bytes (FramePng): alpha and converted as encode_png's; frames: the sequence's encoder
+    (its last frame's pieces reused), or None for a frame of its own. The same bytes either way."""
+    pixels = to_8bit(image, srgb) if converted is None else converted
+    if alpha is not None:
+        pixels = np.concatenate((pixels, to_8bit(alpha[..., None])), axis=2)
+    return (frames or FramePng()).encode(pixels)
+
+
+def write_frame(target: str | Path, payload: bytes) -> Path:
+    """Write an encoded frame (encode_frame) to target atomically; returns the path."""
+    target = Path(target)
+    with atomic_path(target) as temporary:
+        temporary.write_bytes(payload)
+    return target
 
 
 def write_image(

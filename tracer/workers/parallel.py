@@ -331,8 +331,10 @@ class Renderer:
             return self._submit_pixels(scene, pixels, base).finish()
         started = time.perf_counter()
         image = base.copy()
-        colors, counts = self._prepared_here(scene).render_pixels(pixels, band_samples(scene.render))
-        image.reshape(-1, image.shape[-1])[pixels] = colors[:, : image.shape[-1]]
+        counts = RayCounts()
+        if len(pixels):  # none: the scene's image is base (nothing to prepare)
+            colors, counts = self._prepared_here(scene).render_pixels(pixels, band_samples(scene.render))
+            image.reshape(-1, image.shape[-1])[pixels] = colors[:, : image.shape[-1]]
         result = _result(image, counts, time.perf_counter() - started)
         result.retraced = (base, np.asarray(pixels))
         return result
@@ -353,18 +355,32 @@ class Renderer:
         yield from self._pipelined(submitted(), 2)  # one frame traced, one queued: memory stays at two images
 
     def render_pixel_frames(
-        self, scenes: Iterable[sc.Scene], pixels: np.ndarray, base: np.ndarray
+        self, frames: Iterable[tuple[sc.Scene, np.ndarray]], base: np.ndarray
     ) -> Iterator[RenderResult]:
-        """render_pixels() for each scene in turn, results in order. With workers each frame is one task and as
-        many frames as workers (and one more, queued) are traced at once: such a frame is small, and most of its
-        time is the fixed cost of a trace (preparing the scene, NumPy calls per bounce), which splitting it would
-        pay again in every worker."""
+        """render_pixels(scene, pixels, base) for each (scene, pixels) in turn, results in order. With workers each
+        frame is one task and as many frames as workers (and one more, queued) are traced at once: such a frame is
+        small, and most of its time is the fixed cost of a trace (preparing the scene, NumPy calls per bounce),
+        which splitting it would pay again in every worker."""
         if self.workers <= 1:
-            for scene in scenes:
+            for scene, pixels in frames:
                 yield self.render_pixels(scene, pixels, base)
             return
-        submitted = (self._submit_pixels(scene, pixels, base, pieces=1) for scene in scenes)
+        submitted = (self._submit_pixels(scene, pixels, base, pieces=1) for scene, pixels in frames)
         yield from self._pipelined(submitted, self.workers + 1)
+
+    def map(self, function: Callable, arguments: Iterable[tuple]) -> list:
+        """function(*args) for each args, on the workers (in this process with one worker); the results in order.
+        function must be importable by the workers (a module's top-level function)."""
+        if self.workers <= 1:
+            return [function(*args) for args in arguments]
+        pool = self._start_pool()
+        tasks = [pool.submit(function, args) for args in arguments]
+        try:
+            for _ in pool.as_completed(tasks):
+                pass
+        finally:
+            pool.cancel(tasks)
+        return [task.value() for task in tasks]
 
     def _pipelined(self, frames: Iterator[_Frame], depth: int) -> Iterator[RenderResult]:
         """The frames' results in order, with up to depth frames in the pool at once."""
@@ -403,16 +419,15 @@ class Renderer:
         return _Frame(pool, image, tasks, shared, started, touched, settings=settings, scene_file=scene_file)
 
     def _submit_pixels(self, scene: sc.Scene, pixels: np.ndarray, base: np.ndarray, pieces: int = 0) -> _Frame:
-        """A frame of base with pixels traced again, in the given number of tasks (0: one per worker)."""
+        """A frame of base with pixels traced again, in the given number of tasks (0: one per worker; none for no
+        pixels)."""
         pool = self._start_pool()
         started = time.perf_counter()
         message, scene_file = self._scenes.message(scene)
         descriptors = () if scene_file is None else (scene_file.descriptor,)
-        count = max(1, min(len(pixels), pieces or self.workers))
-        tasks = [
-            (piece, pool.submit(_render_pixels, (message, piece), descriptors))
-            for piece in np.array_split(pixels, count)
-        ]
+        count = min(len(pixels), pieces or self.workers)
+        pieces_of = np.array_split(pixels, count) if count else []
+        tasks = [(piece, pool.submit(_render_pixels, (message, piece), descriptors)) for piece in pieces_of]
         base_pixels = (base, np.asarray(pixels))
         return _Frame(pool, base.copy(), tasks, None, started, pixels=True, base=base_pixels, scene_file=scene_file)
 
