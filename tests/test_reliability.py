@@ -201,7 +201,10 @@ def test_ctrl_c_stops_a_multi_worker_animation_at_once_keeping_whole_frames(tmp_
         text=True,
         start_new_session=True,
     )
-    workers = workers_of(process, settle=1.5)
+    workers = workers_of(process)
+    # once frames are being written (the animation first traces its image without the vane and each heading's
+    # pixels, a second or more before its first frame on a loaded machine)
+    assert wait_for(lambda: any(path.suffix == ".png" for path in tmp_path.iterdir()), 60.0), "no frame written"
     os.killpg(process.pid, signal.SIGINT)
     _out, err = process.communicate(timeout=30)
     assert process.returncode == cli.EXIT_INTERRUPTED
