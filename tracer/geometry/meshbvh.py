@@ -30,6 +30,7 @@ MESH_HIERARCHY_TRIANGLES = 32  # a mesh of more triangles gets its own hierarchy
 BIG = np.iinfo(np.int64).max
 PICTURES_KEPT = 8  # views per mesh kernel: the camera's and the lights'
 PICTURE_PAYOFF = 0.5  # rays per triangle that a view's queries bring before its picture is made
+LEAF_PAIRS = 1 << 15  # (ray, leaf) pairs per pass of a walk's leaf tests, each of LEAF_TRIANGLES triangles
 PAIRS = 1 << 17  # (ray, triangle) pairs per pass of a picture search: its temporaries stay a few MB
 
 
@@ -49,10 +50,11 @@ class MeshHierarchy:
         numbered level by level; the splits depend on the mesh only."""
         count = len(triangles)
         first, second, third = triangles[:, 0], triangles[:, 1], triangles[:, 2]
-        centroids = (first + second + third) / 3.0
+        # the centroids a column at a time: contiguous for take() (which copies a strided array first), and no
+        # (T, 3) temporaries at the peak of a million-triangle preparation
+        columns = [(first[:, axis] + second[:, axis] + third[:, axis]) / 3.0 for axis in range(3)]
         # int32 positions and indices: the partitions below are a few passes over them per level
         index = np.int32 if count < 2**31 else np.int64
-        columns = [np.ascontiguousarray(centroids[:, axis]) for axis in range(3)]  # take() copies a strided one
         orders = [np.argsort(column, kind="stable").astype(index) for column in columns]
         starts, stops = np.array([0]), np.array([count])
         first_node = 0
@@ -122,12 +124,16 @@ class MeshHierarchy:
         self.right = np.where(self.left >= 0, self.left + 1, -1)
         self.leaf_row = np.concatenate(leaf_rows)
         # boxes: each leaf's over its triangles, then each inner node's over its children's, deepest level first
-        low_all = np.minimum(np.minimum(first, second), third).take(order, axis=0)  # (T, 3), in the order
-        high_all = np.maximum(np.maximum(first, second), third).take(order, axis=0)
+        del columns
         lower, upper = np.empty((self.left.size, 3)), np.empty((self.left.size, 3))
         starts, stops, nodes = np.concatenate(leaf_starts), np.concatenate(leaf_stops), np.concatenate(leaf_nodes)
-        lower[nodes] = _segments(np.minimum, low_all, starts, stops)
-        upper[nodes] = _segments(np.maximum, high_all, starts, stops)
+        for axis in range(3):  # the triangles' bounds in the order, a column at a time
+            corners = (first[:, axis], second[:, axis], third[:, axis])
+            low = np.minimum(np.minimum(*corners[:2]), corners[2]).take(order)
+            lower[nodes, axis] = _segments(np.minimum, low, starts, stops)
+            del low
+            high = np.maximum(np.maximum(*corners[:2]), corners[2]).take(order)
+            upper[nodes, axis] = _segments(np.maximum, high, starts, stops)
         for parents, children in reversed(levels):
             lower[parents] = np.minimum(lower.take(children, axis=0), lower.take(children + 1, axis=0))
             upper[parents] = np.maximum(upper.take(children, axis=0), upper.take(children + 1, axis=0))
@@ -151,7 +157,7 @@ def _ranges(starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
 
 
 def _segments(ufunc: np.ufunc, values: np.ndarray, starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
-    """ufunc's reduction (n, 3) of values (P, 3) over each non-empty range [starts, stops)."""
+    """ufunc's reduction (n, ...) of values (P, ...) over each non-empty range [starts, stops)."""
     padded = np.concatenate((values, values[-1:]))  # a stop may be P: one row more keeps reduceat in range
     return ufunc.reduceat(padded, np.stack((starts, stops), axis=1).ravel(), axis=0)[0::2]
 
@@ -374,7 +380,14 @@ class MeshKernel(Kernel):
 
     def _test_leaves(self, O, D, t_min, rays, nodes, best_t, best_part) -> None:
         """The triangles of leaves (P,) met by rays (P,): the nearest hit nearer than each ray's best so far replaces
-        it, the lowest triangle index on equal t."""
+        it, the lowest triangle index on equal t. In pieces of LEAF_PAIRS pairs: the test's (pair, triangle)
+        temporaries of a whole band's rays were the largest part of a million-triangle frame's memory; a ray whose
+        pairs fall in two pieces keeps the same nearest hit and lowest index, which do not depend on the order."""
+        for start in range(0, rays.size, LEAF_PAIRS):
+            piece = slice(start, start + LEAF_PAIRS)
+            self._test_leaf_piece(O, D, t_min, rays[piece], nodes[piece], best_t, best_part)
+
+    def _test_leaf_piece(self, O, D, t_min, rays, nodes, best_t, best_part) -> None:
         row = self.hierarchy.leaf_row.take(nodes)
         triangles, real = self.hierarchy.leaf_triangles.take(row, axis=0), self.hierarchy.real.take(row, axis=0)
         t = self.inner.packed_t(O.take(rays, axis=1), D.take(rays, axis=1), self.packed.take(row, axis=1), t_min)
