@@ -21,8 +21,8 @@ import numpy as np
 from .cull import DEPTH_MARGIN, picture_axes, project, projection_error
 
 CELL_SPLIT = 8.0  # cells per a typical (median) triangle's picture side
-MIN_CELLS = 1 << 12
-CELLS_PER_RAY = 4
+MIN_CELLS = 1 << 12  # cells however few rays ask: a small query still gets a picture worth keeping
+CELLS_PER_RAY = 4  # cells per ray of the query that makes the picture (its count stands for the later ones)
 MAX_CELLS = 1 << 18  # about a 640 x 480 image's pixels: finer cells than the rays cost more to fill than they save
 MAX_ENTRIES = 1 << 24  # 64 MB of int32 entries; coarser cells beyond
 MAX_DEPTH = 32  # candidates per ray (triangle-weighted mean over cells) beyond which the walk is cheaper
