@@ -311,22 +311,15 @@ class MeshKernel(Kernel):
         inverse = 1.0 / D
         best_t = np.broadcast_to(np.asarray(t_max, dtype=self.dtype), (count,)).copy()
         best_part = np.full(count, BIG, dtype=np.int64)
-        tree = self.hierarchy
         passed_rays, passed_nodes, passed_near = [], [], []
         rays = np.arange(count)
         nodes = np.zeros(count, dtype=np.int64)
         while rays.size:
-            is_leaf = tree.left.take(nodes) < 0
-            leaf = is_leaf.nonzero()[0]
-            if leaf.size:
-                self._test_leaves(O, D, t_min, rays.take(leaf), nodes.take(leaf), best_t, best_part)
-                inner = (~is_leaf).nonzero()[0]
-                rays, nodes = rays.take(inner), nodes.take(inner)
+            rays, nodes, (left, right, near_left, near_right, meets_left, meets_right) = self._step(
+                O, D, inverse, t_min, rays, nodes, best_t, best_part
+            )
             if not rays.size:
                 break
-            left, right, near_left, near_right, meets_left, meets_right = self._children(
-                O, inverse, rays, nodes, t_min, best_t
-            )
             go_right = meets_right & (~meets_left | (near_right < near_left))
             both = (meets_left & meets_right).nonzero()[0]
             if both.size:
@@ -343,23 +336,27 @@ class MeshKernel(Kernel):
             if any_hit:  # only the rays that found nothing yet go on
                 keep &= best_part.take(rays) == BIG
             keep = keep.nonzero()[0]
-            rays, nodes = rays.take(keep), nodes.take(keep)
-            is_leaf = tree.left.take(nodes) < 0
-            leaf = is_leaf.nonzero()[0]
-            if leaf.size:
-                self._test_leaves(O, D, t_min, rays.take(leaf), nodes.take(leaf), best_t, best_part)
-                inner = (~is_leaf).nonzero()[0]
-                rays, nodes = rays.take(inner), nodes.take(inner)
+            rays, nodes, (left, right, near_left, near_right, meets_left, meets_right) = self._step(
+                O, D, inverse, t_min, rays.take(keep), nodes.take(keep), best_t, best_part
+            )
             if not rays.size:
                 break
-            left, right, near_left, near_right, meets_left, meets_right = self._children(
-                O, inverse, rays, nodes, t_min, best_t
-            )
             on_left, on_right = meets_left.nonzero()[0], meets_right.nonzero()[0]
             rays = np.concatenate((rays.take(on_left), rays.take(on_right)))
             nodes = np.concatenate((left.take(on_left), right.take(on_right)))
             near = np.concatenate((near_left.take(on_left), near_right.take(on_right)))
         return self._found(best_t, best_part)
+
+    def _step(self, O, D, inverse, t_min, rays, nodes, best_t, best_part):
+        """One level of a walk: the leaves among nodes (P,) tested with their rays (P,), and the inner nodes' rays
+        and nodes with their children's tests (_children; empty arrays where no inner node is left)."""
+        is_leaf = self.hierarchy.left.take(nodes) < 0
+        leaf = is_leaf.nonzero()[0]
+        if leaf.size:
+            self._test_leaves(O, D, t_min, rays.take(leaf), nodes.take(leaf), best_t, best_part)
+            inner = (~is_leaf).nonzero()[0]
+            rays, nodes = rays.take(inner), nodes.take(inner)
+        return rays, nodes, self._children(O, inverse, rays, nodes, t_min, best_t) if rays.size else (None,) * 6
 
     def _children(self, O, inverse, rays, nodes, t_min, best_t):
         """The children (P,) of inner nodes (P,) met by rays (P,), their entry t (P,), and whether each child's

@@ -46,35 +46,25 @@ class View:
         return self.kind == "point"
 
 
+@dataclass
 class TrianglePicture:
     """Triangles binned by their pictures: cells (rows x columns) -> entries[starts[c]:starts[c + 1]], the slots
-    (indices the caller chose for each triangle) of the triangles whose grown picture rectangle touches cell c."""
+    (indices the caller chose for each triangle) of the triangles whose grown picture rectangle touches cell c.
+    axes (3, 3): the picture's right, up, forward rows; low (2,): its lower corner; cell: a cell's side; margin: what
+    the triangles were grown by; reach, depth, picture_reach: projection_error()'s terms."""
 
-    def __init__(
-        self,
-        view: View,
-        axes: np.ndarray,
-        low: np.ndarray,
-        cell: float,
-        shape: tuple[int, int],
-        starts: np.ndarray,
-        entries: np.ndarray,
-        margin: float,
-        reach: float,
-        depth: float | None,
-        picture_reach: float,
-    ) -> None:
-        self.view = view
-        self.axes = axes
-        self.low = low
-        self.cell = cell
-        self.rows, self.columns = shape
-        self.starts = starts
-        self.entries = entries
-        self.margin = margin
-        self.reach = reach
-        self.depth = depth
-        self.picture_reach = picture_reach
+    view: View
+    axes: np.ndarray
+    low: np.ndarray
+    cell: float
+    rows: int
+    columns: int
+    starts: np.ndarray
+    entries: np.ndarray
+    margin: float
+    reach: float
+    depth: float | None
+    picture_reach: float
 
     @classmethod
     def build(
@@ -167,7 +157,7 @@ class TrianglePicture:
             return None
         starts = np.zeros(rows * columns + 1, dtype=np.int64)
         np.cumsum(occupancy, out=starts[1:])
-        return cls(view, axes, low, cell, (rows, columns), starts, entries, margin, reach, depth, picture_reach)
+        return cls(view, axes, low, cell, rows, columns, starts, entries, margin, reach, depth, picture_reach)
 
     def cells(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """Rays (3, n) -> (the rays (m,) whose cell holds any triangle, ascending; their cells (m,)), or None where

@@ -132,7 +132,7 @@ class WorldCylinder:
 
 
 @dataclass(frozen=True, eq=False)
-class WorldTriangles:
+class WorldTriangles(sc.ArraysByBits):
     """Triangles (T, 3 vertices, 3) float64 with normals (T, 3) computed once before tracing (seed 2.6): unit (v1-v0)
     x (v2-v0), or 0 for a triangle of no area; read-only arrays (nested sequences are converted once, here).
 
@@ -148,6 +148,9 @@ class WorldTriangles:
     # these (the scene's own arrays) instead of the world's triangles and normals (96 MB at a million triangles)
     source: tuple[np.ndarray, np.ndarray] | None = None
 
+    ARRAYS = ("triangles", "normals")
+    UNCOMPARED = ("source",)  # the triangles and normals are made from it
+
     def __post_init__(self) -> None:
         object.__setattr__(self, "triangles", sc.frozen_array(self.triangles, np.float64, (-1, 3, 3)))
         object.__setattr__(self, "normals", sc.frozen_array(self.normals, np.float64, (-1, 3)))
@@ -157,22 +160,9 @@ class WorldTriangles:
         """What names these triangles in a cache: equal keys, the same triangles and normals."""
         return self if self.source is None else MeshSource(self.material, self.rotation, self.location, *self.source)
 
-    def __eq__(self, other: object) -> bool:
-        if other.__class__ is not self.__class__:
-            return NotImplemented
-        assert isinstance(other, WorldTriangles)
-        return (
-            (self.material, self.rotation, self.location) == (other.material, other.rotation, other.location)
-            and sc.same_arrays(self.triangles, other.triangles)
-            and sc.same_arrays(self.normals, other.normals)
-        )
-
-    def __hash__(self) -> int:
-        return hash((self.material, self.rotation, self.location, self.triangles.shape))
-
 
 @dataclass(frozen=True, eq=False)
-class MeshSource:
+class MeshSource(sc.ArraysByBits):
     """A mesh's local vertices (V, 3) and faces (T, 3) placed by a frame: the same ones (by their bits) give the same
     world triangles (_triangles is a function of them)."""
 
@@ -182,18 +172,7 @@ class MeshSource:
     vertices: np.ndarray
     faces: np.ndarray
 
-    def __eq__(self, other: object) -> bool:
-        if other.__class__ is not self.__class__:
-            return NotImplemented
-        assert isinstance(other, MeshSource)
-        return (
-            (self.material, self.rotation, self.location) == (other.material, other.rotation, other.location)
-            and sc.same_arrays(self.vertices, other.vertices)
-            and sc.same_arrays(self.faces, other.faces)
-        )
-
-    def __hash__(self) -> int:
-        return hash((self.material, self.rotation, self.location, self.vertices.shape, self.faces.shape))
+    ARRAYS = ("vertices", "faces")
 
 
 WorldPrimitive = WorldSphere | WorldPlane | WorldCylinder | WorldTriangles

@@ -132,8 +132,32 @@ def same_arrays(a: np.ndarray | None, b: np.ndarray | None) -> bool:
     return bool(np.array_equal(a.reshape(-1).view(np.uint8), b.reshape(-1).view(np.uint8)))
 
 
+class ArraysByBits:
+    """For a frozen dataclass (eq=False) whose ARRAYS fields are NumPy arrays or None: equal where its other fields
+    are equal and its arrays hold the same bits (same_arrays; == on arrays is elementwise, which a dataclass's ==
+    cannot use); the hash takes the arrays' shapes, not their contents (cheap, and equal objects still hash the
+    same). UNCOMPARED fields (made from the others) take part in neither."""
+
+    ARRAYS: tuple[str, ...] = ()
+    UNCOMPARED: tuple[str, ...] = ()
+
+    def _plain(self) -> tuple:
+        left_out = self.ARRAYS + self.UNCOMPARED
+        return tuple(getattr(self, f.name) for f in fields(self) if f.name not in left_out)
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return self._plain() == other._plain() and all(
+            same_arrays(getattr(self, name), getattr(other, name)) for name in self.ARRAYS
+        )
+
+    def __hash__(self) -> int:
+        return hash((self._plain(), *(getattr(getattr(self, name), "shape", None) for name in self.ARRAYS)))
+
+
 @dataclass(frozen=True, kw_only=True, eq=False)
-class TriangleMesh(Primitive):
+class TriangleMesh(ArraysByBits, Primitive):
     """Triangles in local coordinates (vertices and index triples), counter-clockwise seen from outside.
 
     vertices (V, 3) float64 and triangles (T, 3) int64, read-only arrays (given as arrays or nested sequences: they
@@ -144,8 +168,9 @@ class TriangleMesh(Primitive):
 
     A million-triangle mesh as tuples of Python floats took 226 MB per process and seconds to make, transform and
     pickle; as arrays it is 36 MB and goes to the kernels without a conversion. Equality compares the arrays' bits
-    (== on arrays is elementwise, which a dataclass's == cannot use); the hash leaves them out (cheap, and equal
-    meshes still hash the same)."""
+    (ArraysByBits)."""
+
+    ARRAYS = ("vertices", "triangles", "normals", "material_indices")
 
     vertices: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     triangles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
@@ -170,23 +195,6 @@ class TriangleMesh(Primitive):
             if isinstance(value, np.ndarray):
                 value.flags.writeable = False
         self.__dict__.update(state)
-
-    def _plain(self) -> tuple:
-        return tuple(getattr(self, f.name) for f in fields(self) if f.name not in _MESH_ARRAYS)
-
-    def __eq__(self, other: object) -> bool:
-        if other.__class__ is not self.__class__:
-            return NotImplemented
-        assert isinstance(other, TriangleMesh)
-        return self._plain() == other._plain() and all(
-            same_arrays(getattr(self, name), getattr(other, name)) for name in _MESH_ARRAYS
-        )
-
-    def __hash__(self) -> int:
-        return hash((self._plain(), self.vertices.shape, self.triangles.shape))
-
-
-_MESH_ARRAYS = ("vertices", "triangles", "normals", "material_indices")
 
 
 SceneObject = Sphere | Plane | Cylinder | Box | Pyramid | TriangleMesh
