@@ -48,6 +48,70 @@ def test_culling_changes_no_pixel_of_the_default_scene() -> None:
     assert all(light.grid is not None for light in prepared.lights if light.kind != "ambient")
 
 
+def _with_floor_sphere(seed: int) -> dict:
+    """A random scene standing on a sphere of radius 99999 (rt3.py's floor): its box reaches behind the camera
+    and spreads under the lights, so no picture can hold it."""
+    document = random_scene_document(seed, 64, 48)
+    floor = {"name": "floor", "type": "sphere", "material": "m0", "location": [0, 0, -99999 - 4.5], "radius": 99999}
+    document["objects"].insert(seed % 2, floor)
+    return document
+
+
+@pytest.mark.parametrize("dtype, numerics", MODES)
+def test_a_floor_sphere_is_left_out_of_the_pictures_and_changes_no_pixel(dtype: str, numerics: str) -> None:
+    """The camera's rectangles and the lights' grids leave the floor's kernel out (it sees every ray, as brute
+    force has it) and cull the rest: the same bytes as with no culls, whether the hierarchy walks or not."""
+    left_out = 0
+    for seed in range(16):
+        scene = scene_from_dict(_with_floor_sphere(seed)).with_render(dtype=dtype, numerics=numerics)
+        for brute in (False, True):
+            images = []
+            for culled in (True, False):
+                prepared = PreparedScene(scene)
+                for hierarchy in _hierarchies(prepared):
+                    hierarchy.brute = brute and hierarchy.root is not None
+                if not culled:
+                    prepared.screen = None
+                    for light in prepared.lights:
+                        light.grid = None
+                images.append(prepared.render_rows(np.arange(scene.render.height)))
+            (image, counts), (plain, plain_counts) = images
+            assert np.array_equal(image, plain), f"seed {seed}, brute {brute}"
+            assert counts == plain_counts
+        prepared = PreparedScene(scene)
+        floor = seed % 2
+        if prepared.screen is not None and prepared.screen.whole == [floor]:
+            grids = [light.grid for light in prepared.lights if light.kind == "point"]
+            assert all(grid is None or floor in grid.whole for grid in grids)
+            left_out += 1
+    assert left_out >= 12  # the comparison above exercised the left-out kernels
+
+
+def test_a_box_behind_the_camera_is_left_out_of_the_screen_and_sees_every_ray() -> None:
+    from tracer.scene import scene as sc
+
+    camera = sc.Camera(location=(0.0, 0.0, 5.0), rotation=(0.0, 0.0, 0.0), lens=50.0)  # looks down -z
+    settings = sc.RenderSettings(width=64, height=48)
+    lower = np.array([[-0.2, -0.2, -0.2], [-50.0, -50.0, -60.0]])
+    upper = np.array([[0.2, 0.2, 0.2], [50.0, 50.0, -2.0]])
+    screen = ScreenRectangles.build(camera, settings, np.array([0.0, 0.0, 5.0]), ([4, 7], lower, upper))
+    assert screen.kernels == [4, 7] and screen.whole == []  # the second box is in front too
+    upper[1, 2] = 6.0  # now it reaches behind the camera
+    screen = ScreenRectangles.build(camera, settings, np.array([0.0, 0.0, 5.0]), ([4, 7], lower, upper))
+    assert screen.kernels == [4] and screen.whole == [7]
+    sets = screen.rays(np.arange(48))
+    assert [kernel for kernel, _ in sets] == [4, 7] and sets[1][1] is None
+    assert 0.0 < screen.shares[0] < 0.5  # the small box's rectangle, a part of the picture
+
+
+def test_a_light_just_above_a_huge_box_leaves_it_out_of_its_grid() -> None:
+    lower = np.array([[-1.0, -1.0, 0.0], [-1e5, -1e5, -2e5]])
+    upper = np.array([[1.0, 1.0, 2.0], [1e5, 1e5, -0.5]])
+    grid = CoverageGrid.from_point(np.array([0.0, 0.0, 10.0]), [2, 3], lower, upper)
+    assert grid is not None and grid.kernels == [2] and grid.whole == [3]
+    assert CoverageGrid.from_point(np.array([0.0, 0.0, 1.0]), [2, 3], lower, upper) is None  # inside the small one
+
+
 def test_screen_rectangles_hold_every_pixel_that_sees_a_sphere() -> None:
     """Independent truth: a pixel centre's ray meets a sphere where its distance from the centre is <= radius."""
     document = random_scene_document(0, 160, 120)
@@ -146,6 +210,10 @@ def test_brute_force_is_chosen_for_a_few_spheres_and_the_walk_for_the_vane() -> 
     for dtype in ("float64", "float32"):
         peer = PreparedScene(scene_from_dict(document).with_render(dtype=dtype))
         assert all(hierarchy.brute for hierarchy in _hierarchies(peer))
+        # the camera's rays still go to the small spheres through their rectangles, the floor sees them all; the
+        # light's grid would give the spheres too many rays (their own surfaces' and their shadows') to pay
+        assert peer.screen is not None and peer.screen.kernels == [0, 1, 2] and peer.screen.whole == [3]
+        assert peer.lights[1].grid is None
         vane = PreparedScene(default_scene().with_render(dtype=dtype))
         assert not any(hierarchy.brute for hierarchy in _hierarchies(vane))
         assert vane.screen is not None

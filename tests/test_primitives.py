@@ -53,3 +53,31 @@ def test_vane_heading_turns_parts_about_the_pivot() -> None:
     assert centre == pytest.approx([0, 1, 3], abs=1e-12)
     assert tf.world_primitive(still, vane).center == (1, 0, 3)
     assert scene.with_heading(45).vane.heading == 45
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_a_spheres_any_hit_answer_is_whether_its_closest_hit_finds_a_root(dtype: str) -> None:
+    """SphereKernel.blocks (shadow rays) against _hit's t < inf on the same rays: rays from near and absurdly far,
+    from the surface itself, grazing, parallel to nothing, zero and overflowing directions, with an upper limit of
+    a number, one per ray or none."""
+    import numpy as np
+
+    from tracer.geometry import transforms as tf
+    from tracer.geometry.kernels import SphereKernel, shared_terms
+
+    rng = np.random.default_rng(7)
+    kernel = SphereKernel(tf.WorldSphere("m", (0.5, -1.0, 2.0), 1.5), np.dtype(dtype))
+    count = 4000
+    O = rng.normal(size=(3, count)) * rng.choice([0.5, 3.0, 1e4, 1e19], size=count)
+    D = rng.normal(size=(3, count)) * rng.choice([1e-3, 1.0, 50.0, 1e20], size=count)
+    surface = rng.normal(size=(3, count // 4))
+    O[:, : count // 4] = surface / np.linalg.norm(surface, axis=0) * 1.5 + np.array([[0.5], [-1.0], [2.0]])
+    D[:, 1] = 0.0
+    O, D = O.astype(dtype), D.astype(dtype)
+    with np.errstate(all="ignore"):
+        for t_max in (1.0, np.inf, rng.uniform(0.0, 5.0, count).astype(dtype)):
+            for shared in (None, shared_terms(D)):
+                closest, _ = kernel._hit(O, D, 0.001, t_max, shared)
+                blocks = kernel.blocks(O, D, 0.001, t_max, shared)
+                assert np.array_equal(blocks, closest < np.inf)
+                assert 0 < blocks.sum() < count  # both answers occur

@@ -28,6 +28,9 @@ from .kernels import (
 from .meshbvh import MeshKernel
 from .meshpicture import View
 
+# (kernel index, the indices (n,) of the rays it may meet, or None: every ray) for each kernel a cull gives rays to
+Sets = list[tuple[int, np.ndarray | None]]
+
 
 @dataclass
 class Node:
@@ -199,6 +202,16 @@ class Hierarchy:
         self.brute = BRUTE_SCALE * self.brute_cost <= self.walk_cost
         return self.brute
 
+    def culls_well(self, kernels: list[int], shares: np.ndarray, whole: list[int]) -> bool:
+        """Whether a cull (cull.py) that gives kernels (k,) the shares (k,) of the rays, and leaves out kernels whole
+        (every ray), costs less than what this hierarchy does without it: always where it walks; under brute force,
+        where the culled kernels' rays, gathered, cost less than brute force's tests of them."""
+        if not self.brute:
+            return True
+        cost = {index: self.kernels[index].cost for index in self.boxes[0]}
+        culled = sum(share * (cost[k] + GATHER_COST) for k, share in zip(kernels, shares.tolist(), strict=True))
+        return culled < BRUTE_SCALE * sum(cost[k] + BRUTE_OFFER_COST for k in kernels)
+
     def _shared_terms(self, D: np.ndarray) -> tuple | None:
         """The spheres' direction terms, computed once where brute force tests several spheres on the same rays."""
         spheres = sum(type(self.kernels[index]) is SphereKernel for index in self.boxes[0])
@@ -224,33 +237,50 @@ class Hierarchy:
             t, part = kernel._hit(O, D, t_min, t_max, shared)
         else:
             t, part = kernel.hit(O, D, t_min, t_max)
-        hits = indices(t < np.inf)
-        if hits.size:
-            if self._padded is None:
-                rows, lower, upper = self.boxes
-                self._padded = {i: padded_box(lower[k], upper[k], self.dtype) for k, i in enumerate(rows)}
-            lower, upper = self._padded[index]
-            D_h = take(D, hits)
-            near, far = slab(take(O, hits), 1.0 / D_h, lower, upper)
-            limit_h = limit.take(hits) if isinstance(limit, np.ndarray) else limit
-            missed = indices(~((near <= far) & (far > t_min) & (near <= limit_h)))
-            if missed.size:
-                t.put(hits.take(missed), np.inf)
+        t.put(self._off_box(index, O, D, indices(t < np.inf), t_min, limit), np.inf)
         return t, part
 
+    def _brute_blocks(
+        self, index: int, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray, shared: tuple | None
+    ) -> np.ndarray:
+        """Whether kernel index blocks each shadow ray (3, N) within (t_min, t_max): bool (N,), _brute_hit's hits
+        (a documented sphere need not find which root is nearer)."""
+        kernel = self.kernels[index]
+        if shared is not None and type(kernel) is SphereKernel:
+            blocks = kernel.blocks(O, L, t_min, t_max, shared)
+        else:
+            blocks = kernel.hit(O, L, t_min, t_max)[0] < np.inf
+        blocks.put(self._off_box(index, O, L, indices(blocks), t_min, t_max), False)
+        return blocks
+
+    def _off_box(
+        self, index: int, O: np.ndarray, D: np.ndarray, hits: np.ndarray, t_min: float, limit: float | np.ndarray
+    ) -> np.ndarray:
+        """The rays among hits (n,) of rays (3, N) that miss kernel index's padded box within (t_min, limit]."""
+        if hits.size == 0:
+            return hits
+        if self._padded is None:
+            rows, lower, upper = self.boxes
+            self._padded = {i: padded_box(lower[k], upper[k], self.dtype) for k, i in enumerate(rows)}
+        lower, upper = self._padded[index]
+        D_h = take(D, hits)
+        near, far = slab(take(O, hits), 1.0 / D_h, lower, upper)
+        limit_h = limit.take(hits) if isinstance(limit, np.ndarray) else limit
+        return hits.take(indices(~((near <= far) & (far > t_min) & (near <= limit_h))))
+
     def closest(
-        self, O: np.ndarray, D: np.ndarray, t_min: float, sets: list[tuple[int, np.ndarray]] | None = None
+        self, O: np.ndarray, D: np.ndarray, t_min: float, sets: Sets | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,).
 
         O or D may be a (3, 1) column shared by all rays (see kernels.take). sets, when given, name for every
-        bounded kernel that any ray can meet the rays (n,) that can (cull.ScreenRectangles); the hierarchy is then
-        not walked."""
+        bounded kernel that any ray can meet the rays (n,) that can, or None for all (cull.ScreenRectangles); the
+        hierarchy is then neither walked nor replaced by brute force."""
         with quiet():
             return self._closest(O, D, t_min, sets)
 
     def _closest(
-        self, O: np.ndarray, D: np.ndarray, t_min: float, sets: list[tuple[int, np.ndarray]] | None
+        self, O: np.ndarray, D: np.ndarray, t_min: float, sets: Sets | None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         count = ray_count(O, D)
         best_t = np.full(count, np.inf, dtype=self.dtype)
@@ -276,7 +306,7 @@ class Hierarchy:
 
         for index in self.unbounded:
             offer(index, None, *self.kernels[index].hit(O, D, t_min, math.inf))
-        if self.brute:
+        if self.brute and sets is None:
             limit = best_t.copy() if self.unbounded else math.inf  # the walk's limit: the planes' hits
             shared = self._shared_terms(D)
             for index in self.boxes[0] if self.boxes is not None else []:
@@ -322,7 +352,7 @@ class Hierarchy:
         t_min: float,
         t_max: float | np.ndarray,
         planes: bool = True,
-        sets: list[tuple[int, np.ndarray]] | None = None,
+        sets: Sets | None = None,
         views: tuple[list[View], np.ndarray] | None = None,
     ) -> np.ndarray:
         """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first.
@@ -332,20 +362,25 @@ class Hierarchy:
         or a direction of (a light's), and each ray's index (N,) among them, for the meshes' pictures."""
         with quiet():
             blocked = self._blocked_by_planes(O, L, t_min, t_max) if planes else np.zeros(ray_count(O, L), bool)
-            if self.brute:
+            if self.brute and sets is None:
                 shared = self._shared_terms(L)
                 for index in self.boxes[0] if self.boxes is not None else []:
-                    t, _ = self._brute_hit(index, O, L, t_min, t_max, t_max, shared)
-                    blocked |= t < np.inf
+                    blocked |= self._brute_blocks(index, O, L, t_min, t_max, shared)
                 return blocked
             if sets is None:
                 sets = self._walk(O, L, indices(~blocked), t_min, t_max)  # rays the planes block go no further
             return self._occluded_in_sets(O, L, t_min, t_max, blocked, sets, views)
 
-    def blocked_by_planes(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
-        """occluded() over the unbounded surfaces only: bool (N,)."""
+    def blocked_by_planes(
+        self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray, whole: list[int] = ()
+    ) -> np.ndarray:
+        """occluded() over the unbounded surfaces and the bounded kernels whole (those a light's picture leaves
+        out, each tested on every ray as brute force tests it): bool (N,)."""
         with quiet():
-            return self._blocked_by_planes(O, L, t_min, t_max)
+            blocked = self._blocked_by_planes(O, L, t_min, t_max)
+            for index in whole:
+                blocked |= self._brute_blocks(index, O, L, t_min, t_max, None)
+            return blocked
 
     def _blocked_by_planes(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
         blocked = np.zeros(ray_count(O, L), dtype=bool)
@@ -361,11 +396,12 @@ class Hierarchy:
         t_min: float,
         t_max: float | np.ndarray,
         blocked: np.ndarray,
-        sets: list[tuple[int, np.ndarray]],
+        sets: Sets,
         views: tuple[list[View], np.ndarray] | None = None,
     ) -> np.ndarray:
         for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, sets, any_hit=True, views=views):
-            blocked.put(rays.take(indices(t < np.inf)), True)
+            hits = indices(t < np.inf)
+            blocked.put(hits if rays is None else rays.take(hits), True)
         return blocked
 
     def _evaluate(
@@ -374,18 +410,25 @@ class Hierarchy:
         D: np.ndarray,
         t_min: float,
         t_max: float | np.ndarray,
-        sets: list[tuple[int, np.ndarray]],
+        sets: Sets,
         any_hit: bool = False,
         views: tuple[list[View], np.ndarray] | None = None,
-    ) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+    ) -> list[tuple[int, np.ndarray | None, np.ndarray, np.ndarray]]:
         """(kernel index, rays (n,)) sets -> (kernel index, rays (m,), t (m,), part (m,)) for the rays that pass its
-        oriented box; kernels of one class that allow it are tested together in one batch (Kernel.batched), since
-        here each NumPy call costs more than the arithmetic on a few hundred rays. any_hit: only whether a ray hits
+        oriented box (rays None: every ray, and the kernel's padded box drops hits as brute force's does); kernels
+        of one class that allow it are tested together in one batch (Kernel.batched), since here each NumPy call
+        costs more than the arithmetic on a few hundred rays. any_hit: only whether a ray hits
         matters (shadow rays), which lets a mesh's own hierarchy stop at its first hit; views as for occluded()."""
         results, batches = [], {}
         for index, rays in sets:
             kernel = self.kernels[index]
-            O_r, D_r = take(O, rays), take(D, rays)
+            if rays is None and not isinstance(kernel, MeshKernel):  # every ray, in place: brute force's test
+                results.append((index, None, *self._brute_hit(index, O, D, t_min, t_max, t_max)))
+                continue
+            if rays is None:
+                rays, O_r, D_r = np.arange(ray_count(O, D)), O, D
+            else:
+                O_r, D_r = take(O, rays), take(D, rays)
             limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
             if isinstance(kernel, MeshKernel):
                 chosen = None if views is None else (views[0], views[1].take(rays))

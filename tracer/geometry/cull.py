@@ -83,13 +83,21 @@ class CoverageGrid:
     """A picture of the boxes: each cell records which boxes cover it; select() picks the rays in covered cells."""
 
     def __init__(
-        self, axes: np.ndarray, rectangles: np.ndarray, reach: float, depth: float | None, kernels: list[int]
+        self,
+        axes: np.ndarray,
+        rectangles: np.ndarray,
+        reach: float,
+        depth: float | None,
+        kernels: list[int],
+        whole: list[int] | None = None,
     ) -> None:
         """axes (3, 3): right, up, forward rows; rectangles (k, 4): u_min, v_min, u_max, v_max of each box; reach:
         the largest coordinate of the boxes and the shared point; depth: the nearest corner's depth in front of the
-        shared point (perspective), None for parallel rays; kernels (k,): the kernel each box bounds."""
+        shared point (perspective), None for parallel rays; kernels (k,): the kernel each box bounds; whole: the
+        kernels left out of the picture, which every ray may meet."""
         self.axes = axes
         self.kernels = kernels
+        self.whole = whole or []
         self.perspective = depth is not None
         self.reach = reach
         self.depth = depth
@@ -116,22 +124,25 @@ class CoverageGrid:
     def from_point(
         cls, point: np.ndarray, kernels: list[int], lower: np.ndarray, upper: np.ndarray
     ) -> CoverageGrid | None:
-        """Rays through a shared point (3,) toward boxes (k, 3) of kernels (k,); None where the boxes are not all
-        in front of it."""
-        center = (lower.min(axis=0) + upper.max(axis=0)) / 2.0
-        forward = center - point
-        distance = float(np.linalg.norm(forward))
-        if distance == 0.0:
-            return None
-        axes = np.stack(picture_axes(forward / distance))
-        corners = _corners(lower, upper) - point  # (k, 8, 3)
-        local = corners @ axes.T
-        size = float(np.max(upper.max(axis=0) - lower.min(axis=0))) + distance
-        if float(local[..., 2].min()) <= DEPTH_MARGIN * size:
-            return None  # the point sits among the boxes: a picture cannot hold them all
+        """Rays through a shared point (3,) toward boxes (k, 3) of kernels (k,). A box that the point sits in or
+        close beside for its size (a floor sphere's box under a light) is left out of the picture, and its kernel
+        sees every ray (whole); None where no box is left."""
+        view = _view_from(point, lower, upper)
+        whole = []
+        if view is None:
+            alone = [_view_from(point, lower[j : j + 1], upper[j : j + 1]) is not None for j in range(len(kernels))]
+            if all(alone) or not any(alone):
+                return None
+            whole = [kernel for kernel, keep in zip(kernels, alone, strict=True) if not keep]
+            kernels = [kernel for kernel, keep in zip(kernels, alone, strict=True) if keep]
+            lower, upper = lower[alone], upper[alone]
+            view = _view_from(point, lower, upper)
+            if view is None:
+                return None
+        axes, local = view
         rectangles = _rectangles(local[..., 0] / local[..., 2], local[..., 1] / local[..., 2])
         reach = float(max(np.abs(lower).max(), np.abs(upper).max(), np.abs(point).max()))
-        return cls(axes, rectangles, reach, float(local[..., 2].min()), kernels)
+        return cls(axes, rectangles, reach, float(local[..., 2].min()), kernels, whole)
 
     @classmethod
     def from_direction(
@@ -168,6 +179,15 @@ class CoverageGrid:
             return rays, None
         return rays, self.bits.take(cell.take(rays), mode="clip")
 
+    def shares(self, Q: np.ndarray, reverse: bool = False) -> np.ndarray:
+        """Sample rays (3, n) as for select() -> the share (k,) of them that select() gives each kernel."""
+        rays, bits = self.select(Q, reverse)
+        if bits is None:
+            return np.full(len(self.kernels), rays.size / max(1, Q.shape[1]))
+        return np.array([np.count_nonzero(bits & np.uint64(1 << box)) for box in range(len(self.kernels))]) / max(
+            1, Q.shape[1]
+        )
+
     def _resolves(self, Q: np.ndarray) -> bool:
         """Whether rounding in Q's dtype moves any ray's picture point by less than half a cell (a generous bound:
         64 units in the last place of the largest coordinate involved), both the rays' own rounding and that of
@@ -177,15 +197,34 @@ class CoverageGrid:
         return error < 0.5 / self.scale
 
 
-def kernel_sets(kernels: list[int], bits: np.ndarray) -> list[tuple[int, np.ndarray]]:
-    """Bits (m,) from select() of grids over the same boxes of kernels (k,) -> (kernel, positions (n,) among the
-    m rays) for every kernel that some ray may meet."""
-    sets = []
-    for box, kernel in enumerate(kernels):
-        positions = (bits & np.uint64(1 << box)).nonzero()[0]
-        if positions.size:
-            sets.append((kernel, positions))
-    return sets
+def _view_from(point: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Boxes (k, 3) seen from a point (3,) -> the picture's axes (3, 3) and the boxes' corners in them (k, 8, 3), or
+    None where the point sits among the boxes (a corner less than DEPTH_MARGIN of their size in front of it)."""
+    center = (lower.min(axis=0) + upper.max(axis=0)) / 2.0
+    forward = center - point
+    distance = float(np.linalg.norm(forward))
+    if distance == 0.0:
+        return None
+    axes = np.stack(picture_axes(forward / distance))
+    local = (_corners(lower, upper) - point) @ axes.T
+    size = float(np.max(upper.max(axis=0) - lower.min(axis=0))) + distance
+    if float(local[..., 2].min()) <= DEPTH_MARGIN * size:
+        return None
+    return axes, local
+
+
+def kernel_sets(pictures: list[tuple[list[int], np.ndarray]]) -> list[tuple[int, np.ndarray]]:
+    """The rays of several grids' select(), one grid's after another's: each grid's kernels (k,) and bits (m,) ->
+    (kernel, positions (n,) among all the rays, ascending) for every kernel that some ray may meet."""
+    found: dict[int, list[np.ndarray]] = {}
+    start = 0
+    for kernels, bits in pictures:
+        for box, kernel in enumerate(kernels):
+            positions = (bits & np.uint64(1 << box)).nonzero()[0]
+            if positions.size:
+                found.setdefault(kernel, []).append(positions + start if start else positions)
+        start += bits.size
+    return [(kernel, parts[0] if len(parts) == 1 else np.concatenate(parts)) for kernel, parts in sorted(found.items())]
 
 
 class ScreenRectangles:
@@ -197,12 +236,16 @@ class ScreenRectangles:
     indices alone: no ray is projected, and the hierarchy is not walked for camera rays.
     """
 
-    def __init__(self, kernels: list[int], rectangles: np.ndarray, width: int, samples: int) -> None:
-        """rectangles (k, 4) int: first column, first row, last column, last row of each kernel's pixels."""
+    def __init__(
+        self, kernels: list[int], rectangles: np.ndarray, size: tuple[int, int], samples: int, whole: list[int]
+    ) -> None:
+        """rectangles (k, 4) int: first column, first row, last column, last row of each kernel's pixels; size:
+        the image's width and height; whole: the kernels left out of the picture, which see every ray."""
         self.kernels = kernels
         self.rectangles = rectangles
-        self.width = width
+        self.width, self.height = size
         self.samples = samples
+        self.whole = whole
 
     @classmethod
     def build(
@@ -213,12 +256,20 @@ class ScreenRectangles:
         boxes: tuple[list[int], np.ndarray, np.ndarray],
     ) -> ScreenRectangles | None:
         """location (3,): the camera's position as the tracer holds it; boxes: kernel indices (k,) with their boxes
-        lower, upper (k, 3). None where a box reaches behind the camera, or a pixel is too fine for the dtype."""
+        lower, upper (k, 3). A box that reaches behind the camera (a floor sphere of radius 99999, say) is left out
+        of the picture: its kernel sees every camera ray (whole). None where no box is left, or a pixel is too fine
+        for the dtype."""
         kernels, lower, upper = boxes
-        with np.errstate(divide="ignore", invalid="ignore"):  # a corner on the camera's plane: refused just below
+        with np.errstate(divide="ignore", invalid="ignore"):  # a corner on the camera's plane: left out below
             x, y, depth = cam.to_pixels(camera, settings, _corners(lower, upper), location)  # (k, 8) each
+        location_reach = float(np.abs(location).max())
+        box_reach = np.maximum(np.abs(lower).max(axis=1), np.abs(upper).max(axis=1))  # (k,)
+        pictured = depth.min(axis=1) > DEPTH_MARGIN * np.maximum(box_reach, location_reach)  # NaN: left out
+        if not pictured.any():
+            return None
+        x, y, depth = x[pictured], y[pictured], depth[pictured]
         nearest = float(depth.min())
-        reach = float(max(np.abs(lower).max(), np.abs(upper).max(), np.abs(location).max()))
+        reach = max(float(box_reach[pictured].max()), location_reach)
         if nearest <= DEPTH_MARGIN * reach:
             return None
         # rounding could move a ray by a pixel's footprint at the nearest corner
@@ -234,11 +285,21 @@ class ScreenRectangles:
             ),
             axis=1,
         ).astype(np.int64)
-        return cls(list(kernels), rectangles, width, settings.samples)
+        chosen = [kernel for kernel, keep in zip(kernels, pictured.tolist(), strict=True) if keep]
+        whole = [kernel for kernel, keep in zip(kernels, pictured.tolist(), strict=True) if not keep]
+        return cls(chosen, rectangles, (width, height), settings.samples, whole)
 
-    def rays(self, rows: np.ndarray) -> list[tuple[int, np.ndarray]]:
+    @property
+    def shares(self) -> np.ndarray:
+        """The share (k,) of the image's pixels in each pictured kernel's rectangle (of the rays it is given)."""
+        first_column, first_row, last_column, last_row = self.rectangles.T
+        area = np.maximum(last_column - first_column + 1, 0) * np.maximum(last_row - first_row + 1, 0)
+        return area / float(self.width * self.height)
+
+    def rays(self, rows: np.ndarray) -> list[tuple[int, np.ndarray | None]]:
         """Image rows (R,) of a band, ascending -> (kernel index, ray indices ascending) for every kernel that
-        the band's camera rays can meet; rays are ordered row, column, sample as in camera.band_directions."""
+        the band's camera rays can meet; rays are ordered row, column, sample as in camera.band_directions. A
+        kernel left out of the picture comes with None: every ray."""
         sets = []
         samples = np.arange(self.samples)
         for kernel, (first_column, first_row, last_column, last_row) in zip(
@@ -251,4 +312,4 @@ class ScreenRectangles:
                 continue
             pixels = (positions[:, None] * self.width + np.arange(first_column, last_column + 1)[None, :]).ravel()
             sets.append((kernel, (pixels[:, None] * self.samples + samples[None, :]).ravel()))
-        return sets
+        return sets + [(kernel, None) for kernel in self.whole]

@@ -21,7 +21,7 @@ def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def _unit(vectors: np.ndarray) -> np.ndarray:
+def unit(vectors: np.ndarray) -> np.ndarray:
     """(3, N) -> the same divided by their lengths, as the reference normalises a normal."""
     return vectors / np.sqrt(dot(vectors, vectors))
 
@@ -195,7 +195,7 @@ class Kernel:
 
     def unit_normal(self, P: np.ndarray, part: np.ndarray) -> np.ndarray:
         """Unit normals (3, N): normal() divided by its length (kernels with fixed normals divide them once)."""
-        return _unit(self.normal(P, part))
+        return unit(self.normal(P, part))
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
         """World axis-aligned box (lower (3,), upper (3,)) float64, or None for an unbounded surface."""
@@ -222,19 +222,22 @@ class SphereKernel(Kernel):
     def bounds(self):
         return self.lower, self.upper
 
-    def _hit(self, O, D, t_min, t_max, shared=None):
-        """shared: shared_terms(D), when several spheres test the same rays (the same numbers, computed once)."""
+    def _roots(self, O, D, shared):
+        """The listing's roots (-k2 +- root) / (2 k1) as (-k2, root, 2 k1) (N,) each; a negative discriminant gives
+        a NaN root, which no comparison accepts (the listing's "no real root")."""
         four_k1, twice_k1 = shared_terms(D) if shared is None else shared
         CO = O - self.center
         k2 = 2.0 * dot(CO, D)
         k3 = dot(CO, CO) - self.radius_squared
         discriminant = k2 * k2 - four_k1 * k3
-        # the roots (-k2 +- root) / (2 k1) as _nearest would keep them, in fewer passes: a negative discriminant
-        # gives a NaN root and NaN roots, which no comparison accepts (the listing's "no real root"); the first root
-        # fills the empty best (inf stays inf), the second replaces it where strictly nearer; with no upper limit
-        # t < t_max is left out (an infinite t is never nearer than best); the part is always 0
-        root = np.sqrt(discriminant)
-        minus_k2 = -k2
+        return -k2, np.sqrt(discriminant), twice_k1
+
+    def _hit(self, O, D, t_min, t_max, shared=None):
+        """shared: shared_terms(D), when several spheres test the same rays (the same numbers, computed once)."""
+        # the roots as _nearest would keep them, in fewer passes: the first root fills the empty best (inf stays
+        # inf), the second replaces it where strictly nearer; with no upper limit t < t_max is left out (an
+        # infinite t is never nearer than best); the part is always 0
+        minus_k2, root, twice_k1 = self._roots(O, D, shared)
         t = (minus_k2 + root) / twice_k1
         ok = t > t_min
         if not _unlimited(t_max):
@@ -247,6 +250,17 @@ class SphereKernel(Kernel):
         ok &= t < best_t
         np.copyto(best_t, t, where=ok)
         return best_t, np.zeros(best_t.shape, dtype=np.int8)
+
+    def blocks(self, O, D, t_min, t_max, shared=None) -> np.ndarray:
+        """Whether either root lies in (t_min, t_max), bool (N,): _hit's t < inf, without choosing the nearer
+        root (an infinite root counts as none, as in _hit)."""
+        minus_k2, root, twice_k1 = self._roots(O, D, shared)
+        upper = np.inf if _unlimited(t_max) else t_max
+        t = (minus_k2 + root) / twice_k1
+        blocked = (t > t_min) & (t < upper)
+        t = (minus_k2 - root) / twice_k1
+        blocked |= (t > t_min) & (t < upper)
+        return blocked
 
     def normal(self, P, part):
         return P - self.center
@@ -286,7 +300,7 @@ class PlaneKernel(Kernel):
         self.point = column(plane.point, dtype)
         self.plane_normal = column(plane.normal, dtype)
         self.normal_terms = sparse_terms(self.plane_normal)
-        self.unit = _unit(self.plane_normal)  # the same operations per ray would give the same numbers
+        self.unit = unit(self.plane_normal)  # the same operations per ray would give the same numbers
         self.u_axis = column(plane.u_axis, dtype)
         self.v_axis = column(plane.v_axis, dtype)
         self.u_terms, self.v_terms = sparse_terms(self.u_axis), sparse_terms(self.v_axis)
@@ -417,7 +431,7 @@ class TrianglesKernel(Kernel):
         self.e1 = np.ascontiguousarray((triangles[:, 1] - triangles[:, 0]).T, dtype=dtype)[:, :, None]
         self.e2 = np.ascontiguousarray((triangles[:, 2] - triangles[:, 0]).T, dtype=dtype)[:, :, None]
         self.normals = np.asarray(mesh.normals, dtype=dtype).T  # (3, T)
-        self.unit_normals = _unit(self.normals)
+        self.unit_normals = unit(self.normals)
         self.cost = 3.0 + len(mesh.triangles)
         self.lower, self.upper = column_bounds(triangles.reshape(-1, 3))
         self.dtype = dtype

@@ -18,7 +18,7 @@ from ..geometry import transforms as tf
 from ..geometry.bvh import Hierarchy
 from ..geometry.cull import CoverageGrid, ScreenRectangles, kernel_sets
 from ..geometry.footprint import Footprint, Volume
-from ..geometry.kernels import Kernel, PlaneKernel, column, dot, indices, make_kernel, quiet, take
+from ..geometry.kernels import Kernel, PlaneKernel, SphereKernel, column, dot, indices, make_kernel, quiet, take, unit
 from ..geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
 from ..geometry.meshpicture import View
 from ..geometry.robust import make_robust_kernel, offset_origins
@@ -81,6 +81,10 @@ class PreparedScene:
         build = make_robust_kernel if self.robust else make_kernel
         primitives = tf.world_primitives(self.scene)
         self.kernels = [_kernel(build, primitive, self.dtype) for primitive in primitives]  # per object: normals
+        # a scene of documented spheres only: every hit's normal from its centre, gathered, in one set of passes
+        self.centers = None
+        if self.kernels and all(type(kernel) is SphereKernel for kernel in self.kernels):
+            self.centers = np.concatenate([kernel.center for kernel in self.kernels], axis=1)  # (3, objects)
         # a large mesh enters the scene's hierarchy as one leaf with a hierarchy of its own over its triangles
         leaf_kernels = [
             _kernel(MeshKernel, kernel, primitive)
@@ -140,17 +144,37 @@ class PreparedScene:
             self.documented_color = column(background.sky(direction[2]), self.dtype)
         self.origin = column(self.scene.camera.location, self.dtype)
         self.screen = None  # which camera rays each bounded kernel can meet
-        if self.camera_hierarchy.boxes is not None and not self.camera_hierarchy.brute:
+        if self.camera_hierarchy.boxes is not None:
             self.screen = ScreenRectangles.build(
                 self.scene.camera, settings, self.origin.ravel().astype(np.float64), self.camera_hierarchy.boxes
             )
-        if self.shadow_hierarchy.boxes is not None and not self.shadow_hierarchy.brute:
+            screen = self.screen
+            if screen is not None and not self.camera_hierarchy.culls_well(screen.kernels, screen.shares, screen.whole):
+                self.screen = None
+        if self.shadow_hierarchy.boxes is not None:
             boxes = self.shadow_hierarchy.boxes
             for light in self.lights:
                 if light.kind == "point":
                     light.grid = CoverageGrid.from_point(light.vector.ravel().astype(np.float64), *boxes)
                 elif light.kind == "directional":
                     light.grid = CoverageGrid.from_direction(light.vector.ravel().astype(np.float64), *boxes)
+                if light.grid is not None and self.shadow_hierarchy.brute:
+                    shares = self._sample_shares(light)
+                    if shares is None or not self.shadow_hierarchy.culls_well(light.grid.kernels, shares, []):
+                        light.grid = None
+
+    def _sample_shares(self, light: _Light) -> np.ndarray | None:
+        """The share (k,) of a light's shadow rays that its grid gives each kernel, estimated on the rays from where
+        _choose_brute_force's sample camera rays hit (None: none hits)."""
+        O, D = self._samples
+        t, obj, _ = self.camera_hierarchy.closest(O, D, CAMERA_T_MIN)
+        hit = indices(obj >= 0)
+        if hit.size == 0:
+            return None
+        P = take(O, hit) + take(D, hit) * t.take(hit)
+        if light.kind == "point":
+            return light.grid.shares(light.vector - P, reverse=True)
+        return light.grid.shares(P)
 
     def _choose_brute_force(self) -> None:
         """Whether each hierarchy is walked or every kernel tests every ray (Hierarchy.choose_brute), decided on a
@@ -167,6 +191,7 @@ class PreparedScene:
             if not cam.shares_origin(camera):
                 O = cam.pixel_starts(camera, settings, pixels, D)[0]
             O, D = O.astype(self.dtype), D.astype(self.dtype)
+        self._samples = (O, D)
         for hierarchy in {
             id(h): h for h in (self.camera_hierarchy, self.shadow_hierarchy, self.mirror_hierarchy)
         }.values():
@@ -266,6 +291,8 @@ class PreparedScene:
         """Unit normals (3, N) at hit points P (3, N) on objects obj (N,), and in robust numerics what
         offset_origins() needs (else None): each point's signed distance (N,) from its surface along the normal, and
         its primitive's rounding magnitude (N,)."""
+        if self.centers is not None:  # the same operations as SphereKernel.unit_normal, on every point at once
+            return unit(P - self.centers.take(obj, axis=1)), None
         N = np.empty_like(P)
         if self.robust:
             distance, scale = np.empty(P.shape[1], dtype=self.dtype), np.empty(P.shape[1], dtype=self.dtype)
@@ -278,11 +305,11 @@ class PreparedScene:
                 rows = order[start : start + size]
                 kernel = self.kernels[index]
                 if isinstance(kernel, PlaneKernel):  # one normal for every point: no need to gather them
-                    unit = kernel.unit
+                    normals = kernel.unit
                 else:
-                    unit = kernel.unit_normal(take(P, rows), part.take(rows))
+                    normals = kernel.unit_normal(take(P, rows), part.take(rows))
                 for axis in range(3):
-                    N[axis].put(rows, unit[axis])
+                    N[axis].put(rows, normals[axis])
                 if self.robust:
                     along, rounding = kernel.surface(take(P, rows), part.take(rows))
                     distance.put(rows, along)
@@ -436,7 +463,8 @@ class PreparedScene:
             counts.shadow += needed.size
             # planes first, light by light (a shared direction keeps their test cheap); then only the rays that
             # the light's coverage grid cannot rule out go on to the hierarchy, all lights in one batch
-            blocked = self.shadow_hierarchy.blocked_by_planes(origin, vector, t_min, light.t_max)
+            whole = [] if light.grid is None else light.grid.whole  # what the light's picture leaves out
+            blocked = self.shadow_hierarchy.blocked_by_planes(origin, vector, t_min, light.t_max, whole)
             if light.grid is None:
                 rest, covering = indices(~blocked), None
             else:
@@ -444,7 +472,7 @@ class PreparedScene:
                 keep = indices(~blocked.take(rest))
                 rest = rest.take(keep)
                 covering = None if covering is None else covering.take(keep)
-            bits.append(covering)
+            bits.append(None if covering is None else (light.grid.kernels, covering))
             shadows.append((needed, blocked, rest))
             every = light.grid is None and rest.size == needed.size  # nothing left out: no need to gather
             origins.append(origin if every and origin.shape[1] == rest.size else take(origin, rest))
@@ -452,20 +480,22 @@ class PreparedScene:
                 vectors.append(np.broadcast_to(vector, (3, rest.size)))
             else:
                 vectors.append(vector if every and vector.shape[1] == rest.size else take(vector, rest))
-            limits.append(np.full(rest.size, light.t_max, dtype=self.dtype))
+            if len(lights) > 1:
+                limits.append(np.full(rest.size, light.t_max, dtype=self.dtype))
             views.append(light.view)
         if not shadows:
             return []
         # where every light's grid told which boxes each ray may meet, the hierarchy is not walked
         hierarchy = self.shadow_hierarchy
-        sets = None if any(b is None for b in bits) else kernel_sets(hierarchy.boxes[0], np.concatenate(bits))
+        sets = None if any(b is None for b in bits) else kernel_sets(bits)
         # which light's point or direction each ray shares, for the meshes' pictures
         which = np.repeat(np.arange(len(views)), [rest.size for *_, rest in shadows])
+        one = len(shadows) == 1  # one light: its arrays as they are, its limit one number
         blocked_by_objects = hierarchy.occluded(
-            np.concatenate(origins, axis=1),
-            np.concatenate(vectors, axis=1),
+            origins[0] if one else np.concatenate(origins, axis=1),
+            vectors[0] if one else np.concatenate(vectors, axis=1),
             t_min,
-            np.concatenate(limits),
+            lights[0][1].t_max if one else np.concatenate(limits),
             planes=False,
             sets=sets,
             views=(views, which),
