@@ -9,7 +9,9 @@ its box's rectangle on the screen.
 
 Both only remove rays that cannot hit. Each grid area is grown by one cell (each rectangle by two pixels), and where
 a bound on what rounding in the tracing dtype does (to the rays, the objects and the projection) is not well below
-that margin (absurdly far rays, tiny objects, the point among the boxes), nothing is culled.
+that margin (absurdly far rays, tiny objects, the point among the boxes), nothing is culled. A box that no picture
+can hold (rt3.py's floor, a sphere of radius 99999: its box reaches behind the camera and spreads under the light)
+is left out of it, and its kernel sees every ray (`whole`); the other boxes are still culled.
 """
 
 from __future__ import annotations
@@ -216,6 +218,9 @@ def _view_from(point: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> tuple
 def kernel_sets(pictures: list[tuple[list[int], np.ndarray]]) -> list[tuple[int, np.ndarray]]:
     """The rays of several grids' select(), one grid's after another's: each grid's kernels (k,) and bits (m,) ->
     (kernel, positions (n,) among all the rays, ascending) for every kernel that some ray may meet."""
+    if all(kernels == pictures[0][0] for kernels, _ in pictures):  # the usual case: one pass over all the bits
+        bits = pictures[0][1] if len(pictures) == 1 else np.concatenate([bits for _, bits in pictures])
+        pictures = [(pictures[0][0], bits)]
     found: dict[int, list[np.ndarray]] = {}
     start = 0
     for kernels, bits in pictures:

@@ -509,19 +509,20 @@ class PreparedScene:
             lit.append(reached)
         return lit
 
-    def background(self, D: np.ndarray) -> np.ndarray:
-        """Colors (3, n) for rays (3, n) that hit nothing."""
+    def background(self, D: np.ndarray, miss: np.ndarray) -> np.ndarray:
+        """Colors (3, n) for the rays miss (n,) of rays D (3, N), which hit nothing (a sky reads only their z)."""
         background = self.scene.background
         if background.type == "none":
-            return np.zeros_like(D)
+            return np.zeros((3, miss.size), dtype=self.dtype)
         if background.type == "solid":
-            return np.broadcast_to(column(background.color, self.dtype), D.shape)
+            return np.broadcast_to(column(background.color, self.dtype), (3, miss.size))
         if background.type == "documented":
-            return np.broadcast_to(self.documented_color, D.shape)
-        k = np.minimum(np.maximum(D[2], 0.0), 1.0)
+            return np.broadcast_to(self.documented_color, (3, miss.size))
+        z = D[2] if D.shape[1] == 1 else D[2].take(miss)  # one direction shared by every ray, or each ray's own
+        k = np.minimum(np.maximum(z, 0.0), 1.0)
         horizon = column(background.horizon, self.dtype)
         zenith = column(background.zenith, self.dtype)
-        return horizon + (zenith - horizon) * k
+        return np.broadcast_to(horizon + (zenith - horizon) * k, (3, miss.size))
 
     # ---- TraceRay as a wavefront -------------------------------------------------------------------------------
 
@@ -565,7 +566,9 @@ class PreparedScene:
                 if alpha is not None:
                     alpha.put(miss, 0.0)
             elif miss.size:
-                sky = weight.take(miss) * self.background(take(D, miss))
+                sky = self.background(D, miss)
+                if bounce:  # a camera ray's weight is 1
+                    sky = weight.take(miss) * sky
                 _accumulate(color, pixel.take(miss), sky, bounce == 0)
             if miss.size == obj.size:
                 break
@@ -598,7 +601,7 @@ class PreparedScene:
                 local = (intensity * (1.0 - reflective)) * self.colors.take(material, axis=1)
             if self.emissive:
                 local = local + self.emission.take(material, axis=1)
-            _accumulate(color, pixel, weight * local, bounce == 0)
+            _accumulate(color, pixel, weight * local if bounce else local, bounce == 0)
             go_on = indices(reflective > 0.0)
             if bounce == depth or go_on.size == 0:
                 break
