@@ -217,3 +217,45 @@ def test_brute_force_is_chosen_for_a_few_spheres_and_the_walk_for_the_vane() -> 
         vane = PreparedScene(default_scene().with_render(dtype=dtype))
         assert not any(hierarchy.brute for hierarchy in _hierarchies(vane))
         assert vane.screen is not None
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_a_sphere_whose_hits_lie_inside_its_padding_skips_no_hit_the_box_check_would_drop(dtype: str) -> None:
+    """Hierarchy._inside_padding (brute force skips the padded-box check of a sphere's hits where it holds) against
+    the box check itself, on rt3.py's floor and a small ball: rays from near and far, from the surfaces, and
+    grazing ones a hair inside and outside the silhouette, where rounding makes spurious roots."""
+    from tracer.geometry import transforms as tf
+    from tracer.geometry.bvh import Hierarchy
+    from tracer.geometry.kernels import SphereKernel, indices, quiet, shared_terms
+
+    rng = np.random.default_rng(3)
+    spheres = [((0.0, 0.0, -99999.5), 99999.0), ((0.75, 1.0, 0.1), 0.6)]
+    kernels = [SphereKernel(tf.WorldSphere("m", center, radius), np.dtype(dtype)) for center, radius in spheres]
+    hierarchy = Hierarchy(kernels, np.dtype(dtype), [0, 1], None)
+    skipped = 0
+    for index, (center, radius) in enumerate(spheres):
+        for spread in (1.0, 400.0, 1e7):
+            count = 20000
+            O = rng.uniform(-spread, spread, size=(3, count))
+            O[2] = np.abs(O[2])  # above the floor
+            # grazing rays: toward a point of the silhouette seen from O, pushed a hair inside or outside
+            toward = rng.normal(size=(3, count))
+            toward /= np.linalg.norm(toward, axis=0)
+            edge = np.asarray(center)[:, None] + toward * radius * (1.0 + rng.choice([-1e-9, 0.0, 1e-9], count))
+            D = edge - O
+            D[:, ::3] = rng.normal(size=(3, D[:, ::3].shape[1]))  # and some rays in any direction
+            O, D = O.astype(dtype), D.astype(dtype)
+            with quiet():
+                shared = shared_terms(D)
+                t, _ = kernels[index]._hit(O, D, 0.01, np.inf, shared)
+                hits = indices(t < np.inf)
+                dropped = hierarchy._off_box(index, O, D, hits, 0.01, np.inf)
+                if hierarchy._inside_padding(index, O, shared[0], None):
+                    skipped += 1
+                    assert dropped.size == 0, f"sphere {index}, spread {spread}"
+    if dtype == "float64":
+        assert skipped >= 2  # the floor from near (and 400 units away) qualifies
+    else:
+        assert skipped == 0  # float32's rounding is never far enough below the padding
+    nan_origins = np.full((3, 4), np.nan, dtype=dtype)
+    assert not hierarchy._inside_padding(0, nan_origins, np.ones(4, dtype=dtype), None)

@@ -226,19 +226,54 @@ class Hierarchy:
         t_max: float | np.ndarray,
         limit: float | np.ndarray,
         shared: tuple | None = None,
+        reach: float | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Kernel index's test on every ray, keeping only the hits of rays that meet the kernel's padded box within
         (t_min, limit] (limit: one number, or one per ray of all), the walk's test at a leaf of that kernel alone.
         A true hit's ray always meets the box; a test in the documented numerics may report a hit where its ray
         passes far from the object (float32's quadratic for a ray from thousands of units away): the walk's boxes
-        drop such a hit, and so does this."""
+        drop such a hit, and so does this, unless a bound shows that none can be dropped (_inside_padding).
+        shared: shared_terms(D); reach: the origins' largest coordinate magnitude (each computed here if None)."""
         kernel = self.kernels[index]
-        if shared is not None and type(kernel) is SphereKernel:  # the documented test (not the robust one)
+        if type(kernel) is SphereKernel:  # the documented test (not the robust one)
+            shared = shared_terms(D) if shared is None else shared
             t, part = kernel._hit(O, D, t_min, t_max, shared)
+            if self._inside_padding(index, O, shared[0], reach):
+                return t, part
         else:
             t, part = kernel.hit(O, D, t_min, t_max)
         t.put(self._off_box(index, O, D, indices(t < np.inf), t_min, limit), np.inf)
         return t, part
+
+    def _inside_padding(self, index: int, O: np.ndarray, four_k1: np.ndarray, reach: float | None) -> bool:
+        """Whether every hit that documented sphere index reports on rays from O (3, N) with 4 D.D four_k1 (N,)
+        lies inside its padded box by more than the slab test's rounding, so that _off_box could drop none.
+
+        Rounding moves the discriminant k2^2 - 4 k1 k3 by at most 4 k1 * 15 eps (R^2 + r^2), R the origins' largest
+        distance from the centre: a reported root's point then lies within r + 2 sqrt(15 eps (R^2 + r^2)) of the
+        centre (a spurious root of a ray that passes just outside included), and the slab test's own rounding
+        moves a face by less than 4 eps (|box| + |O|). Both, doubled, must fit in half the padding: in practice a
+        large sphere in float64 (rt3.py's floor), never float32. Directions whose 4 D.D leaves [1e-200, 1e200]
+        (where a product could underflow or overflow) keep the box check."""
+        if four_k1.size == 0:
+            return True
+        kernel = self.kernels[index]
+        radius_squared = float(kernel.radius_squared)
+        if self._padded is None:
+            rows, lower, upper = self.boxes
+            self._padded = {i: padded_box(lower[k], upper[k], self.dtype) for k, i in enumerate(rows)}
+        lower, upper = (bound.ravel().astype(np.float64) for bound in self._padded[index])
+        room = float(min((kernel.lower - lower).min(), (upper - kernel.upper).min()))  # the padding
+        reach = float(np.maximum(O.max(), -O.min())) if reach is None else reach  # NaN stays NaN: refused below
+        if not (float(four_k1.min()) >= 1e-200 and float(four_k1.max()) <= 1e200 and radius_squared >= 1e-80):
+            return False
+        eps = float(np.finfo(self.dtype).eps)
+        center = kernel.center.ravel().astype(np.float64)
+        drift = float(np.abs(center - (kernel.lower + kernel.upper) / 2.0).max())  # the centre's own rounding
+        distance = math.sqrt(3.0) * (reach + float(np.abs(center).max()))
+        box_reach = float(max(np.abs(lower).max(), np.abs(upper).max()))
+        slack = 4.0 * math.sqrt(15.0 * eps * (distance**2 + radius_squared)) + 8.0 * eps * (box_reach + reach)
+        return slack + drift <= room / 2.0  # False for NaN or infinite origins
 
     def _brute_blocks(
         self, index: int, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray, shared: tuple | None
@@ -309,8 +344,9 @@ class Hierarchy:
         if self.brute and sets is None:
             limit = best_t.copy() if self.unbounded else math.inf  # the walk's limit: the planes' hits
             shared = self._shared_terms(D)
+            reach = float(np.maximum(O.max(), -O.min())) if count else 0.0  # for _inside_padding, once a query
             for index in self.boxes[0] if self.boxes is not None else []:
-                offer(index, None, *self._brute_hit(index, O, D, t_min, math.inf, limit, shared))
+                offer(index, None, *self._brute_hit(index, O, D, t_min, math.inf, limit, shared, reach))
             return best_t, best_object, best_part
         if sets is None:  # the planes' hits bound the walk
             sets = self._walk(O, D, np.arange(count), t_min, best_t)
