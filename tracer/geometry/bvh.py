@@ -321,10 +321,20 @@ class Hierarchy:
         best_t = np.full(count, np.inf, dtype=self.dtype)
         best_object = np.full(count, -1, dtype=np.int32)
         best_part = np.zeros(count, dtype=np.int32)
+        empty = True  # no hit offered yet
 
         def offer(index: int, rays: np.ndarray | None, t: np.ndarray, part: np.ndarray) -> None:
             """Hits t, part (n,) of kernel index on rays (n,) (None: all) replace nearer-or-tied earlier ones."""
+            nonlocal empty
             owner = self.owners[index]
+            if empty and rays is None:  # every ray's hit is better than none: no comparisons (a plane's, mostly)
+                empty = False
+                found = t < np.inf
+                np.copyto(best_t, t, where=found)
+                np.copyto(best_object, owner, where=found)
+                np.copyto(best_part, part, where=found)
+                return
+            empty = False
             if rays is None:
                 current_t, current_object, current_part = best_t, best_object, best_part
             else:
