@@ -202,10 +202,10 @@ class Hierarchy:
         self.brute = BRUTE_SCALE * self.brute_cost <= self.walk_cost
         return self.brute
 
-    def culls_well(self, kernels: list[int], shares: np.ndarray, whole: list[int]) -> bool:
-        """Whether a cull (cull.py) that gives kernels (k,) the shares (k,) of the rays, and leaves out kernels whole
-        (every ray), costs less than what this hierarchy does without it: always where it walks; under brute force,
-        where the culled kernels' rays, gathered, cost less than brute force's tests of them."""
+    def culls_well(self, kernels: list[int], shares: np.ndarray) -> bool:
+        """Whether a cull (cull.py) that gives kernels (k,) the shares (k,) of the rays costs less than what this
+        hierarchy does without it: always where it walks; under brute force, where the culled kernels' rays,
+        gathered, cost less than brute force's tests of them (the kernels it leaves out cost the same either way)."""
         if not self.brute:
             return True
         cost = {index: self.kernels[index].cost for index in self.boxes[0]}
@@ -245,6 +245,13 @@ class Hierarchy:
         t.put(self._off_box(index, O, D, indices(t < np.inf), t_min, limit), np.inf)
         return t, part
 
+    def _padded_box(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """Bounded kernel index's own padded box (3, 1) each, as a leaf of it alone would have."""
+        if self._padded is None:
+            rows, lower, upper = self.boxes
+            self._padded = {i: padded_box(lower[k], upper[k], self.dtype) for k, i in enumerate(rows)}
+        return self._padded[index]
+
     def _inside_padding(self, index: int, O: np.ndarray, four_k1: np.ndarray, reach: float | None) -> bool:
         """Whether every hit that documented sphere index reports on rays from O (3, N) with 4 D.D four_k1 (N,)
         lies inside its padded box by more than the slab test's rounding, so that _off_box could drop none.
@@ -259,10 +266,7 @@ class Hierarchy:
             return True
         kernel = self.kernels[index]
         radius_squared = float(kernel.radius_squared)
-        if self._padded is None:
-            rows, lower, upper = self.boxes
-            self._padded = {i: padded_box(lower[k], upper[k], self.dtype) for k, i in enumerate(rows)}
-        lower, upper = (bound.ravel().astype(np.float64) for bound in self._padded[index])
+        lower, upper = (bound.ravel().astype(np.float64) for bound in self._padded_box(index))
         room = float(min((kernel.lower - lower).min(), (upper - kernel.upper).min()))  # the padding
         reach = float(np.maximum(O.max(), -O.min())) if reach is None else reach  # NaN stays NaN: refused below
         if not (float(four_k1.min()) >= 1e-200 and float(four_k1.max()) <= 1e200 and radius_squared >= 1e-80):
@@ -294,10 +298,7 @@ class Hierarchy:
         """The rays among hits (n,) of rays (3, N) that miss kernel index's padded box within (t_min, limit]."""
         if hits.size == 0:
             return hits
-        if self._padded is None:
-            rows, lower, upper = self.boxes
-            self._padded = {i: padded_box(lower[k], upper[k], self.dtype) for k, i in enumerate(rows)}
-        lower, upper = self._padded[index]
+        lower, upper = self._padded_box(index)
         D_h = take(D, hits)
         near, far = slab(take(O, hits), 1.0 / D_h, lower, upper)
         limit_h = limit.take(hits) if isinstance(limit, np.ndarray) else limit

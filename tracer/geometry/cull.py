@@ -184,11 +184,10 @@ class CoverageGrid:
     def shares(self, Q: np.ndarray, reverse: bool = False) -> np.ndarray:
         """Sample rays (3, n) as for select() -> the share (k,) of them that select() gives each kernel."""
         rays, bits = self.select(Q, reverse)
+        count = max(1, Q.shape[1])
         if bits is None:
-            return np.full(len(self.kernels), rays.size / max(1, Q.shape[1]))
-        return np.array([np.count_nonzero(bits & np.uint64(1 << box)) for box in range(len(self.kernels))]) / max(
-            1, Q.shape[1]
-        )
+            return np.full(len(self.kernels), rays.size / count)
+        return np.array([np.count_nonzero(bits & np.uint64(1 << box)) for box in range(len(self.kernels))]) / count
 
     def _resolves(self, Q: np.ndarray) -> bool:
         """Whether rounding in Q's dtype moves any ray's picture point by less than half a cell (a generous bound:

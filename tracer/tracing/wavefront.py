@@ -149,7 +149,7 @@ class PreparedScene:
                 self.scene.camera, settings, self.origin.ravel().astype(np.float64), self.camera_hierarchy.boxes
             )
             screen = self.screen
-            if screen is not None and not self.camera_hierarchy.culls_well(screen.kernels, screen.shares, screen.whole):
+            if screen is not None and not self.camera_hierarchy.culls_well(screen.kernels, screen.shares):
                 self.screen = None
         if self.shadow_hierarchy.boxes is not None:
             boxes = self.shadow_hierarchy.boxes
@@ -160,7 +160,7 @@ class PreparedScene:
                     light.grid = CoverageGrid.from_direction(light.vector.ravel().astype(np.float64), *boxes)
                 if light.grid is not None and self.shadow_hierarchy.brute:
                     shares = self._sample_shares(light)
-                    if shares is None or not self.shadow_hierarchy.culls_well(light.grid.kernels, shares, []):
+                    if shares is None or not self.shadow_hierarchy.culls_well(light.grid.kernels, shares):
                         light.grid = None
 
     def _sample_shares(self, light: _Light) -> np.ndarray | None:
