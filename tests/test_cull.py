@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.random_scenes import random_scene_document
+from tests.random_scenes import extended_scene_document, random_scene_document
 from tracer.geometry.cull import CoverageGrid, ScreenRectangles
 from tracer.scene.loader import default_scene, scene_from_dict
 from tracer.tracing.wavefront import PreparedScene
@@ -18,6 +18,7 @@ def _render(scene, culled: bool) -> tuple[np.ndarray, object]:
     prepared = PreparedScene(scene)
     if not culled:
         prepared.screen = None
+        prepared.mirrors = {}
         for light in prepared.lights:
             light.grid = None
     return prepared.render_rows(np.arange(scene.render.height))
@@ -25,7 +26,7 @@ def _render(scene, culled: bool) -> tuple[np.ndarray, object]:
 
 @pytest.mark.parametrize("dtype, numerics", MODES)
 def test_culling_changes_no_pixel_of_random_scenes(dtype: str, numerics: str) -> None:
-    culled_somewhere = 0
+    culled_somewhere = mirrored = 0
     for seed in SEEDS:
         scene = scene_from_dict(random_scene_document(seed, 96, 72)).with_render(dtype=dtype, numerics=numerics)
         image, counts = _render(scene, culled=True)
@@ -35,7 +36,23 @@ def test_culling_changes_no_pixel_of_random_scenes(dtype: str, numerics: str) ->
         prepared = PreparedScene(scene)
         if prepared.screen is not None and any(light.grid is not None for light in prepared.lights):
             culled_somewhere += 1
+        mirrored += bool(prepared.mirrors)
     assert culled_somewhere >= len(SEEDS) // 2  # the comparison above exercised the culls
+    assert mirrored >= len(SEEDS) // 4  # and the mirror rays' rectangles
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_culling_changes_no_pixel_of_scenes_with_holdouts_two_sided_mirrors_and_ray_visibility(dtype: str) -> None:
+    """The optional fields change which rays continue off a mirror and what they may meet."""
+    mirrored = 0
+    for seed in range(20):
+        scene = scene_from_dict(extended_scene_document(seed, 64, 48)).with_render(dtype=dtype)
+        image, counts = _render(scene, culled=True)
+        plain, plain_counts = _render(scene, culled=False)
+        assert np.array_equal(image, plain), f"seed {seed}"
+        assert counts == plain_counts
+        mirrored += bool(PreparedScene(scene).mirrors)
+    assert mirrored >= 3  # the comparison above exercised the mirror rays' rectangles
 
 
 def test_culling_changes_no_pixel_of_the_default_scene() -> None:
@@ -144,6 +161,43 @@ def test_screen_rectangles_hold_every_pixel_that_sees_a_sphere() -> None:
     assert kernel == 0
     assert np.isin(seen, rays).all()
     assert rays.size < 0.5 * D.shape[1]  # and it culls: the ball covers a small part of the picture
+
+
+def test_mirror_rectangles_hold_every_pixel_whose_mirror_ray_meets_a_sphere() -> None:
+    """Independent truth: each pixel centre's ray is reflected off a tilted plane by hand, in float64, and meets
+    the sphere where the reflected line passes within the radius of its centre, ahead of the plane."""
+    from tracer.geometry.camera import band_directions
+
+    document = random_scene_document(0, 160, 120)
+    document["objects"] = [
+        {"name": "floor", "type": "plane", "material": "m0", "location": [0, 0, -1], "rotation": [12, -8, 30]},
+        {"name": "ball", "type": "sphere", "material": "m1", "location": [0.7, 1.0, 0.2], "radius": 0.6},
+    ]
+    document["materials"]["m0"]["reflective"] = 0.5
+    document["render"]["samples"] = 1
+    scene = scene_from_dict(document)
+    prepared = PreparedScene(scene)
+    plane = prepared.kernels[0]
+    point, normal = plane.point.ravel().astype(np.float64), plane.unit.ravel().astype(np.float64)
+    location = np.asarray(scene.camera.location, dtype=np.float64)
+    boxes = prepared.hierarchy.boxes
+    mirror = ScreenRectangles.mirrored(scene.camera, scene.render, location, boxes, point, normal)
+    rows = np.arange(120)
+    D = band_directions(scene.camera, scene.render, rows)
+    O = np.asarray(scene.camera.location)[:, None]
+    t = ((point[:, None] - O) * normal[:, None]).sum(axis=0) / (D * normal[:, None]).sum(axis=0)
+    on_plane = np.flatnonzero(t > 0)
+    P = O + D[:, on_plane] * t[on_plane]
+    R = D[:, on_plane] - 2.0 * (D[:, on_plane] * normal[:, None]).sum(axis=0) * normal[:, None]
+    C = np.array([[0.7], [1.0], [0.2]])
+    along = ((C - P) * R).sum(axis=0)
+    distance = np.linalg.norm(P + R * along - C, axis=0)
+    seen = on_plane[(distance <= 0.6) & (along > 0)]
+    assert seen.size > 100
+    ((kernel, rays),) = mirror.rays(rows)
+    assert kernel == 1
+    assert np.isin(seen, rays).all()
+    assert rays.size < 0.5 * D.shape[1]  # and it culls: the ball's mirror image covers a small part
 
 
 def test_a_camera_among_the_objects_gets_no_screen_rectangles() -> None:

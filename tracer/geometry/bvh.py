@@ -242,7 +242,7 @@ class Hierarchy:
                 return t, part
         else:
             t, part = kernel.hit(O, D, t_min, t_max)
-        t.put(self._off_box(index, O, D, indices(t < np.inf), t_min, limit), np.inf)
+        t[self._off_box(index, O, D, indices(t < np.inf), t_min, limit)] = np.inf
         return t, part
 
     def _padded_box(self, index: int) -> tuple[np.ndarray, np.ndarray]:
@@ -289,7 +289,7 @@ class Hierarchy:
             blocks = kernel.blocks(O, L, t_min, t_max, shared)
         else:
             blocks = kernel.hit(O, L, t_min, t_max)[0] < np.inf
-        blocks.put(self._off_box(index, O, L, indices(blocks), t_min, t_max), False)
+        blocks[self._off_box(index, O, L, indices(blocks), t_min, t_max)] = False
         return blocks
 
     def _off_box(
@@ -305,18 +305,25 @@ class Hierarchy:
         return hits.take(indices(~((near <= far) & (far > t_min) & (near <= limit_h))))
 
     def closest(
-        self, O: np.ndarray, D: np.ndarray, t_min: float, sets: Sets | None = None
+        self,
+        O: np.ndarray,
+        D: np.ndarray,
+        t_min: float,
+        sets: Sets | None = None,
+        walk: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,).
 
         O or D may be a (3, 1) column shared by all rays (see kernels.take). sets, when given, name for every
         bounded kernel that any ray can meet the rays (n,) that can, or None for all (cull.ScreenRectangles); the
-        hierarchy is then neither walked nor replaced by brute force."""
+        hierarchy is then neither walked nor replaced by brute force, except for the rays walk (m,), which the
+        sets leave out (the mirror rays of what is not a culled plane) and which go through the hierarchy as
+        without sets (walked only: a hierarchy that brute force serves is not given sets)."""
         with quiet():
-            return self._closest(O, D, t_min, sets)
+            return self._closest(O, D, t_min, sets, walk)
 
     def _closest(
-        self, O: np.ndarray, D: np.ndarray, t_min: float, sets: Sets | None
+        self, O: np.ndarray, D: np.ndarray, t_min: float, sets: Sets | None, walk: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         count = ray_count(O, D)
         best_t = np.full(count, np.inf, dtype=self.dtype)
@@ -346,9 +353,9 @@ class Hierarchy:
             earlier = (owner < current_object) | ((owner == current_object) & (part < current_part))
             better = indices((t < current_t) | (tie & earlier))
             chosen = better if rays is None else rays.take(better)
-            best_t.put(chosen, t.take(better))
-            best_object.put(chosen, owner)
-            best_part.put(chosen, part.take(better))
+            best_t[chosen] = t.take(better)
+            best_object[chosen] = owner
+            best_part[chosen] = part.take(better)
 
         for index in self.unbounded:
             offer(index, None, *self.kernels[index].hit(O, D, t_min, math.inf))
@@ -361,6 +368,8 @@ class Hierarchy:
             return best_t, best_object, best_part
         if sets is None:  # the planes' hits bound the walk
             sets = self._walk(O, D, np.arange(count), t_min, best_t)
+        elif walk is not None:
+            sets = sets + self._walk(O, D, walk, t_min, best_t)
         for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, sets):
             offer(index, rays, t, part)
         return best_t, best_object, best_part
@@ -448,7 +457,7 @@ class Hierarchy:
     ) -> np.ndarray:
         for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, sets, any_hit=True, views=views):
             hits = indices(t < np.inf)
-            blocked.put(hits if rays is None else rays.take(hits), True)
+            blocked[hits if rays is None else rays.take(hits)] = True
         return blocked
 
     def _evaluate(

@@ -25,6 +25,11 @@ from . import camera as cam
 
 CELLS = 128  # along the picture's longer side
 DEPTH_MARGIN = 1e-3  # of the scene's size: a perspective picture needs every box at least this far in front
+# How far rounding may move a ray, in units in the last place of the scene's size, that a pixel's footprint at the
+# nearest box must exceed: a camera ray's own rounding; a mirror ray's adds its origin on the plane and the
+# reflected direction (a few units each), and robust numerics' offset origin (robust.OFFSET_EPSILONS)
+CAMERA_ROUNDING = 64.0
+MIRROR_ROUNDING = 256.0
 
 
 def picture_axes(forward: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -264,10 +269,53 @@ class ScreenRectangles:
         of the picture: its kernel sees every camera ray (whole). None where no box is left, or a pixel is too fine
         for the dtype."""
         kernels, lower, upper = boxes
+        return cls._from_corners(camera, settings, location, kernels, _corners(lower, upper), CAMERA_ROUNDING)
+
+    @classmethod
+    def mirrored(
+        cls,
+        camera: sc.Camera,
+        settings: sc.RenderSettings,
+        location: np.ndarray,
+        boxes: tuple[list[int], np.ndarray, np.ndarray],
+        point: np.ndarray,
+        normal: np.ndarray,
+    ) -> ScreenRectangles | None:
+        """The rectangles of the boxes' mirror images in the plane through point (3,) with normal (3,): which
+        mirror rays off that plane each kernel can meet, by their camera rays' pixels.
+
+        A camera ray that meets the plane goes on, mirrored, as its mirror ray; mirrored back through the plane,
+        that ray is the camera ray's own continuation beyond the plane, which can meet a box's mirror image only
+        through the pixels of that image's rectangle. Rounding moves a mirror ray off that continuation by a few
+        units in the last place of the scene's size (its origin, the reflected direction): within the rectangles'
+        margin wherever _from_corners accepts the picture (MIRROR_ROUNDING)."""
+        kernels, lower, upper = boxes
+        unit_normal = normal / np.linalg.norm(normal)
+        corners = _corners(lower, upper)  # (k, 8, 3)
+        across = (corners - point) @ unit_normal  # signed distances (k, 8) from the plane
+        mirrored = corners - 2.0 * across[..., None] * unit_normal
+        return cls._from_corners(camera, settings, location, kernels, mirrored, MIRROR_ROUNDING, point)
+
+    @classmethod
+    def _from_corners(
+        cls,
+        camera: sc.Camera,
+        settings: sc.RenderSettings,
+        location: np.ndarray,
+        kernels: list[int],
+        corners: np.ndarray,
+        rounding: float,
+        also: np.ndarray | None = None,
+    ) -> ScreenRectangles | None:
+        """The rectangles of kernels' (k,) convex pieces, each the hull of its corners (k, 8, 3); rounding: the
+        units in the last place of the scene's size by which the rays may stray (the pictured corners', the
+        location's and also's (3,) largest coordinate)."""
         with np.errstate(divide="ignore", invalid="ignore"):  # a corner on the camera's plane: left out below
-            x, y, depth = cam.to_pixels(camera, settings, _corners(lower, upper), location)  # (k, 8) each
+            x, y, depth = cam.to_pixels(camera, settings, corners, location)  # (k, 8) each
         location_reach = float(np.abs(location).max())
-        box_reach = np.maximum(np.abs(lower).max(axis=1), np.abs(upper).max(axis=1))  # (k,)
+        if also is not None:
+            location_reach = max(location_reach, float(np.abs(also).max()))
+        box_reach = np.abs(corners).max(axis=(1, 2))  # (k,)
         pictured = depth.min(axis=1) > DEPTH_MARGIN * np.maximum(box_reach, location_reach)  # NaN: left out
         if not pictured.any():
             return None
@@ -277,7 +325,7 @@ class ScreenRectangles:
         if nearest <= DEPTH_MARGIN * reach:
             return None
         # rounding could move a ray by a pixel's footprint at the nearest corner
-        if cam.pixel_footprint(camera, settings, nearest) < 64.0 * float(np.finfo(settings.dtype).eps) * reach:
+        if cam.pixel_footprint(camera, settings, nearest) < rounding * float(np.finfo(settings.dtype).eps) * reach:
             return None
         width, height = settings.width, settings.height
         rectangles = np.stack(

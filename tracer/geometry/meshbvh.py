@@ -220,8 +220,8 @@ class MeshKernel(Kernel):
                 O_g, D_g, chosen = take(O_r, members), take(D_r, members), rays.take(members)
                 limit_g = limit.take(members) if isinstance(limit, np.ndarray) else limit
             found_t, found_part = self._find(O_g, D_g, t_min, limit_g, any_hit, view)
-            t.put(chosen, found_t)
-            part.put(chosen, found_part)
+            t[chosen] = found_t
+            part[chosen] = found_part
         return t, part
 
     def picture(self, view: View, rays: int) -> TrianglePicture | None:
@@ -290,10 +290,10 @@ class MeshKernel(Kernel):
             nearest = np.minimum.reduceat(t, segments)
             hit = (nearest < np.inf).nonzero()[0]
             chosen = rays[start:stop].take(hit)
-            best_t.put(chosen, nearest.take(hit))
+            best_t[chosen] = nearest.take(hit)
             if not any_hit:
                 candidates = np.where(t == nearest.take(local), self.slot_triangle.take(slot), BIG)
-                best_part.put(chosen, np.minimum.reduceat(candidates, segments).take(hit))
+                best_part[chosen] = np.minimum.reduceat(candidates, segments).take(hit)
             start = stop
         return best_t, best_part
 

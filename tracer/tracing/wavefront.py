@@ -151,6 +151,7 @@ class PreparedScene:
             screen = self.screen
             if screen is not None and not self.camera_hierarchy.culls_well(screen.kernels, screen.shares):
                 self.screen = None
+        self.mirrors = self._mirror_rectangles(primitives)
         if self.shadow_hierarchy.boxes is not None:
             boxes = self.shadow_hierarchy.boxes
             for light in self.lights:
@@ -162,6 +163,69 @@ class PreparedScene:
                     shares = self._sample_shares(light)
                     if shares is None or not self.shadow_hierarchy.culls_well(light.grid.kernels, shares):
                         light.grid = None
+
+    def _mirror_rectangles(self, primitives: list) -> dict[int, ScreenRectangles]:
+        """For each reflective plane that camera rays can meet: which of its mirror rays each bounded kernel can
+        meet, by the pixels of the camera rays they continue (ScreenRectangles.mirrored). Keyed by the plane's
+        object index. None where the mirror rays are not walked through boxes (brute force) or rows are not
+        whole."""
+        mirrors = {}
+        hierarchy = self.mirror_hierarchy
+        if self.screen is None or hierarchy.boxes is None or hierarchy.brute:
+            return mirrors
+        location = self.origin.ravel().astype(np.float64)
+        for index in self.camera_hierarchy.unbounded:
+            owner = self.camera_hierarchy.owners[index]
+            plane = primitives[owner]
+            if not isinstance(plane, tf.WorldPlane):
+                continue
+            reflective = self.reflective.take(self.material_of(np.array([owner]), np.zeros(1, dtype=np.int32)))
+            if not reflective[0] > 0.0:
+                continue
+            rectangles = ScreenRectangles.mirrored(
+                self.scene.camera,
+                self.scene.render,
+                location,
+                hierarchy.boxes,
+                np.asarray(plane.point, dtype=np.float64),
+                np.asarray(plane.normal, dtype=np.float64),
+            )
+            if rectangles is not None:
+                mirrors[owner] = rectangles
+        return mirrors
+
+    def _mirror_sets(
+        self, rows: np.ndarray, pixel: np.ndarray, came_from: np.ndarray, total: int
+    ) -> tuple[list, np.ndarray | None]:
+        """The first mirror rays' sets for Hierarchy.closest: rays (n,) of camera rays pixel (n,) off objects
+        came_from (n,), of total camera rays in rows (R,) -> (kernel, rays) for every kernel that the rays off a
+        culled plane can meet (from self.mirrors), and the other rays (walked), or (None, None) where no ray comes
+        off such a plane."""
+        sets, culled = [], []
+        position = None  # each camera ray's mirror ray, where it has one off the plane at hand
+        for plane, rectangles in self.mirrors.items():
+            off_plane = indices(came_from == plane)
+            if off_plane.size == 0:
+                continue
+            culled.append(plane)
+            if position is None:
+                position = np.full(total, -1, dtype=np.intp)
+            position[pixel.take(off_plane)] = off_plane
+            for kernel, camera_rays in rectangles.rays(rows):
+                if camera_rays is None:
+                    sets.append((kernel, off_plane))
+                    continue
+                rays = position.take(camera_rays)
+                rays = rays.take(indices(rays >= 0))
+                if rays.size:
+                    sets.append((kernel, rays))
+            position[pixel.take(off_plane)] = -1
+        if not culled:
+            return None, None
+        other = came_from != culled[0]
+        for plane in culled[1:]:
+            other &= came_from != plane
+        return sets, indices(other)
 
     def _sample_shares(self, light: _Light) -> np.ndarray | None:
         """The share (k,) of a light's shadow rays that its grid gives each kernel, estimated on the rays from where
@@ -246,7 +310,7 @@ class PreparedScene:
         for index, table in self.triangle_materials.items():
             rows = indices(obj == index)
             if rows.size:
-                material.put(rows, table.take(part.take(rows)))
+                material[rows] = table.take(part.take(rows))
         return material
 
     def shading_normals(
@@ -276,7 +340,7 @@ class PreparedScene:
                 good = size > 0.0  # opposite corner normals can cancel: the flat normal then
                 unit = np.where(good, n / np.where(good, size, 1.0), take(N, rows))
                 for axis in range(3):
-                    S[axis].put(rows, unit[axis])
+                    S[axis][rows] = unit[axis]
         if self.any_two_sided:
             flip = self.two_sided.take(material) & (dot(N, V) < 0.0)
             if flip.any():
@@ -309,11 +373,11 @@ class PreparedScene:
                 else:
                     normals = kernel.unit_normal(take(P, rows), part.take(rows))
                 for axis in range(3):
-                    N[axis].put(rows, normals[axis])
+                    N[axis][rows] = normals[axis]
                 if self.robust:
                     along, rounding = kernel.surface(take(P, rows), part.take(rows))
-                    distance.put(rows, along)
-                    scale.put(rows, rounding)
+                    distance[rows] = along
+                    scale[rows] = rounding
                 start += size
         return N, ((distance, scale) if self.robust else None)
 
@@ -502,10 +566,10 @@ class PreparedScene:
         )
         lit, start = [], 0
         for needed, blocked, rest in shadows:
-            blocked.put(rest, blocked_by_objects[start : start + rest.size])
+            blocked[rest] = blocked_by_objects[start : start + rest.size]
             start += rest.size
             reached = np.zeros(P.shape[1], dtype=bool)
-            reached.put(needed, ~blocked)
+            reached[needed] = ~blocked
             lit.append(reached)
         return lit
 
@@ -552,10 +616,15 @@ class PreparedScene:
         O = self.origin if origins is None else origins  # (3, 1): every camera ray starts at the camera
         t_min = CAMERA_T_MIN
         transparent = self.scene.render.film_transparent
+        came_from = None  # the first mirror rays' objects, where some may come off a culled plane
         for bounce in range(depth + 1):
-            sets = self.screen.rays(rows) if bounce == 0 and rows is not None and self.screen is not None else None
+            sets = walk = None
+            if bounce == 0 and rows is not None and self.screen is not None:
+                sets = self.screen.rays(rows)
+            elif bounce == 1 and came_from is not None:
+                sets, walk = self._mirror_sets(rows, pixel, came_from, total)
             hierarchy = self.camera_hierarchy if bounce == 0 else self.mirror_hierarchy
-            t, obj, part = hierarchy.closest(O, D, t_min, sets)
+            t, obj, part = hierarchy.closest(O, D, t_min, sets, walk)
             if bounce == 0 and far is not None:  # beyond the camera's clip_end: the nearest hit is, so all are
                 obj[t >= far] = -1
             if footprint is not None:  # each ray up to its hit; a miss to its end
@@ -564,7 +633,7 @@ class PreparedScene:
             miss = indices(obj < 0)
             if miss.size and bounce == 0 and transparent:  # the film shows nothing there: colour 0, alpha 0
                 if alpha is not None:
-                    alpha.put(miss, 0.0)
+                    alpha[miss] = 0.0
             elif miss.size:
                 sky = self.background(D, miss)
                 if bounce:  # a camera ray's weight is 1
@@ -577,7 +646,7 @@ class PreparedScene:
                 held = self.holdout.take(obj.take(hit))
                 if held.any():
                     if bounce == 0 and alpha is not None:
-                        alpha.put(hit.take(indices(held)), 0.0)
+                        alpha[hit.take(indices(held))] = 0.0
                     hit = hit.take(indices(~held))
                     if not hit.size:
                         break
@@ -613,6 +682,8 @@ class PreparedScene:
             if self.robust:
                 O = offset_origins(P, N, D, *(part.take(go_on) for part in surface))
             weight, pixel = weight.take(go_on) * reflective.take(go_on), pixel.take(go_on)
+            if bounce == 0 and rows is not None and self.mirrors:
+                came_from = obj.take(go_on)
             counts.reflection += D.shape[1]
             t_min = 0.0 if self.robust else REFLECTION_T_MIN
         return color
@@ -795,4 +866,4 @@ def _accumulate(color: np.ndarray, pixel: np.ndarray, value: np.ndarray, fresh: 
 
     fresh: the pixels still hold their initial zeros (the camera rays' bounce), so the value is stored as it is."""
     for row, add in zip(color, value, strict=True):
-        row.put(pixel, add if fresh else row.take(pixel) + add)
+        row[pixel] = add if fresh else row.take(pixel) + add
