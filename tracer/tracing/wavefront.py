@@ -210,7 +210,8 @@ class PreparedScene:
             culled.append(plane)
             if position is None:
                 position = np.full(total, -1, dtype=np.intp)
-            position[pixel.take(off_plane)] = off_plane
+            camera_ray = pixel.take(off_plane)
+            position[camera_ray] = off_plane
             for kernel, camera_rays in rectangles.rays(rows):
                 if camera_rays is None:
                     sets.append((kernel, off_plane))
@@ -219,7 +220,7 @@ class PreparedScene:
                 rays = rays.take(indices(rays >= 0))
                 if rays.size:
                     sets.append((kernel, rays))
-            position[pixel.take(off_plane)] = -1
+            position[camera_ray] = -1
         if not culled:
             return None, None
         other = came_from != culled[0]
@@ -573,20 +574,22 @@ class PreparedScene:
             lit.append(reached)
         return lit
 
-    def background(self, D: np.ndarray, miss: np.ndarray) -> np.ndarray:
-        """Colors (3, n) for the rays miss (n,) of rays D (3, N), which hit nothing (a sky reads only their z)."""
+    def background(self, D: np.ndarray, miss: np.ndarray | None) -> np.ndarray:
+        """Colors (3, n) for the rays miss (n,) of rays D (3, N), which hit nothing (a sky reads only their z);
+        miss None: for every ray (3, N)."""
         background = self.scene.background
+        count = D.shape[1] if miss is None else miss.size
         if background.type == "none":
-            return np.zeros((3, miss.size), dtype=self.dtype)
+            return np.zeros((3, count), dtype=self.dtype)
         if background.type == "solid":
-            return np.broadcast_to(column(background.color, self.dtype), (3, miss.size))
+            return np.broadcast_to(column(background.color, self.dtype), (3, count))
         if background.type == "documented":
-            return np.broadcast_to(self.documented_color, (3, miss.size))
-        z = D[2] if D.shape[1] == 1 else D[2].take(miss)  # one direction shared by every ray, or each ray's own
+            return np.broadcast_to(self.documented_color, (3, count))
+        z = D[2] if D.shape[1] == 1 or miss is None else D[2].take(miss)  # one direction for all, or each ray's own
         k = np.minimum(np.maximum(z, 0.0), 1.0)
         horizon = column(background.horizon, self.dtype)
         zenith = column(background.zenith, self.dtype)
-        return np.broadcast_to(horizon + (zenith - horizon) * k, (3, miss.size))
+        return np.broadcast_to(horizon + (zenith - horizon) * k, (3, count))
 
     # ---- TraceRay as a wavefront -------------------------------------------------------------------------------
 
@@ -610,12 +613,18 @@ class PreparedScene:
         depth = self.scene.render.depth
         total = D.shape[1]
         counts.camera += total
-        color = np.zeros((3, total), dtype=self.dtype)
-        weight = np.ones(total, dtype=self.dtype)
+        transparent = self.scene.render.film_transparent
+        # a camera ray that meets nothing shows the background (its colour 0 with a transparent film): every pixel
+        # starts with it, and the camera rays' hits overwrite theirs (no list of the misses to make)
+        if transparent:
+            color = np.zeros((3, total), dtype=self.dtype)
+        else:
+            color = np.empty((3, total), dtype=self.dtype)
+            color[...] = self.background(D, None)
+        weight = None  # each ray's product of reflectivities; a camera ray's is 1 (1 * x = x: none kept)
         pixel = np.arange(total)
         O = self.origin if origins is None else origins  # (3, 1): every camera ray starts at the camera
         t_min = CAMERA_T_MIN
-        transparent = self.scene.render.film_transparent
         came_from = None  # the first mirror rays' objects, where some may come off a culled plane
         for bounce in range(depth + 1):
             sets = walk = None
@@ -630,28 +639,32 @@ class PreparedScene:
             if footprint is not None:  # each ray up to its hit; a miss to its end
                 end = np.where(obj >= 0, t, np.inf if bounce or far is None else far)
                 footprint.record(pixel, O, D, t_min, end, hit=obj)
-            miss = indices(obj < 0)
-            if miss.size and bounce == 0 and transparent:  # the film shows nothing there: colour 0, alpha 0
-                if alpha is not None:
-                    alpha[miss] = 0.0
-            elif miss.size:
-                sky = self.background(D, miss)
-                if bounce:  # a camera ray's weight is 1
-                    sky = weight.take(miss) * sky
-                _accumulate(color, pixel.take(miss), sky, bounce == 0)
-            if miss.size == obj.size:
-                break
+            if bounce == 0:  # the misses already hold the background (or 0 under a transparent film)
+                if transparent and alpha is not None:
+                    alpha[obj < 0] = 0.0  # the film shows nothing there
+            else:
+                miss = indices(obj < 0)
+                if miss.size:
+                    sky = weight.take(miss) * self.background(D, miss)
+                    _accumulate(color, pixel.take(miss), sky, False)
             hit = indices(obj >= 0)
+            if hit.size == 0:
+                break
             if self.any_holdout:  # a holdout adds nothing, and a camera ray that meets it first leaves alpha 0
                 held = self.holdout.take(obj.take(hit))
                 if held.any():
-                    if bounce == 0 and alpha is not None:
-                        alpha[hit.take(indices(held))] = 0.0
+                    if bounce == 0:  # nothing shows there, not even the background it started with
+                        color[:, hit.take(indices(held))] = 0.0
+                        if alpha is not None:
+                            alpha[hit.take(indices(held))] = 0.0
                     hit = hit.take(indices(~held))
                     if not hit.size:
                         break
             O, D, t, obj, part = take(O, hit), take(D, hit), t.take(hit), obj.take(hit), part.take(hit)
-            weight, pixel = weight.take(hit), pixel.take(hit)
+            if bounce:
+                weight, pixel = weight.take(hit), pixel.take(hit)
+            else:  # the camera rays' own positions
+                pixel = hit
             P = O + D * t
             V = -D
             O = D = t = None  # memory: a band's peak comes in the shading below
@@ -681,7 +694,8 @@ class PreparedScene:
             O, D = P, S * k - V
             if self.robust:
                 O = offset_origins(P, N, D, *(part.take(go_on) for part in surface))
-            weight, pixel = weight.take(go_on) * reflective.take(go_on), pixel.take(go_on)
+            ratio = reflective.take(go_on)
+            weight, pixel = ratio if weight is None else weight.take(go_on) * ratio, pixel.take(go_on)
             if bounce == 0 and rows is not None and self.mirrors:
                 came_from = obj.take(go_on)
             counts.reflection += D.shape[1]
