@@ -285,6 +285,17 @@ def sparse_dot(terms: tuple[tuple[int, np.generic], ...], X: np.ndarray) -> np.n
     return result
 
 
+def sparse_dot_difference(terms: tuple[tuple[int, np.generic], ...], point: np.ndarray, O: np.ndarray) -> np.ndarray:
+    """sparse_dot(terms, point - O) for a (3, 1) point and (3, N) or (3, 1) origins, subtracting only the components
+    that it reads: the same values, without the other rows' passes."""
+    result = None
+    for axis, value in terms:
+        difference = point[axis] - O[axis]
+        term = difference if np.ndim(value) == 0 and value == 1.0 else difference * value
+        result = term if result is None else result + term
+    return result
+
+
 def _plane_t(
     O: np.ndarray, D: np.ndarray, normal: tuple[tuple[int, np.generic], ...], point: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -292,7 +303,7 @@ def _plane_t(
 
     normal: the plane normal's sparse_terms."""
     denominator = sparse_dot(normal, D)
-    t = sparse_dot(normal, point - O) / denominator
+    t = sparse_dot_difference(normal, point, O) / denominator
     return t, np.broadcast_to(denominator != 0.0, t.shape).copy()
 
 
@@ -325,10 +336,11 @@ class PlaneKernel(Kernel):
         return self.box
 
     def _hit(self, O, D, t_min, t_max):
-        # as few passes over the rays as can be: every ray meets the ground plane's test
-        denominator = sparse_dot(self.normal_terms, D)
-        t = sparse_dot(self.normal_terms, self.point - O) / denominator
-        ok = (denominator != 0.0) & (t > t_min) & (t < t_max)
+        # as few passes over the rays as can be: every ray meets the ground plane's test. Only the components of
+        # point - O that the normal uses are subtracted; and a parallel ray's t (a zero denominator: +-inf or NaN)
+        # fails t > t_min >= 0 or t < t_max <= inf by itself, so it needs no test of its own
+        t = sparse_dot_difference(self.normal_terms, self.point, O) / sparse_dot(self.normal_terms, D)
+        ok = (t > t_min) & (t < t_max)
         if self.half_size is not None:
             rays = indices(ok)
             t_rays = t.take(rays)
