@@ -23,6 +23,7 @@ from .kernels import (
     ray_count,
     shared_terms,
     slab,
+    spread,
     take,
 )
 from .meshbvh import MeshKernel
@@ -516,7 +517,7 @@ class Hierarchy:
                 continue
             if rays is None:
                 rays, O_r, D_r = np.arange(ray_count(O, D)), O, D
-            else:
+            elif isinstance(kernel, MeshKernel) or not kernel.batch_attributes or kernel.frame is not None:
                 O_r, D_r = take(O, rays), take(D, rays)
             limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
             if isinstance(kernel, MeshKernel):
@@ -529,15 +530,17 @@ class Hierarchy:
             if kernel.frame is not None:
                 keep = kernel.in_box(O_r, D_r, t_min, limit)
                 if keep.size < rays.size:
-                    rays, O_r, D_r = rays.take(keep), take(O_r, keep), take(D_r, keep)
+                    rays = rays.take(keep)
                     limit = limit.take(keep) if isinstance(limit, np.ndarray) else limit
-            if rays.size:
-                batches.setdefault(type(kernel), []).append((index, rays, O_r, D_r, limit))
+            if rays.size:  # a batch gathers its members' rays once, all together
+                batches.setdefault(type(kernel), []).append((index, rays, limit))
         for members in batches.values():
-            sizes = [rays.size for _, rays, *_ in members]
+            sizes = [rays.size for _, rays, _ in members]
             kernels = [self.kernels[index] for index, *_ in members]
             which = np.repeat(np.arange(len(members)), sizes)
-            O_b, D_b, limit_b = (_join([member[k] for member in members], sizes) for k in (2, 3, 4))
+            chosen = members[0][1] if len(members) == 1 else np.concatenate([rays for _, rays, _ in members])
+            O_b, D_b = take(O, chosen), take(D, chosen)
+            limit_b = _join([limit for *_, limit in members], sizes)
             if O_b.shape[1] == 1 and D_b.shape[1] == 1 and which.size > 1:  # one ray, met by several kernels
                 D_b = np.repeat(D_b, which.size, axis=1)
             t, part = kernels[0].batched(kernels, which)._hit(O_b, D_b, t_min, limit_b)
@@ -548,13 +551,9 @@ class Hierarchy:
         return results
 
 
-def _join(parts: list, sizes: list[int]):
-    """Per-member rays ((3, n) arrays or shared (3, 1) columns) or limits ((n,) arrays or numbers) -> one batch."""
-    first = parts[0]
-    if all(part is first for part in parts) and (np.ndim(first) == 0 or first.shape[-1] == 1):
-        return first  # one shared column or number for every member
-    if np.ndim(first) == 0 or (isinstance(first, np.ndarray) and first.ndim == 1):
-        return np.concatenate(
-            [np.broadcast_to(np.asarray(part), (size,)) for part, size in zip(parts, sizes, strict=True)]
-        )
-    return np.concatenate([np.broadcast_to(part, (3, size)) for part, size in zip(parts, sizes, strict=True)], axis=1)
+def _join(limits: list, sizes: list[int]) -> float | np.ndarray:
+    """Per-member limits ((n,) arrays or numbers) -> one batch's: the number itself where every member shares it."""
+    first = limits[0]
+    if np.ndim(first) == 0 and all(limit is first for limit in limits):
+        return first
+    return np.concatenate([spread(np.asarray(limit), (size,)) for limit, size in zip(limits, sizes, strict=True)])

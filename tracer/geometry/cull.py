@@ -116,14 +116,16 @@ class CoverageGrid:
         self.scale = 1.0 / cell
         # one ring of empty cells around the grid: rays outside it are clipped into the ring
         self.columns, self.rows = int(shape[0]) + 2, int(shape[1]) + 2
-        # up to 64 boxes, one bit each per cell; beyond that only whether any box covers it
-        bits = np.zeros((self.rows, self.columns), dtype=np.uint64 if len(kernels) <= 64 else bool)
+        # up to 64 boxes, one bit each per cell, in the narrowest unsigned type that holds them (kernel_sets reads
+        # every box's bit of every ray: the vane's 13 boxes in uint16, not uint64, about half the time); beyond
+        # 64 boxes only whether any box covers it
+        bits = np.zeros((self.rows, self.columns), dtype=_bits_type(len(kernels)))
         first = np.floor((rectangles[:, :2] - low) * self.scale).astype(int)  # grow each area by one cell
         last = np.floor((rectangles[:, 2:] - low) * self.scale).astype(int) + 2
         for box, ((u0, v0), (u1, v1)) in enumerate(zip(first.tolist(), last.tolist(), strict=True)):
             area = bits[max(v0, 0) : min(v1, self.rows - 2) + 1, max(u0, 0) : min(u1, self.columns - 2) + 1]
-            area |= np.uint64(1 << box) if bits.dtype == np.uint64 else True
-        self.bits = bits.ravel() if bits.dtype == np.uint64 else None
+            area |= True if bits.dtype == bool else bits.dtype.type(1 << box)
+        self.bits = None if bits.dtype == bool else bits.ravel()
         self.marked = bits.ravel() != 0
         self.picture_reach = 1.0 + float(np.abs(np.concatenate((low, high))).max())
 
@@ -168,7 +170,7 @@ class CoverageGrid:
 
     def select(self, Q: np.ndarray, reverse: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
         """Rays (3, n) -> (indices (m,) of those that may meet a box, ascending; for each of them the bits (m,)
-        uint64 of the boxes its cell records, bit j for box j), or (all rays, None) where the grid cannot tell
+        of the boxes its cell records, bit j for box j), or (all rays, None) where the grid cannot tell
         (more than 64 boxes, or rays too far away to place within a cell).
 
         Q is, for a perspective picture, each ray's vector from the shared point (a camera ray's direction), or
@@ -192,7 +194,9 @@ class CoverageGrid:
         count = max(1, Q.shape[1])
         if bits is None:
             return np.full(len(self.kernels), rays.size / count)
-        return np.array([np.count_nonzero(bits & np.uint64(1 << box)) for box in range(len(self.kernels))]) / count
+        return (
+            np.array([np.count_nonzero(bits & bits.dtype.type(1 << box)) for box in range(len(self.kernels))]) / count
+        )
 
     def _resolves(self, Q: np.ndarray) -> bool:
         """Whether rounding in Q's dtype moves any ray's picture point by less than half a cell (a generous bound:
@@ -201,6 +205,14 @@ class CoverageGrid:
         depth = self.depth if self.perspective else None
         error = projection_error(Q.dtype, float(np.abs(Q).max()), self.reach, depth, self.picture_reach)
         return error < 0.5 / self.scale
+
+
+def _bits_type(boxes: int) -> type:
+    """The narrowest unsigned integer type with a bit for each of boxes, or bool beyond 64."""
+    for kind in (np.uint8, np.uint16, np.uint32, np.uint64):
+        if boxes <= 8 * np.dtype(kind).itemsize:
+            return kind
+    return bool
 
 
 def _view_from(point: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -229,7 +241,7 @@ def kernel_sets(pictures: list[tuple[list[int], np.ndarray]]) -> list[tuple[int,
     start = 0
     for kernels, bits in pictures:
         for box, kernel in enumerate(kernels):
-            positions = (bits & np.uint64(1 << box)).nonzero()[0]
+            positions = ((bits & bits.dtype.type(1 << box)) != 0).nonzero()[0]  # a bool array's nonzero is faster
             if positions.size:
                 found.setdefault(kernel, []).append(positions + start if start else positions)
         start += bits.size

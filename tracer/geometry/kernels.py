@@ -39,6 +39,12 @@ def take(rays: np.ndarray, keep: np.ndarray) -> np.ndarray:
     return rays.take(keep, axis=1, mode="wrap")
 
 
+def spread(array: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """np.broadcast_to(array, shape), or the array itself where it has that shape already: broadcast_to costs about
+    10 us a call here, and in most of a frame's calls it would change nothing."""
+    return array if array.shape == shape else np.broadcast_to(array, shape)
+
+
 def indices(mask: np.ndarray) -> np.ndarray:
     """The positions (n,) where a 1-D mask is true (np.flatnonzero without its wrapper's overhead)."""
     return mask.nonzero()[0]
@@ -166,7 +172,7 @@ class Kernel:
         """Indices (n,) of the rays (3, N) that meet the oriented box within (t_min, t_max); needs a frame."""
         to_local, origin, lower, upper = self.frame
         near, far = slab(to_local @ (O - origin), 1.0 / (to_local @ D), lower, upper)
-        return indices(np.broadcast_to((near <= far) & (far > t_min) & (near < t_max), (ray_count(O, D),)))
+        return indices(spread((near <= far) & (far > t_min) & (near < t_max), (ray_count(O, D),)))
 
     # Per-object parameters of a kernel class whose _hit works unchanged when each is given per ray ((3, N) for a
     # column, (N,) for a number): several objects of that class are then tested in one batch of NumPy calls.
@@ -304,7 +310,8 @@ def _plane_t(
     normal: the plane normal's sparse_terms."""
     denominator = sparse_dot(normal, D)
     t = sparse_dot_difference(normal, point, O) / denominator
-    return t, np.broadcast_to(denominator != 0.0, t.shape).copy()
+    parallel = denominator != 0.0
+    return t, parallel if parallel.shape == t.shape else np.broadcast_to(parallel, t.shape).copy()
 
 
 class PlaneKernel(Kernel):
@@ -474,7 +481,7 @@ class TrianglesKernel(Kernel):
         ok &= t > t_min
         ok &= t < limit
         t = np.where(ok, t, np.inf)
-        t = np.broadcast_to(t, (t.shape[0], ray_count(O, D)))
+        t = spread(t, (t.shape[0], ray_count(O, D)))
         nearest = np.argmin(t, axis=0)  # first triangle on ties, as the reference's loop
         return t.min(axis=0), nearest
 

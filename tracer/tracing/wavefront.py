@@ -18,7 +18,19 @@ from ..geometry import transforms as tf
 from ..geometry.bvh import Hierarchy
 from ..geometry.cull import CoverageGrid, ScreenRectangles, kernel_sets
 from ..geometry.footprint import Footprint, Volume
-from ..geometry.kernels import Kernel, PlaneKernel, SphereKernel, column, dot, indices, make_kernel, quiet, take, unit
+from ..geometry.kernels import (
+    Kernel,
+    PlaneKernel,
+    SphereKernel,
+    column,
+    dot,
+    indices,
+    make_kernel,
+    quiet,
+    spread,
+    take,
+    unit,
+)
 from ..geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
 from ..geometry.meshpicture import View
 from ..geometry.robust import make_robust_kernel, offset_origins
@@ -413,6 +425,7 @@ class PreparedScene:
         shiny = specular > 0.0
         exponent = specular * settings.coef if settings.model == "blinn-phong" else specular
         terms = []
+        toward_eye = None  # V / |V|, the same for every light's half vector
         for light in self.lights:
             if light.kind == "ambient":
                 terms.append(None)
@@ -430,7 +443,9 @@ class PreparedScene:
                 gate &= RV > 0.0
                 cosine = RV / (np.sqrt(dot(R, R)) * length_v)
             else:
-                H = L / length_l + V / length_v
+                if toward_eye is None:
+                    toward_eye = V / length_v
+                H = L / length_l + toward_eye
                 HN = dot(H, N)
                 gate &= HN > 0.0
                 cosine = HN / (np.sqrt(dot(H, H)) * length_n)
@@ -589,7 +604,7 @@ class PreparedScene:
         k = np.minimum(np.maximum(z, 0.0), 1.0)
         horizon = column(background.horizon, self.dtype)
         zenith = column(background.zenith, self.dtype)
-        return np.broadcast_to(horizon + (zenith - horizon) * k, (3, count))
+        return spread(horizon + (zenith - horizon) * k, (3, count))
 
     # ---- TraceRay as a wavefront -------------------------------------------------------------------------------
 
