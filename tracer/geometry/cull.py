@@ -360,6 +360,23 @@ class ScreenRectangles:
         area = np.maximum(last_column - first_column + 1, 0) * np.maximum(last_row - first_row + 1, 0)
         return area / float(self.width * self.height)
 
+    def pixel_rays(self, pixels: np.ndarray) -> list[tuple[int, np.ndarray | None]]:
+        """rays() for camera rays of flat pixels j * width + i (P,) in any order (the pixels an animation's frame
+        traces again), ordered pixel, sample as camera.pixel_directions gives them."""
+        column, row = pixels % self.width, pixels // self.width
+        sets = []
+        samples = np.arange(self.samples)
+        for kernel, (first_column, first_row, last_column, last_row) in zip(
+            self.kernels, self.rectangles.tolist(), strict=True
+        ):
+            if last_column < first_column:
+                continue
+            inside = (column >= first_column) & (column <= last_column) & (row >= first_row) & (row <= last_row)
+            positions = inside.nonzero()[0]
+            if positions.size:
+                sets.append((kernel, (positions[:, None] * self.samples + samples[None, :]).ravel()))
+        return sets + [(kernel, None) for kernel in self.whole]
+
     def rays(self, rows: np.ndarray) -> list[tuple[int, np.ndarray | None]]:
         """Image rows (R,) of a band, ascending -> (kernel index, ray indices ascending) for every kernel that
         the band's camera rays can meet; rays are ordered row, column, sample as in camera.band_directions. A

@@ -440,6 +440,28 @@ class CylinderKernel(Kernel):
         return np.where(part == 0, side, np.where(part == 1, self.down, self.axis))
 
 
+def moller_trumbore(
+    O: tuple[np.ndarray, ...], D: tuple[np.ndarray, ...], v0, e1, e2, t_min: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Seed 2.29 on components that broadcast together (rays' x, y, z against triangles' v0, e1 = v1 - v0 and
+    e2 = v2 - v0): t, and whether the ray meets the triangle with t > t_min. cross() and dot() written out per
+    component: the reference's operations in its order, without stacking temporaries into (3, ...) ones."""
+    (ox, oy, oz), (dx, dy, dz), (ax, ay, az), (bx, by, bz), (cx, cy, cz) = O, D, v0, e1, e2
+    tx, ty, tz = ox - ax, oy - ay, oz - az  # T = O - v0
+    px, py, pz = dy * cz - dz * cy, dz * cx - dx * cz, dx * cy - dy * cx  # P = D x e2
+    qx, qy, qz = ty * bz - tz * by, tz * bx - tx * bz, tx * by - ty * bx  # Q = T x e1
+    determinant = px * bx + py * by + pz * bz
+    t = (qx * cx + qy * cy + qz * cz) / determinant
+    u = (px * tx + py * ty + pz * tz) / determinant
+    v = (qx * dx + qy * dy + qz * dz) / determinant
+    ok = determinant != 0.0
+    ok &= u >= 0.0
+    ok &= v >= 0.0
+    ok &= u + v <= 1.0
+    ok &= t > t_min
+    return t, ok
+
+
 class TrianglesKernel(Kernel):
     """Moller-Trumbore (seed 2.29) over all triangles of a mesh at once, first triangle on ties."""
 
@@ -462,26 +484,12 @@ class TrianglesKernel(Kernel):
         return self.lower, self.upper
 
     def _hit(self, O, D, t_min, t_max):
-        # cross() and dot() written out per component: the same operations in the same order, without stacking
-        # (T, N) temporaries into (3, T, N) ones
-        dx, dy, dz = D[0][None], D[1][None], D[2][None]  # (1, N)
-        (ax, ay, az), (bx, by, bz), (cx, cy, cz) = self.v0, self.e1, self.e2  # (T, 1) each
-        tx, ty, tz = O[0][None] - ax, O[1][None] - ay, O[2][None] - az  # T = O - v0
-        px, py, pz = dy * cz - dz * cy, dz * cx - dx * cz, dx * cy - dy * cx  # P = D x e2
-        qx, qy, qz = ty * bz - tz * by, tz * bx - tx * bz, tx * by - ty * bx  # Q = T x e1
-        determinant = px * bx + py * by + pz * bz
-        t = (qx * cx + qy * cy + qz * cz) / determinant
-        u = (px * tx + py * ty + pz * tz) / determinant
-        v = (qx * dx + qy * dy + qz * dz) / determinant
-        limit = t_max[None, :] if isinstance(t_max, np.ndarray) else t_max
-        ok = determinant != 0.0
-        ok &= u >= 0.0
-        ok &= v >= 0.0
-        ok &= u + v <= 1.0
-        ok &= t > t_min
-        ok &= t < limit
-        t = np.where(ok, t, np.inf)
-        t = spread(t, (t.shape[0], ray_count(O, D)))
+        # (T, N): (T, 1) triangles broadcast against (1, N) rays, so that NumPy's inner loops run along the rays
+        t, ok = moller_trumbore(
+            (O[0][None], O[1][None], O[2][None]), (D[0][None], D[1][None], D[2][None]), self.v0, self.e1, self.e2, t_min
+        )
+        ok &= t < (t_max[None, :] if isinstance(t_max, np.ndarray) else t_max)
+        t = spread(np.where(ok, t, np.inf), (t.shape[0], ray_count(O, D)))
         nearest = np.argmin(t, axis=0)  # first triangle on ties, as the reference's loop
         return t.min(axis=0), nearest
 
@@ -498,20 +506,8 @@ class TrianglesKernel(Kernel):
     def packed_t(self, O: np.ndarray, D: np.ndarray, packed: np.ndarray, t_min: float) -> np.ndarray:
         """Rays (3, P), each against its own triangles packed (9, P, K) -> t (P, K), inf where the test fails or
         t <= t_min: the operations of _hit, so the same t for the same ray and triangle."""
-        dx, dy, dz = D[0][:, None], D[1][:, None], D[2][:, None]  # (P, 1)
-        ax, ay, az, bx, by, bz, cx, cy, cz = packed  # (P, K) each
-        tx, ty, tz = O[0][:, None] - ax, O[1][:, None] - ay, O[2][:, None] - az
-        px, py, pz = dy * cz - dz * cy, dz * cx - dx * cz, dx * cy - dy * cx
-        qx, qy, qz = ty * bz - tz * by, tz * bx - tx * bz, tx * by - ty * bx
-        determinant = px * bx + py * by + pz * bz
-        t = (qx * cx + qy * cy + qz * cz) / determinant
-        u = (px * tx + py * ty + pz * tz) / determinant
-        v = (qx * dx + qy * dy + qz * dz) / determinant
-        ok = determinant != 0.0
-        ok &= u >= 0.0
-        ok &= v >= 0.0
-        ok &= u + v <= 1.0
-        ok &= t > t_min
+        rays = (O[0][:, None], O[1][:, None], O[2][:, None]), (D[0][:, None], D[1][:, None], D[2][:, None])  # (P, 1)
+        t, ok = moller_trumbore(*rays, packed[0:3], packed[3:6], packed[6:9], t_min)
         return np.where(ok, t, np.inf)
 
     def normal(self, P, part):

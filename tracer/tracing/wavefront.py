@@ -7,6 +7,7 @@ their weight multiplied by r. FindIntensity runs per light over all hit points, 
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -91,7 +92,7 @@ class PreparedScene:
         self.dtype = np.dtype(settings.dtype)
         self.robust = settings.numerics == "robust"
         build = make_robust_kernel if self.robust else make_kernel
-        primitives = tf.world_primitives(self.scene)
+        primitives = _world_primitives(self.scene)
         self.kernels = [_kernel(build, primitive, self.dtype) for primitive in primitives]  # per object: normals
         # a scene of documented spheres only: every hit's normal from its centre, gathered, in one set of passes
         self.centers = None
@@ -207,12 +208,12 @@ class PreparedScene:
         return mirrors
 
     def _mirror_sets(
-        self, rows: np.ndarray, pixel: np.ndarray, came_from: np.ndarray, total: int
+        self, rows: np.ndarray | None, pixels: np.ndarray | None, pixel: np.ndarray, came_from: np.ndarray, total: int
     ) -> tuple[list, np.ndarray | None]:
         """The first mirror rays' sets for Hierarchy.closest: rays (n,) of camera rays pixel (n,) off objects
-        came_from (n,), of total camera rays in rows (R,) -> (kernel, rays) for every kernel that the rays off a
-        culled plane can meet (from self.mirrors), and the other rays (walked), or (None, None) where no ray comes
-        off such a plane."""
+        came_from (n,), of total camera rays in rows (R,) or of flat pixels (P,) -> (kernel, rays) for every kernel
+        that the rays off a culled plane can meet (from self.mirrors), and the other rays (walked), or (None, None)
+        where no ray comes off such a plane."""
         sets, culled = [], []
         position = None  # each camera ray's mirror ray, where it has one off the plane at hand
         for plane, rectangles in self.mirrors.items():
@@ -224,7 +225,7 @@ class PreparedScene:
                 position = np.full(total, -1, dtype=np.intp)
             camera_ray = pixel.take(off_plane)
             position[camera_ray] = off_plane
-            for kernel, camera_rays in rectangles.rays(rows):
+            for kernel, camera_rays in rectangles.rays(rows) if rows is not None else rectangles.pixel_rays(pixels):
                 if camera_rays is None:
                     sets.append((kernel, off_plane))
                     continue
@@ -259,16 +260,7 @@ class PreparedScene:
         settings, camera = self.scene.render, self.scene.camera
         if all(h.root is None for h in (self.camera_hierarchy, self.shadow_hierarchy, self.mirror_hierarchy)):
             return
-        columns = np.unique(np.linspace(0, settings.width - 1, 32).astype(np.int64))
-        rows = np.unique(np.linspace(0, settings.height - 1, 24).astype(np.int64))
-        pixels = (rows[:, None] * settings.width + columns[None, :]).ravel()
-        with quiet():
-            D = cam.pixel_directions(camera, settings, pixels)
-            O = column(camera.location, np.float64)
-            if not cam.shares_origin(camera):
-                O = cam.pixel_starts(camera, settings, pixels, D)[0]
-            O, D = O.astype(self.dtype), D.astype(self.dtype)
-        self._samples = (O, D)
+        O, D = self._samples = _sample_rays(camera, settings)
         for hierarchy in {
             id(h): h for h in (self.camera_hierarchy, self.shadow_hierarchy, self.mirror_hierarchy)
         }.values():
@@ -617,11 +609,14 @@ class PreparedScene:
         far: np.ndarray | None = None,
         footprint: Footprint | RayStore | None = None,
         alpha: np.ndarray | None = None,
+        pixels: np.ndarray | None = None,
     ) -> np.ndarray:
         """Camera rays (3, N) -> linear colors (3, N), unclamped; alpha (N,), where given (ones), is set to 0 for
         the rays that meet a holdout first, or nothing with a transparent film.
 
-        rows: the image rows (R,) that the rays are, ordered as camera.band_directions gives them, if they are.
+        rows: the image rows (R,) that the rays are, ordered as camera.band_directions gives them, if they are;
+        else pixels: the flat pixels (P,) whose samples they are, pixel by pixel, where known (either lets the
+        screen rectangles cull the camera rays and their first mirror rays).
         origins (3, N): where each ray starts (None: all at the camera); far (N,): where each stops (None: never),
         as camera.band_starts gives them for a clipped or orthographic camera. footprint: records which of the N
         camera rays' trees meet its volume."""
@@ -643,10 +638,10 @@ class PreparedScene:
         came_from = None  # the first mirror rays' objects, where some may come off a culled plane
         for bounce in range(depth + 1):
             sets = walk = None
-            if bounce == 0 and rows is not None and self.screen is not None:
-                sets = self.screen.rays(rows)
+            if bounce == 0 and self.screen is not None and (rows is not None or pixels is not None):
+                sets = self.screen.rays(rows) if rows is not None else self.screen.pixel_rays(pixels)
             elif bounce == 1 and came_from is not None:
-                sets, walk = self._mirror_sets(rows, pixel, came_from, total)
+                sets, walk = self._mirror_sets(rows, pixels, pixel, came_from, total)
             hierarchy = self.camera_hierarchy if bounce == 0 else self.mirror_hierarchy
             t, obj, part = hierarchy.closest(O, D, t_min, sets, walk)
             if bounce == 0 and far is not None:  # beyond the camera's clip_end: the nearest hit is, so all are
@@ -711,7 +706,7 @@ class PreparedScene:
                 O = offset_origins(P, N, D, *(part.take(go_on) for part in surface))
             ratio = reflective.take(go_on)
             weight, pixel = ratio if weight is None else weight.take(go_on) * ratio, pixel.take(go_on)
-            if bounce == 0 and rows is not None and self.mirrors:
+            if bounce == 0 and (rows is not None or pixels is not None) and self.mirrors:
                 came_from = obj.take(go_on)
             counts.reflection += D.shape[1]
             t_min = 0.0 if self.robust else REFLECTION_T_MIN
@@ -842,7 +837,9 @@ class PreparedScene:
                 origins, far = cam.pixel_starts(camera, settings, pixels, directions)
                 origins = origins.astype(self.dtype)
             alpha = np.ones(directions.shape[1], dtype=self.dtype) if self.has_alpha else None
-            color = self.trace(directions, counts, rows, origins, far, footprint, alpha)
+            color = self.trace(
+                directions, counts, rows, origins, far, footprint, alpha, None if rows is not None else pixels
+            )
         if alpha is not None:
             color = np.concatenate((color, alpha[None]))
         samples = color.reshape(self.channels, -1, settings.samples)
@@ -869,8 +866,49 @@ def spot_attenuation(cosine: np.ndarray, spot: sc.SpotLight) -> np.ndarray:
     return attenuation.astype(cosine.dtype, copy=False)
 
 
+@functools.lru_cache(maxsize=16)
+def _sample_rays(camera: sc.Camera, settings: sc.RenderSettings) -> tuple[np.ndarray, np.ndarray]:
+    """The camera's rays (3, n) each, origins and directions in the tracing dtype, through a 32 x 24 grid of its
+    pixels (PreparedScene._choose_brute_force), kept for the frames of an animation (its camera stays put);
+    read-only."""
+    columns = np.unique(np.linspace(0, settings.width - 1, 32).astype(np.int64))
+    rows = np.unique(np.linspace(0, settings.height - 1, 24).astype(np.int64))
+    pixels = (rows[:, None] * settings.width + columns[None, :]).ravel()
+    with quiet():
+        D = cam.pixel_directions(camera, settings, pixels)
+        O = column(camera.location, np.float64)
+        if not cam.shares_origin(camera):
+            O = cam.pixel_starts(camera, settings, pixels, D)[0]
+        O, D = O.astype(settings.dtype), D.astype(settings.dtype)
+    O.flags.writeable = D.flags.writeable = False
+    return O, D
+
+
 _KERNELS: OrderedDict[tuple, object] = OrderedDict()
 KERNEL_CACHE_SIZE = 512
+_STILL_PRIMITIVES: OrderedDict[int, tuple[sc.SceneObject, tf.WorldPrimitive]] = OrderedDict()
+
+
+def _world_primitives(scene: sc.Scene) -> list[tf.WorldPrimitive]:
+    """tf.world_primitives(scene), keeping those of the objects that are not the vane's parts (which the heading
+    does not move: tf.object_frame) for the same objects in later scenes: an animation's frames share their objects,
+    and their 14 primitives cost about 1 ms a frame. Kept by the object itself (scenes are immutable), at most
+    KERNEL_CACHE_SIZE of them."""
+    parts = scene.vane.parts if scene.vane is not None else ()
+    primitives = []
+    for obj in scene.objects:
+        if obj.name in parts:
+            primitives.append(tf.world_primitive(obj, scene.vane))
+            continue
+        kept = _STILL_PRIMITIVES.get(id(obj))
+        if kept is None or kept[0] is not obj:
+            kept = _STILL_PRIMITIVES[id(obj)] = (obj, tf.world_primitive(obj, scene.vane))
+            if len(_STILL_PRIMITIVES) > KERNEL_CACHE_SIZE:
+                _STILL_PRIMITIVES.popitem(last=False)
+        else:
+            _STILL_PRIMITIVES.move_to_end(id(obj))
+        primitives.append(kept[1])
+    return primitives
 
 
 def _kernel(make, first: object, second: object):
