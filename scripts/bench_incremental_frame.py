@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from tracer.frames import incremental
 from tracer.frames.animate import headings
-from tracer.geometry.footprint import swept_volume
+from tracer.geometry.footprint import heading_parts, swept_volume
 from tracer.scene.loader import default_scene
 from tracer.tracing.images import FramePng, to_8bit
 from tracer.tracing.wavefront import PreparedScene
@@ -47,8 +47,11 @@ def main() -> None:
     candidates = np.flatnonzero(touched)
     print(f"run of {len(run)} frames; the boxes' pixels {candidates.size} ({candidates.size / touched.size:.1%})")
     print(f"the image without the vane with its footprint, one process: {whole:.0f} ms")
+    parts = []
+    spent = cpu(lambda: parts.append(heading_parts(scene, np.dtype(scene.render.dtype), np.array(run))))
+    print(f"the vane's parts at the run's headings, one process: {spent:.0f} ms")
     marks = []
-    spent = cpu(lambda: marks.append(incremental._marks(scene, still, candidates, np.array(run))))
+    spent = cpu(lambda: marks.append(incremental._marks(still, candidates, parts[0])))
     print(f"the run's marks, one process: {spent:.0f} ms")
     prepare, trace, counts = [], [], []
     for k, heading in enumerate(run):

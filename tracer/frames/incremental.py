@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import pickle
 from collections.abc import Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 
 import numpy as np
 
-from ..geometry.footprint import HeadingMarks, heading_marks, swept_volume
+from ..geometry.footprint import HeadingMarks, HeadingParts, heading_marks, heading_parts, swept_volume
 from ..scene import scene as sc
 from ..tracing.raystore import RayStore
 from ..tracing.wavefront import PreparedScene, RayCounts
@@ -58,8 +59,14 @@ def render_frames(
     still = None if volume is None else without_vane(scene)
     base: RenderResult | None = None
     for run in runs(frame_headings):
+        headings = np.array([h for _, h in run])
+        parts = None
         if base is None and still is not None and len(run) >= MIN_FRAMES:
-            base = renderer.render(still, volume=volume)
+            # the parts at the run's headings are made here while the workers trace the image without them
+            with ThreadPoolExecutor(1, "weathervane-parts") as helper:
+                made = helper.submit(heading_parts, scene, dtype, headings)
+                base = renderer.render(still, volume=volume)
+                parts = made.result()
             if base.touched.mean() > FULL_SHARE:
                 still = None
         if base is None or still is None:
@@ -67,7 +74,8 @@ def render_frames(
             for (frame, _), result in zip(run, renderer.render_frames(scenes), strict=True):
                 yield frame, result
             continue
-        marks = run_marks(renderer, scene, still, np.flatnonzero(base.touched), np.array([h for _, h in run]))
+        parts = parts or heading_parts(scene, dtype, headings)
+        marks = run_marks(renderer, still, np.flatnonzero(base.touched), parts)
         # a frame at the heading of the one before it is that frame's image (the vane at rest): nothing to trace
         traced = [k for k, (_, heading) in enumerate(run) if k == 0 or heading != run[k - 1][1]]
         frames = ((scene.with_heading(run[k][1]), marks.at(run[k][1])) for k in traced)
@@ -87,20 +95,19 @@ def without_vane(scene: sc.Scene) -> sc.Scene | None:
     return replace(scene, objects=objects, vane=None) if objects else None
 
 
-def run_marks(
-    renderer: Renderer, scene: sc.Scene, still: sc.Scene, pixels: np.ndarray, headings: np.ndarray
-) -> HeadingMarks:
+def run_marks(renderer: Renderer, still: sc.Scene, pixels: np.ndarray, parts: HeadingParts) -> HeadingMarks:
     """Which of the pixels (P,) each heading of a run changes (footprint.HeadingMarks), their trees traced again in
-    still (scene without its vane) on the workers, a share of the pixels each."""
+    still (the scene without its vane) on the workers, a share of the pixels each; parts: the vane's parts at the
+    run's headings (footprint.heading_parts)."""
     pieces = np.array_split(pixels, max(1, min(renderer.workers, len(pixels))))
-    return HeadingMarks.joined(renderer.map(_marks, [(scene, still, piece, headings) for piece in pieces]))
+    return HeadingMarks.joined(renderer.map(_marks, [(still, piece, parts) for piece in pieces]))
 
 
-def _marks(scene: sc.Scene, still: sc.Scene, pixels: np.ndarray, headings: np.ndarray) -> HeadingMarks:
-    """On a worker: the pixels' ray trees in still (scene without its vane) -> their HeadingMarks for scene's vane."""
+def _marks(still: sc.Scene, pixels: np.ndarray, parts: HeadingParts) -> HeadingMarks:
+    """On a worker: the pixels' ray trees in still (the scene without its vane) -> their HeadingMarks for the parts."""
     store = RayStore()
     PreparedScene(still).render_pixels(pixels, band_samples(still.render), store)
-    return heading_marks(store.segments(), scene, np.dtype(scene.render.dtype), headings)
+    return heading_marks(store.segments(), parts)
 
 
 class TurningFrames:
