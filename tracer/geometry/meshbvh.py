@@ -7,7 +7,7 @@ node) pairs and moves them down one level per step: one slab test over all pairs
 tested over all (pair, triangle) at once, the inner nodes' children as the next level's pairs. Before that walk each
 ray follows one path, always into the child it enters first, and tests that leaf: its hit (usually the nearest, or
 for a shadow ray any) prunes every node beyond it, and the walk starts from the children that path passed by, so no
-box is tested twice. A query costs a few dozen NumPy calls per level, about log2(n / LEAF_TRIANGLES) levels, and
+box is tested twice. A query costs a few dozen NumPy calls per level, about log2(n / leaf size) levels, and
 arithmetic in proportion to the pairs. Camera rays and shadow rays skip all of it where the mesh has a picture
 from their shared point or direction: a few triangle tests per ray and no box.
 The exact test per triangle is the mesh kernel's own (Moller-Trumbore as the seed writes it, or the watertight
@@ -27,19 +27,23 @@ from .meshpicture import TrianglePicture, View
 
 # triangles per leaf: 4 rather than 8 costs one more level of box tests and halves the triangle tests of each leaf
 # a ray reaches; in-process A/B, float64, UV spheres: 4.5% faster at 1,000 triangles, 8% at 16,000, 3.6% at
-# 100,000 and 3.7% at 1,000,000 (float32 at 1,000: 1%); the same hits (only which leaves hold them differs)
-LEAF_TRIANGLES = 4
+# 100,000. Beyond SMALL_LEAVES_UP_TO triangles 8: a million-triangle mesh's first frame is its preparation, which
+# the deeper tree costs (bench_meshes' big part: 11.4 s and 1,013 MiB for all processes with 4, 10.7 s and 899 MiB
+# with 8). The same hits either way (only which leaves hold them differs)
+LEAF_TRIANGLES = 8
+SMALL_LEAF_TRIANGLES = 4
+SMALL_LEAVES_UP_TO = 1 << 17
 MESH_HIERARCHY_TRIANGLES = 32  # a mesh of more triangles gets its own hierarchy; below, one test over all of them
 BIG = np.iinfo(np.int64).max
 PICTURES_KEPT = 8  # views per mesh kernel: the camera's and the lights'
 PICTURE_PAYOFF = 0.5  # rays per triangle that a view's queries bring before its picture is made
-LEAF_PAIRS = 1 << 16  # (ray, leaf) pairs per pass of a walk's leaf tests, each of LEAF_TRIANGLES triangles
+LEAF_SLOTS = 1 << 18  # (ray, leaf) pairs times the triangles per leaf, per pass of a walk's leaf tests
 PAIRS = 1 << 17  # (ray, triangle) pairs per pass of a picture search: its temporaries stay a few MB
 
 
 class MeshHierarchy:
     """Nodes (M) in arrays: boxes (3, M) padded in the tracing dtype, children (M,) (-1 at a leaf), and for each
-    leaf its row of leaf_triangles (L, LEAF_TRIANGLES) (indices into the mesh; real marks the filled slots)."""
+    leaf its row of leaf_triangles (L, K) (indices into the mesh; real marks the filled slots), K = leaf_size."""
 
     def __init__(self, triangles: np.ndarray, dtype: np.dtype) -> None:
         """triangles (T, 3 vertices, 3) float64.
@@ -52,6 +56,7 @@ class MeshHierarchy:
         million-triangle mesh's 8 s in each worker). Boxes are made bottom-up once the leaves are known. Nodes are
         numbered level by level; the splits depend on the mesh only."""
         count = len(triangles)
+        self.leaf_size = leaf_size = SMALL_LEAF_TRIANGLES if count <= SMALL_LEAVES_UP_TO else LEAF_TRIANGLES
         first, second, third = triangles[:, 0], triangles[:, 1], triangles[:, 2]
         # the centroids a column at a time: contiguous for take() (which copies a strided array first), and no
         # (T, 3) temporaries at the peak of a million-triangle preparation
@@ -66,7 +71,7 @@ class MeshHierarchy:
         right_side = np.zeros(count, dtype=bool)
         while starts.size:
             sizes = stops - starts
-            is_leaf = sizes <= LEAF_TRIANGLES
+            is_leaf = sizes <= leaf_size
             inner = (~is_leaf).nonzero()[0]
             leaf = is_leaf.nonzero()[0]
             rows = np.full(starts.size, -1, dtype=np.int64)
@@ -146,10 +151,10 @@ class MeshHierarchy:
         self.lower = (lower - pad).astype(dtype).T.copy()  # (3, M)
         self.upper = (upper + pad).astype(dtype).T.copy()
         starts, stops = np.concatenate(leaf_starts), np.concatenate(leaf_stops)
-        slots = starts[:, None] + np.arange(LEAF_TRIANGLES)[None, :]  # (L, K)
+        slots = starts[:, None] + np.arange(leaf_size)[None, :]  # (L, K)
         self.real = slots < stops[:, None]
         # repeats pad a short leaf, as np.resize did: slot k holds member k mod the leaf's size
-        wrapped = starts[:, None] + np.arange(LEAF_TRIANGLES)[None, :] % (stops - starts)[:, None]
+        wrapped = starts[:, None] + np.arange(leaf_size)[None, :] % (stops - starts)[:, None]
         self.leaf_triangles = order[wrapped]
 
 
@@ -286,8 +291,9 @@ class MeshKernel(Kernel):
             slot = picture.entries.take(entry, mode="wrap")
             members = rays[start:stop].take(local, mode="wrap")
             O_p = O if O.shape[1] == 1 else O.take(members, axis=1, mode="wrap")
-            packed = self.flat_packed.take(slot, axis=1, mode="wrap")
-            t = self.inner.packed_t(O_p, D.take(members, axis=1, mode="wrap"), packed, t_min)[:, 0]
+            t = self.inner.packed_t(
+                O_p, D.take(members, axis=1, mode="wrap"), self.flat_packed.take(slot, axis=1, mode="wrap"), t_min
+            )[:, 0]
             if isinstance(t_max, np.ndarray):
                 t[t >= t_max.take(members)] = np.inf
             elif t_max != np.inf:
@@ -385,11 +391,12 @@ class MeshKernel(Kernel):
 
     def _test_leaves(self, O, D, t_min, rays, nodes, best_t, best_part) -> None:
         """The triangles of leaves (P,) met by rays (P,): the nearest hit nearer than each ray's best so far replaces
-        it, the lowest triangle index on equal t. In pieces of LEAF_PAIRS pairs: the test's (pair, triangle)
+        it, the lowest triangle index on equal t. In pieces of LEAF_SLOTS (pair, triangle) slots: the test's
         temporaries of a whole band's rays were the largest part of a million-triangle frame's memory; a ray whose
         pairs fall in two pieces keeps the same nearest hit and lowest index, which do not depend on the order."""
-        for start in range(0, rays.size, LEAF_PAIRS):
-            piece = slice(start, start + LEAF_PAIRS)
+        pairs = LEAF_SLOTS // self.hierarchy.leaf_size
+        for start in range(0, rays.size, pairs):
+            piece = slice(start, start + pairs)
             self._test_leaf_piece(O, D, t_min, rays[piece], nodes[piece], best_t, best_part)
 
     def _test_leaf_piece(self, O, D, t_min, rays, nodes, best_t, best_part) -> None:
@@ -397,6 +404,7 @@ class MeshKernel(Kernel):
         triangles, real = self.hierarchy.leaf_triangles.take(row, axis=0), self.hierarchy.real.take(row, axis=0)
         O_r, D_r = O.take(rays, axis=1, mode="wrap"), D.take(rays, axis=1, mode="wrap")  # in range: no bounds check
         t = self.inner.packed_t(O_r, D_r, self.packed.take(row, axis=1, mode="wrap"), t_min)
+        O_r = D_r = None  # memory: the pieces' largest arrays are below
         best, found = best_t.take(rays)[:, None], (best_part.take(rays) != BIG)[:, None]
         # nearer than the best so far, or as near (a tie: the lower index wins below); best_t starts at t_max
         t = np.where(real & ((t < best) | ((t == best) & found)), t, np.inf)

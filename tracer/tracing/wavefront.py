@@ -890,11 +890,14 @@ _STILL_PRIMITIVES: OrderedDict[int, tuple[sc.SceneObject, tf.WorldPrimitive]] = 
 
 
 def _world_primitives(scene: sc.Scene) -> list[tf.WorldPrimitive]:
-    """tf.world_primitives(scene), keeping those of the objects that are not the vane's parts (which the heading
-    does not move: tf.object_frame) for the same objects in later scenes: an animation's frames share their objects,
-    and their 14 primitives cost about 1 ms a frame. Kept by the object itself (scenes are immutable), at most
-    KERNEL_CACHE_SIZE of them."""
-    parts = scene.vane.parts if scene.vane is not None else ()
+    """tf.world_primitives(scene), keeping, where the scene has a vane, those of the objects that are not its parts
+    (which the heading does not move: tf.object_frame) for the same objects in later scenes: an animation's frames
+    share their objects, and their 14 primitives cost about 1 ms a frame. Kept by the object itself (scenes are
+    immutable), at most KERNEL_CACHE_SIZE of them. Without a vane nothing is kept (a million triangles' world
+    arrays are 96 MB in each worker)."""
+    if scene.vane is None:
+        return tf.world_primitives(scene)
+    parts = scene.vane.parts
     primitives = []
     for obj in scene.objects:
         if obj.name in parts:
