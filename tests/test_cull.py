@@ -200,6 +200,21 @@ def test_mirror_rectangles_hold_every_pixel_whose_mirror_ray_meets_a_sphere() ->
     assert rays.size < 0.5 * D.shape[1]  # and it culls: the ball's mirror image covers a small part
 
 
+def test_pixel_rays_give_a_list_of_pixels_the_rays_its_rows_would_have() -> None:
+    """An animation's re-traced pixels are culled as whole rows are: the same pixels for each kernel."""
+    scene = default_scene().with_render(width=160, height=120, samples=2)
+    screen = PreparedScene(scene).screen
+    rows = np.arange(30, 100)
+    pixels = (rows[:, None] * 160 + np.arange(160)[None, :]).ravel()
+    by_rows = screen.rays(rows)
+    assert [(k, r.tolist()) for k, r in by_rows] == [(k, r.tolist()) for k, r in screen.pixel_rays(pixels)]
+    some = pixels[np.random.default_rng(0).random(pixels.size) < 0.1]
+    by_list = dict(screen.pixel_rays(some))
+    for kernel, rays in by_rows:
+        expected = np.intersect1d(pixels[rays // 2], some)
+        assert np.array_equal(np.unique(some[by_list.get(kernel, np.zeros(0, int)) // 2]), expected), kernel
+
+
 def test_a_camera_among_the_objects_gets_no_screen_rectangles() -> None:
     from tracer.scene import scene as sc
 

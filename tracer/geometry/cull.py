@@ -17,6 +17,7 @@ is left out of it, and its kernel sees every ray (`whole`); the other boxes are 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Iterator
 
 import numpy as np
 
@@ -364,33 +365,39 @@ class ScreenRectangles:
         """rays() for camera rays of flat pixels j * width + i (P,) in any order (the pixels an animation's frame
         traces again), ordered pixel, sample as camera.pixel_directions gives them."""
         column, row = pixels % self.width, pixels // self.width
-        sets = []
-        samples = np.arange(self.samples)
-        for kernel, (first_column, first_row, last_column, last_row) in zip(
-            self.kernels, self.rectangles.tolist(), strict=True
-        ):
-            if last_column < first_column:
-                continue
-            inside = (column >= first_column) & (column <= last_column) & (row >= first_row) & (row <= last_row)
-            positions = inside.nonzero()[0]
-            if positions.size:
-                sets.append((kernel, (positions[:, None] * self.samples + samples[None, :]).ravel()))
-        return sets + [(kernel, None) for kernel in self.whole]
+        return self._sets(
+            (kernel, ((column >= first_column) & (column <= last_column) & (row >= first_row) & (row <= last_row)))
+            for kernel, first_column, first_row, last_column, last_row in self._nonempty()
+        )
 
     def rays(self, rows: np.ndarray) -> list[tuple[int, np.ndarray | None]]:
         """Image rows (R,) of a band, ascending -> (kernel index, ray indices ascending) for every kernel that
         the band's camera rays can meet; rays are ordered row, column, sample as in camera.band_directions. A
         kernel left out of the picture comes with None: every ray."""
-        sets = []
-        samples = np.arange(self.samples)
+        found = []
+        for kernel, first_column, first_row, last_column, last_row in self._nonempty():
+            positions = ((rows >= first_row) & (rows <= last_row)).nonzero()[0]
+            columns = np.arange(first_column, last_column + 1)
+            found.append((kernel, (positions[:, None] * self.width + columns[None, :]).ravel()))
+        return self._sets(found)
+
+    def _nonempty(self) -> Iterator[tuple[int, int, int, int, int]]:
+        """Each pictured kernel whose rectangle holds a pixel, with its first column, first row, last column and
+        last row."""
         for kernel, (first_column, first_row, last_column, last_row) in zip(
             self.kernels, self.rectangles.tolist(), strict=True
         ):
-            if last_column < first_column:
-                continue
-            positions = ((rows >= first_row) & (rows <= last_row)).nonzero()[0]
-            if positions.size == 0:
-                continue
-            pixels = (positions[:, None] * self.width + np.arange(first_column, last_column + 1)[None, :]).ravel()
-            sets.append((kernel, (pixels[:, None] * self.samples + samples[None, :]).ravel()))
+            if last_column >= first_column:
+                yield kernel, first_column, first_row, last_column, last_row
+
+    def _sets(self, found: Iterable[tuple[int, np.ndarray]]) -> list[tuple[int, np.ndarray | None]]:
+        """(kernel, its rays' pixels as positions (n,), or a mask over them) -> (kernel, ray indices) with every
+        sample of each pixel, for the kernels with any, then the kernels left out of the picture (None: every
+        ray)."""
+        sets = []
+        samples = np.arange(self.samples)
+        for kernel, pixels in found:
+            positions = pixels.nonzero()[0] if pixels.dtype == bool else pixels
+            if positions.size:
+                sets.append((kernel, (positions[:, None] * self.samples + samples[None, :]).ravel()))
         return sets + [(kernel, None) for kernel in self.whole]
