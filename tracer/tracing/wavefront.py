@@ -180,8 +180,8 @@ class PreparedScene:
     def _mirror_rectangles(self, primitives: list) -> dict[int, ScreenRectangles]:
         """For each reflective plane that camera rays can meet: which of its mirror rays each bounded kernel can
         meet, by the pixels of the camera rays they continue (ScreenRectangles.mirrored). Keyed by the plane's
-        object index. None where the mirror rays are not walked through boxes (brute force) or rows are not
-        whole."""
+        object index; empty where the camera rays have no screen rectangles or the mirror rays are not walked
+        through boxes (brute force tests every kernel on every ray)."""
         mirrors = {}
         hierarchy = self.mirror_hierarchy
         if self.screen is None or hierarchy.boxes is None or hierarchy.brute:
