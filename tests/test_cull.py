@@ -215,6 +215,29 @@ def test_pixel_rays_give_a_list_of_pixels_the_rays_its_rows_would_have() -> None
         assert np.array_equal(np.unique(some[by_list.get(kernel, np.zeros(0, int)) // 2]), expected), kernel
 
 
+def test_pixel_rays_of_ascending_runs_are_those_of_any_order() -> None:
+    """Pixels in ascending runs (frames traced together) found by binary searches: each kernel gets the rays the
+    masks over every pixel give it, or with frame_of those of its own run only."""
+    scene = default_scene().with_render(width=160, height=120, samples=4)
+    screen = PreparedScene(scene).screen
+    rng = np.random.default_rng(3)
+    frames = [np.sort(rng.choice(160 * 120, size, replace=False)) for size in (900, 0, 2500, 40)]
+    pixels = np.concatenate(frames)
+    runs = np.concatenate(([0], np.cumsum([frame.size for frame in frames]))).tolist()
+    anywhere = [(k, r.tolist()) for k, r in screen.pixel_rays(pixels)]
+    assert anywhere == [(k, r.tolist()) for k, r in screen.pixel_rays(pixels, runs)]
+    frame_of = [-1] * (max(screen.kernels) + 1)
+    frame_of[screen.kernels[0]], frame_of[screen.kernels[1]] = 2, 3
+    own = dict(screen.pixel_rays(pixels, runs, frame_of))
+    for kernel, rays in anywhere:
+        if frame_of[kernel] < 0:
+            assert own[kernel].tolist() == rays
+            continue
+        start, end = runs[frame_of[kernel]] * 4, runs[frame_of[kernel] + 1] * 4  # four samples a pixel
+        expected = [ray for ray in rays if start <= ray < end]
+        assert own.get(kernel, np.zeros(0, int)).tolist() == expected
+
+
 def test_a_camera_among_the_objects_gets_no_screen_rectangles() -> None:
     from tracer.scene import scene as sc
 

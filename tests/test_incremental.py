@@ -11,9 +11,12 @@ import pytest
 from tests.random_scenes import random_scene_document
 from tracer.frames import incremental
 from tracer.frames.animate import headings
+from tracer.geometry import bvh
 from tracer.geometry.footprint import swept_volume
+from tracer.geometry.rayframes import RayFrames
 from tracer.scene import scene as sc
 from tracer.scene.loader import default_scene, scene_from_dict
+from tracer.tracing.wavefront import PreparedScene
 from tracer.workers.parallel import Renderer
 
 
@@ -192,3 +195,58 @@ def test_the_vanes_own_subtree_traces_the_same_bytes(
     monkeypatch.setattr(bvh, "_split_build", lambda *args: joined(*args[:-1], None))
     for turn, expected in zip(turns, split, strict=True):
         assert np.array_equal(image(base.with_heading(turn)), expected), f"heading {turn}"
+
+
+def assert_frames_together_are_frames_alone(scene: sc.Scene, turns: list[float], seed: int) -> None:
+    """Each frame's pixels traced with the other frames' (PreparedScene with headings: its parts' copies see only its
+    rays) get the bytes and ray counts of a trace of that frame alone, whole or in pieces that split frames."""
+    rng = np.random.default_rng(seed)
+    size = scene.render.width * scene.render.height
+    frame_pixels = [np.sort(rng.choice(size, size // 3, replace=False)) for _ in turns]
+    together = PreparedScene(scene, tuple(turns))
+    for max_samples in (None, 97):
+        traced = together.render_frame_pixels(frame_pixels, max_samples)
+        for heading, pixels, (colors, counts) in zip(turns, frame_pixels, traced, strict=True):
+            alone, alone_counts = PreparedScene(scene.with_heading(heading)).render_pixels(pixels, max_samples)
+            assert np.array_equal(colors, alone), f"heading {heading}"
+            assert counts == alone_counts
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize(("dtype", "numerics"), [("float64", "documented"), ("float32", "robust")])
+@pytest.mark.parametrize("brute_scale", [0.0, 1e9])  # every hierarchy brute force; none
+def test_frames_traced_together_are_each_frame_alone(
+    seed: int, dtype: str, numerics: str, brute_scale: float, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(bvh, "BRUTE_SCALE", brute_scale)
+    scene = turning_scene(seed, dtype, numerics)
+    assert_frames_together_are_frames_alone(scene, random_headings(seed, 5), seed)
+
+
+@pytest.mark.parametrize("seed", [1, 4, 8, 9])
+def test_frames_traced_together_with_blender_fields(seed: int) -> None:
+    """Holdouts, ray visibility, two-sided materials, spot lights, several samples: as each frame alone."""
+    from tests.random_scenes import extended_scene_document
+
+    document = extended_scene_document(seed, width=32, height=24)
+    bounded = [obj["name"] for obj in document["objects"] if obj["type"] != "plane"]
+    document["vane"] = {"parts": bounded[::2], "pivot": [0.2, 0.5, 0.3], "axis": [0.1, 0.0, 1.0]}
+    document["render"].update(depth=3, samples=4)
+    assert_frames_together_are_frames_alone(scene_from_dict(document), random_headings(seed, 4), seed)
+
+
+def test_ray_frames_select_each_frames_rays() -> None:
+    """A query of runs (a shadow query's lights), each ordered by frame: select() gives a frame's rays of a set, as
+    a mask over every ray's frame does."""
+    rng = np.random.default_rng(5)
+    frame_of_ray = np.concatenate([np.sort(rng.integers(0, 4, size)) for size in (37, 0, 23)])
+    runs, start = [], 0
+    for size in (37, 0, 23):
+        runs.append(RayFrames.of(frame_of_ray[start : start + size], np.arange(5), start))
+        start += size
+    frames = RayFrames.joined(runs)
+    assert frames.sizes.tolist() == np.bincount(frame_of_ray, minlength=4).tolist()
+    subset = np.sort(rng.choice(frame_of_ray.size, 25, replace=False))
+    for frame in range(4):
+        assert frames.select(frame, None).tolist() == np.flatnonzero(frame_of_ray == frame).tolist()
+        assert frames.select(frame, subset).tolist() == subset[frame_of_ray[subset] == frame].tolist()

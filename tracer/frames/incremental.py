@@ -78,8 +78,8 @@ def render_frames(
         marks = run_marks(renderer, still, np.flatnonzero(base.touched), parts)
         # a frame at the heading of the one before it is that frame's image (the vane at rest): nothing to trace
         traced = [k for k, (_, heading) in enumerate(run) if k == 0 or heading != run[k - 1][1]]
-        frames = ((scene.with_heading(run[k][1]), marks.at(run[k][1])) for k in traced)
-        results = renderer.render_pixel_frames(frames, base.image)
+        frames = ((run[k][1], marks.at(run[k][1])) for k in traced)
+        results = renderer.render_pixel_frames(scene, frames, base.image)
         last = None
         for k, (frame, heading) in enumerate(run):
             if k == 0 or heading != run[k - 1][1]:

@@ -28,6 +28,7 @@ from .kernels import (
 )
 from .meshbvh import MeshKernel
 from .meshpicture import View
+from .rayframes import RayFrames
 
 # (kernel index, the indices (n,) of the rays it may meet, or None: every ray) for each kernel a cull gives rays to
 Sets = list[tuple[int, np.ndarray | None]]
@@ -146,8 +147,12 @@ class Hierarchy:
         dtype: np.dtype,
         owners: list[int] | None = None,
         moving: frozenset[int] | None = None,
+        frame_of: list[int] | None = None,
     ) -> None:
         """kernels are the hierarchy's leaves; owners[i] is the scene object kernel i belongs to (default: i).
+
+        frame_of: for several frames traced at once (wavefront.PreparedScene with headings), the frame whose rays
+        kernel i sees (-1: every frame's); a query then names each ray's frame (rayframes.RayFrames).
 
         moving: the owners that move between the frames of an animation (the vane's parts). Where some bounded
         kernels move and some do not, the root has two children, the still kernels' subtree (kept between frames,
@@ -155,12 +160,15 @@ class Hierarchy:
         Boxes only decide which rays a kernel sees, so the images are the same bytes with either tree."""
         self.kernels = kernels
         self.owners = owners if owners is not None else list(range(len(kernels)))
+        self.frame_of = None if frame_of is None or max(frame_of, default=-1) < 0 else frame_of
         self.dtype = dtype
         boxes = {}
         self.unbounded: list[int] = []
         for index, kernel in enumerate(kernels):
             box = kernel.bounds()
             if box is None or isinstance(kernel, PlaneKernel):
+                if self.frame_of is not None and self.frame_of[index] >= 0:
+                    raise ValueError("a part that differs by frame must be bounded")
                 self.unbounded.append(index)
             else:
                 boxes[index] = box
@@ -317,6 +325,7 @@ class Hierarchy:
         t_min: float,
         sets: Sets | None = None,
         walk: np.ndarray | None = None,
+        frames: RayFrames | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,).
 
@@ -324,12 +333,19 @@ class Hierarchy:
         bounded kernel that any ray can meet the rays (n,) that can, or None for all (cull.ScreenRectangles); the
         hierarchy is then neither walked nor replaced by brute force, except for the rays walk (m,), which the
         sets leave out (the mirror rays of what is not a culled plane) and which go through the hierarchy as
-        without sets (walked only: a hierarchy that brute force serves is not given sets)."""
+        without sets (walked only: a hierarchy that brute force serves is not given sets). frames: each ray's frame,
+        where kernels differ by frame (frame_of); without it every kernel sees every ray."""
         with quiet():
-            return self._closest(O, D, t_min, sets, walk)
+            return self._closest(O, D, t_min, sets, walk, frames if self.frame_of is not None else None)
 
     def _closest(
-        self, O: np.ndarray, D: np.ndarray, t_min: float, sets: Sets | None, walk: np.ndarray | None = None
+        self,
+        O: np.ndarray,
+        D: np.ndarray,
+        t_min: float,
+        sets: Sets | None,
+        walk: np.ndarray | None = None,
+        frames: RayFrames | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         count = ray_count(O, D)
         best_t = np.full(count, np.inf, dtype=self.dtype)
@@ -369,14 +385,20 @@ class Hierarchy:
             limit = best_t.copy() if self.unbounded else math.inf  # the walk's limit: the planes' hits
             shared = self._shared_terms(D)
             reach = float(np.maximum(O.max(), -O.min())) if count else 0.0  # for _inside_padding, once a query
+            by_frame = []  # kernels that see one frame's rays: tested on those only (_evaluate)
             for index in self.boxes[0] if self.boxes is not None else []:
+                if frames is not None and self.frame_of[index] >= 0:
+                    by_frame.append((index, None))
+                    continue
                 offer(index, None, *self._brute_hit(index, O, D, t_min, math.inf, limit, shared, reach))
+            for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, by_frame, frames=frames):
+                offer(index, rays, t, part)
             return best_t, best_object, best_part
         if sets is None:  # the planes' hits bound the walk
             sets = self._walk(O, D, np.arange(count), t_min, best_t)
         elif walk is not None:
             sets = sets + self._walk(O, D, walk, t_min, best_t)
-        for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, sets):
+        for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, sets, frames=frames):
             offer(index, rays, t, part)
         return best_t, best_object, best_part
 
@@ -444,33 +466,51 @@ class Hierarchy:
         planes: bool = True,
         sets: Sets | None = None,
         views: tuple[list[View], np.ndarray] | None = None,
+        frames: RayFrames | None = None,
     ) -> np.ndarray:
         """Whether anything lies on each ray (3, N) with t_min < t < t_max: bool (N,), stopping at the first.
 
         t_max is one number or one per ray (N,); planes=False leaves out the unbounded surfaces (for rays already
         tested with blocked_by_planes()); sets as for closest(); views: the views (k,) that the rays share a point
-        or a direction of (a light's), and each ray's index (N,) among them, for the meshes' pictures."""
+        or a direction of (a light's), and each ray's index (N,) among them, for the meshes' pictures; frames as for
+        closest()."""
+        frames = frames if self.frame_of is not None else None
         with quiet():
             blocked = self._blocked_by_planes(O, L, t_min, t_max) if planes else np.zeros(ray_count(O, L), bool)
             if self.brute and sets is None:
                 shared = self._shared_terms(L)
+                by_frame = []  # kernels that see one frame's rays: tested on those only (_evaluate)
                 for index in self.boxes[0] if self.boxes is not None else []:
+                    if frames is not None and self.frame_of[index] >= 0:
+                        by_frame.append((index, None))
+                        continue
                     blocked |= self._brute_blocks(index, O, L, t_min, t_max, shared)
-                return blocked
+                return self._occluded_in_sets(O, L, t_min, t_max, blocked, by_frame, views, frames)
             if sets is None:
                 sets = self._walk(O, L, indices(~blocked), t_min, t_max)  # rays the planes block go no further
-            return self._occluded_in_sets(O, L, t_min, t_max, blocked, sets, views)
+            return self._occluded_in_sets(O, L, t_min, t_max, blocked, sets, views, frames)
 
     def blocked_by_planes(
-        self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray, whole: list[int] = ()
+        self,
+        O: np.ndarray,
+        L: np.ndarray,
+        t_min: float,
+        t_max: float | np.ndarray,
+        whole: list[int] = (),
+        frames: RayFrames | None = None,
     ) -> np.ndarray:
         """occluded() over the unbounded surfaces and the bounded kernels whole (those a light's picture leaves
-        out, each tested on every ray as brute force tests it): bool (N,)."""
+        out, each tested on every ray as brute force tests it, or on its frame's rays): bool (N,)."""
+        frames = frames if self.frame_of is not None else None
         with quiet():
             blocked = self._blocked_by_planes(O, L, t_min, t_max)
+            by_frame = []
             for index in whole:
+                if frames is not None and self.frame_of[index] >= 0:
+                    by_frame.append((index, None))
+                    continue
                 blocked |= self._brute_blocks(index, O, L, t_min, t_max, None)
-            return blocked
+            return self._occluded_in_sets(O, L, t_min, t_max, blocked, by_frame, frames=frames)
 
     def _blocked_by_planes(self, O: np.ndarray, L: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
         blocked = np.zeros(ray_count(O, L), dtype=bool)
@@ -488,8 +528,9 @@ class Hierarchy:
         blocked: np.ndarray,
         sets: Sets,
         views: tuple[list[View], np.ndarray] | None = None,
+        frames: RayFrames | None = None,
     ) -> np.ndarray:
-        for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, sets, any_hit=True, views=views):
+        for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, sets, any_hit=True, views=views, frames=frames):
             hits = indices(t < np.inf)
             blocked[hits if rays is None else rays.take(hits)] = True
         return blocked
@@ -503,15 +544,21 @@ class Hierarchy:
         sets: Sets,
         any_hit: bool = False,
         views: tuple[list[View], np.ndarray] | None = None,
+        frames: RayFrames | None = None,
     ) -> list[tuple[int, np.ndarray | None, np.ndarray, np.ndarray]]:
         """(kernel index, rays (n,)) sets -> (kernel index, rays (m,), t (m,), part (m,)) for the rays that pass its
         oriented box (rays None: every ray, and the kernel's padded box drops hits as brute force's does); kernels
         of one class that allow it are tested together in one batch (Kernel.batched), since here each NumPy call
         costs more than the arithmetic on a few hundred rays. any_hit: only whether a ray hits
-        matters (shadow rays), which lets a mesh's own hierarchy stop at its first hit; views as for occluded()."""
+        matters (shadow rays), which lets a mesh's own hierarchy stop at its first hit; views as for occluded().
+        frames: each ray's frame; a kernel of one frame (frame_of) is given only that frame's rays of its set."""
         results, batches = [], {}
         for index, rays in sets:
             kernel = self.kernels[index]
+            if frames is not None and self.frame_of[index] >= 0:
+                rays = frames.select(self.frame_of[index], rays)
+                if rays.size == 0:
+                    continue
             if rays is None and not isinstance(kernel, MeshKernel):  # every ray, in place: brute force's test
                 results.append((index, None, *self._brute_hit(index, O, D, t_min, t_max, t_max)))
                 continue

@@ -361,14 +361,37 @@ class ScreenRectangles:
         area = np.maximum(last_column - first_column + 1, 0) * np.maximum(last_row - first_row + 1, 0)
         return area / float(self.width * self.height)
 
-    def pixel_rays(self, pixels: np.ndarray) -> list[tuple[int, np.ndarray | None]]:
+    def pixel_rays(
+        self, pixels: np.ndarray, runs: list[int] | None = None, frame_of: list[int] | None = None
+    ) -> list[tuple[int, np.ndarray | None]]:
         """rays() for camera rays of flat pixels j * width + i (P,) in any order (the pixels an animation's frame
-        traces again), ordered pixel, sample as camera.pixel_directions gives them."""
-        column, row = pixels % self.width, pixels // self.width
-        return self._sets(
-            (kernel, ((column >= first_column) & (column <= last_column) & (row >= first_row) & (row <= last_row)))
-            for kernel, first_column, first_row, last_column, last_row in self._nonempty()
-        )
+        traces again), ordered pixel, sample as camera.pixel_directions gives them.
+
+        runs: where each run of pixels starts, and the end (R + 1,), for pixels that come in ascending runs (the
+        frames of a batch, rayframes.py): a kernel's pixels are then found from its rectangle's rows by two binary
+        searches in each run, and its columns tested on those only; frame_of: the run each kernel index's rays
+        must come from (-1: any), for the kernels that see one frame only."""
+        if runs is None:
+            column, row = pixels % self.width, pixels // self.width
+            return self._sets(
+                (kernel, ((column >= first_column) & (column <= last_column) & (row >= first_row) & (row <= last_row)))
+                for kernel, first_column, first_row, last_column, last_row in self._nonempty()
+            )
+        column = pixels % self.width
+        found = []
+        for kernel, first_column, first_row, last_column, last_row in self._nonempty():
+            frame = -1 if frame_of is None else frame_of[kernel]
+            pieces = []
+            for run in range(len(runs) - 1) if frame < 0 else (frame,):
+                start, end = runs[run], runs[run + 1]
+                rows = (first_row * self.width, (last_row + 1) * self.width)
+                low, high = (np.searchsorted(pixels[start:end], rows) + start).tolist()
+                if high > low:
+                    inside = column[low:high]
+                    pieces.append(((inside >= first_column) & (inside <= last_column)).nonzero()[0] + low)
+            if pieces:
+                found.append((kernel, pieces[0] if len(pieces) == 1 else np.concatenate(pieces)))
+        return self._sets(found)
 
     def rays(self, rows: np.ndarray) -> list[tuple[int, np.ndarray | None]]:
         """Image rows (R,) of a band, ascending -> (kernel index, ray indices ascending) for every kernel that

@@ -10,7 +10,7 @@ from __future__ import annotations
 import functools
 import math
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -34,6 +34,7 @@ from ..geometry.kernels import (
 )
 from ..geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
 from ..geometry.meshpicture import View
+from ..geometry.rayframes import RayFrames
 from ..geometry.robust import make_robust_kernel, offset_origins
 from ..scene import scene as sc
 from .raystore import RayStore
@@ -81,9 +82,14 @@ class _Light:
 
 @dataclass
 class PreparedScene:
-    """What tracing needs, built once per scene: kernels, per-object materials, lights, background."""
+    """What tracing needs, built once per scene: kernels, per-object materials, lights, background.
+
+    headings: several frames of an animation at once (render_frame_pixels): each of the vane's parts is there once
+    per heading, as an object of its own in the part's place in the object order (so that ties between objects go
+    as in each frame's own scene), and sees only the rays of its frame; the rest of the scene is prepared once."""
 
     scene: sc.Scene
+    headings: tuple[float, ...] | None = None
     dtype: np.dtype = field(init=False)
     kernels: list[Kernel] = field(init=False)
 
@@ -92,7 +98,8 @@ class PreparedScene:
         self.dtype = np.dtype(settings.dtype)
         self.robust = settings.numerics == "robust"
         build = make_robust_kernel if self.robust else make_kernel
-        primitives = _world_primitives(self.scene)
+        objects, primitives, frame_of, vanes = self._placed_objects()
+        self.objects = objects
         self.kernels = [_kernel(build, primitive, self.dtype) for primitive in primitives]  # per object: normals
         # a scene of documented spheres only: every hit's normal from its centre, gathered, in one set of passes
         self.centers = None
@@ -105,20 +112,20 @@ class PreparedScene:
             else kernel
             for kernel, primitive in zip(self.kernels, primitives, strict=True)
         ]
-        objects = self.scene.objects
         owners = list(range(len(leaf_kernels)))
         # the vane's parts in a subtree of their own, the rest kept between an animation's frames (bvh.py)
         vane = self.scene.vane
         moving = None
         if vane is not None:
             moving = frozenset(index for index, obj in enumerate(objects) if obj.name in vane.parts)
-        self.hierarchy = Hierarchy(leaf_kernels, self.dtype, owners, moving)
+        self.hierarchy = Hierarchy(leaf_kernels, self.dtype, owners, moving, frame_of)
 
         def seen_by(flag: str) -> Hierarchy:  # the objects one kind of ray sees (Blender's ray visibility)
             chosen = [index for index, obj in enumerate(objects) if getattr(obj, flag)]
             if len(chosen) == len(objects):
                 return self.hierarchy
-            return Hierarchy([leaf_kernels[index] for index in chosen], self.dtype, chosen, moving)
+            frames = None if frame_of is None else [frame_of[index] for index in chosen]
+            return Hierarchy([leaf_kernels[index] for index in chosen], self.dtype, chosen, moving, frames)
 
         self.camera_hierarchy = seen_by("visible_camera")
         self.shadow_hierarchy = seen_by("visible_shadow")
@@ -129,7 +136,7 @@ class PreparedScene:
         self.has_alpha = self.scene.has_alpha
         self.channels = 4 if self.has_alpha else 3  # colour, and alpha where the scene has one
         self._materials(objects)
-        self._smooth_normals(objects, primitives)
+        self._smooth_normals(objects, primitives, vanes)
         self.lights = []
         for light in self.scene.lights:
             color = column(light.color, self.dtype)
@@ -177,6 +184,32 @@ class PreparedScene:
                     if shares is None or not self.shadow_hierarchy.culls_well(light.grid.kernels, shares):
                         light.grid = None
 
+    def _placed_objects(
+        self,
+    ) -> tuple[tuple[sc.SceneObject, ...], list[tf.WorldPrimitive], list[int] | None, list[sc.Vane | None]]:
+        """The objects as traced, their world primitives, the frame each one's rays belong to (-1: every frame's;
+        None without headings) and the vane that places each (one of its headings for a part)."""
+        scene, headings = self.scene, self.headings
+        if headings is None:
+            return scene.objects, _world_primitives(scene), None, [scene.vane] * len(scene.objects)
+        if scene.vane is None:
+            raise ValueError("frames at several headings need a scene with a vane")
+        turned = [replace(scene.vane, heading=heading) for heading in headings]
+        objects, primitives, frame_of, vanes = [], [], [], []
+        for obj in scene.objects:
+            if obj.name not in scene.vane.parts:
+                objects.append(obj)
+                primitives.append(_still_primitive(obj, scene.vane))
+                frame_of.append(-1)
+                vanes.append(scene.vane)
+                continue
+            for frame, vane in enumerate(turned):
+                objects.append(obj)
+                primitives.append(tf.world_primitive(obj, vane))
+                frame_of.append(frame)
+                vanes.append(vane)
+        return tuple(objects), primitives, frame_of, vanes
+
     def _mirror_rectangles(self, primitives: list) -> dict[int, ScreenRectangles]:
         """For each reflective plane that camera rays can meet: which of its mirror rays each bounded kernel can
         meet, by the pixels of the camera rays they continue (ScreenRectangles.mirrored). Keyed by the plane's
@@ -208,12 +241,18 @@ class PreparedScene:
         return mirrors
 
     def _mirror_sets(
-        self, rows: np.ndarray | None, pixels: np.ndarray | None, pixel: np.ndarray, came_from: np.ndarray, total: int
+        self,
+        rows: np.ndarray | None,
+        pixels: np.ndarray | None,
+        pixel: np.ndarray,
+        came_from: np.ndarray,
+        total: int,
+        runs: list[int] | None = None,
     ) -> tuple[list, np.ndarray | None]:
         """The first mirror rays' sets for Hierarchy.closest: rays (n,) of camera rays pixel (n,) off objects
         came_from (n,), of total camera rays in rows (R,) or of flat pixels (P,) -> (kernel, rays) for every kernel
         that the rays off a culled plane can meet (from self.mirrors), and the other rays (walked), or (None, None)
-        where no ray comes off such a plane."""
+        where no ray comes off such a plane. runs: the pixels' frames, as ScreenRectangles.pixel_rays takes them."""
         sets, culled = [], []
         position = None  # each camera ray's mirror ray, where it has one off the plane at hand
         for plane, rectangles in self.mirrors.items():
@@ -225,7 +264,11 @@ class PreparedScene:
                 position = np.full(total, -1, dtype=np.intp)
             camera_ray = pixel.take(off_plane)
             position[camera_ray] = off_plane
-            for kernel, camera_rays in rectangles.rays(rows) if rows is not None else rectangles.pixel_rays(pixels):
+            if rows is not None:
+                found = rectangles.rays(rows)
+            else:
+                found = rectangles.pixel_rays(pixels, runs, self.mirror_hierarchy.frame_of)
+            for kernel, camera_rays in found:
                 if camera_rays is None:
                     sets.append((kernel, off_plane))
                     continue
@@ -294,12 +337,12 @@ class PreparedScene:
         self.two_sided = np.asarray([m.two_sided for m in table], dtype=bool)
         self.any_two_sided = bool(self.two_sided.any())
 
-    def _smooth_normals(self, objects: tuple[sc.SceneObject, ...], primitives: list) -> None:
+    def _smooth_normals(self, objects: tuple[sc.SceneObject, ...], primitives: list, vanes: list) -> None:
         """For each mesh with corner normals: its triangles' v0, e1, e2 and corner normals n0, n1, n2 (3, T) each,
-        float64 (the reference's numbers)."""
+        float64 (the reference's numbers); vanes: the vane that places each object."""
         self.smooth: dict[int, tuple[np.ndarray, ...]] = {}
-        for index, (obj, primitive) in enumerate(zip(objects, primitives, strict=True)):
-            corners = tf.world_corner_normals(obj, self.scene.vane)
+        for index, (obj, primitive, vane) in enumerate(zip(objects, primitives, vanes, strict=True)):
+            corners = tf.world_corner_normals(obj, vane)
             if corners is None:
                 continue
             triangles = np.asarray(primitive.triangles, dtype=np.float64)  # (T, 3, 3)
@@ -399,6 +442,7 @@ class PreparedScene:
         footprint: Footprint | None = None,
         samples: np.ndarray | None = None,
         geometric: np.ndarray | None = None,
+        frames: np.ndarray | None = None,
     ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """Listing 3.2 for every hit point at once: P, N, V (3, n), specular (n,) -> intensity (n,); where lights or
         materials have colours (self.colored) the (ambient + diffuse, specular) intensities (3, n) each instead.
@@ -406,7 +450,8 @@ class PreparedScene:
         geometric: the surfaces' own unit normals where N (the shading normals) differs, for robust shadow origins.
 
         surface: robust numerics' (distance, scale) (n,) of each point, as normals() gives them. footprint: records
-        the shadow rays of the camera samples (n,) the points belong to.
+        the shadow rays of the camera samples (n,) the points belong to. frames: where each frame's points start
+        (K + 1,), for a scene prepared with headings (counts is then a list of each frame's).
 
         The shadow rays of all lights go through the hierarchy in one batch; the terms are then added light by
         light in the listing's order."""
@@ -452,7 +497,9 @@ class PreparedScene:
                 needed = indices(diffuse_gate | gate)
             terms.append((L, NL, length_l, diffuse_gate, gate, cosine, needed, factor))
         normals = N if geometric is None else geometric
-        lit = self._lit([term for term in terms if term is not None], P, normals, counts, surface, footprint, samples)
+        lit = self._lit(
+            [term for term in terms if term is not None], P, normals, counts, surface, footprint, samples, frames
+        )
         if self.colored:
             return self._colored(terms, lit, count, length_n, exponent)
         intensity = np.zeros(count, dtype=self.dtype)
@@ -515,14 +562,17 @@ class PreparedScene:
         surface: tuple[np.ndarray, np.ndarray] | None,
         footprint: Footprint | None = None,
         samples: np.ndarray | None = None,
+        frames: np.ndarray | None = None,
     ) -> list[np.ndarray]:
-        """One any-hit query for the shadow rays of every light: which points (n,) each light reaches.
+        """One any-hit query for the shadow rays of every light: which points (n,) each light reaches; frames: where
+        each frame's points start (K + 1,), as find_intensity() takes them.
 
         Robust numerics start each shadow ray just off the surface (offset_origins), on the light's side, and search
         t from 0; the documented ones start on the surface and search t from 0.001 (listing 3.2)."""
         lights = [(index, light) for index, light in enumerate(self.lights) if light.kind != "ambient"]
         t_min = 0.0 if self.robust else SHADOW_T_MIN
-        shadows, origins, vectors, limits, bits, views = [], [], [], [], [], []
+        shadows, origins, vectors, limits, bits, views, runs = [], [], [], [], [], [], []
+        start = 0  # where the light's rays start in the query of all lights
         for (index, light), (L, *_, needed, _) in zip(lights, terms, strict=True):
             vector = take(L, needed)  # a directional light's vector stays a shared column
             origin = take(P, needed)
@@ -532,11 +582,12 @@ class PreparedScene:
                     vector = light.vector - origin  # t = 1 is still exactly the light
             if footprint is not None:  # the whole segment: a blocker that moves in could block it anywhere
                 footprint.record(samples.take(needed), origin, vector, t_min, light.t_max, light=index)
-            counts.shadow += needed.size
+            own = None if frames is None else RayFrames.of(needed, frames)  # the light's rays by frame
+            _tally(counts, "shadow", needed.size, own)
             # planes first, light by light (a shared direction keeps their test cheap); then only the rays that
             # the light's coverage grid cannot rule out go on to the hierarchy, all lights in one batch
             whole = [] if light.grid is None else light.grid.whole  # what the light's picture leaves out
-            blocked = self.shadow_hierarchy.blocked_by_planes(origin, vector, t_min, light.t_max, whole)
+            blocked = self.shadow_hierarchy.blocked_by_planes(origin, vector, t_min, light.t_max, whole, own)
             if light.grid is None:
                 rest, covering = indices(~blocked), None
             else:
@@ -546,6 +597,9 @@ class PreparedScene:
                 covering = None if covering is None else covering.take(keep)
             bits.append(None if covering is None else (light.grid.kernels, covering))
             shadows.append((needed, blocked, rest))
+            if own is not None:
+                runs.append(RayFrames.of(rest, own.cuts[0], start))
+            start += rest.size
             every = light.grid is None and rest.size == needed.size  # nothing left out: no need to gather
             origins.append(origin if every and origin.shape[1] == rest.size else take(origin, rest))
             if vector.shape[1] == 1:
@@ -571,6 +625,7 @@ class PreparedScene:
             planes=False,
             sets=sets,
             views=(views, which),
+            frames=RayFrames.joined(runs) if runs else None,
         )
         lit, start = [], 0
         for needed, blocked, rest in shadows:
@@ -610,9 +665,13 @@ class PreparedScene:
         footprint: Footprint | RayStore | None = None,
         alpha: np.ndarray | None = None,
         pixels: np.ndarray | None = None,
+        frames: np.ndarray | None = None,
     ) -> np.ndarray:
         """Camera rays (3, N) -> linear colors (3, N), unclamped; alpha (N,), where given (ones), is set to 0 for
         the rays that meet a holdout first, or nothing with a transparent film.
+
+        frames: for a scene prepared with headings, where each frame's camera rays start (K + 1,): the rays come
+        frame by frame, and counts is then a list of each frame's RayCounts (K,).
 
         rows: the image rows (R,) that the rays are, ordered as camera.band_directions gives them, if they are;
         else pixels: the flat pixels (P,) whose samples they are, pixel by pixel, where known (either lets the
@@ -622,7 +681,8 @@ class PreparedScene:
         camera rays' trees meet its volume."""
         depth = self.scene.render.depth
         total = D.shape[1]
-        counts.camera += total
+        query = None if frames is None else RayFrames(frames[None])  # which frame each ray of a query is of
+        _tally(counts, "camera", total, query)
         transparent = self.scene.render.film_transparent
         # a camera ray that meets nothing shows the background (its colour 0 with a transparent film): every pixel
         # starts with it, and the camera rays' hits overwrite theirs (no list of the misses to make)
@@ -636,14 +696,18 @@ class PreparedScene:
         O = self.origin if origins is None else origins  # (3, 1): every camera ray starts at the camera
         t_min = CAMERA_T_MIN
         came_from = None  # the first mirror rays' objects, where some may come off a culled plane
+        runs = None if frames is None else (frames // self.scene.render.samples).tolist()  # each frame's pixels
         for bounce in range(depth + 1):
             sets = walk = None
             if bounce == 0 and self.screen is not None and (rows is not None or pixels is not None):
-                sets = self.screen.rays(rows) if rows is not None else self.screen.pixel_rays(pixels)
+                if rows is not None:
+                    sets = self.screen.rays(rows)
+                else:
+                    sets = self.screen.pixel_rays(pixels, runs, self.camera_hierarchy.frame_of)
             elif bounce == 1 and came_from is not None:
-                sets, walk = self._mirror_sets(rows, pixels, pixel, came_from, total)
+                sets, walk = self._mirror_sets(rows, pixels, pixel, came_from, total, runs)
             hierarchy = self.camera_hierarchy if bounce == 0 else self.mirror_hierarchy
-            t, obj, part = hierarchy.closest(O, D, t_min, sets, walk)
+            t, obj, part = hierarchy.closest(O, D, t_min, sets, walk, query)
             if bounce == 0 and far is not None:  # beyond the camera's clip_end: the nearest hit is, so all are
                 obj[t >= far] = -1
             if footprint is not None:  # each ray up to its hit; a miss to its end
@@ -683,7 +747,8 @@ class PreparedScene:
             S = self.shading_normals(N, V, P, obj, part, material)
             geometric = None if S is N else N
             specular = self.specular.take(material)
-            intensity = self.find_intensity(P, S, V, specular, counts, surface, footprint, pixel, geometric)
+            points = None if frames is None else np.searchsorted(pixel, frames)  # where each frame's points start
+            intensity = self.find_intensity(P, S, V, specular, counts, surface, footprint, pixel, geometric, points)
             reflective = self.reflective.take(material)
             if self.colored:
                 diffuse, highlight = intensity
@@ -708,7 +773,9 @@ class PreparedScene:
             weight, pixel = ratio if weight is None else weight.take(go_on) * ratio, pixel.take(go_on)
             if bounce == 0 and (rows is not None or pixels is not None) and self.mirrors:
                 came_from = obj.take(go_on)
-            counts.reflection += D.shape[1]
+            if frames is not None:
+                query = RayFrames.of(pixel, frames)
+            _tally(counts, "reflection", D.shape[1], query)
             t_min = 0.0 if self.robust else REFLECTION_T_MIN
         return color
 
@@ -815,6 +882,36 @@ class PreparedScene:
             counts.add(piece_counts)
         return colors, counts
 
+    def render_frame_pixels(
+        self, frame_pixels: list[np.ndarray], max_samples: int | None = None
+    ) -> list[tuple[np.ndarray, RayCounts]]:
+        """For a scene prepared with headings (K,): each frame's flat pixels (P_k,), ascending -> their linear
+        colours (P_k, channels) and ray counts, the same bytes as render_pixels() of the scene at that heading. The
+        frames share one trace: every NumPy call of a bounce serves them all, and the still objects are prepared
+        once."""
+        if self.headings is None or len(frame_pixels) != len(self.headings):
+            raise ValueError("render_frame_pixels needs one list of pixels per heading the scene was prepared with")
+        if any(np.any(np.diff(pixels) < 0) for pixels in frame_pixels):
+            raise ValueError("render_frame_pixels needs each frame's pixels in ascending order")
+        settings = self.scene.render
+        sizes = [len(pixels) for pixels in frame_pixels]
+        pixels = np.concatenate([np.asarray(pixels, dtype=np.int64) for pixels in frame_pixels])
+        starts = np.concatenate(([0], np.cumsum(sizes)))  # (K + 1,): where each frame's pixels start
+        at_once = max(1, len(pixels)) if max_samples is None else max(1, max_samples // settings.samples)
+        colors = np.empty((len(pixels), self.channels), dtype=self.dtype)
+        counts = [RayCounts() for _ in sizes]
+        for first in range(0, len(pixels), at_once):
+            piece = pixels[first : first + at_once]
+            with quiet():
+                directions = cam.pixel_directions(self.scene.camera, settings, piece).astype(self.dtype)
+            frames = np.clip(starts - first, 0, piece.size) * settings.samples
+            traced = self._trace_pixels(directions, piece, None, None, None, frames, counts)
+            colors[first : first + at_once] = traced[0]
+        ends = starts.tolist()
+        return [
+            (colors[start:end], ray_counts) for start, end, ray_counts in zip(ends[:-1], ends[1:], counts, strict=True)
+        ]
+
     def _trace_pixels(
         self,
         directions: np.ndarray,
@@ -822,11 +919,14 @@ class PreparedScene:
         rows: np.ndarray | None,
         volume: Volume | None,
         store: RayStore | None = None,
+        frames: np.ndarray | None = None,
+        frame_counts: list[RayCounts] | None = None,
     ) -> tuple[np.ndarray, RayCounts, np.ndarray | None]:
         """Camera rays (3, P * samples) of the flat pixels (P,; needed only for a camera whose rays do not all
         start at its location) -> colours (P, 3) box-filtered over each pixel's samples (P, 4 with the alpha, the
         share of samples that met a visible object, where the scene has one), the ray counts, and where a volume is
-        given which pixels' trees met it (P,)."""
+        given which pixels' trees met it (P,). frames, frame_counts: as trace() takes them (the counts returned are
+        then empty)."""
         settings = self.scene.render
         camera = self.scene.camera
         counts = RayCounts()
@@ -838,7 +938,15 @@ class PreparedScene:
                 origins = origins.astype(self.dtype)
             alpha = np.ones(directions.shape[1], dtype=self.dtype) if self.has_alpha else None
             color = self.trace(
-                directions, counts, rows, origins, far, footprint, alpha, None if rows is not None else pixels
+                directions,
+                counts if frames is None else frame_counts,
+                rows,
+                origins,
+                far,
+                footprint,
+                alpha,
+                None if rows is not None else pixels,
+                frames,
             )
         if alpha is not None:
             color = np.concatenate((color, alpha[None]))
@@ -898,20 +1006,22 @@ def _world_primitives(scene: sc.Scene) -> list[tf.WorldPrimitive]:
     if scene.vane is None:
         return tf.world_primitives(scene)
     parts = scene.vane.parts
-    primitives = []
-    for obj in scene.objects:
-        if obj.name in parts:
-            primitives.append(tf.world_primitive(obj, scene.vane))
-            continue
-        kept = _STILL_PRIMITIVES.get(id(obj))
-        if kept is None or kept[0] is not obj:
-            kept = _STILL_PRIMITIVES[id(obj)] = (obj, tf.world_primitive(obj, scene.vane))
-            if len(_STILL_PRIMITIVES) > KERNEL_CACHE_SIZE:
-                _STILL_PRIMITIVES.popitem(last=False)
-        else:
-            _STILL_PRIMITIVES.move_to_end(id(obj))
-        primitives.append(kept[1])
-    return primitives
+    return [
+        tf.world_primitive(obj, scene.vane) if obj.name in parts else _still_primitive(obj, scene.vane)
+        for obj in scene.objects
+    ]
+
+
+def _still_primitive(obj: sc.SceneObject, vane: sc.Vane) -> tf.WorldPrimitive:
+    """The world primitive of an object that is not one of the vane's parts, kept by the object itself."""
+    kept = _STILL_PRIMITIVES.get(id(obj))
+    if kept is None or kept[0] is not obj:
+        kept = _STILL_PRIMITIVES[id(obj)] = (obj, tf.world_primitive(obj, vane))
+        if len(_STILL_PRIMITIVES) > KERNEL_CACHE_SIZE:
+            _STILL_PRIMITIVES.popitem(last=False)
+    else:
+        _STILL_PRIMITIVES.move_to_end(id(obj))
+    return kept[1]
 
 
 def _kernel(make, first: object, second: object):
@@ -929,6 +1039,16 @@ def _kernel(make, first: object, second: object):
     else:
         _KERNELS.move_to_end(key)
     return made
+
+
+def _tally(counts: RayCounts | list[RayCounts], kind: str, rays: int, frames: RayFrames | None) -> None:
+    """Add rays of a kind ("camera", "shadow", "reflection") to counts, or with frames each frame's rays to its
+    own counts (a list)."""
+    if frames is None:
+        setattr(counts, kind, getattr(counts, kind) + rays)
+        return
+    for frame_counts, size in zip(counts, frames.sizes.tolist(), strict=True):
+        setattr(frame_counts, kind, getattr(frame_counts, kind) + size)
 
 
 def _accumulate(color: np.ndarray, pixel: np.ndarray, value: np.ndarray, fresh: bool) -> None:
