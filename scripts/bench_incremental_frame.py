@@ -4,9 +4,10 @@ Usage: python scripts/bench_incremental_frame.py
 The default 120-frame animation at 640x480, its first run (incremental.py), thread CPU times in one process: the
 image without the vane with its footprint, the run's marks (footprint.HeadingMarks: the marked pixels' trees traced
 again and tested against the parts' oriented boxes at each heading), then for the run's headings PreparedScene (the
-still objects' hierarchy kept, bvh._still_subtree) and the trace of the frame's own pixels (medians); the trace of
-fewer pixels shows its fixed part; and the writer's PNG (images.FramePng) of a frame on its own and after the frame
-before it. No assert: the machine is shared.
+still objects' hierarchy kept, bvh._still_subtree) and the trace of the frame's own pixels (medians), one frame at a
+time (as Blender's engine asks for them) and FRAMES_PER_TASK frames in one trace (as animate's workers take them);
+the trace of fewer pixels shows its fixed part; and the writer's PNG (images.FramePng) of a frame on its own and
+after the frame before it. No assert: the machine is shared.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from tracer.geometry.footprint import heading_parts, swept_volume
 from tracer.scene.loader import default_scene
 from tracer.tracing.images import FramePng, to_8bit
 from tracer.tracing.wavefront import PreparedScene
+from tracer.workers.parallel import FRAMES_PER_TASK
 from tracer.workers.resources import band_samples
 
 
@@ -68,6 +70,20 @@ def main() -> None:
     print(
         f"per frame ({len(run) - len(counts)} at the heading before traced nothing): pixels "
         f"{statistics.mean(counts):.0f} ({statistics.mean(counts) / touched.size:.1%}), prepare "
+        f"{statistics.median(prepare):.2f} ms, trace {statistics.median(trace):.1f} ms"
+    )
+    traced = [heading for k, heading in enumerate(run) if k == 0 or heading != run[k - 1]]
+    batches = [tuple(traced[k : k + FRAMES_PER_TASK]) for k in range(0, len(traced), FRAMES_PER_TASK)]
+    prepare, trace = [], []
+    for batch in batches:
+        start = time.thread_time()
+        prepared = PreparedScene(scene, batch)
+        middle = time.thread_time()
+        prepared.render_frame_pixels([marks[0].at(heading) for heading in batch], samples)
+        prepare.append((middle - start) * 1e3 / len(batch))
+        trace.append((time.thread_time() - middle) * 1e3 / len(batch))
+    print(
+        f"per frame, {FRAMES_PER_TASK} frames in one trace ({len(batches)} batches): prepare "
         f"{statistics.median(prepare):.2f} ms, trace {statistics.median(trace):.1f} ms"
     )
     prepared_scene = PreparedScene(scene.with_heading(run[-1]))
