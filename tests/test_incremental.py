@@ -12,12 +12,13 @@ from tests.random_scenes import random_scene_document
 from tracer.frames import incremental
 from tracer.frames.animate import headings
 from tracer.geometry import bvh
+from tracer.geometry.cull import GRID_BOXES
 from tracer.geometry.footprint import swept_volume
 from tracer.geometry.rayframes import RayFrames
 from tracer.scene import scene as sc
 from tracer.scene.loader import default_scene, scene_from_dict
 from tracer.tracing.wavefront import PreparedScene
-from tracer.workers.parallel import Renderer
+from tracer.workers.parallel import FRAMES_PER_TASK, Renderer, frames_per_task
 
 
 def turning_scene(seed: int, dtype: str, numerics: str) -> sc.Scene:
@@ -233,6 +234,16 @@ def test_frames_traced_together_with_blender_fields(seed: int) -> None:
     document["vane"] = {"parts": bounded[::2], "pivot": [0.2, 0.5, 0.3], "axis": [0.1, 0.0, 1.0]}
     document["render"].update(depth=3, samples=4)
     assert_frames_together_are_frames_alone(scene_from_dict(document), random_headings(seed, 4), seed)
+
+
+def test_batches_keep_their_boxes_within_what_a_light_grid_tells_apart() -> None:
+    """Frames traced together hold each part once per frame: a batch is smaller where that would take the boxes
+    past cull.GRID_BOXES (every shadow ray meeting any box would go to every kernel)."""
+    scene = default_scene()
+    assert frames_per_task(scene) == FRAMES_PER_TASK
+    every = replace(scene, vane=replace(scene.vane, parts=tuple(obj.name for obj in scene.objects)))
+    size = frames_per_task(every)
+    assert 1 <= size < FRAMES_PER_TASK and size * len(every.objects) <= GRID_BOXES < (size + 1) * len(every.objects)
 
 
 def test_ray_frames_select_each_frames_rays() -> None:

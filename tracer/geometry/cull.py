@@ -25,6 +25,7 @@ from ..scene import scene as sc
 from . import camera as cam
 
 CELLS = 128  # along the picture's longer side
+GRID_BOXES = 64  # the most boxes a coverage grid tells apart (a bit each per cell); beyond, only whether any covers
 DEPTH_MARGIN = 1e-3  # of the scene's size: a perspective picture needs every box at least this far in front
 # How far rounding may move a ray, in units in the last place of the scene's size, that a pixel's footprint at the
 # nearest box must exceed: a camera ray's own rounding; a mirror ray's adds its origin on the plane and the
@@ -209,9 +210,9 @@ class CoverageGrid:
 
 
 def _bits_type(boxes: int) -> type:
-    """The narrowest unsigned integer type with a bit for each of boxes, or bool beyond 64."""
+    """The narrowest unsigned integer type with a bit for each of boxes, or bool beyond GRID_BOXES."""
     for kind in (np.uint8, np.uint16, np.uint32, np.uint64):
-        if boxes <= 8 * np.dtype(kind).itemsize:
+        if boxes <= 8 * np.dtype(kind).itemsize <= GRID_BOXES:
             return kind
     return bool
 

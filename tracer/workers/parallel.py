@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.camera import border_window
+from ..geometry.cull import GRID_BOXES
 from ..geometry.footprint import Volume
 from ..scene import scene as sc
 from ..tracing.wavefront import PreparedScene, RayCounts
@@ -32,9 +33,10 @@ from .resources import band_samples, check_resources
 
 BLOCK_ROWS = 16
 # An animation's frames whose pixels are traced again go to the workers this many at a time, traced together
-# (PreparedScene with headings): such a frame traces a few thousand pixels, and most of its own trace's time is fixed
-# cost (preparing the scene, the NumPy calls of every bounce), which a batch pays once. Per frame, the default
-# animation's (one process, CPU time, alternating): 1 at a time 45.6 ms, 4 together 31.5 ms, 8 together 29.2 ms.
+# (PreparedScene with headings): such a frame traces a few thousand pixels, and much of its own trace's time is fixed
+# cost (preparing the scene, the NumPy calls of every bounce), which a batch pays once. Per frame of the default
+# animation (48 consecutive frames, one process, CPU time, medians of 5 rounds alternating): 1 at a time 44.1 ms, 4
+# together 29.7 ms, 8 together 28.1 ms, 12 together 29.7 ms (more boxes for every light's grid to tell apart).
 FRAMES_PER_TASK = 8
 
 Progress = Callable[[int, int], None]
@@ -386,7 +388,7 @@ class Renderer:
         workers a batch is one task, and as many batches as workers (and one more, queued) are traced at once: such
         a frame is small, and most of its time is the fixed cost of a trace, which a batch pays once and splitting
         would pay again in every worker."""
-        batches = _batches(frames, FRAMES_PER_TASK)
+        batches = _batches(frames, frames_per_task(scene))
         if self.workers <= 1:
             for batch in batches:
                 started = time.perf_counter()
@@ -472,6 +474,14 @@ class Renderer:
         tasks = [(piece, pool.submit(_render_pixels, (message, piece), descriptors)) for piece in pieces_of]
         base_pixels = (base, np.asarray(pixels))
         return _Frame(pool, base.copy(), tasks, None, started, pixels=True, base=base_pixels, scene_file=scene_file)
+
+
+def frames_per_task(scene: sc.Scene) -> int:
+    """FRAMES_PER_TASK, or fewer where the parts' copies would take a scene's boxes past those a light's coverage
+    grid tells apart (cull.GRID_BOXES: beyond, every shadow ray that meets any box would go to every kernel)."""
+    parts = sum(obj.name in scene.vane.parts for obj in scene.objects) if scene.vane is not None else 0
+    room = GRID_BOXES - (len(scene.objects) - parts)
+    return max(1, min(FRAMES_PER_TASK, room // max(1, parts)))
 
 
 def _batches(frames: Iterable[tuple[float, np.ndarray]], size: int) -> Iterator[list[tuple[float, np.ndarray]]]:
