@@ -214,7 +214,8 @@ def assert_frames_together_are_frames_alone(scene: sc.Scene, turns: list[float],
 
 
 @pytest.mark.parametrize("seed", range(4))
-@pytest.mark.parametrize(("dtype", "numerics"), [("float64", "documented"), ("float32", "robust")])
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+@pytest.mark.parametrize("numerics", ["documented", "robust"])
 @pytest.mark.parametrize("brute_scale", [0.0, 1e9])  # every hierarchy brute force; none
 def test_frames_traced_together_are_each_frame_alone(
     seed: int, dtype: str, numerics: str, brute_scale: float, monkeypatch: pytest.MonkeyPatch

@@ -556,8 +556,14 @@ class Hierarchy:
         for index, rays in sets:
             kernel = self.kernels[index]
             if frames is not None and self.frame_of[index] >= 0:
+                every = rays is None
                 rays = frames.select(self.frame_of[index], rays)
                 if rays.size == 0:
+                    continue
+                if every and not isinstance(kernel, MeshKernel):  # brute force's test, on the frame's rays
+                    limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
+                    found = self._brute_hit(index, take(O, rays), take(D, rays), t_min, limit, limit)
+                    results.append((index, rays, *found))
                     continue
             if rays is None and not isinstance(kernel, MeshKernel):  # every ray, in place: brute force's test
                 results.append((index, None, *self._brute_hit(index, O, D, t_min, t_max, t_max)))

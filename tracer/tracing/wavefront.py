@@ -99,7 +99,6 @@ class PreparedScene:
         self.robust = settings.numerics == "robust"
         build = make_robust_kernel if self.robust else make_kernel
         objects, primitives, frame_of, vanes = self._placed_objects()
-        self.objects = objects
         self.kernels = [_kernel(build, primitive, self.dtype) for primitive in primitives]  # per object: normals
         # a scene of documented spheres only: every hit's normal from its centre, gathered, in one set of passes
         self.centers = None
