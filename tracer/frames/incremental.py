@@ -24,7 +24,7 @@ from ..geometry.footprint import HeadingMarks, HeadingParts, heading_marks, head
 from ..scene import scene as sc
 from ..tracing.raystore import RayStore
 from ..tracing.wavefront import PreparedScene, RayCounts
-from ..workers.parallel import BandDone, Progress, Renderer, RenderResult
+from ..workers.parallel import BandDone, Progress, Renderer, RenderResult, batches
 from ..workers.resources import band_samples
 
 # The image without the parts, with its footprint, costs about two plain frames and the marks of 120 headings about
@@ -38,14 +38,7 @@ FULL_SHARE = 0.5
 
 def runs(frame_headings: Iterable[tuple[int, float]]) -> Iterator[list[tuple[int, float]]]:
     """(frame, heading) pairs -> consecutive runs of RUN_FRAMES (the last may be shorter)."""
-    run: list[tuple[int, float]] = []
-    for pair in frame_headings:
-        run.append(pair)
-        if len(run) == RUN_FRAMES:
-            yield run
-            run = []
-    if run:
-        yield run
+    return batches(frame_headings, RUN_FRAMES)
 
 
 def render_frames(

@@ -20,6 +20,7 @@ import weakref
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -32,6 +33,7 @@ from .pool import PoolClosedError, Task, WorkerPool
 from .resources import band_samples, check_resources
 
 BLOCK_ROWS = 16
+Item = TypeVar("Item")
 # An animation's frames whose pixels are traced again go to the workers this many at a time, traced together
 # (PreparedScene with headings): such a frame traces a few thousand pixels, and much of its own trace's time is fixed
 # cost (preparing the scene, the NumPy calls of every bounce), which a batch pays once. Per frame of the default
@@ -388,9 +390,8 @@ class Renderer:
         workers a batch is one task, and as many batches as workers (and one more, queued) are traced at once: such
         a frame is small, and most of its time is the fixed cost of a trace, which a batch pays once and splitting
         would pay again in every worker."""
-        batches = _batches(frames, frames_per_task(scene))
         if self.workers <= 1:
-            for batch in batches:
+            for batch in batches(frames, frames_per_task(scene)):
                 started = time.perf_counter()
                 prepared = self._prepared_here(scene, tuple(heading for heading, _ in batch))
                 traced = prepared.render_frame_pixels([pixels for _, pixels in batch], band_samples(scene.render))
@@ -399,7 +400,7 @@ class Renderer:
         pool = self._start_pool()
         pending: deque[_FrameBatch] = deque()
         try:
-            for batch in batches:
+            for batch in batches(frames, frames_per_task(scene)):
                 message, scene_file = self._scenes.message(scene)
                 descriptors = () if scene_file is None else (scene_file.descriptor,)
                 headings = tuple(heading for heading, _ in batch)
@@ -484,11 +485,12 @@ def frames_per_task(scene: sc.Scene) -> int:
     return max(1, min(FRAMES_PER_TASK, room // max(1, parts)))
 
 
-def _batches(frames: Iterable[tuple[float, np.ndarray]], size: int) -> Iterator[list[tuple[float, np.ndarray]]]:
-    """(heading, pixels) pairs -> lists of up to size of them, in order."""
-    batch: list[tuple[float, np.ndarray]] = []
-    for frame in frames:
-        batch.append(frame)
+def batches(items: Iterable[Item], size: int) -> Iterator[list[Item]]:
+    """Items -> consecutive lists of size of them, in order (the last may be shorter), taken as they are asked for
+    (itertools.batched from Python 3.12 on)."""
+    batch: list[Item] = []
+    for item in items:
+        batch.append(item)
         if len(batch) == size:
             yield batch
             batch = []
