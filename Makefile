@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
 SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
-.PHONY: demo test test-slow lint bench bench-compare bench-peers bench-stages bench-meshes bench-reliability bench-viewport bench-cluster docs study addon system-deps blender-wheels clean
+.PHONY: demo test test-slow lint bench bench-compare bench-peers bench-animation bench-stages bench-meshes bench-reliability bench-viewport bench-cluster docs study addon system-deps blender-wheels clean
 
 # Blender versions as bpy wheels besides 5.0.1 (tests/addon/wheels.txt): one virtual environment each
 BPY_WHEELS := $(shell sed -e 's/\#.*//' tests/addon/wheels.txt)
@@ -67,6 +67,10 @@ bench-compare: $(STAMP)
 # the peer rt3.py on its own scene against the tracer (one process), alternating in the same run
 bench-peers: $(STAMP)
 	$(BIN)/python scripts/bench_compare.py --ref $(REF) --rounds 9 --cases peer64,peer32
+
+# the 120-frame animation, whole and incremental, against a commit's in the same run (REF=<commit>)
+bench-animation: $(STAMP)
+	$(BIN)/python scripts/bench_animation_commits.py --ref $(REF) --rounds 3
 
 # where the time goes: CPU ms per stage of the default frame, float64 and float32
 bench-stages: $(STAMP)
