@@ -382,10 +382,10 @@ class ScreenRectangles:
         found = []
         for kernel, first_column, first_row, last_column, last_row in self._nonempty():
             frame = -1 if frame_of is None else frame_of[kernel]
+            rows = (first_row * self.width, (last_row + 1) * self.width)  # the flat pixels of its rows
             pieces = []
             for run in range(len(runs) - 1) if frame < 0 else (frame,):
                 start, end = runs[run], runs[run + 1]
-                rows = (first_row * self.width, (last_row + 1) * self.width)
                 low, high = (np.searchsorted(pixels[start:end], rows) + start).tolist()
                 if high > low:
                     inside = column[low:high]
