@@ -45,8 +45,15 @@ class MeshHierarchy:
     """Nodes (M) in arrays: boxes (3, M) padded in the tracing dtype, children (M,) (-1 at a leaf), and for each
     leaf its row of leaf_triangles (L, K) (indices into the mesh; real marks the filled slots), K = leaf_size."""
 
-    def __init__(self, triangles: np.ndarray, dtype: np.dtype) -> None:
-        """triangles (T, 3 vertices, 3) float64.
+    def __init__(
+        self,
+        triangles: np.ndarray | None,
+        dtype: np.dtype,
+        boxes: tuple[np.ndarray, np.ndarray] | None = None,
+        leaf_size: int | None = None,
+    ) -> None:
+        """triangles (T, 3 vertices, 3) float64; or None and boxes (lower, upper) (T, 3) float64 each: a hierarchy
+        over boxes (the instances of a mesh), split by their centres.
 
         Median splits on the centroids' longest axis, built a level at a time: every node of a level is a range of
         three orders of the triangles, one by each axis (each sorted once, ties by index). A node's extent along an
@@ -55,12 +62,18 @@ class MeshHierarchy:
         a level costs a few passes over the triangles and no sort (a stable sort per level cost 4 s of a
         million-triangle mesh's 8 s in each worker). Boxes are made bottom-up once the leaves are known. Nodes are
         numbered level by level; the splits depend on the mesh only."""
-        count = len(triangles)
-        self.leaf_size = leaf_size = SMALL_LEAF_TRIANGLES if count <= SMALL_LEAVES_UP_TO else LEAF_TRIANGLES
-        first, second, third = triangles[:, 0], triangles[:, 1], triangles[:, 2]
-        # the centroids a column at a time: contiguous for take() (which copies a strided array first), and no
-        # (T, 3) temporaries at the peak of a million-triangle preparation
-        columns = [(first[:, axis] + second[:, axis] + third[:, axis]) / 3.0 for axis in range(3)]
+        if boxes is None:
+            count = len(triangles)
+            first, second, third = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+            # the centroids a column at a time: contiguous for take() (which copies a strided array first), and no
+            # (T, 3) temporaries at the peak of a million-triangle preparation
+            columns = [(first[:, axis] + second[:, axis] + third[:, axis]) / 3.0 for axis in range(3)]
+        else:
+            count = len(boxes[0])
+            columns = [np.ascontiguousarray(boxes[0][:, axis] + boxes[1][:, axis]) / 2.0 for axis in range(3)]
+        if leaf_size is None:
+            leaf_size = SMALL_LEAF_TRIANGLES if count <= SMALL_LEAVES_UP_TO else LEAF_TRIANGLES
+        self.leaf_size = leaf_size
         # int32 positions and indices: the partitions below are a few passes over them per level
         index = np.int32 if count < 2**31 else np.int64
         orders = [np.argsort(column, kind="stable").astype(index) for column in columns]
@@ -135,12 +148,18 @@ class MeshHierarchy:
         del columns
         lower, upper = np.empty((self.left.size, 3)), np.empty((self.left.size, 3))
         starts, stops, nodes = np.concatenate(leaf_starts), np.concatenate(leaf_stops), np.concatenate(leaf_nodes)
-        for axis in range(3):  # the triangles' bounds in the order, a column at a time
-            corners = (first[:, axis], second[:, axis], third[:, axis])
-            low = np.minimum(np.minimum(*corners[:2]), corners[2]).take(order)
+        for axis in range(3):  # the triangles' (or boxes') bounds in the order, a column at a time
+            if boxes is None:
+                corners = (first[:, axis], second[:, axis], third[:, axis])
+                low = np.minimum(np.minimum(*corners[:2]), corners[2]).take(order)
+            else:
+                low = boxes[0][:, axis].take(order)
             lower[nodes, axis] = _segments(np.minimum, low, starts, stops)
             del low
-            high = np.maximum(np.maximum(*corners[:2]), corners[2]).take(order)
+            if boxes is None:
+                high = np.maximum(np.maximum(*corners[:2]), corners[2]).take(order)
+            else:
+                high = boxes[1][:, axis].take(order)
             upper[nodes, axis] = _segments(np.maximum, high, starts, stops)
         for parents, children in reversed(levels):
             lower[parents] = np.minimum(lower.take(children, axis=0), lower.take(children + 1, axis=0))

@@ -175,7 +175,40 @@ class MeshSource(sc.ArraysByBits):
     ARRAYS = ("vertices", "faces")
 
 
-WorldPrimitive = WorldSphere | WorldPlane | WorldCylinder | WorldTriangles
+@dataclass(frozen=True, eq=False)
+class WorldInstances(sc.ArraysByBits):
+    """A mesh placed K times: its triangles once, in its own space (a WorldTriangles at the identity, the kernel
+    cache's key its (vertices, faces)), and per instance the maps both ways, float64.
+
+    matrices (K, 3, 4): world = A @ local + b, the scene's matrices after the object's own frame. inverses (K, 3, 4):
+    local = A^-1 @ world + (-A^-1 b): a ray goes into an instance's space as O' = A^-1 O + c, D' = A^-1 D (D' not
+    normalised, so t is the same parameter on both sides). cofactors (K, 3, 3): det(A) A^-T, which takes a local
+    normal to the normal of the placed triangle ((A e1) x (A e2) = det(A) A^-T (e1 x e2)): a mirrored instance's
+    normals turn with its winding, as the same triangles placed in world space would. A hit's part is k T + the
+    triangle's index (T triangles), so instance k's hits come before instance k + 1's on ties."""
+
+    material: str
+    mesh: WorldTriangles
+    matrices: np.ndarray
+    inverses: np.ndarray
+    cofactors: np.ndarray
+
+    ARRAYS = ("matrices",)
+    UNCOMPARED = ("mesh", "inverses", "cofactors")  # the mesh by its cache key below; the others from matrices
+
+    def _plain(self) -> tuple:
+        return (*super()._plain(), self.mesh.cache_key)
+
+    @property
+    def cache_key(self) -> object:
+        return self
+
+    @property
+    def triangle_count(self) -> int:
+        return len(self.mesh.triangles)
+
+
+WorldPrimitive = WorldSphere | WorldPlane | WorldCylinder | WorldTriangles | WorldInstances
 
 BOX_TRIANGLES = (
     # two counter-clockwise triangles per face, seen from outside; corners indexed by (x, y, z) bits
@@ -264,7 +297,37 @@ def world_primitive(obj: sc.SceneObject, vane: sc.Vane | None) -> WorldPrimitive
         return _triangles(obj.material, rotation, location, box_vertices(obj.size), BOX_TRIANGLES)
     if isinstance(obj, sc.Pyramid):
         return _triangles(obj.material, rotation, location, pyramid_vertices(obj.size), PYRAMID_TRIANGLES)
+    if isinstance(obj, sc.MeshInstances):
+        return world_instances(obj, rotation, location)
     return _triangles(obj.material, rotation, location, obj.vertices, obj.triangles, (obj.vertices, obj.triangles))
+
+
+def world_instances(obj: sc.MeshInstances, rotation: Matrix3, location: sc.Vec3) -> WorldInstances:
+    """The instances' matrices after the object's frame (rotation, location; the identity unless a vane turns them),
+    their inverses and cofactors, and the mesh's triangles in its own space."""
+    mesh = obj.mesh
+    local = _triangles(
+        mesh.material, IDENTITY, (0.0, 0.0, 0.0), mesh.vertices, mesh.triangles, (mesh.vertices, mesh.triangles)
+    )
+    matrices = np.asarray(obj.matrices, dtype=np.float64)
+    if rotation != IDENTITY or location != (0.0, 0.0, 0.0):
+        turn = np.asarray(rotation, dtype=np.float64)
+        matrices = np.concatenate(
+            (turn @ matrices[:, :, :3], turn @ matrices[:, :, 3:] + np.reshape(location, (3, 1))), 2
+        )
+    linear = matrices[:, :, :3]
+    inverse = np.linalg.inv(linear)
+    offset = -(inverse @ matrices[:, :, 3:])
+    inverses = np.concatenate((inverse, offset), axis=2)
+    cofactors = np.linalg.det(linear)[:, None, None] * np.transpose(inverse, (0, 2, 1))
+    return WorldInstances(obj.material, local, _read_only(matrices), _read_only(inverses), _read_only(cofactors))
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """A contiguous float64 copy (or the array itself, where it is one) that nobody can write to."""
+    array = np.ascontiguousarray(array, dtype=np.float64)
+    array.flags.writeable = False
+    return array
 
 
 def world_primitives(scene: sc.Scene) -> list[WorldPrimitive]:
@@ -275,7 +338,7 @@ def world_corner_normals(obj: sc.SceneObject, vane: sc.Vane | None) -> np.ndarra
     """A mesh's corner normals (T, 3 corners, 3) rotated into the world with the object (None: a flat mesh). One
     array both tracers read, so that they interpolate the same numbers."""
     normals = getattr(obj, "normals", None)
-    if normals is None:
+    if normals is None or isinstance(obj, sc.MeshInstances):  # an instance's normals stay in its mesh's space
         return None
     rotation, _ = object_frame(obj, vane)
     local = np.asarray(normals, dtype=np.float64).reshape(-1, 3, 3)  # triples, or the loader's flat nines

@@ -269,8 +269,10 @@ def _material(reader: _Reader) -> sc.Material:
     return material
 
 
-def _object(reader: _Reader, materials: dict[str, sc.Material], index: int) -> sc.SceneObject | None:
-    kinds = ("sphere", "plane", "cylinder", "box", "pyramid", "mesh")
+def _object(
+    reader: _Reader, materials: dict[str, sc.Material], index: int, meshes: dict[str, sc.TriangleMesh] | None = None
+) -> sc.SceneObject | None:
+    kinds = ("sphere", "plane", "cylinder", "box", "pyramid", "mesh", "instance", "instances")
     kind = reader.choice("type", kinds, None)
     if kind is None and "type" not in reader.data:
         reader.fail("type", f"is required (one of {', '.join(kinds)})")
@@ -279,9 +281,11 @@ def _object(reader: _Reader, materials: dict[str, sc.Material], index: int) -> s
     listed = reader.data.get("materials") if kind == "mesh" else None
     if "material" not in reader.data and isinstance(listed, list) and listed and isinstance(listed[0], str):
         material = listed[0]
+    elif kind in ("instance", "instances"):
+        material = reader.string("material", None)  # absent: the mesh's own materials
     else:
         material = reader.string("material")
-    if material and materials and material not in materials:
+    if isinstance(material, str) and material and materials and material not in materials:
         reader.fail(
             "material", f"must name one of the materials ({', '.join(sorted(materials))}), got {_show(material)}"
         )
@@ -313,8 +317,126 @@ def _object(reader: _Reader, materials: dict[str, sc.Material], index: int) -> s
         result = sc.Pyramid(size=reader.lengths("size"), **common)
     elif kind == "mesh":
         result = _mesh(reader, common, materials)
+    elif kind in ("instance", "instances"):
+        result = _instances(reader, common, meshes or {}, many=kind == "instances")
     reader.finish()
     return result
+
+
+MATRIX_MIN_DETERMINANT = 1e-18  # relative to the largest entry cubed: below it, a matrix flattens its mesh
+
+
+def _instances(
+    reader: _Reader, common: dict[str, Any], meshes: dict[str, sc.TriangleMesh], many: bool
+) -> sc.MeshInstances | None:
+    """An "instance" (one placement: "matrix", or "location", "rotation", "scale") or "instances" (a list of
+    "matrices") of a mesh in the scene's "meshes" table."""
+    name = reader.string("mesh")
+    mesh = meshes.get(name) if isinstance(name, str) else None
+    if isinstance(name, str) and name and mesh is None:
+        known = ", ".join(sorted(meshes)) if meshes else "the scene has no meshes table"
+        reader.fail("mesh", f"must name a mesh of the scene's meshes ({known}), got {_show(name)}")
+    if many:
+        for key in ("location", "rotation"):
+            if key in reader.data:
+                reader.fail(key, 'is not a field of "instances" (each placement is one of its matrices)')
+        raw = reader.raw("matrices")
+        matrices = _matrices(reader, raw)
+    elif "matrix" in reader.data:
+        for key in ("location", "rotation", "scale"):
+            if key in reader.data:
+                reader.fail(key, 'cannot be given with "matrix" (the matrix holds the whole placement)')
+        matrices = _matrices(reader, [reader.raw("matrix")], single=True)
+    else:
+        scale = reader.vector("scale", (1.0, 1.0, 1.0), low=-LENGTH_RANGE[1], high=LENGTH_RANGE[1])
+        if any(abs(k) < LENGTH_RANGE[0] for k in scale):
+            reader.fail("scale", f"must have every component at least {LENGTH_RANGE[0]} in size, got {_show(scale)}")
+            scale = (1.0, 1.0, 1.0)
+        matrices = sc.matrix_from_transform(common["location"], common["rotation"], scale)[None]
+    if mesh is None or matrices is None:
+        return None
+    override = common["material"] is not None
+    placed = {**common, "location": (0.0, 0.0, 0.0), "rotation": (0.0, 0.0, 0.0)}
+    if not override:
+        placed["material"] = mesh.material
+    return sc.MeshInstances(mesh=mesh, mesh_name=name, matrices=matrices, override=override, **placed)
+
+
+def _matrices(reader: _Reader, raw: Any, single: bool = False) -> np.ndarray | None:
+    """Placements as (K, 3, 4) float64: each a row-major [[a, b, c, x], [d, e, f, y], [g, h, i, z]] (a last row
+    [0, 0, 0, 1] may follow) or the same 12 (or 16) numbers flat; every entry finite and within COORDINATE_LIMIT,
+    every 3x3 part invertible."""
+    key = "matrix" if single else "matrices"
+    if raw is ...:
+        return None
+    expected = "a 3x4 or 4x4 matrix (rows [a, b, c, x], ...; or its 12 or 16 numbers flat)"
+    if not isinstance(raw, list) or (not single and not raw):
+        reader.fail(key, f"must be a non-empty list of placements, each {expected}, got {_show_shape(raw)}")
+        return None
+    array = _placements(raw)
+    if array is None:  # forms mixed in one list, or a bad entry: one at a time, to name the first bad one
+        entries = [_placements([item]) for item in raw]
+        bad = next((i for i, entry in enumerate(entries) if entry is None), None)
+        if bad is not None:
+            where = key if single else f"{key}[{bad}]"
+            reader.fail(where, f"must be {expected} of numbers up to {_show(COORDINATE_LIMIT)}, got {_show(raw[bad])}")
+            return None
+        wrong = next((i for i, e in enumerate(entries) if e.shape[1] == 4 and np.any(e[0, 3] != (0, 0, 0, 1))), None)
+        if wrong is not None:
+            reader.fail(
+                key if single else f"{key}[{wrong}]", "must have a last row of [0, 0, 0, 1] (an affine placement)"
+            )
+            return None
+        array = np.concatenate([e[:, :3] for e in entries])
+    if array.shape[1] == 4:
+        wrong = np.any(array[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1).nonzero()[0]
+        if wrong.size:
+            where = key if single else f"{key}[{int(wrong[0])}]"
+            reader.fail(where, "must have a last row of [0, 0, 0, 1] (an affine placement)")
+            return None
+        array = np.ascontiguousarray(array[:, :3])
+    linear = array[:, :, :3]
+    largest = np.abs(linear).max(axis=(1, 2))
+    flat = np.abs(np.linalg.det(linear)) <= MATRIX_MIN_DETERMINANT * largest**3
+    if flat.any():
+        where = key if single else f"{key}[{int(flat.nonzero()[0][0])}]"
+        reader.fail(where, "must be invertible (its 3x3 part flattens the mesh: a scale of 0 on some axis)")
+        return None
+    array.flags.writeable = False
+    return array
+
+
+def _placements(raw: list) -> np.ndarray | None:
+    """A list of matrices all in one of the four forms -> (K, 3 or 4, 4) float64, or None."""
+    for rows in (3, 4):
+        for shape in ((len(raw), rows, 4), (len(raw), rows * 4)):
+            array = _number_array(raw, shape)
+            if array is not None:
+                return array.reshape(len(raw), rows, 4)
+    return None
+
+
+def _mesh_table(reader: _Reader | None, materials: dict[str, sc.Material]) -> dict[str, sc.TriangleMesh]:
+    """The scene's "meshes": name -> a mesh's vertices, triangles, normals and materials, once for all the
+    "instance" and "instances" objects that place it."""
+    meshes: dict[str, sc.TriangleMesh] = {}
+    if reader is None:
+        return meshes
+    for name in list(reader.data):
+        body = _Reader(reader.raw(name), f"{reader.path}.{name}", reader.problems)
+        listed = body.data.get("materials")
+        if "material" not in body.data and isinstance(listed, list) and listed and isinstance(listed[0], str):
+            material = listed[0]
+        else:
+            material = body.string("material")
+        if material and materials and material not in materials:
+            body.fail(
+                "material", f"must name one of the materials ({', '.join(sorted(materials))}), got {_show(material)}"
+            )
+        mesh = _mesh(body, {"name": name, "material": material}, materials)
+        body.finish()
+        meshes[name] = mesh
+    return meshes
 
 
 def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Material]) -> sc.TriangleMesh:
@@ -798,6 +920,7 @@ def scene_from_dict(data: Any, source: str = "scene") -> sc.Scene:
             for name, body in raw_materials.items():
                 materials[name] = _material(_Reader(body, f"materials.{name}", problems))
 
+    meshes = _mesh_table(top.reader("meshes"), materials)
     objects: list[sc.SceneObject] = []
     raw_objects = top.raw("objects")
     if raw_objects is not ...:
@@ -805,7 +928,7 @@ def scene_from_dict(data: Any, source: str = "scene") -> sc.Scene:
             top.fail("objects", f"must be a list of objects, got {_show_shape(raw_objects)}")
         else:
             for i, body in enumerate(raw_objects):
-                made = _object(_Reader(body, f"objects[{i}]", problems), materials, i)
+                made = _object(_Reader(body, f"objects[{i}]", problems), materials, i, meshes)
                 if made is not None:
                     objects.append(made)
     names = [obj.name for obj in objects]

@@ -6,6 +6,7 @@ linear RGB in [0, 1]. Every object has a location, a rotation, a size of its own
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field, fields, replace
 from typing import Literal
 
@@ -129,14 +130,33 @@ def same_arrays(a: np.ndarray | None, b: np.ndarray | None) -> bool:
         return True
     if a is None or b is None or a.shape != b.shape or a.dtype != b.dtype:
         return False
+    ARRAY_COMPARISONS[0] += 1
     return bool(np.array_equal(a.reshape(-1).view(np.uint8), b.reshape(-1).view(np.uint8)))
+
+
+# how many times two arrays were compared bit by bit (same_arrays past its shortcuts): a cache that finds its
+# entries by digest compares only on a match, so tests can count this instead of timing a cache
+ARRAY_COMPARISONS = [0]
+
+
+def array_digest(array: np.ndarray | None) -> bytes:
+    """A 16-byte digest of an array's shape, dtype and bits (b"" for None): equal arrays, equal digests."""
+    if array is None:
+        return b""
+    contiguous = np.ascontiguousarray(array)
+    digest = hashlib.blake2b(digest_size=16)
+    digest.update(f"{contiguous.dtype.str}{contiguous.shape}".encode())
+    digest.update(contiguous.reshape(-1).view(np.uint8).data)
+    return digest.digest()
 
 
 class ArraysByBits:
     """For a frozen dataclass (eq=False) whose ARRAYS fields are NumPy arrays or None: equal where its other fields
     are equal and its arrays hold the same bits (same_arrays; == on arrays is elementwise, which a dataclass's ==
-    cannot use); the hash takes the arrays' shapes, not their contents (cheap, and equal objects still hash the
-    same). UNCOMPARED fields (made from the others) take part in neither."""
+    cannot use). The hash takes a digest of the arrays' contents, computed once per object and kept: objects of one
+    shape (every instance of a mesh placed as world triangles) fall in different buckets, so a dict of many of them
+    compares arrays only where the digests match, never each against every other. UNCOMPARED fields (made from the
+    others) take part in neither."""
 
     ARRAYS: tuple[str, ...] = ()
     UNCOMPARED: tuple[str, ...] = ()
@@ -145,15 +165,33 @@ class ArraysByBits:
         left_out = self.ARRAYS + self.UNCOMPARED
         return tuple(getattr(self, f.name) for f in fields(self) if f.name not in left_out)
 
+    def contents_digest(self) -> bytes:
+        """The digests of the ARRAYS, joined; computed on first use and kept (the arrays are read-only)."""
+        kept = self.__dict__.get("_contents_digest")
+        if kept is None:
+            kept = b"".join(array_digest(getattr(self, name)) for name in self.ARRAYS)
+            object.__setattr__(self, "_contents_digest", kept)
+        return kept
+
     def __eq__(self, other: object) -> bool:
         if other.__class__ is not self.__class__:
             return NotImplemented
-        return self._plain() == other._plain() and all(
-            same_arrays(getattr(self, name), getattr(other, name)) for name in self.ARRAYS
+        if self is other:
+            return True
+        return (
+            self._plain() == other._plain()
+            and self.contents_digest() == other.contents_digest()
+            and all(same_arrays(getattr(self, name), getattr(other, name)) for name in self.ARRAYS)
         )
 
     def __hash__(self) -> int:
-        return hash((self._plain(), *(getattr(getattr(self, name), "shape", None) for name in self.ARRAYS)))
+        return hash((self._plain(), self.contents_digest()))
+
+    def __getstate__(self) -> dict:
+        """Pickled without the kept digest (a worker computes its own where it needs one)."""
+        state = dict(self.__dict__)
+        state.pop("_contents_digest", None)
+        return state
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -197,7 +235,68 @@ class TriangleMesh(ArraysByBits, Primitive):
         self.__dict__.update(state)
 
 
-SceneObject = Sphere | Plane | Cylinder | Box | Pyramid | TriangleMesh
+@dataclass(frozen=True, kw_only=True, eq=False)
+class MeshInstances(ArraysByBits, Primitive):
+    """One mesh placed many times (Blender's instances: collection, vertex/face, particle and Geometry Nodes ones).
+
+    mesh: the shared TriangleMesh (its own location and rotation unused: its vertices are in the instances' local
+    space), named mesh_name in the scene's meshes table. matrices (K, 3, 4) float64: instance k's local-to-world
+    affine map, world = M[k, :, :3] @ local + M[k, :, 3] (any invertible matrix: rotated, mirrored, non-uniformly
+    scaled), applied before the object's own location and rotation (identity unless a vane turns the group).
+    material: every triangle's material where override is true; else the mesh's own (its material, or its
+    materials by triangle). The tracer prepares the mesh once and the instances as boxes above it, so an instance
+    costs its matrix, not its triangles."""
+
+    ARRAYS = ("matrices",)
+    UNCOMPARED = ("mesh",)  # compared by identity below: a scene's instances share one mesh object
+
+    mesh: TriangleMesh
+    mesh_name: str = "mesh"
+    matrices: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 4)))
+    override: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "matrices", frozen_array(self.matrices, np.float64, (-1, 3, 4)))
+
+    def _plain(self) -> tuple:
+        return (*super()._plain(), id(self.mesh))
+
+    @property
+    def materials(self) -> tuple[str, ...] | None:
+        """The names each triangle's material_indices point into (None: one material for every triangle)."""
+        return None if self.override else self.mesh.materials
+
+    @property
+    def material_indices(self) -> np.ndarray | None:
+        return None if self.override else self.mesh.material_indices
+
+    @property
+    def normals(self) -> np.ndarray | None:
+        """The mesh's corner normals (T, 3, 3) in its local space, or None (flat)."""
+        return self.mesh.normals
+
+    def __setstate__(self, state: dict) -> None:
+        for value in state.values():
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+        self.__dict__.update(state)
+
+
+def matrix_from_transform(location: Vec3, rotation: Vec3, scale: Vec3) -> np.ndarray:
+    """Blender's location, XYZ Euler rotation (degrees) and scale -> the (3, 4) matrix [R @ S | location]."""
+    x, y, z = (np.radians(angle) for angle in rotation)
+    cx, sx, cy, sy, cz, sz = np.cos(x), np.sin(x), np.cos(y), np.sin(y), np.cos(z), np.sin(z)
+    turn = np.array(
+        [
+            [cy * cz, sx * sy * cz - cx * sz, cx * sy * cz + sx * sz],
+            [cy * sz, sx * sy * sz + cx * cz, cx * sy * sz - sx * cz],
+            [-sy, sx * cy, cx * cy],
+        ]
+    )
+    return np.concatenate((turn * np.asarray(scale, dtype=np.float64)[None, :], np.reshape(location, (3, 1))), axis=1)
+
+
+SceneObject = Sphere | Plane | Cylinder | Box | Pyramid | TriangleMesh | MeshInstances
 
 
 @dataclass(frozen=True)

@@ -102,8 +102,38 @@ class PlainTriangles:
     normals: tuple[sc.Vec3, ...]
 
 
-def plain_primitive(primitive: tf.WorldPrimitive) -> tf.WorldPrimitive | PlainTriangles:
+@dataclass(frozen=True)
+class PlainInstances:
+    """A mesh placed K times (tf.WorldInstances' numbers as tuples of floats): the mesh's triangles in its own
+    space, and per instance the rows of [A^-1 | c] (local = A^-1 world + c), of the placing matrix [A | b] and of the
+    cofactor det(A) A^-T (a local normal -> the placed triangle's)."""
+
+    mesh: PlainTriangles
+    inverses: tuple[tuple[tuple[float, ...], ...], ...]
+    matrices: tuple[tuple[tuple[float, ...], ...], ...]
+    cofactors: tuple[tuple[sc.Vec3, sc.Vec3, sc.Vec3], ...]
+
+
+def _affine(rows: tuple[tuple[float, ...], ...], X: sc.Vec3, translate: bool) -> sc.Vec3:
+    """rows (3 of 3 or 4 numbers) applied to X, summed left to right; translate: the fourth column added."""
+    return tuple(
+        row[0] * X[0] + row[1] * X[1] + row[2] * X[2] + row[3]
+        if translate
+        else row[0] * X[0] + row[1] * X[1] + row[2] * X[2]
+        for row in rows
+    )  # type: ignore[return-value]
+
+
+def plain_primitive(primitive: tf.WorldPrimitive) -> tf.WorldPrimitive | PlainTriangles | PlainInstances:
     """The primitive with a mesh's arrays turned into tuples of floats (the same numbers); others as they are."""
+    if isinstance(primitive, tf.WorldInstances):
+        as_tuples = lambda array: tuple(tuple(map(tuple, matrix)) for matrix in array.tolist())  # noqa: E731
+        return PlainInstances(
+            plain_primitive(primitive.mesh),
+            as_tuples(primitive.inverses),
+            as_tuples(primitive.matrices),
+            as_tuples(primitive.cofactors),
+        )
     if not isinstance(primitive, tf.WorldTriangles):
         return primitive
     triangles = tuple(tuple(map(tuple, triangle)) for triangle in primitive.triangles.tolist())
@@ -137,7 +167,20 @@ def _hits(O: sc.Vec3, D: sc.Vec3, primitive: tf.WorldPrimitive | PlainTriangles)
         return _plane(O, D, primitive)
     if isinstance(primitive, tf.WorldCylinder):
         return _cylinder(O, D, primitive)
+    if isinstance(primitive, PlainInstances):
+        return _instances(O, D, primitive)
     return _triangles(O, D, primitive)
+
+
+def _instances(O: sc.Vec3, D: sc.Vec3, placed: PlainInstances) -> list[tuple[float, int]]:
+    """Each instance in turn: the ray taken into its space (O' = A^-1 O + c, D' = A^-1 D, not normalised, so t is
+    the world's parameter) and tested against the mesh's triangles there; part = instance * T + triangle."""
+    hits: list[tuple[float, int]] = []
+    count = len(placed.mesh.triangles)
+    for instance, rows in enumerate(placed.inverses):
+        local_O, local_D = _affine(rows, O, True), _affine(rows, D, False)
+        hits.extend((t, instance * count + part) for t, part in _triangles(local_O, local_D, placed.mesh))
+    return hits
 
 
 def find_normal(primitive: tf.WorldPrimitive | PlainTriangles, part: int, P: sc.Vec3) -> sc.Vec3:
@@ -153,7 +196,32 @@ def find_normal(primitive: tf.WorldPrimitive | PlainTriangles, part: int, P: sc.
             return primitive.axis
         h = dot(sub(P, primitive.base), primitive.axis)
         return sub(P, add(primitive.base, scale(primitive.axis, h)))
+    if isinstance(primitive, PlainInstances):
+        instance, triangle = divmod(part, len(primitive.mesh.triangles))
+        return _affine(primitive.cofactors[instance], primitive.mesh.normals[triangle], False)
     return primitive.normals[part]
+
+
+def instance_normal(placed: PlainInstances, part: int, corners: list, P: sc.Vec3) -> sc.Vec3 | None:
+    """An instanced mesh's smooth normal at P: P taken into the instance's space, the corner normals corners
+    (local, T x 3 x 3) interpolated at its barycentric coordinates there, placed by the cofactor, normalised (None
+    where the interpolation is zero)."""
+    instance, triangle = divmod(part, len(placed.mesh.triangles))
+    local = _affine(placed.inverses[instance], P, True)
+    v0, v1, v2 = placed.mesh.triangles[triangle]
+    e1, e2, w = sub(v1, v0), sub(v2, v0), sub(local, v0)
+    d00, d01, d11 = dot(e1, e1), dot(e1, e2), dot(e2, e2)
+    d20, d21 = dot(w, e1), dot(w, e2)
+    denominator = d00 * d11 - d01 * d01
+    u = (d11 * d20 - d01 * d21) / denominator
+    v = (d00 * d21 - d01 * d20) / denominator
+    s = 1.0 - u - v
+    n0, n1, n2 = corners[triangle]
+    n = _affine(placed.cofactors[instance], tuple(n0[i] * s + n1[i] * u + n2[i] * v for i in range(3)), False)
+    size = math.sqrt(dot(n, n))
+    if not size > 0.0:
+        return None
+    return (n[0] / size, n[1] / size, n[2] / size)
 
 
 def spot_attenuation(cosine: float, spot: sc.SpotLight) -> float:
@@ -205,6 +273,10 @@ class ReferenceTracer:
         self.documented_direction = cam.documented_background_direction(scene.camera, scene.render)
         self.corners = [tf.world_corner_normals(obj, scene.vane) for obj in scene.objects]
         self.corners = [None if c is None else c.tolist() for c in self.corners]
+        self.instance_corners = [  # an instanced mesh's corner normals, in its own space
+            obj.normals.tolist() if isinstance(obj, sc.MeshInstances) and obj.normals is not None else None
+            for obj in scene.objects
+        ]
         self.colored = any(m.specular_color is not None for m in scene.materials.values()) or any(
             light.color != sc.WHITE or getattr(light, "falloff", "none") != "none" or isinstance(light, sc.SpotLight)
             for light in scene.lights
@@ -214,6 +286,8 @@ class ReferenceTracer:
         """The material of object index's part (a mesh's triangle may have its own)."""
         obj = self.scene.objects[index]
         if getattr(obj, "material_indices", None) is not None:
+            if isinstance(obj, sc.MeshInstances):
+                part %= len(obj.mesh.triangles)  # instance * T + triangle
             return self.scene.materials[obj.materials[obj.material_indices[part]]]
         return self.scene.materials[obj.material]
 
@@ -324,6 +398,9 @@ class ReferenceTracer:
         corners = self.corners[closest_object]
         if corners is not None:
             S = barycentric_normal(self.primitives[closest_object].triangles[part], corners[part], P) or N
+        instance_corners = self.instance_corners[closest_object]
+        if instance_corners is not None:
+            S = instance_normal(self.primitives[closest_object], part, instance_corners, P) or N
         if material.two_sided and dot(N, V) < 0.0:
             S = (-S[0], -S[1], -S[2])
         diffuse, highlight = self.find_intensities(P, S, V, material.specular)

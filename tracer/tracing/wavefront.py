@@ -19,6 +19,7 @@ from ..geometry import transforms as tf
 from ..geometry.bvh import Hierarchy
 from ..geometry.cull import CoverageGrid, ScreenRectangles, kernel_sets
 from ..geometry.footprint import Footprint, Volume
+from ..geometry.instances import InstancesKernel, local_mesh_kernel
 from ..geometry.kernels import (
     Kernel,
     PlaneKernel,
@@ -99,7 +100,12 @@ class PreparedScene:
         self.robust = settings.numerics == "robust"
         build = make_robust_kernel if self.robust else make_kernel
         objects, primitives, frame_of, vanes = self._placed_objects()
-        self.kernels = [_kernel(build, primitive, self.dtype) for primitive in primitives]  # per object: normals
+        self.kernels = [  # per object: normals
+            _instances_kernel(build, primitive, self.dtype)
+            if isinstance(primitive, tf.WorldInstances)
+            else _kernel(build, primitive, self.dtype)
+            for primitive in primitives
+        ]
         # a scene of documented spheres only: every hit's normal from its centre, gathered, in one set of passes
         self.centers = None
         if self.kernels and all(type(kernel) is SphereKernel for kernel in self.kernels):
@@ -318,6 +324,7 @@ class PreparedScene:
         self.triangle_materials: dict[int, np.ndarray] = {}
         for index, obj in enumerate(objects):
             if getattr(obj, "material_indices", None) is not None:
+                # by triangle; an instance's part (instance * T + triangle) is taken modulo T (material_of)
                 slots = np.asarray([number[name] for name in obj.materials], dtype=np.intp)
                 self.triangle_materials[index] = slots.take(np.asarray(obj.material_indices, dtype=np.intp))
         if self.triangle_materials:
@@ -340,7 +347,12 @@ class PreparedScene:
         """For each mesh with corner normals: its triangles' v0, e1, e2 and corner normals n0, n1, n2 (3, T) each,
         float64 (the reference's numbers); vanes: the vane that places each object."""
         self.smooth: dict[int, tuple[np.ndarray, ...]] = {}
+        self.smooth_instances: dict[int, np.ndarray] = {}  # an instanced mesh's corner normals (T, 3, 3), local
         for index, (obj, primitive, vane) in enumerate(zip(objects, primitives, vanes, strict=True)):
+            if isinstance(obj, sc.MeshInstances):
+                if obj.normals is not None:
+                    self.smooth_instances[index] = np.asarray(obj.normals, dtype=np.float64).reshape(-1, 3, 3)
+                continue
             corners = tf.world_corner_normals(obj, vane)
             if corners is None:
                 continue
@@ -357,7 +369,7 @@ class PreparedScene:
         for index, table in self.triangle_materials.items():
             rows = indices(obj == index)
             if rows.size:
-                material[rows] = table.take(part.take(rows))
+                material[rows] = table.take(part.take(rows), mode="wrap")
         return material
 
     def shading_normals(
@@ -367,8 +379,16 @@ class PreparedScene:
         nothing changes them; a smooth mesh's interpolated corner normals; flipped where a two-sided material is
         hit from behind (N.V < 0, that is N.D > 0)."""
         S = N
-        if self.smooth:
+        if self.smooth_instances:
             S = np.array(N, copy=True)
+            for index, corners in self.smooth_instances.items():
+                rows = indices(obj == index)
+                if rows.size:
+                    unit = self.kernels[index].smooth_normals(take(P, rows), part.take(rows), corners, take(N, rows))
+                    for axis in range(3):
+                        S[axis][rows] = unit[axis]
+        if self.smooth:
+            S = np.array(S, copy=True)
             for index, (v0, e1, e2, n0, n1, n2) in self.smooth.items():
                 rows = indices(obj == index)
                 if not rows.size:
@@ -1023,21 +1043,28 @@ def _still_primitive(obj: sc.SceneObject, vane: sc.Vane) -> tf.WorldPrimitive:
     return kept[1]
 
 
-def _kernel(make, first: object, second: object):
-    """make(first, second) (a primitive and a dtype, or a mesh's kernel and its primitive), kept for primitives that
-    stay put between frames (in an animation all but the vane's parts); kernels never change once made. A mesh's
-    key is its cache_key, which does not hold its world arrays alive."""
-    key = tuple(
-        part.str if isinstance(part, np.dtype) else getattr(part, "cache_key", part) for part in (make, first, second)
-    )
+def _kernel(make, *parts: object):
+    """make(*parts) (a primitive and a dtype, or a mesh's kernel and its primitive), kept for primitives that stay
+    put between frames (in an animation all but the vane's parts); kernels never change once made. A mesh's key is
+    its cache_key, which does not hold its world arrays alive; keys are found by their hash (a digest of a mesh's
+    arrays, scene.ArraysByBits), never by comparing with every entry."""
+    key = tuple(part.str if isinstance(part, np.dtype) else getattr(part, "cache_key", part) for part in (make, *parts))
     made = _KERNELS.get(key)
     if made is None:
-        made = _KERNELS[key] = make(first, second)
+        made = _KERNELS[key] = make(*parts)
         if len(_KERNELS) > KERNEL_CACHE_SIZE:
             _KERNELS.popitem(last=False)
     else:
         _KERNELS.move_to_end(key)
     return made
+
+
+def _instances_kernel(make, primitive: tf.WorldInstances, dtype: np.dtype) -> InstancesKernel:
+    """The kernel of a mesh placed many times: the mesh's own kernel and hierarchy kept by the mesh (its vertices
+    and faces, found by their digest), so that every scene and frame that places it builds them once; the
+    instances' hierarchy kept by the placements (the same matrices in the next frame: nothing built again)."""
+    local = _kernel(local_mesh_kernel, make, primitive.mesh, dtype)
+    return _kernel(InstancesKernel, local, primitive, dtype)
 
 
 def _tally(counts: RayCounts | list[RayCounts], kind: str, rays: int, frames: RayFrames | None) -> None:

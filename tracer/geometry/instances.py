@@ -1,0 +1,269 @@
+"""A mesh placed many times -> one kernel: the mesh's own hierarchy built once in its own space, the instances as
+boxes in a hierarchy above it (a two-level hierarchy, as Cycles, Embree and pbrt instance geometry).
+
+A query walks the instances' hierarchy a level at a time for all rays at once (as meshbvh walks a mesh's) and
+gathers every (ray, instance) pair whose instance box the ray meets. Each ray first searches its nearest box's
+instance; the pairs whose boxes begin no further than that hit (all of a ray's pairs where it found none) are then
+searched together. A pair's ray goes into its instance's space (O' = A^-1 O + c, D' = A^-1 D: t keeps its meaning)
+and walks the shared mesh's hierarchy there, every pair of every instance in the same NumPy calls. The hit kept is
+the nearest t, then the lowest instance, then the lowest triangle: what testing the instances one after another
+and each one's triangles in order gives (tracing/reference.py does exactly that). An instance costs its matrices
+and its box, not its triangles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import transforms as tf
+from .kernels import box_margin, dot, indices, ray_count, slab, unit
+from .meshbvh import MeshHierarchy, MeshKernel
+
+INSTANCES_PER_LEAF = 4
+
+
+class InstancesKernel(MeshKernel):
+    """hit() returns (t, part) with part = instance * T + triangle (T triangles in the mesh); normals are the placed
+    triangles' (cofactor @ local normal)."""
+
+    def __init__(self, local: MeshKernel, instances: tf.WorldInstances, dtype: np.dtype) -> None:
+        self.local = local  # the mesh's kernel in its own space, shared by every scene that places it
+        self.inner = local.inner
+        self.dtype = dtype
+        self.frame = None
+        self.pictures = {}
+        self.triangles = local.count
+        self.count = len(instances.matrices) * local.count
+        self.instance_count = len(instances.matrices)
+        # per instance, each entry of the maps as its own (K,) row: a pair's 12 numbers gathered row by row
+        self.inverse = np.ascontiguousarray(instances.inverses.reshape(-1, 12).T, dtype=dtype)  # (12, K)
+        self.cofactor = np.ascontiguousarray(instances.cofactors.reshape(-1, 9).T, dtype=dtype)  # (9, K)
+        self.matrices = instances.matrices  # (K, 3, 4) float64
+        self.source_triangles = instances.mesh.triangles  # (T, 3, 3) float64: the mesh in its own space
+        self.inverse64 = instances.inverses  # (K, 3, 4) float64, for smooth normals (the reference's numbers)
+        self.cofactor64 = instances.cofactors
+        local_lower, local_upper = (np.asarray(bound, dtype=np.float64) for bound in local.bounds())
+        corners = np.array(
+            [[(local_lower, local_upper)[(c >> axis) & 1][axis] for axis in range(3)] for c in range(8)]
+        )  # (8, 3)
+        placed = np.einsum("kij,cj->kci", self.matrices[:, :, :3], corners) + self.matrices[:, None, :, 3]
+        lower, upper = placed.min(axis=1), placed.max(axis=1)  # (K, 3) each
+        self.lower, self.upper = lower.min(axis=0), upper.max(axis=0)
+        size = np.maximum(np.abs(lower).max(axis=1), np.abs(upper).max(axis=1)) + (upper - lower).max(axis=1)
+        pad = box_margin(size, dtype)[:, None]
+        self.box_lower = np.ascontiguousarray((lower - pad).T, dtype=dtype)  # (3, K)
+        self.box_upper = np.ascontiguousarray((upper + pad).T, dtype=dtype)
+        self.top = MeshHierarchy(None, dtype, boxes=(lower, upper), leaf_size=INSTANCES_PER_LEAF)
+        self.cost = 3.0 + 4.0 * np.log2(max(2, self.count))
+
+    def bounds(self):
+        return self.lower, self.upper
+
+    def picture(self, view, rays):
+        return None  # each instance sees a shared point from a place of its own: no picture serves them all
+
+    # ---- the query ---------------------------------------------------------------------------------------------
+
+    def hit(self, O, D, t_min, t_max, any_hit: bool = False, views=None):
+        """Rays (3, N) (either may be a shared column) -> (t, part) (N,); any_hit: any hit's t, not the nearest.
+        views: unused (MeshKernel.hit's signature)."""
+        count = ray_count(O, D)
+        O, D = np.broadcast_to(O, (3, count)), np.broadcast_to(D, (3, count))
+        limit = np.broadcast_to(np.asarray(t_max, dtype=self.dtype), (count,))
+        t = np.full(count, np.inf, dtype=self.dtype)
+        part = np.zeros(count, dtype=np.int64)
+        rays, members, near = self._pairs(O, D, t_min, limit)
+        if not rays.size:
+            return t, part
+        order = np.lexsort((members, near, rays))  # each ray's boxes nearest first (lower instance on ties)
+        rays, members, near = rays.take(order), members.take(order), near.take(order)
+        first = np.ones(rays.size, dtype=bool)
+        np.not_equal(rays[1:], rays[:-1], out=first[1:])
+        chosen = indices(first)
+        first_rays = rays.take(chosen)
+        found_t, found_triangle = self._search_pairs(
+            O, D, first_rays, members.take(chosen), t_min, limit.take(first_rays), any_hit
+        )
+        t[first_rays] = found_t
+        triangle = np.zeros(count, dtype=np.int64)
+        instance = np.zeros(count, dtype=np.int64)
+        triangle[first_rays] = found_triangle
+        instance[first_rays] = members.take(chosen)
+        # the other pairs whose boxes begin at or before their ray's hit (every one where it has none)
+        rest = ~first
+        best = t.take(rays)
+        rest &= near <= best
+        if any_hit:
+            rest &= best == np.inf
+        rest = indices(rest)
+        if rest.size:
+            rest_rays, rest_members = rays.take(rest), members.take(rest)
+            best = best.take(rest)
+            # as near as the first hit counts too (a lower instance wins the tie below)
+            rest_limit = np.where(best < np.inf, np.nextafter(best, self.dtype.type(np.inf)), limit.take(rest_rays))
+            more_t, more_triangle = self._search_pairs(O, D, rest_rays, rest_members, t_min, rest_limit, any_hit)
+            hit = indices(more_t < np.inf)
+            if hit.size:
+                self._keep_least(
+                    t,
+                    instance,
+                    triangle,
+                    rest_rays.take(hit),
+                    more_t.take(hit),
+                    rest_members.take(hit),
+                    more_triangle.take(hit),
+                )
+        found = indices(t < np.inf)
+        part[found] = instance.take(found) * self.triangles + triangle.take(found)
+        return t, part
+
+    @staticmethod
+    def _keep_least(t, instance, triangle, rays, more_t, more_instance, more_triangle) -> None:
+        """For each ray (n,) the least (t, instance, triangle) of its current one and its new candidates."""
+        all_rays = np.concatenate((rays, np.unique(rays)))
+        kept = all_rays[rays.size :]
+        all_t = np.concatenate((more_t, t.take(kept)))
+        all_instance = np.concatenate((more_instance, instance.take(kept)))
+        all_triangle = np.concatenate((more_triangle, triangle.take(kept)))
+        order = np.lexsort((all_triangle, all_instance, all_t, all_rays))
+        sorted_rays = all_rays.take(order)
+        first = np.ones(order.size, dtype=bool)
+        np.not_equal(sorted_rays[1:], sorted_rays[:-1], out=first[1:])
+        best = order.take(indices(first))
+        winners = all_rays.take(best)
+        t[winners] = all_t.take(best)
+        instance[winners] = all_instance.take(best)
+        triangle[winners] = all_triangle.take(best)
+
+    def _pairs(self, O, D, t_min, limit):
+        """Every (ray, instance) pair (P,) each whose instance box the ray meets within (t_min, its limit), with the
+        box's entry t (P,): the instances' hierarchy walked a level at a time for all rays."""
+        tree = self.top
+        inverse = 1.0 / D
+        near, far = slab(O, inverse, tree.lower[:, :1], tree.upper[:, :1])
+        rays = indices((near <= far) & (far > t_min) & (near < limit))
+        nodes = np.zeros(rays.size, dtype=np.int64)
+        found_rays, found_members, found_near = [], [], []
+        while rays.size:
+            is_leaf = tree.left.take(nodes) < 0
+            leaf = indices(is_leaf)
+            if leaf.size:
+                row = tree.leaf_row.take(nodes.take(leaf))
+                slots = indices(tree.real.take(row, axis=0).ravel())
+                pair_rays = np.repeat(rays.take(leaf), tree.leaf_size).take(slots)
+                members = tree.leaf_triangles.take(row, axis=0).ravel().take(slots)
+                near, far = slab(
+                    O.take(pair_rays, axis=1),
+                    inverse.take(pair_rays, axis=1),
+                    self.box_lower.take(members, axis=1),
+                    self.box_upper.take(members, axis=1),
+                )
+                meets = indices((near <= far) & (far > t_min) & (near < limit.take(pair_rays)))
+                found_rays.append(pair_rays.take(meets))
+                found_members.append(members.take(meets))
+                found_near.append(near.take(meets))
+                inner = indices(~is_leaf)
+                rays, nodes = rays.take(inner), nodes.take(inner)
+            if not rays.size:
+                break
+            children = np.concatenate((tree.left.take(nodes), tree.right.take(nodes)))
+            pair_rays = np.concatenate((rays, rays))
+            near, far = slab(
+                O.take(pair_rays, axis=1),
+                inverse.take(pair_rays, axis=1),
+                tree.lower.take(children, axis=1),
+                tree.upper.take(children, axis=1),
+            )
+            meets = indices((near <= far) & (far > t_min) & (near < limit.take(pair_rays)))
+            rays, nodes = pair_rays.take(meets), children.take(meets)
+        if not found_rays:
+            empty = np.zeros(0, dtype=np.int64)
+            return empty, empty, np.zeros(0, dtype=self.dtype)
+        return np.concatenate(found_rays), np.concatenate(found_members), np.concatenate(found_near)
+
+    def _search_pairs(self, O, D, rays, members, t_min, limit, any_hit):
+        """Rays (P,) in the spaces of instances members (P,) -> their nearest (or any) hit (t, triangle) (P,) in the
+        shared mesh, below limit (P,)."""
+        origin, direction = self.to_local(O.take(rays, axis=1), D.take(rays, axis=1), members)
+        return self.local._search(origin, direction, t_min, limit, any_hit)
+
+    def to_local(self, O: np.ndarray, D: np.ndarray, members: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rays (3, P) -> the same rays in the spaces of instances members (P,): A^-1 O + c and A^-1 D, summed
+        left to right as the reference does."""
+        m = self.inverse.take(members, axis=1)  # (12, P): rows of [A^-1 | c]
+        origin = np.empty_like(m[:3])
+        direction = np.empty_like(m[:3])
+        for i in range(3):
+            a, b, c, d = m[4 * i], m[4 * i + 1], m[4 * i + 2], m[4 * i + 3]
+            origin[i] = a * O[0] + b * O[1] + c * O[2] + d
+            direction[i] = a * D[0] + b * D[1] + c * D[2]
+        return origin, direction
+
+    # ---- normals -----------------------------------------------------------------------------------------------
+
+    def split(self, part: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Parts (n,) -> (instance, triangle) (n,) each."""
+        instance = part // self.triangles
+        return instance, part - instance * self.triangles
+
+    def normal(self, P, part):
+        instance, triangle = self.split(part)
+        n = self.inner.normals.take(triangle, axis=1)  # the local unit normals (3, n)
+        c = self.cofactor.take(instance, axis=1)
+        return np.stack([c[3 * i] * n[0] + c[3 * i + 1] * n[1] + c[3 * i + 2] * n[2] for i in range(3)])
+
+    def unit_normal(self, P, part):
+        return unit(self.normal(P, part))
+
+    def surface(self, P, part):
+        """Robust numerics: each point's signed distance (n,) from its placed triangle along the unit normal, and
+        the placed triangle's largest coordinate magnitude (n,)."""
+        instance, triangle = self.split(part)
+        local = np.asarray(self.local_triangles(), dtype=np.float64).take(triangle, axis=0)  # (n, 3, 3)
+        placed = np.einsum("nij,nvj->nvi", self.matrices[:, :, :3].take(instance, axis=0), local)
+        placed += self.matrices[:, None, :, 3].take(instance, axis=0)
+        corner = placed[:, 0].T.astype(self.dtype)
+        return dot(self.unit_normal(P, part), P - corner), np.abs(placed).max(axis=(1, 2)).astype(self.dtype)
+
+    def local_triangles(self) -> np.ndarray:
+        """The mesh's triangles in its own space (T, 3 vertices, 3) float64, as its kernel was made from them."""
+        return self.source_triangles
+
+    def smooth_normals(self, P: np.ndarray, part: np.ndarray, corners: np.ndarray, flat: np.ndarray) -> np.ndarray:
+        """Interpolated corner normals (3, n) at hit points P (3, n): the barycentric coordinates of P taken into its
+        instance's space, the mesh's corner normals corners (T, 3, 3) interpolated there, placed by the cofactor and
+        normalised; flat (3, n) where they cancel. float64 throughout, as the reference."""
+        instance, triangle = self.split(part)
+        m = self.inverse64.take(instance, axis=0)  # (n, 3, 4)
+        point = P.astype(np.float64)
+        local = np.stack(
+            [m[:, i, 0] * point[0] + m[:, i, 1] * point[1] + m[:, i, 2] * point[2] + m[:, i, 3] for i in range(3)]
+        )
+        triangles = self.local_triangles().take(triangle, axis=0)  # (n, 3, 3)
+        a = triangles[:, 0].T
+        b, c = (triangles[:, 1] - triangles[:, 0]).T, (triangles[:, 2] - triangles[:, 0]).T
+        w = local - a
+        d00, d01, d11 = dot(b, b), dot(b, c), dot(c, c)
+        d20, d21 = dot(w, b), dot(w, c)
+        denominator = d00 * d11 - d01 * d01
+        u = (d11 * d20 - d01 * d21) / denominator
+        v = (d00 * d21 - d01 * d20) / denominator
+        s = 1.0 - u - v
+        n0, n1, n2 = (corners[:, k].take(triangle, axis=0).T for k in range(3))
+        n = n0 * s + n1 * u + n2 * v
+        cof = self.cofactor64.take(instance, axis=0)  # (n, 3, 3)
+        placed = np.stack([cof[:, i, 0] * n[0] + cof[:, i, 1] * n[1] + cof[:, i, 2] * n[2] for i in range(3)])
+        size = np.sqrt(dot(placed, placed))
+        good = size > 0.0
+        return np.where(good, placed / np.where(good, size, 1.0), flat)
+
+
+def local_mesh_kernel(make, mesh: tf.WorldTriangles, dtype: np.dtype) -> MeshKernel:
+    """The kernel of a mesh in its own space, with its own hierarchy however few its triangles (the instances' walk
+    goes through it); make: make_kernel or make_robust_kernel."""
+    return MeshKernel(make(mesh, dtype), mesh)
+
+
+def instances_kernel(make, primitive: tf.WorldInstances, dtype: np.dtype) -> InstancesKernel:
+    """An InstancesKernel made without a cache (bounds for footprints and edits, tests)."""
+    return InstancesKernel(local_mesh_kernel(make, primitive.mesh, dtype), primitive, dtype)
