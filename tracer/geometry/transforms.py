@@ -182,10 +182,11 @@ class WorldInstances(sc.ArraysByBits):
 
     matrices (K, 3, 4): world = A @ local + b, the scene's matrices after the object's own frame. inverses (K, 3, 4):
     local = A^-1 @ world + (-A^-1 b): a ray goes into an instance's space as O' = A^-1 O + c, D' = A^-1 D (D' not
-    normalised, so t is the same parameter on both sides). cofactors (K, 3, 3): det(A) A^-T, which takes a local
-    normal to the normal of the placed triangle ((A e1) x (A e2) = det(A) A^-T (e1 x e2)): a mirrored instance's
-    normals turn with its winding, as the same triangles placed in world space would. A hit's part is k T + the
-    triangle's index (T triangles), so instance k's hits come before instance k + 1's on ties."""
+    normalised, so t is the same parameter on both sides). cofactors (K, 3, 3): |det(A)| A^-T, which takes a local
+    normal to the normal of the placed triangle ((A e1) x (A e2) = det(A) A^-T (e1 x e2)), kept on the outer side
+    for a mirroring A as Blender keeps a negatively scaled object's (and as the export of world triangles swaps two
+    corners of each). A hit's part is k T + the triangle's index (T triangles), so instance k's hits come before
+    instance k + 1's on ties."""
 
     material: str
     mesh: WorldTriangles
@@ -319,7 +320,7 @@ def world_instances(obj: sc.MeshInstances, rotation: Matrix3, location: sc.Vec3)
     inverse = np.linalg.inv(linear)
     offset = -(inverse @ matrices[:, :, 3:])
     inverses = np.concatenate((inverse, offset), axis=2)
-    cofactors = np.linalg.det(linear)[:, None, None] * np.transpose(inverse, (0, 2, 1))
+    cofactors = np.abs(np.linalg.det(linear))[:, None, None] * np.transpose(inverse, (0, 2, 1))
     return WorldInstances(obj.material, local, _read_only(matrices), _read_only(inverses), _read_only(cofactors))
 
 

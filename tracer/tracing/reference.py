@@ -106,7 +106,7 @@ class PlainTriangles:
 class PlainInstances:
     """A mesh placed K times (tf.WorldInstances' numbers as tuples of floats): the mesh's triangles in its own
     space, and per instance the rows of [A^-1 | c] (local = A^-1 world + c), of the placing matrix [A | b] and of the
-    cofactor det(A) A^-T (a local normal -> the placed triangle's)."""
+    cofactor |det(A)| A^-T (a local normal -> the placed triangle's, outward for a mirroring A too)."""
 
     mesh: PlainTriangles
     inverses: tuple[tuple[tuple[float, ...], ...], ...]
