@@ -66,120 +66,143 @@ class InstancesKernel(MeshKernel):
 
     def hit(self, O, D, t_min, t_max, any_hit: bool = False, views=None):
         """Rays (3, N) (either may be a shared column) -> (t, part) (N,); any_hit: any hit's t, not the nearest.
-        views: unused (MeshKernel.hit's signature)."""
+        views: unused (MeshKernel.hit's signature).
+
+        Front to back, all rays at once: each round every ray takes the nearest of the nodes it has met but not
+        entered (no further than its best hit so far), follows the nearer child down to a leaf (keeping the other
+        child it meets for a later round), and searches the leaf's instances; a round's leaves are searched in one
+        batch. A ray stops once nothing it has met begins before its hit: in a dense forest, after the first leaf
+        or two, however many boxes lie behind."""
         count = ray_count(O, D)
         O, D = np.broadcast_to(O, (3, count)), np.broadcast_to(D, (3, count))
-        limit = np.broadcast_to(np.asarray(t_max, dtype=self.dtype), (count,))
-        t = np.full(count, np.inf, dtype=self.dtype)
-        part = np.zeros(count, dtype=np.int64)
-        rays, members, near = self._pairs(O, D, t_min, limit)
-        if not rays.size:
-            return t, part
-        order = np.lexsort((members, near, rays))  # each ray's boxes nearest first (lower instance on ties)
-        rays, members, near = rays.take(order), members.take(order), near.take(order)
-        first = np.ones(rays.size, dtype=bool)
-        np.not_equal(rays[1:], rays[:-1], out=first[1:])
-        chosen = indices(first)
-        first_rays = rays.take(chosen)
-        found_t, found_triangle = self._search_pairs(
-            O, D, first_rays, members.take(chosen), t_min, limit.take(first_rays), any_hit
-        )
-        t[first_rays] = found_t
-        triangle = np.zeros(count, dtype=np.int64)
+        inverse = 1.0 / D
+        best = np.array(np.broadcast_to(np.asarray(t_max, dtype=self.dtype), (count,)))  # the limit until a hit
+        found = np.zeros(count, dtype=bool)
         instance = np.zeros(count, dtype=np.int64)
-        triangle[first_rays] = found_triangle
-        instance[first_rays] = members.take(chosen)
-        # the other pairs whose boxes begin at or before their ray's hit (every one where it has none)
-        rest = ~first
-        best = t.take(rays)
-        rest &= near <= best
-        if any_hit:
-            rest &= best == np.inf
-        rest = indices(rest)
-        if rest.size:
-            rest_rays, rest_members = rays.take(rest), members.take(rest)
-            best = best.take(rest)
-            # as near as the first hit counts too (a lower instance wins the tie below)
-            rest_limit = np.where(best < np.inf, np.nextafter(best, self.dtype.type(np.inf)), limit.take(rest_rays))
-            more_t, more_triangle = self._search_pairs(O, D, rest_rays, rest_members, t_min, rest_limit, any_hit)
-            hit = indices(more_t < np.inf)
-            if hit.size:
-                self._keep_least(
-                    t,
-                    instance,
-                    triangle,
-                    rest_rays.take(hit),
-                    more_t.take(hit),
-                    rest_members.take(hit),
-                    more_triangle.take(hit),
-                )
-        found = indices(t < np.inf)
-        part[found] = instance.take(found) * self.triangles + triangle.take(found)
+        triangle = np.zeros(count, dtype=np.int64)
+        tree = self.top
+        near, far = slab(O, inverse, tree.lower[:, :1], tree.upper[:, :1])
+        pool_rays = indices((near <= far) & (far > t_min) & (near < best))
+        pool_nodes = np.zeros(pool_rays.size, dtype=np.int64)
+        pool_near = near.take(pool_rays)
+        while pool_rays.size:
+            keep = pool_near <= best.take(pool_rays)
+            if any_hit:
+                keep &= ~found.take(pool_rays)
+            keep = indices(keep)
+            pool_rays, pool_nodes, pool_near = pool_rays.take(keep), pool_nodes.take(keep), pool_near.take(keep)
+            if not pool_rays.size:
+                break
+            # each ray's nearest entry (entries as near as it too: a tie costs a little more work, not a sort)
+            nearest = np.full(count, np.inf, dtype=self.dtype)
+            np.minimum.at(nearest, pool_rays, pool_near)
+            chosen = pool_near == nearest.take(pool_rays)
+            taken, left_over = indices(chosen), indices(~chosen)
+            rays, nodes = pool_rays.take(taken), pool_nodes.take(taken)
+            pool_rays, pool_nodes, pool_near = (
+                pool_rays.take(left_over),
+                pool_nodes.take(left_over),
+                pool_near.take(left_over),
+            )
+            rays, leaves, passed = self._descend(O, inverse, t_min, best, rays, nodes)
+            if passed[0].size:
+                pool_rays = np.concatenate((pool_rays, passed[0]))
+                pool_nodes = np.concatenate((pool_nodes, passed[1]))
+                pool_near = np.concatenate((pool_near, passed[2]))
+            if rays.size:
+                self._search_leaves(O, D, inverse, t_min, rays, leaves, best, found, instance, triangle, any_hit)
+        t = np.where(found, best, self.dtype.type(np.inf))
+        part = np.where(found, instance * self.triangles + triangle, 0)
         return t, part
 
+    def _descend(self, O, inverse, t_min, best, rays, nodes):
+        """Rays (n,) from nodes (n,) down to a leaf each, always into the nearer child met (within (t_min, the ray's
+        best]); -> the rays that reached a leaf, their leaves, and (rays, nodes, near) of the other children met."""
+        tree = self.top
+        passed_rays, passed_nodes, passed_near = [], [], []
+        leaf_rays, leaf_nodes = [], []
+        while rays.size:
+            is_leaf = tree.left.take(nodes) < 0
+            if is_leaf.any():
+                at_leaf = indices(is_leaf)
+                leaf_rays.append(rays.take(at_leaf))
+                leaf_nodes.append(nodes.take(at_leaf))
+                inner = indices(~is_leaf)
+                rays, nodes = rays.take(inner), nodes.take(inner)
+                if not rays.size:
+                    break
+            left, right = tree.left.take(nodes), tree.right.take(nodes)
+            origin, inverse_r, limit = O.take(rays, axis=1), inverse.take(rays, axis=1), best.take(rays)
+            near_left, far_left = slab(origin, inverse_r, tree.lower.take(left, axis=1), tree.upper.take(left, axis=1))
+            near_right, far_right = slab(
+                origin, inverse_r, tree.lower.take(right, axis=1), tree.upper.take(right, axis=1)
+            )
+            meets_left = (near_left <= far_left) & (far_left > t_min) & (near_left <= limit)
+            meets_right = (near_right <= far_right) & (far_right > t_min) & (near_right <= limit)
+            go_right = meets_right & (~meets_left | (near_right < near_left))
+            both = indices(meets_left & meets_right)
+            if both.size:
+                passed_rays.append(rays.take(both))
+                passed_nodes.append(np.where(go_right, left, right).take(both))
+                passed_near.append(np.where(go_right, near_left, near_right).take(both))
+            going = indices(meets_left | meets_right)
+            rays, nodes = rays.take(going), np.where(go_right, right, left).take(going)
+        passed = (_join(passed_rays, np.int64), _join(passed_nodes, np.int64), _join(passed_near, self.dtype))
+        return _join(leaf_rays, np.int64), _join(leaf_nodes, np.int64), passed
+
+    def _search_leaves(self, O, D, inverse, t_min, rays, leaves, best, found, instance, triangle, any_hit) -> None:
+        """The instances of leaves (n,) met by rays (n,): each pair whose instance box the ray meets searched in the
+        mesh, and each ray's least (t, instance, triangle) kept in best, found, instance, triangle."""
+        tree = self.top
+        row = tree.leaf_row.take(leaves)
+        slots = indices(tree.real.take(row, axis=0).ravel())
+        pair_rays = np.repeat(rays, tree.leaf_size).take(slots)
+        members = tree.leaf_triangles.take(row, axis=0).ravel().take(slots)
+        limit = best.take(pair_rays)
+        near, far = slab(
+            O.take(pair_rays, axis=1),
+            inverse.take(pair_rays, axis=1),
+            self.box_lower.take(members, axis=1),
+            self.box_upper.take(members, axis=1),
+        )
+        meets = indices((near <= far) & (far > t_min) & (near <= limit))
+        if not meets.size:
+            return
+        pair_rays, members, limit = pair_rays.take(meets), members.take(meets), limit.take(meets)
+        # as near as a hit found already counts too: a lower instance wins the tie in _keep_least
+        limit = np.where(found.take(pair_rays), np.nextafter(limit, self.dtype.type(np.inf)), limit)
+        t, hit_triangle = self._search_pairs(O, D, pair_rays, members, t_min, limit, any_hit)
+        hit = indices(t < np.inf)
+        if hit.size:
+            self._keep_least(
+                best,
+                found,
+                instance,
+                triangle,
+                (pair_rays.take(hit), t.take(hit), members.take(hit), hit_triangle.take(hit)),
+            )
+
     @staticmethod
-    def _keep_least(t, instance, triangle, rays, more_t, more_instance, more_triangle) -> None:
-        """For each ray (n,) the least (t, instance, triangle) of its current one and its new candidates."""
-        all_rays = np.concatenate((rays, np.unique(rays)))
-        kept = all_rays[rays.size :]
-        all_t = np.concatenate((more_t, t.take(kept)))
+    def _keep_least(best, found, instance, triangle, candidates) -> None:
+        """For each ray of candidates (rays, t, instances, triangles) (n,) each, the least (t, instance, triangle)
+        of its current hit and its candidates, kept in best, found, instance and triangle (N,)."""
+        rays, more_t, more_instance, more_triangle = candidates
+        kept = np.unique(rays)
+        kept = kept.take(indices(found.take(kept)))
+        all_rays = np.concatenate((rays, kept))
+        all_t = np.concatenate((more_t, best.take(kept)))
         all_instance = np.concatenate((more_instance, instance.take(kept)))
         all_triangle = np.concatenate((more_triangle, triangle.take(kept)))
         order = np.lexsort((all_triangle, all_instance, all_t, all_rays))
         sorted_rays = all_rays.take(order)
         first = np.ones(order.size, dtype=bool)
         np.not_equal(sorted_rays[1:], sorted_rays[:-1], out=first[1:])
-        best = order.take(indices(first))
-        winners = all_rays.take(best)
-        t[winners] = all_t.take(best)
-        instance[winners] = all_instance.take(best)
-        triangle[winners] = all_triangle.take(best)
-
-    def _pairs(self, O, D, t_min, limit):
-        """Every (ray, instance) pair (P,) each whose instance box the ray meets within (t_min, its limit), with the
-        box's entry t (P,): the instances' hierarchy walked a level at a time for all rays."""
-        tree = self.top
-        inverse = 1.0 / D
-        near, far = slab(O, inverse, tree.lower[:, :1], tree.upper[:, :1])
-        rays = indices((near <= far) & (far > t_min) & (near < limit))
-        nodes = np.zeros(rays.size, dtype=np.int64)
-        found_rays, found_members, found_near = [], [], []
-        while rays.size:
-            is_leaf = tree.left.take(nodes) < 0
-            leaf = indices(is_leaf)
-            if leaf.size:
-                row = tree.leaf_row.take(nodes.take(leaf))
-                slots = indices(tree.real.take(row, axis=0).ravel())
-                pair_rays = np.repeat(rays.take(leaf), tree.leaf_size).take(slots)
-                members = tree.leaf_triangles.take(row, axis=0).ravel().take(slots)
-                near, far = slab(
-                    O.take(pair_rays, axis=1),
-                    inverse.take(pair_rays, axis=1),
-                    self.box_lower.take(members, axis=1),
-                    self.box_upper.take(members, axis=1),
-                )
-                meets = indices((near <= far) & (far > t_min) & (near < limit.take(pair_rays)))
-                found_rays.append(pair_rays.take(meets))
-                found_members.append(members.take(meets))
-                found_near.append(near.take(meets))
-                inner = indices(~is_leaf)
-                rays, nodes = rays.take(inner), nodes.take(inner)
-            if not rays.size:
-                break
-            children = np.concatenate((tree.left.take(nodes), tree.right.take(nodes)))
-            pair_rays = np.concatenate((rays, rays))
-            near, far = slab(
-                O.take(pair_rays, axis=1),
-                inverse.take(pair_rays, axis=1),
-                tree.lower.take(children, axis=1),
-                tree.upper.take(children, axis=1),
-            )
-            meets = indices((near <= far) & (far > t_min) & (near < limit.take(pair_rays)))
-            rays, nodes = pair_rays.take(meets), children.take(meets)
-        if not found_rays:
-            empty = np.zeros(0, dtype=np.int64)
-            return empty, empty, np.zeros(0, dtype=self.dtype)
-        return np.concatenate(found_rays), np.concatenate(found_members), np.concatenate(found_near)
+        winner = order.take(indices(first))
+        rays = all_rays.take(winner)
+        best[rays] = all_t.take(winner)
+        found[rays] = True
+        instance[rays] = all_instance.take(winner)
+        triangle[rays] = all_triangle.take(winner)
 
     def _search_pairs(self, O, D, rays, members, t_min, limit, any_hit):
         """Rays (P,) in the spaces of instances members (P,) -> their nearest (or any) hit (t, triangle) (P,) in the
@@ -256,6 +279,11 @@ class InstancesKernel(MeshKernel):
         size = np.sqrt(dot(placed, placed))
         good = size > 0.0
         return np.where(good, placed / np.where(good, size, 1.0), flat)
+
+
+def _join(parts: list[np.ndarray], dtype: type | np.dtype) -> np.ndarray:
+    """The arrays of parts end to end, or an empty array of dtype."""
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=dtype)
 
 
 def local_mesh_kernel(make, mesh: tf.WorldTriangles, dtype: np.dtype) -> MeshKernel:
