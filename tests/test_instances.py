@@ -288,3 +288,57 @@ def test_one_instance_by_location_rotation_and_scale_is_blenders_matrix() -> Non
     rotation = np.asarray(tf.euler_xyz_matrix((10.0, -20.0, 30.0)))
     np.testing.assert_allclose(matrix[:, :3], rotation * [1.0, -2.0, 0.5], rtol=0, atol=1e-15)
     np.testing.assert_array_equal(matrix[:, 3], [1.0, 2.0, 3.0])
+
+
+def many_small_meshes_document(seed: int, count: int = 90, width: int = 24, height: int = 18) -> dict[str, Any]:
+    """count boxes, pyramids and small meshes, each its own object and material, some with ray visibility off or a
+    smooth mesh's normals, over a plane: enough of them to be merged into one kernel."""
+    rng = random.Random(seed)
+    objects: list[dict[str, Any]] = []
+    for k in range(count):
+        kind = rng.choice(("box", "pyramid", "mesh"))
+        body: dict[str, Any] = {
+            "type": kind,
+            "name": f"{kind}{k}",
+            "material": f"m{k % 5}",
+            "location": [rng.uniform(-2.5, 2.5), rng.uniform(-2.5, 2.5), rng.uniform(0.0, 1.0)],
+            "rotation": [rng.uniform(-180, 180) for _ in range(3)],
+        }
+        if kind == "mesh":
+            mesh = _octahedron(rng, smooth=rng.random() < 0.5, slots=False)
+            body["vertices"] = [[0.3 * x for x in v] for v in mesh["vertices"]]
+            body["triangles"] = mesh["triangles"]
+            if "normals" in mesh:
+                body["normals"] = mesh["normals"]
+        else:
+            body["size"] = [rng.uniform(0.1, 0.5) for _ in range(3)]
+        if rng.random() < 0.1:
+            body[rng.choice(("visible_camera", "visible_shadow", "visible_reflection"))] = False
+        objects.append(body)
+    objects.append({"type": "plane", "name": "floor", "material": "m0", "location": [0, 0, -0.3]})
+    document = instanced_scene_document(seed, width, height)
+    document.pop("meshes")
+    document["materials"].update(
+        {f"m{k}": {"color": [rng.random() for _ in range(3)], "specular": 20, "reflective": 0.3} for k in range(3, 5)}
+    )
+    return {**document, "objects": objects}
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_many_small_meshes_merged_into_one_kernel_match_the_per_pixel_reference(seed: int) -> None:
+    scene = scene_from_dict(many_small_meshes_document(seed))
+    prepared = wavefront.PreparedScene(scene)
+    assert len(prepared.merged_starts) >= 1  # merged: the case under test
+    expected = np.asarray(render_reference(scene))
+    np.testing.assert_allclose(render(scene, workers=1).image, expected, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("settings", [{}, {"dtype": "float32"}, {"numerics": "robust"}])
+def test_merged_meshes_trace_the_same_bytes_as_a_leaf_per_object(settings: dict, monkeypatch) -> None:
+    scene = scene_from_dict(many_small_meshes_document(7, 120, 48, 36)).with_render(**settings)
+    merged = render(scene, workers=1)
+    monkeypatch.setattr(wavefront, "MERGE_MESHES_FROM", 10**9)
+    wavefront._KERNELS.clear()
+    separate = render(scene, workers=1)
+    assert merged.image.tobytes() == separate.image.tobytes()
+    assert merged.rays == separate.rays

@@ -26,7 +26,7 @@ from .kernels import (
     spread,
     take,
 )
-from .meshbvh import MeshKernel
+from .meshbvh import MergedMeshKernel, MeshKernel
 from .meshpicture import View
 from .rayframes import RayFrames
 
@@ -357,6 +357,9 @@ class Hierarchy:
             """Hits t, part (n,) of kernel index on rays (n,) (None: all) replace nearer-or-tied earlier ones."""
             nonlocal empty
             owner = self.owners[index]
+            kernel = self.kernels[index]
+            if isinstance(kernel, MergedMeshKernel):  # many objects in one kernel: each hit's own object
+                owner, part = kernel.owners(part)
             if empty and rays is None:  # every ray's hit is better than none: no comparisons (a plane's, mostly)
                 empty = False
                 found = t < np.inf
@@ -376,7 +379,7 @@ class Hierarchy:
             better = indices((t < current_t) | (tie & earlier))
             chosen = better if rays is None else rays.take(better)
             best_t[chosen] = t.take(better)
-            best_object[chosen] = owner
+            best_object[chosen] = owner if np.ndim(owner) == 0 else owner.take(better)
             best_part[chosen] = part.take(better)
 
         for index in self.unbounded:

@@ -443,3 +443,49 @@ class MeshKernel(Kernel):
 
     def unit_normal(self, P, part):
         return self.inner.unit_normal(P, part)
+
+
+class MergedMeshKernel(MeshKernel):
+    """Many objects' triangles behind one hierarchy (a scene of thousands of small meshes: a leaf per object would
+    walk the scene's hierarchy node by node in Python). The members' world triangles are concatenated in object
+    order, so the hierarchy's tie rule (the lowest triangle index) is the scene's (the lower object, then its lower
+    triangle); a hit's part is the concatenation's index, which owners() turns back into the object and its own
+    triangle. The same numbers as each member's own kernel: the same triangles, the same test."""
+
+    def __init__(self, make, dtype: np.dtype, members: tuple[int, ...], *meshes: tf.WorldTriangles) -> None:
+        """make: make_kernel or make_robust_kernel; members (k,): the objects' indices, ascending; meshes: theirs."""
+        sizes = np.array([len(mesh.triangles) for mesh in meshes], dtype=np.int64)
+        triangles = np.concatenate([mesh.triangles for mesh in meshes])
+        normals = np.concatenate([mesh.normals for mesh in meshes])
+        merged = tf.WorldTriangles("", triangles, normals)
+        super().__init__(make(merged, dtype), merged)
+        self.members = np.asarray(members, dtype=np.int64)
+        self.starts = np.cumsum(sizes) - sizes  # (k,): each member's first triangle in the concatenation
+        self.member_of = np.repeat(np.arange(len(members)), sizes)  # (T,)
+
+    def owners(self, part: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Parts (n,) of this kernel -> the objects (n,) they belong to and their triangles' own indices (n,)."""
+        member = self.member_of.take(part)
+        return self.members.take(member), part - self.starts.take(member)
+
+    def member(self, position: int) -> MergedMember:
+        return MergedMember(self, position)
+
+
+class MergedMember(Kernel):
+    """One object of a MergedMeshKernel as a kernel of its own: its normals and surface, from the merged arrays
+    (the scene's per-object kernels, for shading); it is never traced alone."""
+
+    def __init__(self, merged: MergedMeshKernel, position: int) -> None:
+        self.merged = merged
+        self.start = int(merged.starts[position])
+        self.dtype = merged.dtype
+
+    def normal(self, P, part):
+        return self.merged.inner.normal(P, part + self.start)
+
+    def unit_normal(self, P, part):
+        return self.merged.inner.unit_normal(P, part + self.start)
+
+    def surface(self, P, part):
+        return self.merged.inner.surface(P, part + self.start)

@@ -33,13 +33,18 @@ from ..geometry.kernels import (
     take,
     unit,
 )
-from ..geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
+from ..geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MergedMember, MergedMeshKernel, MeshKernel
 from ..geometry.meshpicture import View
 from ..geometry.rayframes import RayFrames
 from ..geometry.robust import make_robust_kernel, offset_origins
 from ..scene import scene as sc
 from .raystore import RayStore
 
+# this many still triangle meshes seen by the same rays go into the scene's hierarchy as one kernel (their
+# triangles behind one hierarchy, MergedMeshKernel): 3,000 cubes as separate objects took 16x the time of the same
+# triangles as one mesh, walking the scene's hierarchy node by node in Python. Below it (the default vane's 13
+# objects) a leaf per object, as the small scenes' benchmarks were tuned
+MERGE_MESHES_FROM = 64
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0
 SHADOW_T_MIN = 0.001  # listing 3.2
 REFLECTION_T_MIN = 0.01  # listing 3.1
@@ -100,11 +105,19 @@ class PreparedScene:
         self.robust = settings.numerics == "robust"
         build = make_robust_kernel if self.robust else make_kernel
         objects, primitives, frame_of, vanes = self._placed_objects()
+        # the vane's parts in a subtree of their own, the rest kept between an animation's frames (bvh.py)
+        vane = self.scene.vane
+        moving = None
+        if vane is not None:
+            moving = frozenset(index for index, obj in enumerate(objects) if obj.name in vane.parts)
+        merged = self._merged_meshes(build, objects, primitives, frame_of, moving)
         self.kernels = [  # per object: normals
-            _instances_kernel(build, primitive, self.dtype)
+            merged[index]
+            if index in merged
+            else _instances_kernel(build, primitive, self.dtype)
             if isinstance(primitive, tf.WorldInstances)
             else _kernel(build, primitive, self.dtype)
-            for primitive in primitives
+            for index, primitive in enumerate(primitives)
         ]
         # a scene of documented spheres only: every hit's normal from its centre, gathered, in one set of passes
         self.centers = None
@@ -113,24 +126,37 @@ class PreparedScene:
         # a large mesh enters the scene's hierarchy as one leaf with a hierarchy of its own over its triangles
         leaf_kernels = [
             _kernel(MeshKernel, kernel, primitive)
-            if isinstance(primitive, tf.WorldTriangles) and len(primitive.triangles) > MESH_HIERARCHY_TRIANGLES
+            if isinstance(primitive, tf.WorldTriangles)
+            and len(primitive.triangles) > MESH_HIERARCHY_TRIANGLES
+            and not isinstance(kernel, MergedMember)
             else kernel
             for kernel, primitive in zip(self.kernels, primitives, strict=True)
         ]
-        owners = list(range(len(leaf_kernels)))
-        # the vane's parts in a subtree of their own, the rest kept between an animation's frames (bvh.py)
-        vane = self.scene.vane
-        moving = None
-        if vane is not None:
-            moving = frozenset(index for index, obj in enumerate(objects) if obj.name in vane.parts)
-        self.hierarchy = Hierarchy(leaf_kernels, self.dtype, owners, moving, frame_of)
+        # each merged kernel with each object's first triangle in it (-1: not one of its members), for normals()
+        self.merged_starts: list[tuple[MergedMeshKernel, np.ndarray]] = []
+        for kernel in {id(k.merged): k.merged for k in merged.values()}.values():
+            start_of = np.full(len(objects), -1, dtype=np.int64)
+            start_of[kernel.members] = kernel.starts
+            self.merged_starts.append((kernel, start_of))
+        leaves = []  # (owner object, kernel): a merged kernel once, in its first member's place
+        for index, kernel in enumerate(leaf_kernels):
+            if isinstance(kernel, MergedMember):
+                if kernel.start == 0:
+                    leaves.append((index, kernel.merged))
+            else:
+                leaves.append((index, kernel))
+        owners = [owner for owner, _ in leaves]
+        leaf_frames = None if frame_of is None else [frame_of[owner] for owner in owners]
+        self.hierarchy = Hierarchy([kernel for _, kernel in leaves], self.dtype, owners, moving, leaf_frames)
 
         def seen_by(flag: str) -> Hierarchy:  # the objects one kind of ray sees (Blender's ray visibility)
-            chosen = [index for index, obj in enumerate(objects) if getattr(obj, flag)]
-            if len(chosen) == len(objects):
+            if all(getattr(obj, flag) for obj in objects):
                 return self.hierarchy
-            frames = None if frame_of is None else [frame_of[index] for index in chosen]
-            return Hierarchy([leaf_kernels[index] for index in chosen], self.dtype, chosen, moving, frames)
+            chosen = [position for position, owner in enumerate(owners) if getattr(objects[owner], flag)]
+            kernels = [leaves[position][1] for position in chosen]
+            seen = [owners[position] for position in chosen]
+            frames = None if frame_of is None else [frame_of[owner] for owner in seen]
+            return Hierarchy(kernels, self.dtype, seen, moving, frames)
 
         self.camera_hierarchy = seen_by("visible_camera")
         self.shadow_hierarchy = seen_by("visible_shadow")
@@ -188,6 +214,32 @@ class PreparedScene:
                     shares = self._sample_shares(light)
                     if shares is None or not self.shadow_hierarchy.culls_well(light.grid.kernels, shares):
                         light.grid = None
+
+    def _merged_meshes(
+        self,
+        build,
+        objects: tuple[sc.SceneObject, ...],
+        primitives: list[tf.WorldPrimitive],
+        frame_of: list[int] | None,
+        moving: frozenset[int] | None,
+    ) -> dict[int, MergedMember]:
+        """Where at least MERGE_MESHES_FROM triangle meshes stand still and are seen by the same rays, one
+        MergedMeshKernel for them, entering the scene's hierarchy once; -> each such object's member of it (its
+        normals from the merged arrays), by object index. Other objects keep a kernel of their own."""
+        groups: dict[tuple[bool, ...], list[int]] = {}
+        for index, (obj, primitive) in enumerate(zip(objects, primitives, strict=True)):
+            still = (frame_of is None or frame_of[index] < 0) and (moving is None or index not in moving)
+            if still and isinstance(primitive, tf.WorldTriangles):
+                flags = (obj.visible_camera, obj.visible_shadow, obj.visible_reflection)
+                groups.setdefault(flags, []).append(index)
+        merged: dict[int, MergedMember] = {}
+        for members in groups.values():
+            if len(members) < MERGE_MESHES_FROM:
+                continue
+            meshes = [primitives[index] for index in members]
+            kernel = _kernel(MergedMeshKernel, build, self.dtype, tuple(members), *meshes)
+            merged.update((index, kernel.member(position)) for position, index in enumerate(members))
+        return merged
 
     def _placed_objects(
         self,
@@ -427,12 +479,25 @@ class PreparedScene:
         N = np.empty_like(P)
         if self.robust:
             distance, scale = np.empty(P.shape[1], dtype=self.dtype), np.empty(P.shape[1], dtype=self.dtype)
+        for merged, start_of in self.merged_starts:  # merged meshes' points: one gather from the merged arrays
+            starts = start_of.take(obj)
+            rows = indices(starts >= 0)
+            if not rows.size:
+                continue
+            where, parts = take(P, rows), starts.take(rows) + part.take(rows)
+            normals = merged.inner.unit_normal(where, parts)
+            for axis in range(3):
+                N[axis][rows] = normals[axis]
+            if self.robust:
+                distance[rows], scale[rows] = merged.inner.surface(where, parts)
         # a stable sort of 8- or 16-bit keys is NumPy's radix sort: about twice as fast as on int32 here
         key = np.uint8 if len(self.kernels) <= 256 else np.uint16 if len(self.kernels) <= 65536 else obj.dtype
         order = np.argsort(obj.astype(key), kind="stable")
         start = 0
         for index, size in enumerate(np.bincount(obj, minlength=len(self.kernels)).tolist()):
-            if size:
+            if size and self.merged_starts and isinstance(self.kernels[index], MergedMember):
+                start += size  # done above
+            elif size:
                 rows = order[start : start + size]
                 kernel = self.kernels[index]
                 if isinstance(kernel, PlaneKernel):  # one normal for every point: no need to gather them
