@@ -342,3 +342,22 @@ def test_merged_meshes_trace_the_same_bytes_as_a_leaf_per_object(settings: dict,
     separate = render(scene, workers=1)
     assert merged.image.tobytes() == separate.image.tobytes()
     assert merged.rays == separate.rays
+
+
+def test_instanced_scenes_follow_the_schema_and_the_schema_refuses_what_the_loader_refuses() -> None:
+    import json
+    from pathlib import Path
+
+    import jsonschema
+
+    schema = json.loads((Path(__file__).resolve().parents[1] / "docs" / "scene.schema.json").read_text())
+    validator = jsonschema.Draft202012Validator(schema)
+    for seed in range(8):
+        document = instanced_scene_document(seed)
+        assert not list(validator.iter_errors(document)), seed
+        scene_from_dict(document)
+    document = instanced_scene_document(0)
+    document["objects"][0]["location"] = [1, 2, 3]  # a group of placements has no location of its own
+    assert list(validator.iter_errors(document))
+    with pytest.raises(SceneError):
+        scene_from_dict(document)

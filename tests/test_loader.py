@@ -67,9 +67,14 @@ MALFORMED = [
     (
         "objects/0/type",
         "torus",
-        'objects[0].type: must be one of "sphere", "plane", "cylinder", "box", "pyramid", "mesh", "instance", "instances", got "torus"',
+        'objects[0].type: must be one of "sphere", "plane", "cylinder", "box", "pyramid", "mesh", "instance", '
+        '"instances", got "torus"',
     ),
-    ("objects/0/type", DELETE, "objects[0].type: is required (one of sphere, plane, cylinder, box, pyramid, mesh, instance, instances)"),
+    (
+        "objects/0/type",
+        DELETE,
+        "objects[0].type: is required (one of sphere, plane, cylinder, box, pyramid, mesh, instance, instances)",
+    ),
     (
         "objects/0/material",
         "gold",
