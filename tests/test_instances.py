@@ -361,3 +361,43 @@ def test_instanced_scenes_follow_the_schema_and_the_schema_refuses_what_the_load
     assert list(validator.iter_errors(document))
     with pytest.raises(SceneError):
         scene_from_dict(document)
+
+
+def test_turning_instances_and_still_ones_give_whole_frames_incrementally_and_in_batches() -> None:
+    """A vane of instances (one group turns, the others stand): incremental frames equal whole frames, and frames
+    traced together equal each frame alone (tests/test_incremental.py's checks)."""
+    from tests.test_incremental import assert_frames_are_whole_frames, assert_frames_together_are_frames_alone
+
+    for dtype, numerics in (("float64", "documented"), ("float32", "robust")):
+        document = instanced_scene_document(3, 40, 30)
+        document["render"].update(depth=4, dtype=dtype, numerics=numerics)
+        document["vane"] = {"parts": ["group0", "single"], "pivot": [0.2, 0.4, 0.0], "axis": [0.1, 0.0, 1.0]}
+        scene = scene_from_dict(document)
+        turns = [0.0, 3.0, 40.0, 41.5, 200.0]
+        assert_frames_are_whole_frames(scene, turns, workers=1)
+        assert_frames_together_are_frames_alone(scene, turns, 3)
+
+
+def test_an_edit_of_an_instanced_scene_traces_again_only_what_it_touches() -> None:
+    """A material edit and a moved group, through EditableImage (the Rendered view's path): the same bytes as a
+    whole render of the edited scene; a re-export of the same scene (new objects, same
+    meshes and placements) is no edit at all."""
+    from dataclasses import replace
+
+    from tracer.frames.edits import EditableImage, edits_between
+
+    document = instanced_scene_document(4, 48, 36)
+    scene = scene_from_dict(document)
+    assert edits_between(scene, scene_from_dict(document)) == []
+    image = EditableImage(scene)
+    recoloured = replace(scene.materials["m2"], color=(0.9, 0.1, 0.4))
+    edited = replace(scene, materials={**scene.materials, "m2": recoloured})
+    moved_objects = tuple(
+        replace(obj, location=(0.3, -0.2, 0.1)) if obj.name == "group1" else obj for obj in edited.objects
+    )
+    for new in (edited, replace(edited, objects=moved_objects)):
+        edits = edits_between(image.scene, new)
+        assert edits, "an edit, not a new scene"
+        for edit in edits:
+            shown = image.apply(edit)
+        assert np.array_equal(shown, render(new, workers=1).image)

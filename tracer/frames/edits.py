@@ -25,7 +25,7 @@ import numpy as np
 
 from ..geometry import transforms as tf
 from ..geometry.footprint import Volume
-from ..geometry.kernels import make_kernel
+from ..geometry.instances import placed_kernel
 from ..scene import scene as sc
 from ..tracing.raystore import RayStore, Segments
 from ..tracing.wavefront import PreparedScene, RayCounts
@@ -173,7 +173,7 @@ def _uses(obj: sc.SceneObject, material: str) -> bool:
 
 def _box(scene: sc.Scene, index: int) -> tuple[np.ndarray, np.ndarray] | None:
     primitive = tf.world_primitive(scene.objects[index], scene.vane)
-    return make_kernel(primitive, np.dtype(np.float64)).bounds()
+    return placed_kernel(primitive, np.dtype(np.float64)).bounds()
 
 
 def _edited(scene: sc.Scene, edit: Edit) -> sc.Scene:

@@ -23,7 +23,8 @@ import numpy as np
 
 from ..scene import scene as sc
 from . import transforms as tf
-from .kernels import indices, make_kernel, padded_box, quiet, slab, take
+from .instances import placed_kernel
+from .kernels import indices, padded_box, quiet, slab, take
 
 
 @dataclass(frozen=True)
@@ -85,7 +86,8 @@ def swept_volume(scene: sc.Scene, dtype: np.dtype, headings: np.ndarray | None =
             continue
         lows, highs = [], []
         for heading in turns:
-            bounds = make_kernel(tf.world_primitive(obj, replace(vane, heading=heading)), np.dtype(np.float64)).bounds()
+            turned = tf.world_primitive(obj, replace(vane, heading=heading))
+            bounds = placed_kernel(turned, np.dtype(np.float64)).bounds()
             if bounds is None:
                 return None
             lows.append(bounds[0])
@@ -185,7 +187,7 @@ def heading_parts(scene: sc.Scene, dtype: np.dtype, headings: np.ndarray) -> Hea
         boxes.append([])
         frames.append([])
         for heading in turns.tolist():
-            kernel = make_kernel(tf.world_primitive(obj, replace(vane, heading=heading)), dtype)  # its frame's padding
+            kernel = placed_kernel(tf.world_primitive(obj, replace(vane, heading=heading)), dtype)  # its padding
             lower, upper = kernel.bounds()
             lower, upper = padded_box(lower, upper, dtype, reach + float(np.abs(np.concatenate((lower, upper))).max()))
             boxes[-1].append((lower.astype(np.float64), upper.astype(np.float64)))

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import transforms as tf
-from .kernels import box_margin, dot, indices, ray_count, slab, unit
+from .kernels import Kernel, box_margin, dot, indices, make_kernel, ray_count, slab, unit
 from .meshbvh import MeshHierarchy, MeshKernel
 
 INSTANCES_PER_LEAF = 4
@@ -295,3 +295,10 @@ def local_mesh_kernel(make, mesh: tf.WorldTriangles, dtype: np.dtype) -> MeshKer
 def instances_kernel(make, primitive: tf.WorldInstances, dtype: np.dtype) -> InstancesKernel:
     """An InstancesKernel made without a cache (bounds for footprints and edits, tests)."""
     return InstancesKernel(local_mesh_kernel(make, primitive.mesh, dtype), primitive, dtype)
+
+
+def placed_kernel(primitive: tf.WorldPrimitive, dtype: np.dtype) -> Kernel:
+    """make_kernel for any world primitive, instances included (their bounds for footprints and edits)."""
+    if isinstance(primitive, tf.WorldInstances):
+        return instances_kernel(make_kernel, primitive, dtype)
+    return make_kernel(primitive, dtype)

@@ -248,7 +248,7 @@ class MeshInstances(ArraysByBits, Primitive):
     costs its matrix, not its triangles."""
 
     ARRAYS = ("matrices",)
-    UNCOMPARED = ("mesh",)  # compared by identity below: a scene's instances share one mesh object
+    UNCOMPARED = ("mesh",)  # compared below, by its own bits (its digest found once)
 
     mesh: TriangleMesh
     mesh_name: str = "mesh"
@@ -259,7 +259,7 @@ class MeshInstances(ArraysByBits, Primitive):
         object.__setattr__(self, "matrices", frozen_array(self.matrices, np.float64, (-1, 3, 4)))
 
     def _plain(self) -> tuple:
-        return (*super()._plain(), id(self.mesh))
+        return (*super()._plain(), self.mesh)
 
     @property
     def materials(self) -> tuple[str, ...] | None:
