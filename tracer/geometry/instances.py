@@ -46,8 +46,17 @@ class InstancesKernel(MeshKernel):
         corners = np.array(
             [[(local_lower, local_upper)[(c >> axis) & 1][axis] for axis in range(3)] for c in range(8)]
         )  # (8, 3)
-        placed = np.einsum("kij,cj->kci", self.matrices[:, :, :3], corners) + self.matrices[:, None, :, 3]
-        lower, upper = placed.min(axis=1), placed.max(axis=1)  # (K, 3) each
+        linear, offset = self.matrices[:, :, :3], self.matrices[:, :, 3]
+        placed = np.einsum("kij,cj->kci", linear, corners) + offset[:, None, :]
+        lower, upper = placed.min(axis=1), placed.max(axis=1)  # (K, 3) each: the placed box's corners
+        # and the placed bounding sphere's (an ellipsoid: half-width r |row i of A| along axis i); a turned round
+        # mesh's box from its corners is up to sqrt(3) times as wide, and every ray through the difference walks it
+        vertices = np.asarray(instances.mesh.triangles, dtype=np.float64).reshape(-1, 3)
+        centre = (local_lower + local_upper) / 2.0
+        radius = float(np.sqrt(((vertices - centre) ** 2).sum(axis=1).max()))
+        middle = np.einsum("kij,j->ki", linear, centre) + offset
+        half = radius * np.sqrt((linear * linear).sum(axis=2))
+        lower, upper = np.maximum(lower, middle - half), np.minimum(upper, middle + half)
         self.lower, self.upper = lower.min(axis=0), upper.max(axis=0)
         size = np.maximum(np.abs(lower).max(axis=1), np.abs(upper).max(axis=1)) + (upper - lower).max(axis=1)
         pad = box_margin(size, dtype)[:, None]
