@@ -12,7 +12,7 @@ import json
 import bpy
 import numpy as np
 
-from . import camera, viewport
+from . import camera, export, viewport
 from ._tracer import module
 from .workers import spawn_with_blenders_python
 
@@ -71,6 +71,8 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
     def view_update(self, context, depsgraph) -> None:
         """The depsgraph changed: export the scene again (the view's own camera is added in view_draw)."""
         try:
+            # Blender calls this inside the evaluation, before the depsgraph handlers: what changed is told here
+            export.observe(depsgraph, from_view_update=True)
             self._viewport_session(depsgraph.scene).update_scene(context, depsgraph)
         except Exception:  # a viewport must never raise into Blender's draw loop
             import traceback
@@ -216,9 +218,11 @@ _register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLAS
 def register() -> None:
     _closing[0] = False
     _register_classes()
+    export.register()  # the export's memory of geometry and materials, and the handlers that keep it true
 
 
 def unregister() -> None:
+    export.unregister()
     viewport.close_sessions()
     close_renderers()
     _unregister_classes()

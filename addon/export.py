@@ -1,9 +1,26 @@
-"""A Blender scene -> a tracer scene document (the JSON of docs/scene-format.md).
+"""A Blender scene, as its depsgraph evaluates it at a frame -> a tracer scene document (docs/scene-format.md), and
+notes on what it could not say exactly (the one warning line of F12, the scene file's comment).
 
-The add-on's own objects map back exactly from what `build` recorded on them (kind, sizes, material) and their
-world transforms at the current frame; any other visible mesh object exports as world-space triangles with a matte
-material of its viewport color; the panel's lights and the scene camera convert, and the scene's other lights only
-where the Lights panel's Other Lights is on.
+What becomes what:
+
+- The add-on's own objects (made by `build`, marked "weathervane_object") map back exactly: the kind, sizes and
+  material `build` recorded, at their evaluated world transforms; the vane's turning parts as modelled (heading 0),
+  with the turn's angle as the vane's heading and the panel's wind and motion settings.
+- Every other object instance the depsgraph renders (depsgraph.object_instances: plain objects, collection
+  instances, vertex and face instancing, particles, Geometry Nodes instances; a text, curve, surface or metaball
+  object as its evaluated mesh) is a geometry read once (mesh_export) and placed. A geometry placed once is a "mesh"
+  object in world space, as Cycles bakes a geometry used once; one placed several times is one entry of the
+  document's "meshes" table in its own space, placed by the matrices of an "instances" object per set of materials
+  and visibility flags (a forest of 10,000 instances of one sphere is one sphere and 10,000 matrices). What the vane
+  turns keeps the world-space form.
+- Materials: each Blender material's node tree converted by material_convert; lights: the panel's Lights entries,
+  and the scene's other lights in Cycles' units (always in a scene without the add-on's vane, else with Other Lights
+  on); the world as background and ambient light where there is no vane; the scene camera; the render settings.
+
+Nothing is read twice that did not change: geometry (mesh_export.CACHE) and material conversions are remembered
+between exports (F12s, animation frames, the Rendered view's updates) and forgotten when a depsgraph update says their
+data changed. `register` installs the depsgraph handlers that say so; the engine's view_update calls `observe` itself,
+as Blender calls it inside the evaluation, before the handlers run.
 """
 
 from __future__ import annotations
@@ -11,6 +28,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import bpy
@@ -19,6 +37,7 @@ from mathutils import Vector
 
 from . import build, light_convert, material_convert, mesh_export, world_convert
 from . import camera as camera_module
+from ._tracer import module
 from .animation import motion_for
 
 
@@ -100,48 +119,174 @@ def named_problems(problems: list[str], document: dict) -> list[str]:
     return [re.sub(r"objects\[(\d+)\]", name, problem) for problem in problems]
 
 
-def _visible_in_render(obj) -> bool:
-    """For a viewport depsgraph (Export, the Rendered view), Blender's render visibility of an original object:
-    a render depsgraph has already left out what is disabled in renders."""
-    if obj.hide_render:
-        return False
-    return not any(collection.hide_render for collection in obj.users_collection)
+def _render_hidden_objects() -> set[int]:
+    """For a viewport depsgraph (Export, the Rendered view): the original objects left out of renders by a collection
+    of theirs (disabled in renders), found in one pass over the collections; Object.users_collection searches every
+    collection for each object, minutes for thousands of objects. A render depsgraph has already left them out."""
+    return {
+        obj.as_pointer() for collection in bpy.data.collections if collection.hide_render for obj in collection.objects
+    }
 
 
-def _material_name(material, materials: dict, notes: ExportNotes | None = None) -> str:
+# --- materials, converted once until they change ---------------------------------------------------------------------
+
+MATERIALS_KEPT = 20_000  # conversions remembered, least recently used forgotten first
+_ATTRIBUTE_NODES = ("ShaderNodeVertexColor", "ShaderNodeAttribute")  # material_convert averages them over meshes
+_conversions: OrderedDict[tuple, tuple[dict, list[str], int, tuple[int, ...]]] = OrderedDict()
+
+
+def _converted(material, frame: float, stamp: int) -> tuple[dict, list[str]]:
+    """A Blender material -> (scene-file material, what it approximates), converted from its node tree once and kept
+    until a depsgraph update changes the material, its node tree, any node group or image, a mesh (where it averages
+    a colour attribute) or the scene (the add-on's own materials, read against the panel's). One with animation is
+    kept per frame. 3,000 materials take 1.6 s to convert: a second F12 or a moved object should not pay it again."""
+    cache = mesh_export.CACHE
+    scene = bpy.context.scene  # material_convert reads the highlight model and coef there
+    settings = getattr(scene, "weathervane", None)
+    tree = material.node_tree
+    animated = material.animation_data is not None or (tree is not None and tree.animation_data is not None)
+    key = (
+        material.as_pointer(),
+        material.name,
+        scene.as_pointer(),
+        getattr(settings, "model", None),
+        float(getattr(settings, "coef", 0.0)),
+        frame if animated else None,
+    )
+    found = _conversions.get(key) if cache.enabled else None
+    if found is not None and cache.valid(found[3], found[2]):
+        _conversions.move_to_end(key)
+        document, said = found[0], found[1]
+    else:
+        document, said = material_convert.convert_material(material)
+        if cache.enabled:
+            watched = [material.as_pointer(), mesh_export.SHADING, mesh_export.SCENE]
+            if tree is not None:
+                watched.append(tree.as_pointer())
+                if any(node.bl_idname in _ATTRIBUTE_NODES for node in tree.nodes):
+                    watched.append(mesh_export.ATTRIBUTES)
+            _conversions[key] = (document, list(said), stamp, tuple(watched))
+            while len(_conversions) > MATERIALS_KEPT:
+                _conversions.popitem(last=False)
+    # copies: the document is the caller's to change
+    return {name: list(value) if isinstance(value, list) else value for name, value in document.items()}, list(said)
+
+
+def _material_name(material, materials: dict, notes: ExportNotes | None = None, frame: float = 0.0, stamp: int = 0):
     """A Blender material (or None) -> the name of its scene-file material, converted once from its node tree."""
     name = f"blender:{material.name}" if material is not None else "blender:default"
     if name not in materials:
-        materials[name], said = material_convert.convert_material(material)
+        if material is None:
+            materials[name], said = material_convert.convert_material(None)
+        else:
+            materials[name], said = _converted(material, frame, stamp)
         if notes is not None and material is not None:
             notes.materials[material.name] = said
     return name
 
 
-def _mesh_object(name: str, obj, arrays, matrix, materials: dict, notes: ExportNotes) -> dict | None:
-    """One instance of an evaluated object's mesh as a scene-file mesh, with its materials and visibility."""
-    fields, slots, dropped = mesh_export.in_world(arrays, matrix)
-    if dropped:
-        notes.dropped_triangles[name] = notes.dropped_triangles.get(name, 0) + dropped
-    if not fields["triangles"]:
-        return None
-    slot_materials = [slot.material for slot in obj.material_slots] or [None]
-    # a face whose slot index is past the object's slots takes the last slot, as Blender's render does
-    slots = np.minimum(slots, len(slot_materials) - 1)
-    used = sorted(set(slots.tolist()))
-    first = _material_name(slot_materials[used[0]], materials, notes)
-    body = {"name": name, "type": "mesh", "material": first, **fields}
-    if len(used) > 1:
-        body["materials"] = [_material_name(material, materials, notes) for material in slot_materials]
-        body["material_indices"] = slots.tolist()
-    for flag, field_name in (("visible_camera", "visible_camera"), ("visible_shadow", "visible_shadow")):
+# --- object instances -> meshes, instances and the add-on's own objects ---------------------------------------------
+
+SKIP, LIGHT, VANE, GEOMETRY = "skip", "light", "vane", "geometry"
+
+
+def _flags(obj) -> dict:
+    """An object's render visibility as scene-file fields (only those that differ from the defaults)."""
+    flags = {}
+    for flag in ("visible_camera", "visible_shadow"):
         if not getattr(obj, flag, True):
-            body[field_name] = False
+            flags[flag] = False
     if not getattr(obj, "visible_glossy", True):
-        body["visible_reflection"] = False
+        flags["visible_reflection"] = False
     if getattr(obj, "is_holdout", False):
-        body["holdout"] = True
-    return body
+        flags["holdout"] = True
+    return flags
+
+
+@dataclass(eq=False)
+class _Source:
+    """What the instances of one (instancer, object, evaluated data) export as: found from the first of them, then
+    each only adds its matrix."""
+
+    action: str  # SKIP, LIGHT, VANE or GEOMETRY
+    original: object = None
+    owner: object = None  # the instancer's original object; None for an object placed by itself
+    slot_materials: list = field(default_factory=list)
+    flags: dict = field(default_factory=dict)
+    turned: bool = False  # hangs below the vane's turn: each placement a world-space mesh, as before instances
+    generated: bool = False  # made by its own object's evaluation (Geometry Nodes instances, a text's mesh)
+    geometry: _Geometry | None = None
+    done: bool = False  # a vane object's body is added once
+
+
+@dataclass(eq=False)
+class _Geometry:
+    """One evaluated geometry of the export and every place it is put."""
+
+    entry: object  # mesh_export's cache entry: the arrays and their placed forms
+    stem: str  # the name of its meshes-table entry before it is made unique
+    placements: list = field(default_factory=list)  # (order, source, matrix)
+
+
+@dataclass
+class _Item:
+    """A body of the document's objects before its name is made unique (names follow Blender's order)."""
+
+    order: int  # the depsgraph's order of its first instance
+    body: dict
+    stem: str = ""  # its name, before it is made unique; "" for the add-on's objects (named already)
+    owner: str = ""  # a world-space instance's instancer: named "owner/object#n", n counted per owner
+    dropped: int = 0  # zero-area triangles left out (or the triangles of instances that flatten)
+
+
+def _turned_by(obj, turn) -> bool:
+    """Whether obj hangs below the vane's turning object."""
+    parent = obj.parent if turn is not None else None
+    while parent is not None:
+        if parent == turn:
+            return True
+        parent = parent.parent
+    return False
+
+
+def _geometry_source(source: _Source, mode: str, index: int) -> mesh_export.Source:
+    """Where a source's geometry comes from for the cache: its mesh data-block where that is all there is to it,
+    else the index-th distinct geometry its object's evaluation yields in this depsgraph mode."""
+    original = source.original
+    mesh = original.data
+    editing = bool(getattr(mesh, "is_editmode", False))
+    pointer = original.as_pointer()
+    if (
+        not source.generated
+        and original.type == "MESH"
+        and mesh is not None
+        and len(original.modifiers) == 0
+        and getattr(mesh, "shape_keys", None) is None
+        and mesh.animation_data is None
+        and original.parent_type not in ("ARMATURE", "LATTICE")  # a deforming parent: a modifier in all but name
+        and not editing
+    ):
+        key = ("mesh", mesh.as_pointer(), mesh.name)
+        return mesh_export.Source(key, (mesh.as_pointer(), pointer), False, pointer, original.name)
+    watched = (pointer, mesh.as_pointer()) if mesh is not None else (pointer,)
+    key = ("object", mode, pointer, original.name, index)
+    return mesh_export.Source(key, watched, True, pointer, original.name, cacheable=not editing)
+
+
+class _Export:
+    """One export's document materials and notes, the cache's stamp and the frame."""
+
+    def __init__(self, depsgraph, materials: dict, notes: ExportNotes) -> None:
+        self.materials = materials
+        self.notes = notes
+        self.stamp = mesh_export.CACHE.clock  # taken before anything is read: a later update makes it stale
+        scene = depsgraph.scene_eval
+        self.frame = float(scene.frame_current) + float(scene.frame_subframe)
+        loader = module("scene.loader")
+        self.min_determinant = loader.MATRIX_MIN_DETERMINANT
+
+    def material(self, material) -> str:
+        return _material_name(material, self.materials, self.notes, self.frame, self.stamp)
 
 
 @dataclass
@@ -149,60 +294,230 @@ class _Collected:
     objects: list = field(default_factory=list)
     parts: list = field(default_factory=list)  # names of the vane's turning parts
     lights: list = field(default_factory=list)  # (original light object, evaluated object, world matrix)
+    meshes: dict = field(default_factory=dict)  # the document's meshes table
+
+
+def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: ExportNotes) -> _Source:
+    """What the instances of one (instancer, object, data) export as, read from the first of them."""
+    if hidden is not None:  # a viewport depsgraph: Blender's render visibility of the original placed
+        placed = owner if owner is not None else original
+        if placed.hide_render or placed.as_pointer() in hidden:
+            return _Source(SKIP)
+    if obj.type == "LIGHT":
+        return _Source(LIGHT, original)
+    if obj.type in NOT_TRACED:
+        notes.not_rendered(NOT_TRACED[obj.type], original.name)
+        return _Source(SKIP)
+    if obj.type != "MESH":
+        # empties, cameras, armatures, lattices render nothing; a text, curve, surface or metaball object's mesh
+        # comes as an instance of its own (a Mesh with the object as its parent), as Cycles reads it
+        return _Source(SKIP)
+    if owner is None and "weathervane_object" in original:
+        return _Source(VANE, original)
+    return _Source(
+        GEOMETRY,
+        original,
+        owner,
+        slot_materials=[slot.material for slot in obj.material_slots] or [None],
+        flags=_flags(obj),
+        turned=_turned_by(original, turn) or (owner is not None and _turned_by(owner, turn)),
+        generated=owner is not None and owner == original,
+    )
 
 
 def _collect(depsgraph, turn, materials: dict, notes: ExportNotes) -> _Collected:
-    """Every object instance Blender renders at the depsgraph's frame, with its evaluated world matrix."""
+    """Every object instance Blender renders at the depsgraph's frame: the add-on's objects as their own kinds, and
+    each other geometry read once (not at all where the cache holds it unchanged), then placed: once in world space
+    as a "mesh", several times as a "meshes" entry and "instances" of it."""
     collected = _Collected()
-    viewport = depsgraph.mode == "VIEWPORT"
-    meshes: dict[tuple, object] = {}  # one read per evaluated object, however many instances
-    instance_count: dict[str, int] = {}
-    names: set[str] = set()  # scene-file names are unique
-    for instance in depsgraph.object_instances:
+    export = _Export(depsgraph, materials, notes)
+    cache = mesh_export.CACHE
+    hidden = _render_hidden_objects() if depsgraph.mode == "VIEWPORT" else None
+    sources: dict[tuple, _Source] = {}
+    geometries: dict[int, _Geometry] = {}  # evaluated data pointer -> its geometry
+    distinct: dict[int, int] = {}  # original object pointer -> the distinct geometries it yielded so far
+    items: list[_Item] = []
+    for order, instance in enumerate(depsgraph.object_instances):
         obj = instance.object
+        parent = instance.parent if instance.is_instance else None
         original = obj.original
-        parent = instance.parent.original if instance.is_instance and instance.parent is not None else None
-        if viewport and not _visible_in_render(parent if parent is not None else original):
+        data = obj.data
+        data_pointer = data.as_pointer() if data is not None else 0
+        key = (parent.as_pointer() if parent is not None else 0, original.as_pointer(), data_pointer)
+        source = sources.get(key)
+        if source is None:
+            owner = parent.original if parent is not None else None
+            source = sources[key] = _classify(obj, original, owner, turn, hidden, notes)
+        if source.action == SKIP or not getattr(instance, "show_self", True):
             continue
-        if not getattr(instance, "show_self", True):
+        if source.action == LIGHT:
+            collected.lights.append((original, obj, instance.matrix_world.copy()))
             continue
-        matrix = instance.matrix_world.copy()
-        if obj.type == "LIGHT":
-            collected.lights.append((original, obj, matrix))
+        if source.action == VANE:
+            if not source.done:
+                source.done = True
+                body = json.loads(original["weathervane_object"])
+                body.update(_transform(_unturned(original, turn)))
+                items.append(_Item(order, body))
+                if turn is not None and original.parent == turn:
+                    collected.parts.append(body["name"])
             continue
-        if obj.type in NOT_TRACED:
-            notes.not_rendered(NOT_TRACED[obj.type], original.name)
-            continue
-        if obj.type != "MESH":
-            # empties, cameras, armatures, lattices render nothing; a text, curve, surface or metaball object's mesh
-            # comes as an instance of its own (a Mesh with the object as its parent), as Cycles reads it
-            continue
-        if not instance.is_instance and "weathervane_object" in original:
-            body = json.loads(original["weathervane_object"])
-            body.update(_transform(_unturned(original, turn)))
-            collected.objects.append(body)
-            if turn is not None and original.parent == turn:
-                collected.parts.append(body["name"])
-            continue
-        key = (obj.name, obj.data.as_pointer() if obj.data is not None else 0)
-        if key not in meshes:
-            meshes[key] = mesh_export.read(obj)
-        if meshes[key] is None:
-            continue
-        if instance.is_instance and parent is not original:  # not the mesh of a text, curve or metaball itself
-            owner = parent.name if parent is not None else "instance"
-            count = instance_count[owner] = instance_count.get(owner, 0) + 1
-            name = f"{owner}/{original.name}#{count}"
-        else:
-            name = original.name
-        while name in names:  # Geometry Nodes instances of an object's own geometry share its name
-            instance_count[name] = instance_count.get(name, 0) + 1
-            name = f"{original.name}#{instance_count[name]}"
-        names.add(name)
-        body = _mesh_object(name, obj, meshes[key], matrix, materials, notes)
-        if body is not None:
-            collected.objects.append(body)
+        geometry = source.geometry
+        if geometry is None:
+            geometry = source.geometry = geometries.get(data_pointer)
+        if geometry is None:
+            index = distinct[key[1]] = distinct.get(key[1], -1) + 1
+            # read now, while obj is the instance iterated (Geometry Nodes instances share one temporary object)
+            entry = cache.arrays(_geometry_source(source, depsgraph.mode, index), obj, export.frame, export.stamp)
+            stem = f"{original.name}/{data.name}" if source.generated else data.name
+            geometry = source.geometry = geometries[data_pointer] = _Geometry(entry, stem)
+        if geometry.entry.arrays is not None:
+            geometry.placements.append((order, source, instance.matrix_world.copy()))
+    for geometry in geometries.values():
+        items += _placed_items(geometry, export, collected)
+    _name(items, collected, notes)
+    cache.trim()
     return collected
+
+
+def _placed_items(geometry: _Geometry, export: _Export, collected: _Collected) -> list[_Item]:
+    """A geometry's placements -> document bodies: one placement (or one the vane turns) as a world-space "mesh", as
+    Cycles bakes a geometry used once into world space; the rest as "instances" groups over one meshes entry."""
+    placements = geometry.placements
+    alone = [placement for placement in placements if placement[1].turned]
+    shared = [placement for placement in placements if not placement[1].turned]
+    if len(shared) == 1:
+        alone, shared = alone + shared, []
+    items = []
+    for order, source, matrix in alone:
+        placed = mesh_export.CACHE.placed(geometry.entry, matrix)
+        body = _mesh_object(placed, source, export) if len(placed.triangles) else None
+        if source.owner is None or source.generated:  # an object's own geometry, or a text's mesh: its name
+            item = _Item(order, body, source.original.name, dropped=placed.dropped)
+        else:
+            item = _Item(order, body, source.original.name, owner=source.owner.name, dropped=placed.dropped)
+        items.append(item)
+    if shared:
+        items += _instance_groups(geometry, shared, export, collected)
+    return items
+
+
+def _mesh_object(placed: mesh_export.Placed, source: _Source, export: _Export) -> dict:
+    """One placement of a geometry in world space as a scene-file mesh, with its materials and visibility."""
+    slot_materials = source.slot_materials
+    # a face whose slot index is past the object's slots takes the last slot, as Blender's render does
+    slots = np.minimum(placed.slots, len(slot_materials) - 1)
+    used = np.unique(slots).tolist()
+    body = {"name": "", "type": "mesh", "material": export.material(slot_materials[used[0]]), **placed.fields()}
+    if len(used) > 1:
+        body["materials"] = [export.material(material) for material in slot_materials]
+        body["material_indices"] = slots.tolist()
+    body.update(source.flags)
+    return body
+
+
+def _instance_groups(geometry: _Geometry, placements: list, export: _Export, collected: _Collected) -> list[_Item]:
+    """Placements of one geometry -> one "instances" body per (materials, visibility), over a meshes-table entry in
+    the geometry's own space (one entry per set of materials where faces use several, else one with the group's
+    material as an override)."""
+    local = mesh_export.CACHE.placed(geometry.entry)
+    triangles = len(geometry.entry.arrays.triangles)
+    groups: dict[tuple, list] = {}
+    kinds: dict[int, tuple] = {}  # id(source) -> (materials key, per-triangle slots or None)
+    for placement in placements:
+        source = placement[1]
+        kind = kinds.get(id(source))
+        if kind is None:
+            slots = np.minimum(local.slots, len(source.slot_materials) - 1)
+            used = np.unique(slots).tolist() if len(slots) else [0]
+            if len(used) == 1:
+                kind = (("one", export.material(source.slot_materials[used[0]])), None)
+            else:
+                kind = (("many", tuple(export.material(m) for m in source.slot_materials)), slots)
+            kinds[id(source)] = kind
+        group = (kind[0], tuple(sorted(source.flags.items())))
+        groups.setdefault(group, []).append((placement, kind[1]))
+    items = []
+    entries: dict[tuple, str] = {}  # materials key -> meshes-table name
+    for (materials, flags), members in groups.items():
+        order, first, _ = members[0][0]
+        matrices = np.array([matrix for (_, _, matrix), _ in members], dtype=np.float64)
+        usable = _invertible(matrices, export.min_determinant)
+        # an instance that flattens its mesh (a scale of 0) renders nothing in Blender; the tracer refuses it
+        dropped = local.dropped * int(np.count_nonzero(usable)) + triangles * int(np.count_nonzero(~usable))
+        stem = first.original.name if first.owner is None else _group_stem(first, geometry)
+        if not len(local.triangles) or not usable.any():
+            items.append(_Item(order, None, stem, dropped=dropped))
+            continue
+        mesh_key = materials if materials[0] == "many" else ("one",)
+        if mesh_key not in entries:
+            entries[mesh_key] = _mesh_entry(geometry, local, materials, members[0][1], collected)
+        body = {"name": "", "type": "instances", "mesh": entries[mesh_key]}
+        body["matrices"] = matrices[usable, :3, :].reshape(-1, 12).tolist()
+        if materials[0] == "one":
+            body["material"] = materials[1]
+        body.update(dict(flags))
+        items.append(_Item(order, body, stem, dropped=dropped))
+    return items
+
+
+def _group_stem(source: _Source, geometry: _Geometry) -> str:
+    """A group's name: "instancer/object" (collection, vertex, particle instances), "object/mesh" (an object's own
+    Geometry Nodes instances)."""
+    if source.generated:
+        return geometry.stem
+    return f"{source.owner.name}/{source.original.name}"
+
+
+def _mesh_entry(geometry: _Geometry, local: mesh_export.Placed, materials: tuple, slots, collected: _Collected) -> str:
+    """A meshes-table entry for a geometry (with its per-triangle materials where it has several); its name."""
+    name, count = geometry.stem, 1
+    while name in collected.meshes:
+        count += 1
+        name = f"{geometry.stem}#{count}"
+    entry = local.fields()
+    if materials[0] == "one":
+        entry["material"] = materials[1]
+    else:
+        entry["material"] = materials[1][int(slots[0])]
+        entry["materials"] = list(materials[1])
+        entry["material_indices"] = slots.tolist()
+    collected.meshes[name] = entry
+    return name
+
+
+def _invertible(matrices: np.ndarray, min_determinant: float) -> np.ndarray:
+    """(K, 4, 4) world matrices -> (K,) whether each is finite and invertible by the loader's measure (its 3x3 part's
+    determinant above min_determinant times its largest entry cubed)."""
+    finite = np.all(np.isfinite(matrices[:, :3, :]), axis=(1, 2))
+    linear = np.where(finite[:, None, None], matrices[:, :3, :3], 0.0)
+    largest = np.abs(linear).max(axis=(1, 2))
+    return finite & (np.abs(np.linalg.det(linear)) > min_determinant * largest**3)
+
+
+def _name(items: list[_Item], collected: _Collected, notes: ExportNotes) -> None:
+    """The items in Blender's order, named uniquely (a world-space instance "instancer/object#n", n counted per
+    instancer; a repeated name gets "#2", "#3"), with their dropped triangles noted under those names."""
+    names: set[str] = set()
+    counts: dict[str, int] = {}
+    for item in sorted(items, key=lambda item: item.order):
+        if not item.stem:  # the add-on's own objects
+            collected.objects.append(item.body)
+            continue
+        name = item.stem
+        if item.owner:
+            counts[item.owner] = counts.get(item.owner, 0) + 1
+            name = f"{item.owner}/{item.stem}#{counts[item.owner]}"
+        stem = item.stem
+        while name in names:
+            counts[stem] = counts.get(stem, 1) + 1
+            name = f"{stem}#{counts[stem]}"
+        names.add(name)
+        if item.dropped:
+            notes.dropped_triangles[name] = notes.dropped_triangles.get(name, 0) + item.dropped
+        if item.body is not None:
+            item.body["name"] = name
+            collected.objects.append(item.body)
 
 
 def other_lights(blender_scene) -> list:
@@ -304,6 +619,7 @@ def scene_document(context, depsgraph=None, blender_scene=None, notes: ExportNot
     scale = render.resolution_percentage / 100.0
     document = {
         "materials": materials,
+        **({"meshes": collected.meshes} if collected.meshes else {}),
         "objects": objects,
         "lights": light_list,
         "background": background,
@@ -380,3 +696,59 @@ def _wind_document(wind) -> dict:
             "seed": wind.gusts.seed,
         }
     return document
+
+
+# --- what tells the caches that something changed -------------------------------------------------------------------
+
+
+def observe(depsgraph, from_view_update: bool = False) -> None:
+    """A viewport depsgraph's last evaluation -> the remembered geometry and material conversions it changed are
+    forgotten (mesh_export.GeometryCache.observe)."""
+    if mesh_export.CACHE.enabled:
+        mesh_export.CACHE.observe(depsgraph, from_view_update)
+
+
+@bpy.app.handlers.persistent
+def _on_depsgraph_update(_scene, depsgraph) -> None:
+    observe(depsgraph)
+
+
+@bpy.app.handlers.persistent
+def _on_frame_change(_scene, depsgraph=None) -> None:
+    if depsgraph is not None:
+        observe(depsgraph)
+
+
+@bpy.app.handlers.persistent
+def _forget_everything(*_arguments) -> None:
+    """A file loaded, an undo or redo: data-blocks may be others at the same addresses."""
+    mesh_export.CACHE.clear()
+    _conversions.clear()
+
+
+_HANDLERS = (
+    ("depsgraph_update_post", _on_depsgraph_update),
+    ("frame_change_post", _on_frame_change),
+    ("load_post", _forget_everything),
+    ("undo_post", _forget_everything),
+    ("redo_post", _forget_everything),
+)
+
+
+def register() -> None:
+    """Start remembering geometry and materials between exports: the handlers that say what changed."""
+    for name, handler in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if handler not in handlers:
+            handlers.append(handler)
+    _forget_everything()
+    mesh_export.CACHE.enabled = True
+
+
+def unregister() -> None:
+    mesh_export.CACHE.enabled = False
+    for name, handler in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if handler in handlers:
+            handlers.remove(handler)
+    _forget_everything()

@@ -1,13 +1,23 @@
-"""An evaluated Blender object (mesh, text, curve, surface, metaball, Geometry Nodes mesh) and a world matrix -> a
-tracer mesh in world space: triangles, corner normals where faces are smooth, a material slot per triangle.
+"""An evaluated Blender object's mesh (mesh, text, curve, surface, metaball, Geometry Nodes geometry) -> NumPy
+triangles in its own space, read once and kept until Blender changes that geometry; placed by a matrix -> the scene
+file's triangles, corner normals and material slots.
 
-The triangles of one evaluated object are read once (`MeshArrays`, NumPy through `foreach_get`) and placed at each
-instance's matrix: 1,000 instances of a mesh cost one read and 1,000 matrix products.
+- `read` turns an evaluated object into `MeshArrays` (NumPy through `foreach_get`): its triangles in local space.
+- `place` turns MeshArrays and a matrix (or none: local space) into `Placed`: the triangles that span an area there,
+  the vertices they use, unit corner normals; `Placed.fields` gives the scene file's lists.
+- `GeometryCache` keeps MeshArrays (and their placed forms) between exports, keyed by where the geometry comes from
+  (an original mesh data-block, or an original object's evaluation), and forgets them when the depsgraph reports a
+  geometry update of what they were read from (`observe`, fed by the depsgraph handlers and the engine's
+  view_update). A geometry that can change with the frame (modifiers, shape keys, animated data) is trusted at another
+  frame only where a viewport depsgraph evaluated that frame without updating it, or where a fingerprint of its
+  evaluated mesh (positions, corners, faces' materials and smoothing) is unchanged.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import hashlib
+from collections import OrderedDict
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -23,6 +33,11 @@ class MeshArrays:
     corner_normals: np.ndarray | None  # (T, 3, 3) float64, None when every face is flat
     slots: np.ndarray  # (T,) int64, the material slot of each triangle
 
+    @property
+    def nbytes(self) -> int:
+        arrays = (self.vertices, self.triangles, self.corner_normals, self.slots)
+        return sum(array.nbytes for array in arrays if array is not None)
+
 
 def read(obj) -> MeshArrays | None:
     """The triangles of an evaluated object, or None when it has no faces (or yields no mesh at all)."""
@@ -33,62 +48,330 @@ def read(obj) -> MeshArrays | None:
     if mesh is None:
         return None
     try:
-        compat.calc_split_normals(mesh)
         mesh.calc_loop_triangles()
-        count = len(mesh.loop_triangles)
+        loop_triangles = mesh.loop_triangles
+        count = len(loop_triangles)
         if count == 0:
             return None
+        polygons = mesh.polygons
+        smooth_faces = np.empty(len(polygons), dtype=bool)
+        polygons.foreach_get("use_smooth", smooth_faces)
         vertices = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
         mesh.vertices.foreach_get("co", vertices)
         triangles = np.empty(count * 3, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("vertices", triangles)
-        normals = np.empty(count * 9, dtype=np.float32)
-        mesh.loop_triangles.foreach_get("split_normals", normals)
-        face_normals = np.empty(count * 3, dtype=np.float32)
-        mesh.loop_triangles.foreach_get("normal", face_normals)
+        loop_triangles.foreach_get("vertices", triangles)
         slots = np.empty(count, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("material_index", slots)
-        polygons = np.empty(count, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("polygon_index", polygons)
-        smooth_faces = np.empty(len(mesh.polygons), dtype=bool)
-        mesh.polygons.foreach_get("use_smooth", smooth_faces)
+        loop_triangles.foreach_get("material_index", slots)
+        corner_normals = None
+        if smooth_faces.any():  # flat meshes need no normals at all (most of a small mesh's reading time)
+            compat.calc_split_normals(mesh)
+            normals = np.empty(count * 9, dtype=np.float32)
+            loop_triangles.foreach_get("split_normals", normals)
+            face_normals = np.empty(count * 3, dtype=np.float32)
+            loop_triangles.foreach_get("normal", face_normals)
+            polygon_of = np.empty(count, dtype=np.int32)
+            loop_triangles.foreach_get("polygon_index", polygon_of)
+            flat = ~smooth_faces[polygon_of]
+            corner_normals = normals.astype(np.float64).reshape(count, 3, 3)
+            # a flat face shades with each triangle's own normal, as Cycles does (a non-planar quad's split normal is
+            # the polygon's, which neither triangle has): only smooth faces carry corner normals
+            corner_normals[flat] = face_normals.astype(np.float64).reshape(count, 1, 3)[flat]
     finally:
         obj.to_mesh_clear()
-    smooth = smooth_faces[polygons]
-    corner_normals = normals.astype(np.float64).reshape(count, 3, 3)
-    # a flat face shades with each triangle's own normal, as Cycles does (a non-planar quad's split normal is the
-    # polygon's, which neither triangle has): only smooth faces carry corner normals
-    corner_normals[~smooth] = face_normals.astype(np.float64).reshape(count, 1, 3)[~smooth]
-    flat = not smooth.any()
     return MeshArrays(
         vertices=vertices.astype(np.float64).reshape(-1, 3),
         triangles=triangles.astype(np.int64).reshape(count, 3),
-        corner_normals=None if flat else corner_normals,
+        corner_normals=corner_normals,
         slots=slots.astype(np.int64),
     )
 
 
-def in_world(arrays: MeshArrays, matrix) -> tuple[dict, np.ndarray, int]:
-    """The mesh placed by a world matrix (4x4, mathutils or nested lists): scene-file fields (vertices, triangles,
-    and normals where faces are smooth), the material slot of each kept triangle (T,), and how many triangles were
-    dropped for spanning no area there (the tracer refuses them; Blender renders nothing of them)."""
-    m = np.array(matrix, dtype=np.float64)
-    vertices = arrays.vertices @ m[:3, :3].T + m[:3, 3]
+@dataclass(frozen=True)
+class Placed:
+    """A mesh's triangles placed by one matrix (or in its own space): what the scene file holds of it."""
+
+    vertices: np.ndarray  # (V, 3) float64, only those the kept triangles use
+    triangles: np.ndarray  # (T, 3) int64 into vertices
+    normals: np.ndarray | None  # (T, 3, 3) float64 unit corner normals, None when every face is flat
+    slots: np.ndarray  # (T,) int64, the material slot of each kept triangle
+    dropped: int  # triangles left out for spanning no area (the tracer refuses them; Blender renders nothing of them)
+
+    @property
+    def nbytes(self) -> int:
+        arrays = (self.vertices, self.triangles, self.normals, self.slots)
+        return sum(array.nbytes for array in arrays if array is not None)
+
+    def fields(self) -> dict:
+        """The scene file's "vertices", "triangles" and, where faces are smooth, "normals" (lists)."""
+        fields: dict = {"vertices": self.vertices.tolist(), "triangles": self.triangles.tolist()}
+        if self.normals is not None:
+            fields["normals"] = self.normals.tolist()
+        return fields
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Row-wise cross products of (N, 3) arrays: np.cross's very operations (same bits), without its per-call cost,
+    which dominates for the many small meshes of a scene."""
+    return np.stack(
+        (
+            u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1],
+            u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
+            u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0],
+        ),
+        axis=1,
+    )
+
+
+def place(arrays: MeshArrays, matrix=None) -> Placed:
+    """The mesh placed by a matrix (4x4: mathutils, NumPy or nested lists), or in its own space when matrix is None:
+    the triangles that span an area there (a mirroring matrix's with two corners swapped, so that they face out
+    again), the vertices they use, and unit corner normals where faces are smooth (transformed by the inverse
+    transpose; a zero normal becomes the triangle's own)."""
+    vertices = arrays.vertices
+    linear = None
+    if matrix is not None:
+        m = np.array(matrix, dtype=np.float64)
+        linear = m[:3, :3]
+        vertices = vertices @ linear.T + m[:3, 3]
     triangles = arrays.triangles
-    a, b, c = (vertices[triangles[:, k]] for k in range(3))
-    spans_area = np.any(np.cross(b - a, c - a) != 0.0, axis=1) & np.all(np.isfinite(vertices[triangles]), axis=(1, 2))
-    mirrored = np.linalg.det(m[:3, :3]) < 0.0
+    corners = vertices[triangles]
+    a = corners[:, 0]
+    spans_area = np.any(_cross(corners[:, 1] - a, corners[:, 2] - a) != 0.0, axis=1)
+    spans_area &= np.all(np.isfinite(corners), axis=(1, 2))
+    everything = bool(spans_area.all())
+    mirrored = linear is not None and np.linalg.det(linear) < 0.0
     # a mirroring matrix turns counter-clockwise into clockwise: swap two corners so the normal points out again
     order = [0, 2, 1] if mirrored else [0, 1, 2]
-    kept = triangles[spans_area][:, order]
-    used, remapped = np.unique(kept, return_inverse=True)  # only the vertices the kept triangles use
-    fields: dict = {"vertices": vertices[used].tolist(), "triangles": remapped.reshape(-1, 3).tolist()}
+    kept = triangles if everything else triangles[spans_area]
+    if mirrored:
+        kept = kept[:, order]
+    used = np.zeros(len(vertices), dtype=bool)
+    used[kept.ravel()] = True
+    if used.all():  # every vertex in use: the indices stay (what np.unique would give, without its sort)
+        placed_vertices, remapped = vertices, kept
+    else:
+        indices, inverse = np.unique(kept, return_inverse=True)
+        placed_vertices, remapped = vertices[indices], inverse.reshape(-1, 3)
+    normals = None
     if arrays.corner_normals is not None:
-        normal_matrix = np.linalg.inv(m[:3, :3]).T  # normals transform by the inverse transpose
-        normals = arrays.corner_normals[spans_area][:, order] @ normal_matrix.T
+        normals = arrays.corner_normals if everything else arrays.corner_normals[spans_area]
+        if mirrored:
+            normals = normals[:, order]
+        if linear is not None:
+            normals = normals @ np.linalg.inv(linear)  # normals transform by the inverse transpose
         lengths = np.linalg.norm(normals, axis=2, keepdims=True)
-        a, b, c = (vertices[kept[:, k]] for k in range(3))
-        flat = np.cross(b - a, c - a)
+        kept_corners = vertices[kept]
+        first = kept_corners[:, 0]
+        flat = _cross(kept_corners[:, 1] - first, kept_corners[:, 2] - first)
         flat = np.broadcast_to((flat / np.linalg.norm(flat, axis=1, keepdims=True))[:, None, :], normals.shape)
-        fields["normals"] = np.where(lengths > 0, normals / np.where(lengths > 0, lengths, 1.0), flat).tolist()
-    return fields, arrays.slots[spans_area], int(np.count_nonzero(~spans_area))
+        normals = np.where(lengths > 0, normals / np.where(lengths > 0, lengths, 1.0), flat)
+    slots = arrays.slots if everything else arrays.slots[spans_area]
+    return Placed(placed_vertices, remapped, normals, slots, int(len(triangles) - np.count_nonzero(spans_area)))
+
+
+def in_world(arrays: MeshArrays, matrix) -> tuple[dict, np.ndarray, int]:
+    """The mesh placed by a world matrix: scene-file fields (vertices, triangles, and normals where faces are smooth),
+    the material slot of each kept triangle (T,), and how many triangles were dropped for spanning no area."""
+    placed = place(arrays, matrix)
+    return placed.fields(), placed.slots, placed.dropped
+
+
+def fingerprint(obj) -> bytes | None:
+    """A digest of an evaluated mesh object's geometry as the export reads it (positions, faces' corners, materials
+    and smoothing), without its triangulation or normals; None where it has no mesh data to read."""
+    mesh = getattr(obj, "data", None)
+    if mesh is None or not hasattr(mesh, "loops") or getattr(mesh, "is_editmode", False):
+        return None
+    digest = hashlib.blake2b(digest_size=20)
+    counts = np.array([len(mesh.vertices), len(mesh.loops), len(mesh.polygons)], dtype=np.int64)
+    digest.update(counts.tobytes())
+    for collection, name, dtype, size in (
+        (mesh.vertices, "co", np.float32, 3 * counts[0]),
+        (mesh.loops, "vertex_index", np.int32, counts[1]),
+        (mesh.polygons, "loop_start", np.int32, counts[2]),
+        (mesh.polygons, "material_index", np.int32, counts[2]),
+        (mesh.polygons, "use_smooth", bool, counts[2]),
+    ):
+        values = np.empty(int(size), dtype=dtype)
+        collection.foreach_get(name, values)
+        digest.update(values.tobytes())
+    return digest.digest()
+
+
+# --- remembering geometry between exports ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Source:
+    """Where an evaluated geometry comes from, as the cache identifies it across depsgraphs.
+
+    key: ("mesh", pointer, name) for a mesh data-block that is all of its objects' geometry (no modifiers, shape keys,
+    animation or edit mode: the same in every depsgraph and at every frame), else ("object", depsgraph mode, object
+    pointer, object name, k) for the k-th distinct geometry the object's evaluation yields (its own mesh, or the
+    Geometry Nodes instances it makes). watched: the original IDs whose geometry updates make it stale.
+    frame_bound: whether it may change with the frame. object_name: the original object, for frame changes."""
+
+    key: tuple
+    watched: tuple[int, ...]
+    frame_bound: bool
+    object_pointer: int
+    object_name: str
+    cacheable: bool = True  # False in edit mode: read every time
+
+
+@dataclass
+class _Entry:
+    arrays: MeshArrays | None
+    stamp: int  # the update clock when the export that read it began
+    watched: tuple[int, ...]
+    frames: set[float] | None  # the frames where it is known to hold (None: every frame)
+    fingerprint: bytes | None
+    object_name: str
+    object_pointer: int
+    placed: OrderedDict = field(default_factory=OrderedDict)  # None (local) or a matrix's bytes -> Placed
+
+    @property
+    def nbytes(self) -> int:
+        return (self.arrays.nbytes if self.arrays is not None else 0) + sum(p.nbytes for p in self.placed.values())
+
+
+SHADING = -1  # a pseudo-ID: any shader node group, image or texture changed (every material's conversion)
+ATTRIBUTES = -2  # a pseudo-ID: some mesh's geometry changed (the conversions that average colour attributes)
+SCENE = -3  # a pseudo-ID: a scene changed (the add-on's own materials are read against the panel's settings)
+
+
+class GeometryCache:
+    """MeshArrays between exports, forgotten when a depsgraph update says their geometry changed.
+
+    Changes are counted on a clock: observing an update of an ID sets changed[ID] to the next tick; an export takes
+    the clock when it begins (`stamp`) and an entry it stores is valid while none of its watched IDs changed after
+    that. An update observed while an export runs (a render thread) therefore makes what that export read stale."""
+
+    MEMORY_BUDGET = 512 * 2**20  # bytes of arrays kept; least recently used entries go first beyond it
+    PLACED_PER_ENTRY = 3  # placed forms kept per geometry (its local one and the last world matrices)
+    FRAMES_PER_ENTRY = 4096
+    CHANGED_LIMIT = 200_000  # IDs whose last change is remembered; beyond it everything is forgotten
+
+    def __init__(self) -> None:
+        self.enabled = False  # only while the depsgraph handlers run: without them nothing would say what changed
+        self.entries: OrderedDict[tuple, _Entry] = OrderedDict()
+        self.clock = 0
+        self.changed: dict[int, int] = {}
+        self.frames_seen: dict[int, float] = {}  # viewport depsgraph -> the frame it last evaluated
+        self.observed: tuple | None = None  # what view_update observed, for the handler of the same evaluation
+        self.reads = 0  # calls of read() (for tests and measurements)
+
+    def clear(self) -> None:
+        self.entries.clear()
+        self.changed.clear()
+        self.frames_seen.clear()
+        self.observed = None
+        self.clock += 1
+
+    def valid(self, watched: tuple[int, ...], stamp: int) -> bool:
+        """Whether none of the watched IDs changed after the export that began at stamp."""
+        changed = self.changed
+        return all(changed.get(pointer, -1) <= stamp for pointer in watched)
+
+    def observe(self, depsgraph, from_view_update: bool = False) -> None:
+        """A viewport depsgraph's updates of its last evaluation: the geometries, materials, node trees and images it
+        changed. A frame change that left an object's geometry alone extends that geometry's entries to the new
+        frame. A render depsgraph is new on every render and reports everything: it says nothing."""
+        if depsgraph.mode != "VIEWPORT":
+            return
+        changed: set[int] = set()
+        for update in depsgraph.updates:
+            identity = update.id.original if update.id.original is not None else update.id
+            pointer = identity.as_pointer()
+            kind = type(identity).__name__
+            if kind in ("Material", "Image", "Texture") or kind.endswith("NodeTree"):
+                changed.add(pointer)
+                if kind in ("Image", "Texture") or (
+                    kind == "ShaderNodeTree" and not getattr(identity, "is_embedded_data", False)
+                ):
+                    changed.add(SHADING)  # a node group or image: any material may use it
+            elif kind == "Scene":
+                changed.add(SCENE)
+            elif update.is_updated_geometry:
+                changed.add(pointer)
+                if kind == "Mesh":
+                    changed.add(ATTRIBUTES)
+        scene = depsgraph.scene_eval
+        frame = float(scene.frame_current) + float(scene.frame_subframe)
+        evaluation = (depsgraph.as_pointer(), frozenset(changed), frame)
+        if from_view_update or evaluation != self.observed:  # view_update runs inside the evaluation, before handlers
+            self.clock += 1
+            for pointer in changed:
+                self.changed[pointer] = self.clock
+        self.observed = evaluation if from_view_update else None
+        last = self.frames_seen.get(evaluation[0])
+        self.frames_seen[evaluation[0]] = frame
+        if last is not None and last != frame:
+            self._extend(depsgraph, last, frame, changed)
+        if len(self.changed) > self.CHANGED_LIMIT:
+            self.clear()
+
+    def _extend(self, depsgraph, last: float, frame: float, changed: set[int]) -> None:
+        """The entries that held at the last frame hold at this one too, where the depsgraph evaluated their object at
+        this frame without updating its geometry (it updates every object whose geometry depends on the time)."""
+        import bpy
+
+        for entry in self.entries.values():
+            if entry.frames is None or last not in entry.frames or entry.object_pointer in changed:
+                continue
+            obj = bpy.data.objects.get(entry.object_name)
+            if obj is None or obj.as_pointer() != entry.object_pointer:
+                continue
+            if not getattr(depsgraph.id_eval_get(obj), "is_evaluated", False):  # not in this depsgraph (hidden)
+                continue
+            if len(entry.frames) >= self.FRAMES_PER_ENTRY:
+                entry.frames.clear()
+                entry.frames.add(last)
+            entry.frames.add(frame)
+
+    def arrays(self, source: Source, obj, frame: float, stamp: int) -> _Entry:
+        """The entry of an evaluated object's geometry: remembered where nothing changed it, else read now."""
+        entry = self.entries.get(source.key) if self.enabled and source.cacheable else None
+        if entry is not None and self.valid(entry.watched, entry.stamp):
+            if entry.frames is None or frame in entry.frames:
+                self.entries.move_to_end(source.key)
+                return entry
+            if entry.fingerprint is not None and fingerprint(obj) == entry.fingerprint:
+                entry.frames.add(frame)
+                self.entries.move_to_end(source.key)
+                return entry
+        self.reads += 1
+        entry = _Entry(
+            arrays=read(obj),
+            stamp=stamp,
+            watched=source.watched,
+            frames={frame} if source.frame_bound else None,
+            fingerprint=fingerprint(obj) if source.frame_bound and source.cacheable else None,
+            object_name=source.object_name,
+            object_pointer=source.object_pointer,
+        )
+        if self.enabled and source.cacheable:
+            self.entries[source.key] = entry
+            self.entries.move_to_end(source.key)
+        return entry
+
+    def placed(self, entry: _Entry, matrix=None) -> Placed:
+        """entry's mesh placed by a matrix (None: its own space), kept with the entry for the next export."""
+        key = None if matrix is None else np.array(matrix, dtype=np.float64).tobytes()
+        found = entry.placed.get(key)
+        if found is None:
+            found = entry.placed[key] = place(entry.arrays, matrix)
+            while len(entry.placed) > self.PLACED_PER_ENTRY:
+                entry.placed.popitem(last=False)
+        entry.placed.move_to_end(key)
+        return found
+
+    def trim(self) -> None:
+        """Forget the least recently used entries beyond the memory budget."""
+        total = sum(entry.nbytes for entry in self.entries.values())
+        while total > self.MEMORY_BUDGET and self.entries:
+            _, entry = self.entries.popitem(last=False)
+            total -= entry.nbytes
+
+
+CACHE = GeometryCache()

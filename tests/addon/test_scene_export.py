@@ -71,6 +71,20 @@ def test_text_curve_metaball_and_surface_objects_export_as_their_evaluated_meshe
         assert 0 < exported <= triangles and exported >= 0.95 * triangles, (obj.name, exported, triangles)
 
 
+def world_placements(document: dict) -> list[tuple[str, np.ndarray]]:
+    """(object name, the world centroid of its vertices) for every placement in the document: each "mesh" object's,
+    and each matrix of an "instances" object applied to its meshes-table entry's centroid."""
+    placements = []
+    for obj in document["objects"]:
+        if obj["type"] == "mesh":
+            placements.append((obj["name"], centroid(obj)))
+        elif obj["type"] == "instances":
+            local = centroid(document["meshes"][obj["mesh"]])
+            for matrix in np.asarray(obj["matrices"], dtype=np.float64).reshape(-1, 3, 4):
+                placements.append((obj["name"], matrix[:, :3] @ local + matrix[:, 3]))
+    return placements
+
+
 def test_instances_export_at_every_place_blender_puts_them() -> None:
     bpy.ops.mesh.primitive_plane_add(size=4)
     plane = bpy.context.object
@@ -84,24 +98,28 @@ def test_instances_export_at_every_place_blender_puts_them() -> None:
     collection.objects.link(cone)
     bpy.ops.object.collection_instance_add(collection=collection.name, location=(0, 10, 0))
     depsgraph = bpy.context.evaluated_depsgraph_get()
+    local = {obj: np.array([vertex.co for vertex in obj.data.vertices]).mean(axis=0) for obj in (sphere, cone)}
     expected = sorted(
-        tuple(np.round(np.array(instance.matrix_world)[:3, 3], 5))
+        tuple(np.round(np.array(instance.matrix_world) @ np.append(local[instance.object.original], 1.0), 5)[:3])
         for instance in depsgraph.object_instances
         if instance.object.type == "MESH" and instance.object.original in (sphere, cone)
     )
-    objects = export()["objects"]
-    placed = sorted(
-        tuple(np.round(centroid(obj) - center, 5))
-        for obj in objects
-        for source, center in ((sphere, 0.0), (cone, np.array([0.0, 0.0, 0.0])))
-        if obj["name"].split("/")[-1].split("#")[0] == source.name or obj["name"] == source.name
-    )
+    document = export()
+    placements = [(name, place) for name, place in world_placements(document) if name != plane.name]
+    placed = sorted(tuple(np.round(place, 5)) for _, place in placements)
     assert len(expected) == 4 + 1 + 1 + 1  # four vertices, the sphere itself, the cone, its instance
-    # every instance Blender renders is exported once, named after what instanced it
-    names = [obj["name"] for obj in objects]
-    assert sum(name.startswith(f"{plane.name}/{sphere.name}#") for name in names) == 4
-    assert sum(name.startswith("Collection instance") or "/Cone#" in name for name in names) >= 1
+    # every instance Blender renders is exported once, where Blender puts it
     assert len(placed) == len(expected)
+    assert np.abs(np.array(placed) - np.array(expected)).max() < 1e-4
+    # each mesh placed several times is in the meshes table once, in its own space, and placed by matrices
+    assert sorted(document["meshes"]) == sorted([sphere.data.name, cone.data.name])
+    for obj in (sphere, cone):
+        vertices = np.asarray(document["meshes"][obj.data.name]["vertices"])
+        assert np.abs(vertices - np.array([vertex.co for vertex in obj.data.vertices])).max() < 1e-6
+    groups = [obj for obj in document["objects"] if obj["type"] == "instances"]
+    assert sorted(len(obj["matrices"]) for obj in groups) == [2, 5]
+    # named after the first placement's object ("instancer/object" for an instance): what the Outliner shows
+    assert sorted(obj["name"].split("/")[-1] for obj in groups) == sorted([sphere.name, cone.name])
 
 
 def test_a_mirrored_object_faces_out() -> None:
