@@ -143,11 +143,12 @@ def _converted(material, frame: float, stamp: int) -> tuple[dict, list[str]]:
     cache = mesh_export.CACHE
     scene = bpy.context.scene  # material_convert reads the highlight model and coef there
     settings = getattr(scene, "weathervane", None)
-    tree = material.node_tree
-    animated = material.animation_data is not None or (tree is not None and tree.animation_data is not None)
+    original = material.original or material  # an evaluated object's slots hold evaluated copies
+    tree = original.node_tree
+    animated = original.animation_data is not None or (tree is not None and tree.animation_data is not None)
     key = (
-        material.as_pointer(),
-        material.name,
+        original.as_pointer(),
+        original.name,
         scene.as_pointer(),
         getattr(settings, "model", None),
         float(getattr(settings, "coef", 0.0)),
@@ -160,7 +161,7 @@ def _converted(material, frame: float, stamp: int) -> tuple[dict, list[str]]:
     else:
         document, said = material_convert.convert_material(material)
         if cache.enabled:
-            watched = [material.as_pointer(), mesh_export.SHADING, mesh_export.SCENE]
+            watched = [original.as_pointer(), mesh_export.SHADING, mesh_export.SCENE]
             if tree is not None:
                 watched.append(tree.as_pointer())
                 if any(node.bl_idname in _ATTRIBUTE_NODES for node in tree.nodes):
