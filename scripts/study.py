@@ -4,12 +4,14 @@ Usage: python scripts/study.py [--out docs] [--repeats 3]
 Times (median of --repeats frames on one persistent pool, warm) the default scene against workers (1 to 4),
 recursion depth (0 to 8), resolution, scene size (spheres; triangles), Phong against Blinn-Phong, float32 against
 float64, the per-pixel reference against the vectorized tracer, and Cycles at a few sample counts for scale.
-Writes <out>/study.png and <out>/study.json, and the table between the STUDY markers of <out>/performance.md.
+Writes <out>/study.png and <out>/study.json, and the table with the date it was taken between the STUDY markers of
+<out>/performance.md.
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import math
 import statistics
@@ -252,11 +254,12 @@ def main() -> None:
     page = args.out / "performance.md"
     if page.exists():
         text = page.read_text()
-        block = f"{MARK_START}\n{table(data)}\n{MARK_END}"
+        taken = f"Taken {datetime.date.today().isoformat()} (`make study`, medians of {args.repeats} frames)."
+        block = f"{MARK_START}\n{taken}\n\n{table(data)}\n{MARK_END}"
         if MARK_START in text:
             text = text[: text.index(MARK_START)] + block + text[text.index(MARK_END) + len(MARK_END) :]
         else:
-            text += f"\n## The study (`scripts/study.py`)\n\n![study](study.png)\n\n{block}\n"
+            text += f"\n## The study\n\n![study](study.png)\n\n{block}\n"
         page.write_text(text)
     print(table(data))
 
