@@ -135,25 +135,16 @@ _ATTRIBUTE_NODES = ("ShaderNodeVertexColor", "ShaderNodeAttribute")  # material_
 _conversions: OrderedDict[tuple, tuple[dict, list[str], int, tuple[int, ...]]] = OrderedDict()
 
 
-def _converted(material, frame: float, stamp: int) -> tuple[dict, list[str]]:
+def _converted(material, export: _Export) -> tuple[dict, list[str]]:
     """A Blender material -> (scene-file material, what it approximates), converted from its node tree once and kept
     until a depsgraph update changes the material, its node tree, any node group or image, a mesh (where it averages
     a colour attribute) or the scene (the add-on's own materials, read against the panel's). One with animation is
     kept per frame. 3,000 materials take 1.6 s to convert: a second F12 or a moved object should not pay it again."""
     cache = mesh_export.CACHE
-    scene = bpy.context.scene  # material_convert reads the highlight model and coef there
-    settings = getattr(scene, "weathervane", None)
     original = material.original or material  # an evaluated object's slots hold evaluated copies
     tree = original.node_tree
     animated = original.animation_data is not None or (tree is not None and tree.animation_data is not None)
-    key = (
-        original.as_pointer(),
-        original.name,
-        scene.as_pointer(),
-        getattr(settings, "model", None),
-        float(getattr(settings, "coef", 0.0)),
-        frame if animated else None,
-    )
+    key = (original.as_pointer(), original.name, export.conversion, export.frame if animated else None)
     found = _conversions.get(key) if cache.enabled else None
     if found is not None and cache.valid(found[3], found[2]):
         _conversions.move_to_end(key)
@@ -166,21 +157,22 @@ def _converted(material, frame: float, stamp: int) -> tuple[dict, list[str]]:
                 watched.append(tree.as_pointer())
                 if any(node.bl_idname in _ATTRIBUTE_NODES for node in tree.nodes):
                     watched.append(mesh_export.ATTRIBUTES)
-            _conversions[key] = (document, list(said), stamp, tuple(watched))
+            _conversions[key] = (document, list(said), export.stamp, tuple(watched))
             while len(_conversions) > MATERIALS_KEPT:
                 _conversions.popitem(last=False)
     # copies: the document is the caller's to change
     return {name: list(value) if isinstance(value, list) else value for name, value in document.items()}, list(said)
 
 
-def _material_name(material, materials: dict, notes: ExportNotes | None = None, frame: float = 0.0, stamp: int = 0):
-    """A Blender material (or None) -> the name of its scene-file material, converted once from its node tree."""
+def _material_name(material, materials: dict, notes: ExportNotes | None = None, export: _Export | None = None) -> str:
+    """A Blender material (or None) -> the name of its scene-file material, converted once from its node tree (and
+    remembered across exports where an export's state is given)."""
     name = f"blender:{material.name}" if material is not None else "blender:default"
     if name not in materials:
-        if material is None:
-            materials[name], said = material_convert.convert_material(None)
+        if material is None or export is None:
+            materials[name], said = material_convert.convert_material(material)
         else:
-            materials[name], said = _converted(material, frame, stamp)
+            materials[name], said = _converted(material, export)
         if notes is not None and material is not None:
             notes.materials[material.name] = said
     return name
@@ -283,11 +275,14 @@ class _Export:
         self.stamp = mesh_export.CACHE.clock  # taken before anything is read: a later update makes it stale
         scene = depsgraph.scene_eval
         self.frame = float(scene.frame_current) + float(scene.frame_subframe)
-        loader = module("scene.loader")
-        self.min_determinant = loader.MATRIX_MIN_DETERMINANT
+        self.min_determinant = module("scene.loader").MATRIX_MIN_DETERMINANT
+        # what a conversion depends on besides the material: material_convert reads the context scene's settings
+        settings = getattr(bpy.context.scene, "weathervane", None)
+        model, coef = getattr(settings, "model", None), float(getattr(settings, "coef", 0.0))
+        self.conversion = (bpy.context.scene.as_pointer(), model, coef)
 
     def material(self, material) -> str:
-        return _material_name(material, self.materials, self.notes, self.frame, self.stamp)
+        return _material_name(material, self.materials, self.notes, self)
 
 
 @dataclass
@@ -406,9 +401,7 @@ def _placed_items(geometry: _Geometry, export: _Export, collected: _Collected) -
 def _mesh_object(placed: mesh_export.Placed, source: _Source, export: _Export) -> dict:
     """One placement of a geometry in world space as a scene-file mesh, with its materials and visibility."""
     slot_materials = source.slot_materials
-    # a face whose slot index is past the object's slots takes the last slot, as Blender's render does
-    slots = np.minimum(placed.slots, len(slot_materials) - 1)
-    used = np.unique(slots).tolist()
+    slots, used = placed.slots_of(len(slot_materials))
     body = {"name": "", "type": "mesh", "material": export.material(slot_materials[used[0]]), **placed.fields()}
     if len(used) > 1:
         body["materials"] = [export.material(material) for material in slot_materials]
@@ -429,8 +422,7 @@ def _instance_groups(geometry: _Geometry, placements: list, export: _Export, col
         source = placement[1]
         kind = kinds.get(id(source))
         if kind is None:
-            slots = np.minimum(local.slots, len(source.slot_materials) - 1)
-            used = np.unique(slots).tolist() if len(slots) else [0]
+            slots, used = local.slots_of(len(source.slot_materials))
             if len(used) == 1:
                 kind = (("one", export.material(source.slot_materials[used[0]])), None)
             else:

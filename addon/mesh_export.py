@@ -86,6 +86,9 @@ def read(obj) -> MeshArrays | None:
     )
 
 
+SMALL_MESH = 4096  # triangles: a placed mesh up to this size keeps its lists too (conversion dominates small meshes)
+
+
 @dataclass(frozen=True)
 class Placed:
     """A mesh's triangles placed by one matrix (or in its own space): what the scene file holds of it."""
@@ -95,6 +98,7 @@ class Placed:
     normals: np.ndarray | None  # (T, 3, 3) float64 unit corner normals, None when every face is flat
     slots: np.ndarray  # (T,) int64, the material slot of each kept triangle
     dropped: int  # triangles left out for spanning no area (the tracer refuses them; Blender renders nothing of them)
+    memo: dict = field(default_factory=dict, compare=False, repr=False)  # what fields() and slots_of() made
 
     @property
     def nbytes(self) -> int:
@@ -102,11 +106,26 @@ class Placed:
         return sum(array.nbytes for array in arrays if array is not None)
 
     def fields(self) -> dict:
-        """The scene file's "vertices", "triangles" and, where faces are smooth, "normals" (lists)."""
-        fields: dict = {"vertices": self.vertices.tolist(), "triangles": self.triangles.tolist()}
-        if self.normals is not None:
-            fields["normals"] = self.normals.tolist()
-        return fields
+        """The scene file's "vertices", "triangles" and, where faces are smooth, "normals" (lists). A small mesh's are
+        made once: each call gets new outer lists whose rows it shares with the other calls' (read them only)."""
+        lists = self.memo.get("lists")
+        if lists is None:
+            lists = {"vertices": self.vertices.tolist(), "triangles": self.triangles.tolist()}
+            if self.normals is not None:
+                lists["normals"] = self.normals.tolist()
+            if len(self.triangles) > SMALL_MESH:
+                return lists
+            self.memo["lists"] = lists
+        return {name: list(rows) for name, rows in lists.items()}
+
+    def slots_of(self, count: int) -> tuple[np.ndarray, list[int]]:
+        """Each triangle's material slot for an object with count slots (a slot index past the last takes the last,
+        as Blender's render does), and the slots used, ascending."""
+        found = self.memo.get(count)
+        if found is None:
+            slots = np.minimum(self.slots, count - 1)
+            found = self.memo[count] = (slots, sorted(set(slots.tolist())) or [0])
+        return found
 
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -122,6 +141,19 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     )
 
 
+def _mirrors(linear: np.ndarray) -> bool:
+    """Whether a 3x3 matrix mirrors (its determinant is negative), as np.linalg.det says, which costs 20 us a call: the
+    triple product decides where it is clear of rounding, LAPACK where it is not."""
+    a, b, c = linear.tolist()
+    triple = (
+        a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0])
+    )
+    scale = max(abs(x) for row in (a, b, c) for x in row)
+    if abs(triple) > 1e-9 * scale**3:
+        return triple < 0.0
+    return bool(np.linalg.det(linear) < 0.0)
+
+
 def place(arrays: MeshArrays, matrix=None) -> Placed:
     """The mesh placed by a matrix (4x4: mathutils, NumPy or nested lists), or in its own space when matrix is None:
     the triangles that span an area there (a mirroring matrix's with two corners swapped, so that they face out
@@ -130,16 +162,17 @@ def place(arrays: MeshArrays, matrix=None) -> Placed:
     vertices = arrays.vertices
     linear = None
     if matrix is not None:
-        m = np.array(matrix, dtype=np.float64)
+        m = np.asarray(matrix, dtype=np.float64)
         linear = m[:3, :3]
         vertices = vertices @ linear.T + m[:3, 3]
     triangles = arrays.triangles
     corners = vertices[triangles]
     a = corners[:, 0]
     spans_area = np.any(_cross(corners[:, 1] - a, corners[:, 2] - a) != 0.0, axis=1)
-    spans_area &= np.all(np.isfinite(corners), axis=(1, 2))
+    if not np.isfinite(vertices).all():
+        spans_area &= np.all(np.isfinite(corners), axis=(1, 2))
     everything = bool(spans_area.all())
-    mirrored = linear is not None and np.linalg.det(linear) < 0.0
+    mirrored = linear is not None and _mirrors(linear)
     # a mirroring matrix turns counter-clockwise into clockwise: swap two corners so the normal points out again
     order = [0, 2, 1] if mirrored else [0, 1, 2]
     kept = triangles if everything else triangles[spans_area]
@@ -229,6 +262,7 @@ class _Entry:
     object_name: str
     object_pointer: int
     placed: OrderedDict = field(default_factory=OrderedDict)  # None (local) or a matrix's bytes -> Placed
+    kept: bool = False  # in the cache (its bytes counted)
 
     @property
     def nbytes(self) -> int:
@@ -260,9 +294,11 @@ class GeometryCache:
         self.frames_seen: dict[int, float] = {}  # viewport depsgraph -> the frame it last evaluated
         self.observed: tuple | None = None  # what view_update observed, for the handler of the same evaluation
         self.reads = 0  # calls of read() (for tests and measurements)
+        self.nbytes = 0  # of the arrays the entries hold
 
     def clear(self) -> None:
         self.entries.clear()
+        self.nbytes = 0
         self.changed.clear()
         self.frames_seen.clear()
         self.observed = None
@@ -351,27 +387,33 @@ class GeometryCache:
             object_pointer=source.object_pointer,
         )
         if self.enabled and source.cacheable:
+            replaced = self.entries.pop(source.key, None)
+            self.nbytes += entry.nbytes - (replaced.nbytes if replaced is not None else 0)
             self.entries[source.key] = entry
-            self.entries.move_to_end(source.key)
+            entry.kept = True
         return entry
 
     def placed(self, entry: _Entry, matrix=None) -> Placed:
         """entry's mesh placed by a matrix (None: its own space), kept with the entry for the next export."""
-        key = None if matrix is None else np.array(matrix, dtype=np.float64).tobytes()
+        if matrix is not None:
+            matrix = np.array(matrix, dtype=np.float64)
+        key = None if matrix is None else matrix.tobytes()
         found = entry.placed.get(key)
         if found is None:
             found = entry.placed[key] = place(entry.arrays, matrix)
+            added = found.nbytes
             while len(entry.placed) > self.PLACED_PER_ENTRY:
-                entry.placed.popitem(last=False)
+                added -= entry.placed.popitem(last=False)[1].nbytes
+            if entry.kept:
+                self.nbytes += added
         entry.placed.move_to_end(key)
         return found
 
     def trim(self) -> None:
         """Forget the least recently used entries beyond the memory budget."""
-        total = sum(entry.nbytes for entry in self.entries.values())
-        while total > self.MEMORY_BUDGET and self.entries:
+        while self.nbytes > self.MEMORY_BUDGET and self.entries:
             _, entry = self.entries.popitem(last=False)
-            total -= entry.nbytes
+            self.nbytes -= entry.nbytes
 
 
 CACHE = GeometryCache()

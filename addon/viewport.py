@@ -88,6 +88,7 @@ class ViewportSession:
         )
         self.document: dict | None = None  # the scene without its camera (set by view_update)
         self.error: str | None = None  # why the scene cannot be traced (a bad scene), shown in the view
+        self._scene_key = ""  # the document as JSON, made once per update: view_draw runs on every redraw
         self._shown_key: str | None = None
         self._texture = None
         self._texture_level = None
@@ -112,21 +113,24 @@ class ViewportSession:
             return
         document.pop("camera", None)
         self.document, self.error = document, None
+        self._scene_key = json.dumps(document, sort_keys=True)
 
     def show(self, region, view) -> None:
         """Hand the scene as seen from this view to the tracing thread, if it differs from the one shown."""
         if self.document is None:
             return
-        document = dict(self.document)
-        document["camera"] = view_camera(view.view_matrix, view.window_matrix, region.width, region.height)
-        document["render"] = {**document["render"], "width": region.width, "height": region.height}
-        document["render"]["pixel_aspect"] = [1.0, 1.0]
-        key = json.dumps(document, sort_keys=True)
+        render = {**self.document["render"], "width": region.width, "height": region.height, "pixel_aspect": [1.0, 1.0]}
+        camera = view_camera(view.view_matrix, view.window_matrix, region.width, region.height)
+        # only the view's part is serialized on a redraw: the scene's (10,000 instances' matrices, a large mesh's
+        # triangles) was once, when it changed
+        view_part = json.dumps({"camera": camera, "render": render}, sort_keys=True)
+        key = view_part + self._scene_key
         if key == self._shown_key:
             return
+        document = {**self.document, **json.loads(view_part)}
         loader = module("scene.loader")
         try:
-            scene = loader.scene_from_dict(json.loads(key), "viewport")
+            scene = loader.scene_from_dict(document, "viewport")
         except loader.SceneError as error:
             from .export import named_problems
 
