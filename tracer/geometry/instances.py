@@ -62,7 +62,16 @@ class InstancesKernel(MeshKernel):
         pad = box_margin(size, dtype)[:, None]
         self.box_lower = np.ascontiguousarray((lower - pad).T, dtype=dtype)  # (3, K)
         self.box_upper = np.ascontiguousarray((upper + pad).T, dtype=dtype)
-        self.top = MeshHierarchy(None, dtype, boxes=(lower, upper), leaf_size=INSTANCES_PER_LEAF)
+        self.top = tree = MeshHierarchy(None, dtype, boxes=(lower, upper), leaf_size=INSTANCES_PER_LEAF)
+        # each node's children's boxes, rows (lower, upper) x (x, y, z) x (left, right): one gather a level
+        left = np.maximum(tree.left, 0)
+        self.child_boxes = np.concatenate(
+            [
+                np.stack((bound[axis].take(left), bound[axis].take(left + 1, mode="clip")))
+                for bound in (tree.lower, tree.upper)
+                for axis in range(3)
+            ]
+        )  # (12, M)
         self.cost = 3.0 + 4.0 * np.log2(max(2, self.count))
 
     def bounds(self):
@@ -92,6 +101,7 @@ class InstancesKernel(MeshKernel):
         tree = self.top
         near, far = slab(O, inverse, tree.lower[:, :1], tree.upper[:, :1])
         pool_rays = indices((near <= far) & (far > t_min) & (near < best))
+        rays_data = np.concatenate((O, inverse))
         pool_nodes = np.zeros(pool_rays.size, dtype=np.int64)
         pool_near = near.take(pool_rays)
         while pool_rays.size:
@@ -113,7 +123,7 @@ class InstancesKernel(MeshKernel):
                 pool_nodes.take(left_over),
                 pool_near.take(left_over),
             )
-            rays, leaves, passed = self._descend(O, inverse, t_min, best, rays, nodes)
+            rays, leaves, passed = self._descend(rays_data, t_min, best, rays, nodes)
             if passed[0].size:
                 pool_rays = np.concatenate((pool_rays, passed[0]))
                 pool_nodes = np.concatenate((pool_nodes, passed[1]))
@@ -124,38 +134,38 @@ class InstancesKernel(MeshKernel):
         part = np.where(found, instance * self.triangles + triangle, 0)
         return t, part
 
-    def _descend(self, O, inverse, t_min, best, rays, nodes):
+    def _descend(self, rays_data, t_min, best, rays, nodes):
         """Rays (n,) from nodes (n,) down to a leaf each, always into the nearer child met (within (t_min, the ray's
-        best]); -> the rays that reached a leaf, their leaves, and (rays, nodes, near) of the other children met."""
+        best]); -> the rays that reached a leaf, their leaves, and (rays, nodes, near) of the other children met.
+        rays_data (6, N): every ray's origin and 1 / direction, gathered once a level; both children's boxes too."""
         tree = self.top
         passed_rays, passed_nodes, passed_near = [], [], []
         leaf_rays, leaf_nodes = [], []
         while rays.size:
-            is_leaf = tree.left.take(nodes) < 0
+            left = tree.left.take(nodes)
+            is_leaf = left < 0
             if is_leaf.any():
                 at_leaf = indices(is_leaf)
                 leaf_rays.append(rays.take(at_leaf))
                 leaf_nodes.append(nodes.take(at_leaf))
                 inner = indices(~is_leaf)
-                rays, nodes = rays.take(inner), nodes.take(inner)
+                rays, nodes, left = rays.take(inner), nodes.take(inner), left.take(inner)
                 if not rays.size:
                     break
-            left, right = tree.left.take(nodes), tree.right.take(nodes)
-            origin, inverse_r, limit = O.take(rays, axis=1), inverse.take(rays, axis=1), best.take(rays)
-            near_left, far_left = slab(origin, inverse_r, tree.lower.take(left, axis=1), tree.upper.take(left, axis=1))
-            near_right, far_right = slab(
-                origin, inverse_r, tree.lower.take(right, axis=1), tree.upper.take(right, axis=1)
-            )
-            meets_left = (near_left <= far_left) & (far_left > t_min) & (near_left <= limit)
-            meets_right = (near_right <= far_right) & (far_right > t_min) & (near_right <= limit)
-            go_right = meets_right & (~meets_left | (near_right < near_left))
+            count = rays.size
+            ray = rays_data.take(rays, axis=1)  # (6, n)
+            boxes = self.child_boxes.take(nodes, axis=1).reshape(2, 3, 2, count)  # lower/upper, axis, child, ray
+            near, far = slab(ray[:3, None, :], ray[3:, None, :], boxes[0], boxes[1])  # (2 children, n)
+            meets = (near <= far) & (far > t_min) & (near <= best.take(rays))
+            meets_left, meets_right = meets[0], meets[1]
+            go_right = meets_right & (~meets_left | (near[1] < near[0]))
             both = indices(meets_left & meets_right)
             if both.size:
                 passed_rays.append(rays.take(both))
-                passed_nodes.append(np.where(go_right, left, right).take(both))
-                passed_near.append(np.where(go_right, near_left, near_right).take(both))
+                passed_nodes.append((left + ~go_right).take(both))  # the child not taken (right = left + 1)
+                passed_near.append(np.where(go_right, near[0], near[1]).take(both))
             going = indices(meets_left | meets_right)
-            rays, nodes = rays.take(going), np.where(go_right, right, left).take(going)
+            rays, nodes = rays.take(going), (left + go_right).take(going)
         passed = (_join(passed_rays, np.int64), _join(passed_nodes, np.int64), _join(passed_near, self.dtype))
         return _join(leaf_rays, np.int64), _join(leaf_nodes, np.int64), passed
 
