@@ -395,3 +395,42 @@ def test_the_handlers_come_and_go_with_the_add_on() -> None:
         assert not mesh_export.CACHE.enabled and not mesh_export.CACHE.entries
     finally:
         addon.register()
+
+
+class Mesh:
+    """A stand-in for a depsgraph update's ID (the cache reads its type's name and its pointer)."""
+
+    original = None
+
+    def __init__(self, pointer: int) -> None:
+        self.pointer = pointer
+
+    def as_pointer(self) -> int:
+        return self.pointer
+
+
+def test_an_evaluation_seen_by_view_update_and_then_by_the_handler_counts_once() -> None:
+    """Blender calls the engine's view_update inside the evaluation and the depsgraph handlers after it: what the
+    view's export read in between must stay valid; the next evaluation with the same change must not."""
+    from types import SimpleNamespace
+
+    cache = mesh_export.GeometryCache()
+    cache.enabled = True
+    scene = SimpleNamespace(frame_current=1, frame_subframe=0.0)
+    depsgraph = SimpleNamespace(
+        mode="VIEWPORT",
+        updates=[SimpleNamespace(id=Mesh(42), is_updated_geometry=True)],
+        scene_eval=scene,
+        as_pointer=lambda: 7,
+    )
+    cache.observe(depsgraph, from_view_update=True)
+    stamp = cache.clock  # the view's export begins
+    assert cache.valid((42,), stamp)
+    cache.observe(depsgraph)  # the handler, for the same evaluation
+    assert cache.valid((42,), stamp)
+    cache.observe(depsgraph)  # a later evaluation that changed the mesh again
+    assert not cache.valid((42,), stamp)
+    render = SimpleNamespace(**{**vars(depsgraph), "mode": "RENDER"})
+    stamp = cache.clock
+    cache.observe(render)  # a render depsgraph is new each time and reports everything: it says nothing
+    assert cache.valid((42,), stamp)
