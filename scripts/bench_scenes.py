@@ -18,8 +18,9 @@ Every scene has a camera, a sun and a world colour. For each scene, size and eng
 after the scene is built (for the tracer: starting its workers, exporting, preparing, tracing), a second F12 with
 nothing changed, and an F12 after one object moved (forest: the mover, 1 m along x; cubes-separate: the first
 cube, 1 m up; cubes-merged: the merged object, 1 m up). F12 is bpy.ops.render.render(write_still=False), timed
-around the call. The tracer renders 4 samples a pixel (stratified 2 x 2) with all cores as workers; Cycles renders
-4 samples on the CPU with all cores, no denoising and no adaptive sampling (a fixed amount of work, as the tracer's).
+around the call. The tracer renders --tracer-samples a pixel (default 1, the engine's default: one ray through each
+pixel centre; 4 is a stratified 2 x 2) with all cores as workers; Cycles renders 4 samples on the CPU with all
+cores, no denoising and no adaptive sampling (a fixed amount of work, as the tracer's).
 
 Each measurement runs in its own process (`--one`), started by this script, which alternates the engines (the
 order swapped every repeat) and takes medians over the repeats. A render that takes longer than --budget-seconds
@@ -252,13 +253,13 @@ def build_cubes(bpy: ModuleType, merged: bool) -> dict[str, Any]:
     return {"triangles": CUBES * 12 + 2, "moved": moved, "mover": obj.name, "offset": (0.0, 0.0, 1.0)}
 
 
-def _settings(bpy: ModuleType, engine: str, width: int, height: int) -> dict[str, Any]:
+def _settings(bpy: ModuleType, engine: str, width: int, height: int, tracer_samples: str) -> dict[str, Any]:
     scene = bpy.context.scene
     scene.render.engine = ENGINES[engine]
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
     if engine == "tracer":
         settings = scene.weathervane
-        settings.samples = "4"
+        settings.samples = tracer_samples
         settings.workers = 0  # all cores, as Cycles' threads
         return {
             "samples": int(settings.samples),
@@ -322,7 +323,7 @@ def measure_one(spec: dict[str, Any]) -> int:
             built = build_forest(bpy, spec["instances"])
         else:
             built = build_cubes(bpy, merged=spec["scene"] == "cubes-merged")
-        settings = _settings(bpy, spec["engine"], spec["width"], spec["height"])
+        settings = _settings(bpy, spec["engine"], spec["width"], spec["height"], spec.get("tracer_samples", "1"))
         emit("built", seconds=time.perf_counter() - started, blender=bpy.app.version_string, settings=settings, **built)
         mover = bpy.data.objects[built["mover"]]
         for phase in PHASES:
@@ -706,6 +707,12 @@ def arguments(given: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument(
         "--quick", action="store_true", help="a smoke run: 1,000 and 10,000 instances, 320x240, 1 repeat"
     )
+    parser.add_argument(
+        "--tracer-samples",
+        default="1",
+        choices=("1", "4", "9", "16", "64"),
+        help="the tracer's samples a pixel (default 1, the engine's own default: what F12 renders as it comes)",
+    )
     parser.add_argument("--out", default="docs/scenes-benchmark", help="OUT.json and OUT.png are written")
     parser.add_argument("--images", default="out/scenes-benchmark", help="where each case's last image goes")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # a measuring process's spec (JSON), from the parent
@@ -736,7 +743,7 @@ def main() -> int:
         engines = list(ENGINES) if repeat % 2 == 0 else list(reversed(ENGINES))
         for case in plan:
             for engine in engines:
-                spec = {**case, "engine": engine, "repeat": repeat}
+                spec = {**case, "engine": engine, "repeat": repeat, "tracer_samples": options.tracer_samples}
                 ruled_out = over_budget(spec, exceeded)
                 if ruled_out is not None:
                     records.append({**spec, "skipped": f"{label(ruled_out)} exceeded the budget", "renders": {}})
