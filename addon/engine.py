@@ -54,7 +54,10 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
     bl_use_preview = False
 
     def __del__(self) -> None:
-        session = self.__dict__.get("_viewport") if hasattr(self, "__dict__") else None
+        try:
+            session = self.__dict__.get("_viewport")
+        except (AttributeError, ReferenceError):  # no dict, or Blender freed the engine's struct already
+            return
         if session is not None:
             session.close()
 
