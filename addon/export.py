@@ -122,7 +122,7 @@ def named_problems(problems: list[str], document: dict) -> list[str]:
 def _render_hidden_objects() -> set[int]:
     """For a viewport depsgraph (Export, the Rendered view): the original objects left out of renders by a collection
     of theirs (disabled in renders), found in one pass over the collections; Object.users_collection searches every
-    collection for each object, minutes for thousands of objects. A render depsgraph has already left them out."""
+    collection for each object: 2 s for 3,000 objects. A render depsgraph has already left them out."""
     return {
         obj.as_pointer() for collection in bpy.data.collections if collection.hide_render for obj in collection.objects
     }
@@ -139,7 +139,7 @@ def _converted(material, export: _Export) -> tuple[dict, list[str]]:
     """A Blender material -> (scene-file material, what it approximates), converted from its node tree once and kept
     until a depsgraph update changes the material, its node tree, any node group or image, a mesh (where it averages
     a colour attribute) or the scene (the add-on's own materials, read against the panel's). One with animation is
-    kept per frame. 3,000 materials take 1.6 s to convert: a second F12 or a moved object should not pay it again."""
+    kept per frame. A conversion takes about 0.13 ms: 3,000 materials would cost every F12 and moved object 0.4 s."""
     cache = mesh_export.CACHE
     original = material.original or material  # an evaluated object's slots hold evaluated copies
     tree = original.node_tree
@@ -492,19 +492,20 @@ def _name(items: list[_Item], collected: _Collected, notes: ExportNotes) -> None
     """The items in Blender's order, named uniquely (a world-space instance "instancer/object#n", n counted per
     instancer; a repeated name gets "#2", "#3"), with their dropped triangles noted under those names."""
     names: set[str] = set()
-    counts: dict[str, int] = {}
+    per_owner: dict[str, int] = {}
+    repeats: dict[str, int] = {}
     for item in sorted(items, key=lambda item: item.order):
         if not item.stem:  # the add-on's own objects
             collected.objects.append(item.body)
             continue
         name = item.stem
         if item.owner:
-            counts[item.owner] = counts.get(item.owner, 0) + 1
-            name = f"{item.owner}/{item.stem}#{counts[item.owner]}"
+            per_owner[item.owner] = per_owner.get(item.owner, 0) + 1
+            name = f"{item.owner}/{item.stem}#{per_owner[item.owner]}"
         stem = item.stem
         while name in names:
-            counts[stem] = counts.get(stem, 1) + 1
-            name = f"{stem}#{counts[stem]}"
+            repeats[stem] = repeats.get(stem, 1) + 1
+            name = f"{stem}#{repeats[stem]}"
         names.add(name)
         if item.dropped:
             notes.dropped_triangles[name] = notes.dropped_triangles.get(name, 0) + item.dropped
