@@ -434,3 +434,24 @@ def test_an_evaluation_seen_by_view_update_and_then_by_the_handler_counts_once()
     stamp = cache.clock
     cache.observe(render)  # a render depsgraph is new each time and reports everything: it says nothing
     assert cache.valid((42,), stamp)
+
+
+def test_an_instanced_scenes_document_follows_the_schema() -> None:
+    import json
+
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = json.loads((Path(__file__).resolve().parents[2] / "docs" / "scene.schema.json").read_text())
+    scatter(4, 3)
+    bpy.ops.mesh.primitive_monkey_add(location=(0, -4, 0))
+    suzanne = bpy.context.object
+    suzanne.data.materials.append(bpy.data.materials.new("Skin"))
+    suzanne.data.materials.append(bpy.data.materials.new("Eyes"))
+    suzanne.data.polygons[0].material_index = 1
+    twin = bpy.data.objects.new("Twin", suzanne.data)  # per-triangle materials in the meshes table
+    bpy.context.scene.collection.objects.link(twin)
+    twin.location = (3, -4, 0)
+    exported = json.loads(json.dumps(document()))
+    assert {obj["type"] for obj in exported["objects"]} == {"instances"}
+    assert any("material_indices" in mesh for mesh in exported["meshes"].values())
+    jsonschema.validate(exported, schema)
+    scene_from_dict(exported)  # and the tracer loads it
