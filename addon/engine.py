@@ -7,8 +7,6 @@ pool band by band with progress and cancel, and hands the linear float image to 
 
 from __future__ import annotations
 
-import json
-
 import bpy
 import numpy as np
 
@@ -106,7 +104,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         notes = ExportNotes()
         try:
             document = scene_document(bpy.context, depsgraph, blender_scene, notes)
-            scene = loader.scene_from_dict(json.loads(json.dumps(document)), "scene")
+            scene = loader.scene_from_dict(export.as_json_types(document), "scene")
         except loader.SceneError as error:
             self.report({"ERROR"}, "; ".join(named_problems(error.problems, document)[:4]))
             return

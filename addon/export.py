@@ -579,6 +579,22 @@ def _light_documents(settings, collected: _Collected, own_vane: bool, notes: Exp
     return documents
 
 
+def as_json_types(value):
+    """A scene document as json.loads(json.dumps(value)) would give it to the loader (tuples as lists), without
+    the round trip through text: a list of numbers, or of lists of numbers (a mesh's vertices, an instance group's
+    matrices), is passed as it is, being JSON already. The round trip cost 1.4 s for 100,000 placements."""
+    if isinstance(value, dict):
+        return {key: as_json_types(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        first = value[0] if value else None
+        if isinstance(value, list) and (
+            isinstance(first, int | float) or (isinstance(first, list) and first and isinstance(first[0], int | float))
+        ):
+            return value
+        return [as_json_types(item) for item in value]
+    return value
+
+
 def scene_document(context, depsgraph=None, blender_scene=None, notes: ExportNotes | None = None) -> dict:
     """The Blender scene as Blender renders it at the depsgraph's frame (the current one for the context's
     depsgraph, the frame being rendered inside a render) as a tracer scene document. notes, when given, collects

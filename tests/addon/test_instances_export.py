@@ -455,3 +455,17 @@ def test_an_instanced_scenes_document_follows_the_schema() -> None:
     assert any("material_indices" in mesh for mesh in exported["meshes"].values())
     jsonschema.validate(exported, schema)
     scene_from_dict(exported)  # and the tracer loads it
+
+
+def test_the_document_reaches_the_loader_as_json_would_give_it_without_the_round_trip() -> None:
+    """export.as_json_types (what F12 hands the loader) equals json.loads(json.dumps(...)) of the document: the
+    built vane's and an instanced scene's, with tuples anywhere turned into lists."""
+    import json
+
+    bpy.ops.weathervane.build()
+    scatter(20, 10)
+    camera_and_sun()
+    built = document()
+    built["extra"] = {"pair": (1.0, 2.0), "nested": [(1, 2), {"t": ((0.5, 0.25), "x")}]}
+    assert export.as_json_types(built) == json.loads(json.dumps(built))
+    assert any(obj.get("type") == "instances" for obj in built["objects"])
