@@ -25,6 +25,7 @@ as Blender calls it inside the evaluation, before the handlers run.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import re
@@ -417,24 +418,28 @@ def _instance_groups(geometry: _Geometry, placements: list, export: _Export, col
     local = mesh_export.CACHE.placed(geometry.entry)
     triangles = len(geometry.entry.arrays.triangles)
     groups: dict[tuple, list] = {}
-    kinds: dict[int, tuple] = {}  # id(source) -> (materials key, per-triangle slots or None)
+    # (materials key, per-triangle slots or None) and the group's key, once per source: 100,000 Geometry Nodes
+    # instances come from one source, and working them out per placement was a fifth of a second's export
+    kinds: dict[int, tuple] = {}
     for placement in placements:
         source = placement[1]
         kind = kinds.get(id(source))
         if kind is None:
             slots, used = local.slots_of(len(source.slot_materials))
             if len(used) == 1:
-                kind = (("one", export.material(source.slot_materials[used[0]])), None)
+                materials, slots = ("one", export.material(source.slot_materials[used[0]])), None
             else:
-                kind = (("many", tuple(export.material(m) for m in source.slot_materials)), slots)
-            kinds[id(source)] = kind
-        group = (kind[0], tuple(sorted(source.flags.items())))
-        groups.setdefault(group, []).append((placement, kind[1]))
+                materials = ("many", tuple(export.material(m) for m in source.slot_materials))
+            key = (materials, tuple(sorted(source.flags.items())))
+            kind = kinds[id(source)] = (key, slots, groups.setdefault(key, []))
+        kind[2].append((placement, kind[1]))
     items = []
     entries: dict[tuple, str] = {}  # materials key -> meshes-table name
     for (materials, flags), members in groups.items():
         order, first, _ = members[0][0]
-        matrices = np.array([matrix for (_, _, matrix), _ in members], dtype=np.float64)
+        # the matrices' numbers as one stream (a third faster than np.array over 100,000 Matrix objects)
+        numbers = itertools.chain.from_iterable(itertools.chain.from_iterable(matrix for (_, _, matrix), _ in members))
+        matrices = np.fromiter(numbers, dtype=np.float64, count=16 * len(members)).reshape(-1, 4, 4)
         usable = _invertible(matrices, export.min_determinant)
         # an instance that flattens its mesh (a scale of 0) renders nothing in Blender; the tracer refuses it
         dropped = local.dropped * int(np.count_nonzero(usable)) + triangles * int(np.count_nonzero(~usable))
