@@ -45,6 +45,7 @@ from .raystore import RayStore
 # triangles as one mesh, walking the scene's hierarchy node by node in Python. Below it (the default vane's 13
 # objects) a leaf per object, as the small scenes' benchmarks were tuned
 MERGE_MESHES_FROM = 64
+MERGE_SIZE_FACTOR = 8.0  # merged: meshes at most this many times the group's median size (their boxes' longest side)
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0
 SHADOW_T_MIN = 0.001  # listing 3.2
 REFLECTION_T_MIN = 0.01  # listing 3.1
@@ -233,7 +234,17 @@ class PreparedScene:
                 flags = (obj.visible_camera, obj.visible_shadow, obj.visible_reflection)
                 groups.setdefault(flags, []).append(index)
         merged: dict[int, MergedMember] = {}
-        for members in groups.values():
+        for candidates in groups.values():
+            # a mesh much larger than the group's typical one (a ground under 3,000 cubes) stays a leaf of its own:
+            # inside the merged hierarchy its triangles would widen every box above them (the ground doubled a
+            # 1280x720 frame's time)
+            sizes = np.array([np.ptp(primitives[index].triangles.reshape(-1, 3), axis=0).max() for index in candidates])
+            typical = float(np.median(sizes)) if sizes.size else 0.0
+            members = [
+                index
+                for index, size in zip(candidates, sizes.tolist(), strict=True)
+                if size <= MERGE_SIZE_FACTOR * typical
+            ]
             if len(members) < MERGE_MESHES_FROM:
                 continue
             meshes = [primitives[index] for index in members]
