@@ -89,9 +89,11 @@ bench-viewport: $(STAMP)
 	$(BIN)/python scripts/bench_viewport.py --repeats 5 --width 1586 --height 926  # a full-HD window's 3D View
 
 # scenes of real size (a Geometry Nodes forest of 1,000 to 100,000 instances, 3,000 cubes separate and merged): F12
-# with the tracer engine against Cycles CPU at 4 samples, in bpy; writes docs/scenes-benchmark.json and .png
+# with the tracer engine (its default 1 sample) against Cycles CPU at 4 samples, in bpy; 320x240 over 3 repeats, 1280x720
+# once; writes docs/scenes-benchmark-320x240.json and -1280x720.json, a chart each (.png)
 bench-scenes: $(STAMP)
-	$(BIN)/python scripts/bench_scenes.py --repeats 3
+	$(BIN)/python scripts/bench_scenes.py --sizes 320x240 --repeats 3 --out docs/scenes-benchmark-320x240
+	$(BIN)/python scripts/bench_scenes.py --sizes 1280x720 --repeats 1 --out docs/scenes-benchmark-1280x720
 
 bench-cluster: $(STAMP)
 	$(BIN)/python scripts/bench_cluster.py --repeats 3
