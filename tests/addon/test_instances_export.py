@@ -469,3 +469,23 @@ def test_the_document_reaches_the_loader_as_json_would_give_it_without_the_round
     built["extra"] = {"pair": (1.0, 2.0), "nested": [(1, 2), {"t": ((0.5, 0.25), "x")}]}
     assert export.as_json_types(built) == json.loads(json.dumps(built))
     assert any(obj.get("type") == "instances" for obj in built["objects"])
+
+
+def test_geometry_nodes_instances_read_at_once_are_the_instances_read_one_by_one(monkeypatch) -> None:
+    """Where Blender hands an object's Geometry Nodes instances over at once (4.3+), the export reads their matrices
+    so (not one by one from the depsgraph), and the document holds the same placements as the one-by-one walk."""
+    scatter(50, 40)  # 2,000 spheres
+    used = []
+    bulk = export._bulk_matrices
+    monkeypatch.setattr(export, "_bulk_matrices", lambda *args: used.append(bulk(*args)) or used[-1])
+    at_once = document()
+    monkeypatch.setattr(export, "BULK_INSTANCES", 10**9)
+    one_by_one = document()
+    if hasattr(bpy.types.Object, "evaluated_geometry"):
+        assert any(matrices is not None and len(matrices) == 2000 for matrices in used)
+    assert at_once["meshes"].keys() == one_by_one["meshes"].keys()
+    groups = [[obj for obj in doc["objects"] if obj["type"] == "instances"] for doc in (at_once, one_by_one)]
+    assert [len(group) for group in groups] == [1, 1]
+    placed = [sorted_rows(np.asarray(group[0]["matrices"], dtype=np.float64).reshape(-1, 3, 4)) for group in groups]
+    assert placed[0].shape == (2000, 12)
+    np.testing.assert_allclose(placed[0], placed[1], rtol=0, atol=1e-5)
