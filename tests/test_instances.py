@@ -146,14 +146,18 @@ def test_random_instanced_scenes_match_the_per_pixel_reference(seed: int) -> Non
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_an_instanced_scene_and_the_same_scene_flattened_differ_only_on_silhouette_edges(seed: int) -> None:
+@pytest.mark.parametrize(("dtype", "tolerance"), [("float64", 1e-9), ("float32", 1e-4)])
+def test_an_instanced_scene_and_the_same_scene_flattened_differ_only_on_silhouette_edges(
+    seed: int, dtype: str, tolerance: float
+) -> None:
     """The two trace the same surfaces; t in an instance's space rounds differently from t on world triangles, so
     a ray that grazes a silhouette edge, or meets two surfaces at nearly the same t, may go either way. Such pixels
-    are few (at most 2% here, 40 by 30 pixels); every other pixel agrees to 1e-9."""
-    scene = scene_from_dict(instanced_scene_document(seed, 40, 30))
+    are few (at most 2% here, 40 by 30 pixels); every other pixel agrees to 1e-9 in float64, and to 1e-4 in float32
+    (whose shading rounds at about 1e-7 of the hit's coordinates, differently on each side)."""
+    scene = scene_from_dict(instanced_scene_document(seed, 40, 30)).with_render(dtype=dtype)
     instanced = render(scene, workers=1).image
     flat = render(flattened(scene), workers=1).image
-    differs = np.abs(instanced - flat).max(axis=2) > 1e-9
+    differs = np.abs(instanced.astype(np.float64) - flat).max(axis=2) > tolerance
     assert differs.mean() <= 0.02, differs.mean()
 
 
