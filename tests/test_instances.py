@@ -405,3 +405,21 @@ def test_an_edit_of_an_instanced_scene_traces_again_only_what_it_touches() -> No
         for edit in edits:
             shown = image.apply(edit)
         assert np.array_equal(shown, render(new, workers=1).image)
+
+
+def test_parts_beyond_int32_are_kept_in_int64() -> None:
+    """A hit's part is instance * T + triangle: a group whose instances times triangles pass 2^31 gets int64 parts
+    from the hierarchy (counted, not built: the same kernel with its count raised)."""
+    from tracer.geometry.bvh import Hierarchy
+
+    scene = scene_from_dict(instanced_scene_document(2))
+    primitive = tf.world_primitive(scene.objects[0], None)
+    kernel = instances_kernel(make_kernel, primitive, np.dtype(np.float64))
+    rng = np.random.default_rng(0)
+    O, D = _random_rays(rng, 500, np.dtype(np.float64))
+    small = Hierarchy([kernel], np.dtype(np.float64)).closest(O, D, 0.0)
+    kernel.count = 2**31
+    large = Hierarchy([kernel], np.dtype(np.float64)).closest(O, D, 0.0)
+    assert small[2].dtype == np.int32 and large[2].dtype == np.int64
+    assert (small[1] >= 0).any()
+    np.testing.assert_array_equal(small[2], large[2])

@@ -159,6 +159,9 @@ class Hierarchy:
         _still_subtree) and the moving kernels' subtree (built each time): a frame then builds only the latter.
         Boxes only decide which rays a kernel sees, so the images are the same bytes with either tree."""
         self.kernels = kernels
+        # a hit's part: int32, unless a kernel has more parts than it holds (instances times their triangles)
+        parts = max((getattr(kernel, "count", 0) for kernel in kernels), default=0)
+        self.part_dtype = np.int64 if parts >= 2**31 else np.int32
         self.owners = owners if owners is not None else list(range(len(kernels)))
         self.frame_of = None if frame_of is None or max(frame_of, default=-1) < 0 else frame_of
         self.dtype = dtype
@@ -350,7 +353,7 @@ class Hierarchy:
         count = ray_count(O, D)
         best_t = np.full(count, np.inf, dtype=self.dtype)
         best_object = np.full(count, -1, dtype=np.int32)
-        best_part = np.zeros(count, dtype=np.int32)
+        best_part = np.zeros(count, dtype=self.part_dtype)
         empty = True  # no hit offered yet
 
         def offer(index: int, rays: np.ndarray | None, t: np.ndarray, part: np.ndarray) -> None:
