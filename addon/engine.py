@@ -132,8 +132,20 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
 
         def band_done(image: np.ndarray, rows: np.ndarray) -> None:
             shown[height - 1 - rows, :, :3] = image[rows]
-            _write(render_result, shown)
-            self.update_result(render_result)
+            if _fast_write(render_result):
+                _write(render_result, shown)
+                self.update_result(render_result)
+                return
+            # Blender 3.4 has no foreach_set on a pass: each run of the band's rows (a band deals blocks of rows
+            # over the frame) goes into a result of its own, so the work grows with the pixels, not with bands x
+            # pixels (the whole frame as a list each band: 62 s at 1920x1080); the whole frame once, at the end
+            lines = np.sort(height - 1 - rows)
+            breaks = np.flatnonzero(np.diff(lines) != 1) + 1
+            for run in np.split(lines, breaks):
+                bottom, count = int(run[0]), len(run)
+                band_result = self.begin_result(0, bottom, width, count)
+                _write(band_result, shown[bottom : bottom + count])
+                self.end_result(band_result)
 
         pool, resources = module("workers.pool"), module("workers.resources")
         try:
@@ -141,18 +153,24 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             turning = _turning.setdefault(workers, module("frames.incremental").TurningFrames())
             result = turning.render(_renderer(workers), scene, progress, band_done)
         except (RenderCancelledError, pool.PoolClosedError):  # Esc, or Blender quitting (its pools closed)
-            self.end_result(render_result)  # the bands finished before the cancel
+            # the bands finished before the cancel: in the frame's result, or (Blender 3.4) in results of their own
+            self.end_result(render_result, cancel=not _fast_write(render_result))
             return
         except (resources.ResourceError, pool.WorkerLostError, pool.TaskFailedError) as error:
             self.end_result(render_result, cancel=True)
             self.report({"ERROR"}, str(error))  # not enough memory, workers lost: one line, the pool stays usable
             return
-        shown[..., :3] = np.flipud(result.image)  # Blender's rows go bottom-up
+        final = np.flipud(result.image).astype(np.float32)  # Blender's rows go bottom-up
         alpha = getattr(result, "alpha", None)
-        if alpha is not None:
-            shown[..., 3] = np.flipud(alpha)
-        _write(render_result, shown)
-        self.end_result(render_result)
+        if alpha is None and not _fast_write(render_result) and np.array_equal(shown[..., :3], final):
+            # every pixel went in with its band already (Blender 3.4's lists): no second conversion of the frame
+            self.end_result(render_result, cancel=True)
+        else:
+            shown[..., :3] = final
+            if alpha is not None:
+                shown[..., 3] = np.flipud(alpha)
+            _write(render_result, shown)
+            self.end_result(render_result)
         self.update_stats("Weathervane Tracer", f"{result.seconds * 1000:.0f} ms, {result.rays.total} rays")
 
     def _render_region(self, scene, region: tuple[int, int, int, int]) -> None:
@@ -201,12 +219,28 @@ def cancelled(engine) -> bool:
     return engine.test_break()
 
 
+_FAST_WRITE: list[bool] = []  # found by the first write: whether a pass takes an image through foreach_set
+
+
+def _fast_write(render_result) -> bool:
+    """Whether a pass takes an image in one call (foreach_set: Blender 4+; 3.4's rect has the method but refuses
+    it, and takes only lists). Tried once, with a row of the result's own size, and remembered."""
+    if not _FAST_WRITE:
+        combined = render_result.layers[0].passes["Combined"]
+        try:
+            combined.rect.foreach_set(np.zeros(len(combined.rect) * 4, dtype=np.float32))
+            _FAST_WRITE.append(True)
+        except (AttributeError, TypeError):
+            _FAST_WRITE.append(False)
+    return _FAST_WRITE[0]
+
+
 def _write(render_result, rgba: np.ndarray) -> None:
     """A (height, width, 4) float32 image into the render result's Combined pass."""
     combined = render_result.layers[0].passes["Combined"]
-    try:
+    if _fast_write(render_result):
         combined.rect.foreach_set(rgba.ravel())
-    except (AttributeError, TypeError):
+    else:
         combined.rect = rgba.reshape(-1, 4).tolist()
 
 
