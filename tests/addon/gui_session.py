@@ -485,7 +485,10 @@ def capture_menu() -> float | None:
     return guarded(f12_then_quit)
 
 
-QUIT_DURING_F12 = (1280, 720)  # F12's size when Blender is quit during it: several seconds of tracing here
+# F12's size and samples when Blender is quit during it: several seconds of tracing here (at 1280x720 and 1 sample,
+# F12 in 3.4.1 takes about a second since bands are written once, and could end before the first look)
+QUIT_DURING_F12 = (1920, 1080)
+QUIT_DURING_F12_SAMPLES = "4"
 
 
 def f12_then_quit() -> float | None:
@@ -496,6 +499,7 @@ def f12_then_quit() -> float | None:
     window, area, region = view3d()
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = QUIT_DURING_F12
+    scene.weathervane.samples = QUIT_DURING_F12_SAMPLES
     scene.render.use_lock_interface = False
     with bpy.context.temp_override(window=window, area=area, region=region):
         assert bpy.ops.render.render("INVOKE_DEFAULT") == {"RUNNING_MODAL"}
@@ -504,13 +508,13 @@ def f12_then_quit() -> float | None:
     def quit_while_tracing() -> float | None:
         if not bpy.app.is_job_running("RENDER"):
             assert time.perf_counter() - started < 30, "F12 did not start"
-            return 0.1
+            return 0.02
         print(f"WEATHERVANE-GUI quitting during F12, {time.perf_counter() - started:.1f} s after it started")
         sys.stdout.flush()
         bpy.ops.wm.quit_blender()
         return None
 
-    bpy.app.timers.register(quit_while_tracing, first_interval=1.0)
+    bpy.app.timers.register(quit_while_tracing, first_interval=0.05)
     return None
 
 
