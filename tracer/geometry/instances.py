@@ -16,7 +16,18 @@ from __future__ import annotations
 import numpy as np
 
 from . import transforms as tf
-from .kernels import Kernel, box_margin, dot, indices, make_kernel, ray_count, slab, unit
+from .kernels import (
+    Kernel,
+    box_margin,
+    dot,
+    indices,
+    interpolated_corners,
+    make_kernel,
+    ray_count,
+    slab,
+    unit,
+    unit_or,
+)
 from .meshbvh import MeshHierarchy, MeshKernel
 
 INSTANCES_PER_LEAF = 4
@@ -283,21 +294,13 @@ class InstancesKernel(MeshKernel):
         )
         triangles = self.local_triangles().take(triangle, axis=0)  # (n, 3, 3)
         a = triangles[:, 0].T
-        b, c = (triangles[:, 1] - triangles[:, 0]).T, (triangles[:, 2] - triangles[:, 0]).T
-        w = local - a
-        d00, d01, d11 = dot(b, b), dot(b, c), dot(c, c)
-        d20, d21 = dot(w, b), dot(w, c)
-        denominator = d00 * d11 - d01 * d01
-        u = (d11 * d20 - d01 * d21) / denominator
-        v = (d00 * d21 - d01 * d20) / denominator
-        s = 1.0 - u - v
-        n0, n1, n2 = (corners[:, k].take(triangle, axis=0).T for k in range(3))
-        n = n0 * s + n1 * u + n2 * v
+        corner = (corners[:, k].take(triangle, axis=0).T for k in range(3))
+        n = interpolated_corners(
+            local - a, (triangles[:, 1] - triangles[:, 0]).T, (triangles[:, 2] - triangles[:, 0]).T, *corner
+        )
         cof = self.cofactor64.take(instance, axis=0)  # (n, 3, 3)
         placed = np.stack([cof[:, i, 0] * n[0] + cof[:, i, 1] * n[1] + cof[:, i, 2] * n[2] for i in range(3)])
-        size = np.sqrt(dot(placed, placed))
-        good = size > 0.0
-        return np.where(good, placed / np.where(good, size, 1.0), flat)
+        return unit_or(placed, flat)
 
 
 def _join(parts: list[np.ndarray], dtype: type | np.dtype) -> np.ndarray:

@@ -26,6 +26,27 @@ def unit(vectors: np.ndarray) -> np.ndarray:
     return vectors / np.sqrt(dot(vectors, vectors))
 
 
+def interpolated_corners(
+    w: np.ndarray, e1: np.ndarray, e2: np.ndarray, n0: np.ndarray, n1: np.ndarray, n2: np.ndarray
+) -> np.ndarray:
+    """Corner normals n0, n1, n2 (3, n) weighted by the barycentric coordinates (1 - u - v, u, v) of points at w = P -
+    v0 (3, n) in triangles of edges e1, e2 (3, n), not normalised: the reference's operations, in its order."""
+    d00, d01, d11 = dot(e1, e1), dot(e1, e2), dot(e2, e2)
+    d20, d21 = dot(w, e1), dot(w, e2)
+    denominator = d00 * d11 - d01 * d01
+    u = (d11 * d20 - d01 * d21) / denominator
+    v = (d00 * d21 - d01 * d20) / denominator
+    s = 1.0 - u - v
+    return n0 * s + n1 * u + n2 * v
+
+
+def unit_or(vectors: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """(3, n) vectors normalised, fallback (3, n) where one is zero (opposite corner normals can cancel)."""
+    size = np.sqrt(dot(vectors, vectors))
+    good = size > 0.0
+    return np.where(good, vectors / np.where(good, size, 1.0), fallback)
+
+
 def take(rays: np.ndarray, keep: np.ndarray) -> np.ndarray:
     """The columns keep (an index array) of a (3, N) ray array.
 

@@ -208,20 +208,8 @@ def instance_normal(placed: PlainInstances, part: int, corners: list, P: sc.Vec3
     where the interpolation is zero)."""
     instance, triangle = divmod(part, len(placed.mesh.triangles))
     local = _affine(placed.inverses[instance], P, True)
-    v0, v1, v2 = placed.mesh.triangles[triangle]
-    e1, e2, w = sub(v1, v0), sub(v2, v0), sub(local, v0)
-    d00, d01, d11 = dot(e1, e1), dot(e1, e2), dot(e2, e2)
-    d20, d21 = dot(w, e1), dot(w, e2)
-    denominator = d00 * d11 - d01 * d01
-    u = (d11 * d20 - d01 * d21) / denominator
-    v = (d00 * d21 - d01 * d20) / denominator
-    s = 1.0 - u - v
-    n0, n1, n2 = corners[triangle]
-    n = _affine(placed.cofactors[instance], tuple(n0[i] * s + n1[i] * u + n2[i] * v for i in range(3)), False)
-    size = math.sqrt(dot(n, n))
-    if not size > 0.0:
-        return None
-    return (n[0] / size, n[1] / size, n[2] / size)
+    n = _interpolated(placed.mesh.triangles[triangle], corners[triangle], local)
+    return _unit_or_none(_affine(placed.cofactors[instance], n, False))
 
 
 def spot_attenuation(cosine: float, spot: sc.SpotLight) -> float:
@@ -246,6 +234,11 @@ def spot_attenuation(cosine: float, spot: sc.SpotLight) -> float:
 
 def barycentric_normal(triangle: tuple[sc.Vec3, sc.Vec3, sc.Vec3], corners: list, P: sc.Vec3) -> sc.Vec3 | None:
     """The normalised interpolation (1 - u - v, u, v) of a triangle's corner normals at P (None if it is zero)."""
+    return _unit_or_none(_interpolated(triangle, corners, P))
+
+
+def _interpolated(triangle: tuple[sc.Vec3, sc.Vec3, sc.Vec3], corners: list, P: sc.Vec3) -> sc.Vec3:
+    """A triangle's corner normals weighted by P's barycentric coordinates (1 - u - v, u, v), not normalised."""
     v0, v1, v2 = triangle
     e1, e2, w = sub(v1, v0), sub(v2, v0), sub(P, v0)
     d00, d01, d11 = dot(e1, e1), dot(e1, e2), dot(e2, e2)
@@ -255,7 +248,11 @@ def barycentric_normal(triangle: tuple[sc.Vec3, sc.Vec3, sc.Vec3], corners: list
     v = (d00 * d21 - d01 * d20) / denominator
     s = 1.0 - u - v
     n0, n1, n2 = corners
-    n = tuple(n0[i] * s + n1[i] * u + n2[i] * v for i in range(3))
+    return tuple(n0[i] * s + n1[i] * u + n2[i] * v for i in range(3))  # type: ignore[return-value]
+
+
+def _unit_or_none(n: sc.Vec3) -> sc.Vec3 | None:
+    """n normalised, or None where it is zero (opposite corner normals can cancel)."""
     size = math.sqrt(dot(n, n))
     if not size > 0.0:
         return None

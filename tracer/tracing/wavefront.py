@@ -27,11 +27,13 @@ from ..geometry.kernels import (
     column,
     dot,
     indices,
+    interpolated_corners,
     make_kernel,
     quiet,
     spread,
     take,
     unit,
+    unit_or,
 )
 from ..geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MergedMember, MergedMeshKernel, MeshKernel
 from ..geometry.meshpicture import View
@@ -457,18 +459,10 @@ class PreparedScene:
                 if not rows.size:
                     continue
                 triangle = part.take(rows)
-                a, b, c = v0.take(triangle, axis=1), e1.take(triangle, axis=1), e2.take(triangle, axis=1)
-                w = take(P, rows).astype(np.float64) - a
-                d00, d01, d11 = dot(b, b), dot(b, c), dot(c, c)
-                d20, d21 = dot(w, b), dot(w, c)
-                denominator = d00 * d11 - d01 * d01
-                u = (d11 * d20 - d01 * d21) / denominator
-                v = (d00 * d21 - d01 * d20) / denominator
-                s = 1.0 - u - v
-                n = n0.take(triangle, axis=1) * s + n1.take(triangle, axis=1) * u + n2.take(triangle, axis=1) * v
-                size = np.sqrt(dot(n, n))
-                good = size > 0.0  # opposite corner normals can cancel: the flat normal then
-                unit = np.where(good, n / np.where(good, size, 1.0), take(N, rows))
+                w = take(P, rows).astype(np.float64) - v0.take(triangle, axis=1)
+                corners = (n.take(triangle, axis=1) for n in (n0, n1, n2))
+                n = interpolated_corners(w, e1.take(triangle, axis=1), e2.take(triangle, axis=1), *corners)
+                unit = unit_or(n, take(N, rows))  # the flat normal where the corners cancel
                 for axis in range(3):
                     S[axis][rows] = unit[axis]
         if self.any_two_sided:
