@@ -20,6 +20,14 @@ if (_HERE / "weathervane_tracer").is_dir():  # the copy `make addon` puts inside
 else:  # running from the repository (tests, development)
     import tracer as package
 
+# Importing multiprocessing (the tracer's workers do) lists the __main__ module of the moment again as
+# `__mp_main__`. Where that is the module of a script Blender runs (`blender --python script.py`, an add-on enabled
+# from such a script), Blender 3.4 frees the module after the script while the second name still holds it, and its
+# exit crashes (segmentation fault) in addon_utils.disable_all's walk over sys.modules. Only a started child reads
+# the name (it sets its own), so the parent drops it.
+if sys.modules.get("__mp_main__") is sys.modules.get("__main__"):
+    sys.modules.pop("__mp_main__", None)
+
 
 def module(name: str) -> ModuleType:
     """A submodule of the tracer package, e.g. module('motion')."""
