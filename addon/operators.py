@@ -275,17 +275,20 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
                 report(self, {"ERROR"}, f"cannot export: {problem}")
             return {"CANCELLED"}
         target = Path(bpy.path.abspath(self.filepath))
+        images = module("tracing.images")
+        swept = images.sweep_stale_temporaries(target.parent)
         try:
-            with module("tracing.images").atomic_path(target) as temporary:  # nothing is left behind if it fails
+            with images.atomic_path(target) as temporary:  # nothing is left behind if it fails
                 temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
         except OSError as error:
             report(self, {"ERROR"}, f"cannot write {target}: {error.strerror or error}")
             return {"CANCELLED"}
+        wrote = f"Wrote {target}" + (f"; removed {swept} temporary file(s) a killed export had left" if swept else "")
         left_out = camera.unsupported(context.scene)
         if left_out:
-            report(self, {"WARNING"}, f"Wrote {target}; the tracer does not render: {', '.join(left_out)}")
+            report(self, {"WARNING"}, f"{wrote}; the tracer does not render: {', '.join(left_out)}")
         else:
-            report(self, {"INFO"}, f"Wrote {target}")
+            report(self, {"INFO"}, wrote)
         return {"FINISHED"}
 
 

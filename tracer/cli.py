@@ -15,7 +15,7 @@ from .frames.cluster import ClusterError
 from .progress import ProgressBar
 from .scene import scene as sc
 from .scene.loader import SceneError, check_samples, default_scene, load_scene
-from .tracing.images import SUFFIXES, write_image
+from .tracing.images import SUFFIXES, sweep_stale_temporaries, write_image
 from .workers.parallel import Renderer, worker_count
 from .workers.pool import TaskFailedError, WorkerLostError
 from .workers.resources import ResourceError, check_disk, check_resources, out_of_memory_message, output_bytes
@@ -215,14 +215,21 @@ def _apply_flags(scene: sc.Scene, args: argparse.Namespace) -> sc.Scene:
     return scene
 
 
-def _summary(output: Path, scene: sc.Scene, workers: int, result) -> str:
+def _summary(output: Path, scene: sc.Scene, workers: int, result, swept: int) -> str:
     settings, rays = scene.render, result.rays
     return (
         f"{output}: {settings.width}x{settings.height}, {settings.samples} spp, depth {settings.depth}, "
         f"{settings.model}, {settings.dtype}, {workers} workers: {result.seconds * 1000:.1f} ms, "
         f"rays {rays.camera} camera + {rays.shadow} shadow + {rays.reflection} reflection = {rays.total}, "
-        f"{result.mrays_per_second:.2f} Mrays/s"
+        f"{result.mrays_per_second:.2f} Mrays/s" + _swept(swept)
     )
+
+
+def _swept(count: int) -> str:
+    """The summary's note of the temporary files that killed runs had left, removed at the start."""
+    if count == 0:
+        return ""
+    return f"; removed {count} temporary file{'s' if count > 1 else ''} a killed run had left"
 
 
 def _load(args: argparse.Namespace) -> sc.Scene | None:
@@ -240,6 +247,7 @@ def run_render(args: argparse.Namespace) -> int:
     scene = _load(args)
     if scene is None:
         return EXIT_BAD_INPUT
+    swept = sweep_stale_temporaries(args.output.parent)
     progress = ProgressBar("render", enabled=None if not args.quiet else False)
     workers = scene.render.workers
     try:
@@ -260,7 +268,7 @@ def run_render(args: argparse.Namespace) -> int:
         print(f"error: {out_of_memory_message(scene.render, workers)}; no image written", file=sys.stderr)
         return EXIT_FAILED
     if not args.quiet:
-        print(_summary(args.output, scene, workers, result))
+        print(_summary(args.output, scene, workers, result, swept))
     return 0
 
 
@@ -300,7 +308,10 @@ def run_animate(args: argparse.Namespace) -> int:
         print(_write_problem(where, error), file=sys.stderr)
         return EXIT_FAILED
     progress.close()
+    swept = result.swept
     if args.gif is not None:
+        if args.gif.parent.resolve() != args.output.resolve():
+            swept += sweep_stale_temporaries(args.gif.parent)
         try:
             write_gif(args.output, first, last, fps, args.gif)
         except OSError as error:
@@ -316,6 +327,7 @@ def run_animate(args: argparse.Namespace) -> int:
             f"the motion needs {result.keys} keyframes of {result.frames} frames at {DEFAULT_TOLERANCE} degrees"
             + (f"; traced on the Dask cluster at {args.scheduler}" if args.scheduler else "")
             + (f"; preview {args.gif}" if args.gif else "")
+            + _swept(swept)
         )
     return 0
 

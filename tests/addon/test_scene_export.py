@@ -310,3 +310,28 @@ def test_flat_faces_that_are_not_planar_shade_with_each_triangles_own_normal() -
     assert "normals" not in by_name(export())[suzanne.name]
     bpy.ops.object.shade_smooth()
     assert "normals" in by_name(export())[suzanne.name]
+
+
+def test_export_sweeps_what_a_killed_export_left_and_keeps_a_live_writers_file(tmp_path: Path) -> None:
+    """A killed writer's temporary file (its process gone, its lock free) is removed and named in the result line;
+    one that a live writer holds (this process, inside atomic_path) stays."""
+    import os
+    import subprocess
+    import sys
+
+    from addon import operators
+    from tracer.tracing.images import atomic_path
+
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    left = tmp_path / f".scene.json.weathervane-{int(gone.stdout)}-abcd_123.partial"
+    left.write_text("half a scene")
+    os.utime(left, (0, 0))
+    bpy.ops.mesh.primitive_cube_add()
+    with atomic_path(tmp_path / "other.json") as live:
+        live.write_text("being written")
+        assert bpy.ops.weathervane.export(filepath=str(tmp_path / "scene.json")) == {"FINISHED"}
+        assert live.exists()
+    assert not left.exists()
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["other.json", "scene.json"]
+    line, kind = operators.result_line()
+    assert "removed 1 temporary file(s) a killed export had left" in line and kind in {"INFO", "WARNING"}, line

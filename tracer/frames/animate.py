@@ -19,7 +19,7 @@ import numpy as np
 from ..scene import scene as sc
 from ..scene.keyframes import DEFAULT_TOLERANCE, reduce_keys
 from ..scene.motion import Motion, iter_headings
-from ..tracing.images import FramePng, atomic_path, encode_frame, to_8bit, write_frame
+from ..tracing.images import FramePng, atomic_path, encode_frame, sweep_stale_temporaries, to_8bit, write_frame
 from ..tracing.wavefront import RayCounts
 from ..workers.parallel import Renderer, RenderResult
 from .incremental import render_frames as incremental_frames
@@ -69,6 +69,7 @@ class AnimationResult:
     rays: RayCounts
     keys: int  # keyframes that the motion needs at the default tolerance over frames first..last
     frames: int
+    swept: int = 0  # temporary files that killed writers had left in the folder, removed at the start
 
 
 @dataclass
@@ -133,6 +134,7 @@ def animate(
 
     incremental: trace again only the pixels the vane can change (tracer/frames/incremental.py; the same bytes); False
     traces every frame whole."""
+    swept = sweep_stale_temporaries(folder)
     plan = plan_frames(scene, folder, first, last, fps, overwrite)
     folder.mkdir(parents=True, exist_ok=True)
     rays = RayCounts()
@@ -163,7 +165,7 @@ def animate(
         if pending is not None:
             pending.result()
     keys = plan.count_keys()
-    return AnimationResult(plan.rendered, plan.skipped, time.perf_counter() - started, rays, keys, total)
+    return AnimationResult(plan.rendered, plan.skipped, time.perf_counter() - started, rays, keys, total, swept)
 
 
 def _write_frame(

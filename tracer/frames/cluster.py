@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TypeVar
 
 from ..scene import scene as sc
-from ..tracing.images import FramePng, atomic_path, encode_frame
+from ..tracing.images import FramePng, atomic_path, encode_frame, sweep_stale_temporaries
 from ..tracing.wavefront import RayCounts
 from ..workers.parallel import Renderer
 from .animate import (
@@ -125,6 +125,7 @@ def animate_on_cluster(
     the same files as animate(). Raises ClusterError when the scheduler cannot be reached or goes away (the frames
     written so far stay; running again resumes)."""
     _distributed()  # before anything is planned or made: says how to install it
+    swept = sweep_stale_temporaries(folder)
     plan = plan_frames(scene, folder, first, last, fps, overwrite)
     folder.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
@@ -150,7 +151,7 @@ def animate_on_cluster(
     task = partial(render_chunk, srgb=srgb, incremental=incremental)
     run_on_cluster(scheduler, task, scene, chunks(plan.wanted, chunk_frames), write, kept)
     keys = plan.count_keys()
-    return AnimationResult(plan.rendered, plan.skipped, time.perf_counter() - started, rays, keys, total)
+    return AnimationResult(plan.rendered, plan.skipped, time.perf_counter() - started, rays, keys, total, swept)
 
 
 def _result(future, scheduler: str, distributed, kept: Callable[[], str]):

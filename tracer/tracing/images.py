@@ -1,7 +1,8 @@
 """Linear float images -> files: .npy (float32 linear) or 8-bit .png (the documented clamp, or sRGB), atomically.
 
 Every file is written beside its target under a temporary name and renamed into place, so an error or Ctrl-C
-never leaves a partial image where the user expects one.
+never leaves a partial image where the user expects one; what a killed writer left is swept by the next command
+that writes into the folder.
 """
 
 from __future__ import annotations
@@ -9,13 +10,20 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import re
 import struct
 import tempfile
+import time
 import zlib
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
+
+try:
+    import fcntl
+except ImportError:  # Windows
+    fcntl = None
 
 SUFFIXES = (".png", ".npy")
 
@@ -45,33 +53,99 @@ def _rows_to_8bit(image: np.ndarray, srgb: bool) -> np.ndarray:
     return np.floor(clamped, out=clamped).astype(np.uint8)
 
 
-# A temporary name is the target's, cut to this many bytes, plus a dot, 8 random characters and ".partial": within
-# the 255 bytes a file name may have, however long the target's own name is.
+# A temporary name is the target's, cut to this many bytes, then the writer's mark (its process id and 8 random
+# characters) and ".partial": within the 255 bytes a file name may have, however long the target's own name is.
 TEMPORARY_NAME_BYTES = 200
+TEMPORARY_MARK = "weathervane"
+TEMPORARY_NAME = re.compile(rf"^\..*\.{TEMPORARY_MARK}-(?P<pid>\d+)-[a-z0-9_]{{8}}\.partial$")
+# A temporary file whose lock is free is a killed writer's, except in the instant between its creation and the
+# lock; its process id tells those apart, and a file older than this is stale whatever runs under that id now.
+STALE_AFTER_SECONDS = 60.0
 
 
 @contextlib.contextmanager
 def atomic_path(target: Path) -> Iterator[Path]:
     """A temporary path beside target that replaces it only when the block finishes without an exception.
 
-    A target that is a symbolic link is followed, as a shell's `>` does: the file it points to is replaced and the
-    link stays."""
+    The writer holds an advisory lock on the temporary file while the block runs, so that sweep_stale_temporaries
+    in any process tells a live writer's file from one a killed writer left. A target that is a symbolic link is
+    followed, as a shell's `>` does: the file it points to is replaced and the link stays."""
     if target.is_symlink():
         target = Path(os.path.realpath(target))
     target.parent.mkdir(parents=True, exist_ok=True)
     stem = target.name.encode()[:TEMPORARY_NAME_BYTES].decode(errors="ignore")
-    handle, name = tempfile.mkstemp(prefix=f".{stem}.", suffix=".partial", dir=target.parent)
-    os.close(handle)
+    handle, name = tempfile.mkstemp(
+        prefix=f".{stem}.{TEMPORARY_MARK}-{os.getpid()}-", suffix=".partial", dir=target.parent
+    )
     temporary = Path(name)
-    umask = os.umask(0)
-    os.umask(umask)
-    temporary.chmod(0o666 & ~umask)  # mkstemp makes 0600; the finished file gets the usual permissions
     try:
+        _lock(handle, wait=True)
+        umask = os.umask(0)
+        os.umask(umask)
+        temporary.chmod(0o666 & ~umask)  # mkstemp makes 0600; the finished file gets the usual permissions
         yield temporary
         os.replace(temporary, target)
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+    finally:
+        os.close(handle)  # releases the lock
+
+
+def _lock(handle: int, wait: bool) -> bool:
+    """Takes an exclusive advisory lock on the open file; False where another open file holds one (wait=False).
+    Where the system has no flock (Windows), every lock is taken."""
+    if fcntl is None:
+        return True
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+    except BlockingIOError:
+        return False
+    return True
+
+
+def sweep_stale_temporaries(folder: Path) -> int:
+    """Removes the temporary files atomic_path left in folder when their writer was killed (kill -9, a power cut);
+    returns how many. A live writer's file (in this or any process) is never touched: it holds its lock. Without
+    flock (Windows) nothing is removed."""
+    if fcntl is None:
+        return 0
+    try:
+        names = [entry.name for entry in os.scandir(folder) if TEMPORARY_NAME.match(entry.name)]
+    except OSError:  # no folder yet, or not readable: nothing of ours to sweep
+        return 0
+    removed = 0
+    for name in names:
+        path = Path(folder) / name
+        try:
+            handle = os.open(path, os.O_RDONLY)
+        except OSError:  # renamed into place or swept meanwhile
+            continue
+        try:
+            if not _lock(handle, wait=False):
+                continue
+            writer = int(TEMPORARY_NAME.match(name)["pid"])
+            if _process_alive(writer) and time.time() - os.fstat(handle).st_mtime < STALE_AFTER_SECONDS:
+                continue  # created an instant ago, before its writer took the lock
+            path.unlink(missing_ok=True)
+            removed += 1
+        except OSError:
+            continue
+        finally:
+            os.close(handle)
+    return removed
+
+
+def _process_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return True
 
 
 def encode_png(
