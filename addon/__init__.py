@@ -13,9 +13,9 @@ bl_info = {
     "category": "Add Mesh",
 }
 
-from . import engine, operators, panels, properties, render_panels  # noqa: E402
+from . import engine, operators, panels, properties, render_panels, sync  # noqa: E402
 
-MODULES = (properties, operators, panels, engine, render_panels)
+MODULES = (properties, operators, panels, engine, render_panels, sync)
 
 
 def register() -> None:

@@ -37,7 +37,7 @@ import math
 
 import bpy
 
-from . import compat
+from . import compat, materials
 
 ROUGH_MIRROR = 0.1  # at or below: a mirror
 ROUGH_HIGHLIGHT = 0.5  # at or above: a highlight of the lights only
@@ -335,7 +335,17 @@ OWN_NODES = ("WV Diffuse", "WV Highlight", "WV Mix")
 
 
 def _own(material, blender_scene, model: str, coef: float) -> dict | None:
-    """An add-on material (materials.py) back as its documented values; None where its nodes are not the add-on's."""
+    """An add-on material (materials.py) back as its documented values: its "WV Surface" group node's Color, Shininess
+    and Reflectivity, exactly (a material built before the group, its flat nodes read back through the twin's
+    relations); None where its nodes are not the add-on's."""
+    node = materials.top_node(material)
+    if node is not None:
+        color, specular, reflective = materials.node_values(node)
+        return {
+            "color": [compat.float32_decimal(c) for c in color],
+            "specular": compat.float32_decimal(specular),
+            "reflective": compat.float32_decimal(reflective),
+        }
     nodes = material.node_tree.nodes if material.node_tree else None
     if nodes is None or any(nodes.get(name) is None for name in OWN_NODES):
         return None

@@ -27,7 +27,8 @@ def _color(name: str, default: tuple[float, float, float], description: str, **e
 
 
 def _material_changed(part, context) -> None:
-    materials.refresh_all(context.scene)
+    if not materials.syncing():  # the node's edit being copied here: the node holds it already
+        materials.refresh_all(context.scene)
 
 
 def _light_changed(light, context) -> None:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from mathutils import Vector
 
-from addon import build, compat
+from addon import build, compat, export, material_convert, materials
 from addon.animation import motion_for
 from tracer.geometry import transforms
 from tracer.scene import motion as motion_module
@@ -219,12 +219,97 @@ def test_material_edits_reach_the_node_graph_live() -> None:
     entry.color = (0.1, 0.2, 0.3)
     entry.reflective = 0.6
     entry.specular = 0.0
-    nodes = bpy.data.materials["WV brass"].node_tree.nodes
-    assert tuple(nodes["WV Diffuse"].inputs["Color"].default_value)[:3] == pytest.approx((0.1, 0.2, 0.3))
-    assert nodes["WV Mix"].inputs["Fac"].default_value == pytest.approx(0.6)
-    assert tuple(nodes["WV Highlight"].inputs["Color"].default_value)[:3] == pytest.approx((0, 0, 0))  # matte
-    # the ambient light's intensity times the color, as emission
-    assert tuple(nodes["WV Ambient"].inputs["Color"].default_value)[:3] == pytest.approx((0.02, 0.04, 0.06))
+    top = bpy.data.materials["WV brass"].node_tree.nodes[materials.TOP]
+    assert tuple(top.inputs["Color"].default_value)[:3] == pytest.approx((0.1, 0.2, 0.3))
+    assert top.inputs["Reflectivity"].default_value == pytest.approx(0.6)
+    assert top.inputs["Shininess"].default_value == 0.0
+    # the group's scene-wide values: the ambient light's intensity, and Blinn-Phong's exponent factor
+    group = bpy.data.node_groups[materials.GROUP]
+    assert group.nodes["WV Ambient Level"].outputs[0].default_value == pytest.approx(0.2)
+    assert group.nodes["WV Exponent Factor"].outputs[0].default_value == pytest.approx(3.0)
+    bpy.context.scene.weathervane.model = "phong"
+    assert group.nodes["WV Exponent Factor"].outputs[0].default_value == pytest.approx(4.0)
+
+
+def test_a_vane_materials_surface_is_one_node_with_the_panels_three_values() -> None:
+    """The Material tab shows the Surface's node and its inputs: the vane material's colour, shininess and
+    reflectivity, the panel's entry's values."""
+    built()
+    for entry in bpy.context.scene.weathervane.materials:
+        material = bpy.data.materials[materials.material_name(entry.name)]
+        output = material_convert.material_output(material.node_tree)
+        top = output.inputs["Surface"].links[0].from_node
+        assert top.name == materials.TOP and top.bl_idname == "ShaderNodeGroup"
+        assert [socket.name for socket in top.inputs] == ["Color", "Shininess", "Reflectivity"]
+        assert tuple(top.inputs["Color"].default_value)[:3] == tuple(entry.color)
+        assert top.inputs["Shininess"].default_value == entry.specular
+        assert top.inputs["Reflectivity"].default_value == entry.reflective
+
+
+def _entry(name: str):
+    return next(entry for entry in bpy.context.scene.weathervane.materials if entry.name == name)
+
+
+def test_the_sidebar_and_the_material_tab_show_the_same_value_after_an_edit_on_either_side() -> None:
+    built()
+    entry, top = _entry("verdigris"), bpy.data.materials["WV verdigris"].node_tree.nodes[materials.TOP]
+    # the Material tab: the node's inputs, copied to the entry at the next depsgraph evaluation
+    top.inputs["Color"].default_value = (0.9, 0.1, 0.05, 1.0)
+    top.inputs["Shininess"].default_value = 42.0
+    top.inputs["Reflectivity"].default_value = 0.125
+    bpy.context.view_layer.update()
+    assert tuple(entry.color) == tuple(top.inputs["Color"].default_value)[:3] == pytest.approx((0.9, 0.1, 0.05))
+    assert entry.specular == top.inputs["Shininess"].default_value == 42.0
+    assert entry.reflective == top.inputs["Reflectivity"].default_value == 0.125
+    assert tuple(bpy.data.materials["WV verdigris"].diffuse_color)[:3] == tuple(entry.color)  # Solid view too
+    # the sidebar: the entry's values, written to the node at once
+    entry.color, entry.specular, entry.reflective = (0.2, 0.4, 0.6), 7.0, 0.5
+    assert tuple(top.inputs["Color"].default_value)[:3] == tuple(entry.color) == pytest.approx((0.2, 0.4, 0.6))
+    assert top.inputs["Shininess"].default_value == entry.specular == 7.0
+    assert top.inputs["Reflectivity"].default_value == entry.reflective == 0.5
+    # a value the panel cannot hold (a colour above 1) is clamped on both sides, once: no update calls back
+    top.inputs["Color"].default_value = (1.5, 0.5, 0.25, 1.0)
+    bpy.context.view_layer.update()
+    assert tuple(entry.color) == tuple(top.inputs["Color"].default_value)[:3] == (1.0, 0.5, 0.25)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    bpy.context.view_layer.update()
+    assert not depsgraph.updates  # nothing left to evaluate: the copies stopped
+
+
+def test_undo_and_redo_keep_the_sidebar_and_the_material_tab_at_one_value() -> None:
+    built()
+
+    def both() -> tuple[float, float]:
+        top = bpy.data.materials["WV brass"].node_tree.nodes[materials.TOP]  # undo replaces the data: look again
+        return _entry("brass").reflective, top.inputs["Reflectivity"].default_value
+
+    bpy.ops.ed.undo_push(message="built")
+    start = both()
+    # as the Material tab does: the edit, its undo step at once (before the depsgraph copies it), then evaluation
+    bpy.data.materials["WV brass"].node_tree.nodes[materials.TOP].inputs["Reflectivity"].default_value = 0.75
+    bpy.ops.ed.undo_push(message="node edit")
+    bpy.context.view_layer.update()
+    assert both() == (0.75, 0.75)
+    bpy.ops.ed.undo()
+    assert both() == start
+    bpy.ops.ed.redo()  # the step holds the node's new value and the entry's old one: redo copies it
+    assert both() == (0.75, 0.75)
+    _entry("brass").reflective = 0.5  # as the sidebar does: the edit (the node follows at once), its undo step
+    bpy.ops.ed.undo_push(message="sidebar edit")
+    assert both() == (0.5, 0.5)
+    bpy.ops.ed.undo()
+    assert both() == (0.75, 0.75)
+
+
+def test_a_vane_materials_node_edit_reaches_the_export_of_the_rendered_view() -> None:
+    built()
+    top = bpy.data.materials["WV copper"].node_tree.nodes[materials.TOP]
+    top.inputs["Color"].default_value = (0.0, 0.25, 1.0, 1.0)
+    top.inputs["Reflectivity"].default_value = 0.0
+    depsgraph = bpy.context.evaluated_depsgraph_get()  # the viewport's evaluation, as the Rendered view has it
+    document = export.scene_document(bpy.context, depsgraph)
+    assert document["materials"]["copper"]["color"] == pytest.approx([0.0, 0.25, 1.0])
+    assert document["materials"]["copper"]["reflective"] == 0.0
 
 
 def test_lights_can_be_added_and_removed() -> None:

@@ -237,3 +237,38 @@ def test_f12_writes_each_band_once_where_blender_takes_only_lists(tmp_path: Path
         assert sum(written) == 64 * 48 * 4  # every pixel once, in its band's results; no second frame
     else:
         assert sum(written) == (count + 1) * 64 * 48 * 4  # the frame after each band and at the end
+
+
+@pytest.mark.parametrize("evaluated", [True, False], ids=["evaluated", "script-edit-then-f12"])
+def test_a_vane_parts_colour_edited_in_the_material_tab_shows_in_f12(tmp_path: Path, evaluated: bool) -> None:
+    """The vane material's Surface node (its Color input in the Material tab) is what F12 renders: the tracer's own
+    render of the scene file with that colour, and what the sidebar's colour set the same way renders."""
+    from tracer.scene.loader import default_scene_dict, scene_from_dict
+
+    scene = engine_scene()
+    new = (0.9, 0.1, 0.05)
+
+    def f12(name: str) -> np.ndarray:
+        scene.render.filepath = str(tmp_path / f"{name}.exr")
+        assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+        return read_exr(tmp_path / f"{name}.exr")
+
+    before = f12("before")
+    top = bpy.data.materials["WV verdigris"].node_tree.nodes["WV Surface"]
+    top.inputs["Color"].default_value = (*new, 1.0)
+    if evaluated:
+        bpy.context.view_layer.update()  # as in the window, where the depsgraph evaluates before F12 is pressed
+    edited = f12("edited")
+    document = default_scene_dict()
+    document["materials"]["verdigris"]["color"] = list(new)
+    expected = render(scene_from_dict(document).with_render(width=64, height=48), workers=1).image
+    assert np.abs(edited - expected).max() < 1e-4
+    changed = np.abs(edited - before).max(axis=2) > 0.02
+    assert changed.sum() >= 8  # the part covers pixels (11 at 64x48), and they changed
+    red = edited[changed][:, 0] / np.maximum(edited[changed][:, 1], 1e-6)
+    assert np.median(red) > 3.0  # to the new colour: red over green
+    # the sidebar's colour set the same way renders the same pixels
+    entry = next(entry for entry in scene.weathervane.materials if entry.name == "verdigris")
+    entry.color = (0.2, 0.2, 0.2)
+    entry.color = new
+    assert np.array_equal(f12("sidebar"), edited)

@@ -201,9 +201,33 @@ def test_the_addons_own_materials_and_lights_convert_back_exactly(model, coef, e
 def test_a_material_edited_in_its_nodes_follows_the_nodes() -> None:
     build.build(bpy.context, scene_from_dict(default_scene_dict()), source="edit")
     material = bpy.data.materials["WV brass"]
-    material.node_tree.nodes["WV Mix"].inputs["Fac"].default_value = 0.5
+    top = material.node_tree.nodes["WV Surface"]  # the Surface's node in the Material tab
+    top.inputs["Reflectivity"].default_value = 0.5
+    top.inputs["Shininess"].default_value = 150.0
+    top.inputs["Color"].default_value = (1.0, 0.0, 0.0, 1.0)
+    converted, notes = material_convert.convert_material(material)
+    assert converted == {"color": [1.0, 0.0, 0.0], "specular": 150.0, "reflective": 0.5} and notes == []
+
+
+def test_a_material_built_before_the_surface_group_still_converts_and_is_rebuilt_on_its_next_edit() -> None:
+    """A .blend saved by an older add-on: its vane materials have the twin's nodes flat in the material."""
+    build.build(bpy.context, scene_from_dict(default_scene_dict()), source="edit")
+    material = bpy.data.materials["WV brass"]
+    tree = material.node_tree
+    tree.nodes.clear()
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    for name, kind in (("WV Diffuse", "ShaderNodeBsdfDiffuse"), ("WV Highlight", "ShaderNodeBsdfGlossy"),
+                       ("WV Mix", "ShaderNodeMixShader")):  # fmt: skip
+        tree.nodes.new(kind).name = name
+    tree.nodes["WV Diffuse"].inputs["Color"].default_value = (0.78, 0.6, 0.22, 1.0)
+    tree.nodes["WV Highlight"].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    tree.nodes["WV Mix"].inputs["Fac"].default_value = 0.35
+    tree.links.new(tree.nodes["WV Mix"].outputs[0], output.inputs["Surface"])
     converted, _ = material_convert.convert_material(material)
-    assert converted["reflective"] == 0.5 and converted["specular"] == pytest.approx(200, rel=1e-3)
+    assert converted["color"] == [0.78, 0.6, 0.22] and converted["reflective"] == 0.35
+    entry = next(entry for entry in bpy.context.scene.weathervane.materials if entry.name == "brass")
+    entry.reflective = 0.25
+    assert material.node_tree.nodes["WV Surface"].inputs["Reflectivity"].default_value == 0.25
 
 
 # --- lights ----------------------------------------------------------------------------------------------------------
