@@ -26,6 +26,12 @@ MIN_SEGMENTS, MAX_SEGMENTS = 8, 256
 INFINITE_PLANE_SIZE = 2000.0  # metres: a plane without size reaches the horizon in any reasonable view
 
 
+def has_vane() -> bool:
+    """Whether the file holds the add-on's vane (an object `build` made, marked "weathervane_object"): the export
+    then renders the panel's background and Lights list, not the World (export.scene_document asks the same)."""
+    return bpy.data.objects.get(TURN) is not None or any("weathervane_object" in obj for obj in bpy.data.objects)
+
+
 def segments_for(radius: float, distance: float, focal_pixels: float, max_error_pixels: float = 0.5) -> int:
     """The fewest segments of a circle of radius at distance whose silhouette error stays under max_error_pixels."""
     if radius <= 0.0 or focal_pixels <= 0.0:

@@ -259,7 +259,10 @@ class WEATHERVANE_PT_render(WeathervanePanel, bpy.types.Panel):
         layout.label(text="Highlights")
         draw_highlights(layout, settings, text="")
         layout.label(text="Background")
-        draw_background(layout, settings, text="")
+        if build.has_vane():
+            draw_background(layout, settings, text="")
+        else:  # a scene without the vane renders its World (World Properties), as Cycles does
+            layout.label(text="The World's (World tab)", icon="WORLD")
         layout.label(text="Samples per Pixel")
         layout.prop(settings, "samples", text="")
         layout.prop(settings, "workers")

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import conversion_report
+from . import build, conversion_report
 from .panels import draw_background, draw_highlights
 
 ENGINE = "WEATHERVANE_TRACER"
@@ -136,8 +136,14 @@ class WEATHERVANE_RENDER_PT_shading(TracerPanel, bpy.types.Panel):
 
 
 class WEATHERVANE_WORLD_PT_background(TracerPanel, bpy.types.Panel):
-    bl_label = "Tracer Background"
+    # the vane's background: shown only where the vane is built, as only then does F12 render it (without the vane
+    # F12 renders the World's Surface, Blender's panel above it)
+    bl_label = "Weathervane Background"
     bl_context = "world"
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES and build.has_vane()
 
     def draw(self, context):
         draw_background(self.split_layout(), context.scene.weathervane)

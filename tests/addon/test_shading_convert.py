@@ -629,3 +629,33 @@ def test_an_environment_texture_is_its_mean_over_the_sphere() -> None:
     image = bpy.data.images.new("equator", 4, 3, float_buffer=True)
     image.pixels[:] = [value for row in (0.0, 1.0, 0.0) for _ in range(4) for value in (row, row, row, 1.0)]
     assert world_convert.environment_mean(image) == pytest.approx((0.5, 0.5, 0.5))
+
+
+def test_the_world_tab_shows_the_vanes_background_only_where_the_vane_is_built() -> None:
+    """Without the vane F12 renders the World's Surface: the World tab shows that, not the vane's background."""
+    from addon import render_panels
+
+    scene = bpy.context.scene
+    scene.render.engine = "WEATHERVANE_TRACER"
+    scene.world = bpy.data.worlds.new("world")
+    compat.enable_nodes(scene.world)
+    background = render_panels.WEATHERVANE_WORLD_PT_background
+    with bpy.context.temp_override(world=scene.world):
+        assert not background.poll(bpy.context)
+        assert bpy.types.CYCLES_WORLD_PT_surface.poll(bpy.context)
+    build.build(bpy.context, scene_from_dict(default_scene_dict()), source="world")
+    with bpy.context.temp_override(world=scene.world):
+        assert background.poll(bpy.context)
+
+
+def test_a_light_type_changed_in_the_light_tab_redraws_the_sidebars_lights_list(monkeypatch) -> None:
+    from addon import export, sync
+
+    build.build(bpy.context, scene_from_dict(default_scene_dict()), source="lights")
+    bpy.context.view_layer.update()
+    entry = next(entry for entry in bpy.context.scene.weathervane.lights if entry.kind == "POINT")
+    redraws = []
+    monkeypatch.setattr(sync, "redraw", lambda: redraws.append(1))
+    bpy.data.objects[entry.object_name].data.type = "SPOT"
+    bpy.context.view_layer.update()
+    assert redraws and export.entry_kind(entry) == "SPOT"  # the list's row reads the type it has now
