@@ -76,6 +76,9 @@ class _Lobes:
 
     def __init__(self) -> None:
         self.diffuse = [0.0, 0.0, 0.0]
+        # the diffuse as the colour inputs give it, before the conversion's own factors (Principled's diffuse share):
+        # above 1 only where an input is, or inputs add up past 1
+        self.given = [0.0, 0.0, 0.0]
         self.mirror = [0.0, 0.0, 0.0]
         self.highlights: list[tuple[list[float], float]] = []  # (colour weight, exponent n)
         self.emission = [0.0, 0.0, 0.0]
@@ -83,6 +86,7 @@ class _Lobes:
     def scaled(self, k: float) -> _Lobes:
         out = _Lobes()
         out.diffuse = [c * k for c in self.diffuse]
+        out.given = [c * k for c in self.given]
         out.mirror = [c * k for c in self.mirror]
         out.highlights = [([c * k for c in weight], n) for weight, n in self.highlights]
         out.emission = [c * k for c in self.emission]
@@ -91,6 +95,7 @@ class _Lobes:
     def plus(self, other: _Lobes) -> _Lobes:
         out = _Lobes()
         out.diffuse = [a + b for a, b in zip(self.diffuse, other.diffuse, strict=True)]
+        out.given = [a + b for a, b in zip(self.given, other.given, strict=True)]
         out.mirror = [a + b for a, b in zip(self.mirror, other.mirror, strict=True)]
         out.highlights = self.highlights + other.highlights
         out.emission = [a + b for a, b in zip(self.emission, other.emission, strict=True)]
@@ -106,6 +111,7 @@ class _Lobes:
         exponent = exponent_from_roughness(roughness)
         if exponent < 1.0:
             self.diffuse = [d + c for d, c in zip(self.diffuse, rest, strict=True)]
+            self.given = [d + c for d, c in zip(self.given, rest, strict=True)]
         else:
             self.highlights.append((rest, exponent))
 
@@ -232,6 +238,7 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
     level = value_input(compat.principled_socket(node, "specular"), "Specular", notes)
     f0 = compat.principled_f0(node, level)
     lobes.diffuse = [(1.0 - metallic) * compat.principled_diffuse_factor(roughness, f0) * c for c in base]
+    lobes.given = [(1.0 - metallic) * c for c in base]
     lobes.add_specular([metallic * c + (1.0 - metallic) * f0 for c in base], roughness)
     emission = color_input(compat.principled_socket(node, "emission"), material, "Emission", notes)
     strength = value_input(node.inputs["Emission Strength"], "Emission Strength", notes)
@@ -275,6 +282,7 @@ def _glossy(node, material, notes: list[str]) -> _Lobes:
 def _diffuse(node, material, notes: list[str]) -> _Lobes:
     lobes = _Lobes()
     lobes.diffuse = list(color_input(node.inputs["Color"], material, f"{node.name} Color", notes))
+    lobes.given = list(lobes.diffuse)
     roughness = node.inputs.get("Roughness")
     if roughness is not None and (roughness.is_linked or float(roughness.default_value) > 0.0):
         notes.append("diffuse roughness (Oren-Nayar): Lambert")
@@ -319,6 +327,7 @@ def _shader(socket, material, notes: list[str], depth: int = 0) -> _Lobes:
     else:
         lobes.diffuse = list(DEFAULT_GREY)
         notes.append(f"{node.bl_label}: grey diffuse")
+    lobes.given = list(lobes.diffuse)
     return lobes
 
 
@@ -441,8 +450,10 @@ def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
         notes.append("tinted mirror: white at its mean reflectance")
     local = 1.0 / (1.0 - reflective) if reflective < 1.0 else 0.0
     color = [c * local for c in lobes.diffuse]
-    if any(c > 1.0 for c in color):
+    if any(c > 1.0 + 1e-6 for c in lobes.given):  # a colour input above 1 (or inputs that add up past it)
         notes.append("diffuse colour above 1: clamped")
+    elif any(c > 1.01 for c in color):  # inputs of at most 1 that 3.x Principled's Disney diffuse makes brighter
+        notes.append("diffuse brighter than white (Principled's): white")
     document = {"color": [min(1.0, max(0.0, c)) for c in color], "specular": 0, "reflective": reflective}
     if lobes.highlights:
         weight, exponent = max(lobes.highlights, key=lambda item: sum(item[0]))

@@ -37,6 +37,17 @@ def draw_highlights(layout, settings, text: str | None = None) -> None:
     row.prop(settings, "coef")
 
 
+def draw_processes(layout, settings, expand: bool = False) -> None:
+    """How many processes trace, as Blender's Threads Mode and Threads: Auto-Detect (one per core) or a count."""
+    if expand:  # the sidebar: the label above, the two choices side by side
+        layout.label(text="Processes")
+        layout.row().prop(settings, "workers_mode", expand=True)
+    else:
+        layout.prop(settings, "workers_mode")
+    if settings.workers:
+        layout.prop(settings, "workers", text="Count")
+
+
 def draw_background(layout, settings, text: str | None = None) -> None:
     """The tracer's background: its type, and the colours that type uses (the sidebar and World Properties)."""
     _prop(layout, settings, "background", text)
@@ -47,14 +58,18 @@ def draw_background(layout, settings, text: str | None = None) -> None:
         layout.prop(settings, "zenith")
 
 
+def characters_for(width: int, indent: int = 0) -> int:
+    """How many characters a line of a panel width pixels wide holds, less indent pixels (an icon, a box): about 6.3
+    pixels a character at 11 points (the real-window test measures the lines with Blender's font)."""
+    scale = (bpy.context.preferences.system.ui_scale if bpy.context else 1.0) or 1.0  # 0 in background mode
+    return max(12, int((width / scale - 2 * 14 - 12 - indent) / 6.3))
+
+
 def wrapped(text: str, width: int, indent: int = 0) -> list[str]:
-    """text wrapped into lines that fit a panel of width pixels, less indent pixels (an icon, a box): about 6.3 pixels a
-    character at 11 points (the real-window test measures the lines with Blender's font)."""
+    """text wrapped into lines that fit a panel of width pixels, less indent pixels."""
     import textwrap
 
-    scale = (bpy.context.preferences.system.ui_scale if bpy.context else 1.0) or 1.0  # 0 in background mode
-    characters = max(12, int((width / scale - 2 * 14 - 12 - indent) / 6.3))
-    return textwrap.wrap(text, characters) or [""]
+    return textwrap.wrap(text, characters_for(width, indent)) or [""]
 
 
 RESULT_ICONS = {"INFO": "INFO", "WARNING": "ERROR", "ERROR": "CANCEL"}
@@ -265,7 +280,7 @@ class WEATHERVANE_PT_render(WeathervanePanel, bpy.types.Panel):
             layout.label(text="The World's (World tab)", icon="WORLD")
         layout.label(text="Samples per Pixel")
         layout.prop(settings, "samples", text="")
-        layout.prop(settings, "workers")
+        draw_processes(layout, settings, expand=True)
 
 
 CLASSES = (

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 
 import bpy
 from bpy.props import (
@@ -41,6 +42,18 @@ def _model_changed(settings, context) -> None:
     materials.refresh_all(context.scene)
 
 
+def _workers_mode(settings) -> int:
+    return 0 if settings.workers == 0 else 1
+
+
+def _set_workers_mode(settings, value: int) -> None:
+    """Auto-Detect is 0 processes; Fixed starts at one per core, as Blender's Threads Mode shows its count."""
+    if value == 0:
+        settings.workers = 0
+    elif settings.workers == 0:
+        settings.workers = min(64, max(1, os.cpu_count() or 1))
+
+
 class WEATHERVANE_PG_material(bpy.types.PropertyGroup):
     """One tracer material: the documented model's color, specular exponent and reflectivity."""
 
@@ -52,7 +65,7 @@ class WEATHERVANE_PG_material(bpy.types.PropertyGroup):
         soft_max=1000.0,
         default=0.0,
         description="The specular exponent s of the documented model: larger is a smaller, sharper highlight "
-        "(Blinn-Phong uses s times Highlight Sharpness); 0 is matte",
+        "(Blinn-Phong uses s times Shininess Scale); 0 is matte",
         update=_material_changed,
     )
     reflective: FloatProperty(
@@ -223,7 +236,14 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         "lights you added), converted by their power; off, the tracer renders the listed lights only",
     )
     # ---- the documented tracer ----
-    depth: IntProperty(name="Depth", min=0, max=16, default=3, description="Recursion depth of the reflections")
+    depth: IntProperty(
+        name="Mirror Bounces",
+        min=0,
+        max=16,
+        default=3,
+        description="How many times a ray bounces off mirrors: the documented tracer's recursion depth (0: no "
+        "reflections)",
+    )
     model: EnumProperty(
         name="Model",
         items=[
@@ -243,12 +263,12 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         update=_model_changed,
     )
     coef: FloatProperty(
-        name="Highlight Sharpness",
+        name="Shininess Scale",
         min=0.1,
         max=16.0,
         default=3.0,
-        description="The documented model's exponent factor: Blinn-Phong's highlight exponent is each material's "
-        "Shininess times this (2-4 keeps highlights as tight as Phong's)",
+        description="Blinn-Phong's highlight exponent is each material's Shininess times this (the documented "
+        "model's exponent factor, coef; 2-4 keeps highlights as tight as Phong's)",
         update=_model_changed,
     )
     background: EnumProperty(
@@ -269,24 +289,46 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     background_color: _color("Color", (0.05, 0.05, 0.05), "The solid background's color")
     horizon: _color("Horizon", (0.75, 0.82, 0.9), "The sky's color at the horizon and below")
     zenith: _color("Zenith", (0.25, 0.45, 0.8), "The sky's color straight up")
-    workers: IntProperty(name="Workers", min=0, max=64, default=0, description="Worker processes; 0: all cores")
+    workers: IntProperty(
+        name="Processes",
+        min=0,
+        max=64,
+        default=0,
+        description="How many processes trace the image's bands at once (the tracer's workers; 0: one per CPU core)",
+    )
+    workers_mode: EnumProperty(
+        name="Processes",
+        items=[
+            ("AUTO", "Auto-Detect", "One process per CPU core (the tracer's workers 0)", 0),
+            ("FIXED", "Fixed", "A set number of processes (the tracer's workers)", 1),
+        ],
+        get=_workers_mode,
+        set=_set_workers_mode,
+        description="How many processes trace the image's bands at once, as Blender's Threads Mode",
+    )
     numerics: EnumProperty(
-        name="Numerics",
+        name="Ray Hits",
         items=[
             (
                 "documented",
-                "Textbook",
-                "As documented: the course's fixed epsilons and formulas (shadow acne far from the origin)",
+                "As Documented",
+                "The course's fixed epsilons and formulas (numerics: documented): dark speckles (shadow acne) far "
+                "from the scene's origin",
             ),
-            ("robust", "Robust", "Stable quadratics, watertight triangles, offsets from each surface's own rounding"),
+            (
+                "robust",
+                "Robust",
+                "No speckles or gaps (numerics: robust): stable quadratics, watertight triangles, offsets from each "
+                "surface's own rounding",
+            ),
         ],
         default="documented",
     )
     precision: EnumProperty(
         name="Precision",
         items=[
-            ("float64", "Accurate", "Double precision (64-bit floats)"),
-            ("float32", "Fast", "Single precision (32-bit floats): faster, coarser"),
+            ("float64", "64-bit", "Double precision (float64): the documented tracer's numbers"),
+            ("float32", "32-bit (Faster)", "Single precision (float32): about a quarter faster, coarser"),
         ],
         default="float64",
     )

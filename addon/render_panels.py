@@ -12,7 +12,7 @@ from __future__ import annotations
 import bpy
 
 from . import build, conversion_report
-from .panels import draw_background, draw_highlights
+from .panels import characters_for, draw_background, draw_highlights, draw_processes
 
 ENGINE = "WEATHERVANE_TRACER"
 
@@ -116,7 +116,7 @@ class WEATHERVANE_RENDER_PT_tracer(TracerPanel, bpy.types.Panel):
         settings = context.scene.weathervane
         layout.prop(settings, "depth")
         layout.prop(settings, "samples")
-        layout.prop(settings, "workers")
+        draw_processes(layout, settings)
         layout.prop(settings, "numerics")
         layout.prop(settings, "precision")
         # the tracer's values are display values: only Standard shows them as `python -m tracer render --srgb` does
@@ -157,7 +157,9 @@ class WEATHERVANE_RENDER_PT_conversion(TracerPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         rows = conversion_report.scene_conversion(context.scene)
-        layout.label(text=conversion_report.summary_line(rows))
+        # the counts, and as many of the approximated names as the editor's width holds (each has its row below)
+        width = context.region.width if context.region else 280
+        layout.label(text=conversion_report.summary_line(rows, characters_for(width)))
         icons = {"MATERIAL": "MATERIAL", "LIGHT": "LIGHT", "WORLD": "WORLD"}
         for kind, name, notes in rows:
             column = layout.column(align=True)

@@ -601,3 +601,22 @@ def test_artist_words_units_on_values_and_no_float_noise_in_light_angles() -> No
         if entry.kind == "DIRECTIONAL":
             angles = [math.degrees(a) for a in bpy.data.objects[entry.object_name].rotation_euler]
             assert all(a == 0.0 or abs(a) > 1e-3 for a in angles), angles
+
+
+def test_render_settings_say_what_they_do_with_the_technical_term_in_the_tooltip() -> None:
+    settings = bpy.context.scene.weathervane
+    props = settings.bl_rna.properties
+    labels = {prop.name for prop in props} | {item.name for prop in props for item in getattr(prop, "enum_items", [])}
+    assert not labels & {"Textbook", "Accurate", "Workers", "Highlight Sharpness", "Numerics", "Depth"}
+    assert "numerics: documented" in props["numerics"].enum_items["documented"].description
+    assert "float64" in props["precision"].enum_items["float64"].description
+    assert "coef" in props["coef"].description and "recursion depth" in props["depth"].description
+    # Processes as Blender's Threads Mode: Auto-Detect is the tracer's workers 0, Fixed a count
+    assert settings.workers == 0 and settings.workers_mode == "AUTO"
+    settings.workers_mode = "FIXED"
+    assert settings.workers >= 1 and settings.workers_mode == "FIXED"
+    settings.workers = 3
+    settings.workers_mode = "FIXED"
+    assert settings.workers == 3
+    settings.workers_mode = "AUTO"
+    assert settings.workers == 0

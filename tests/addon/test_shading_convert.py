@@ -659,3 +659,32 @@ def test_a_light_type_changed_in_the_light_tab_redraws_the_sidebars_lights_list(
     bpy.data.objects[entry.object_name].data.type = "SPOT"
     bpy.context.view_layer.update()
     assert redraws and export.entry_kind(entry) == "SPOT"  # the list's row reads the type it has now
+
+
+@pytest.mark.parametrize("roughness", [0.0, 0.2, 0.5, 0.8])
+def test_a_base_color_of_exactly_1_is_not_reported_clamped(roughness) -> None:
+    """A note says clamped for a colour input above 1, not the conversion's rounding or 3.x Principled's diffuse."""
+    converted, notes = material_convert.convert_material(principled(**{"Base Color": (1.0, 0.0, 0.0, 1.0),
+                                                                       "Roughness": roughness}))  # fmt: skip
+    assert not any("clamped" in note for note in notes), notes
+    assert converted["color"][0] == pytest.approx(1.0, abs=0.05) and converted["color"][1:] == [0.0, 0.0]
+    _, notes = material_convert.convert_material(principled(**{"Base Color": (1.5, 0.0, 0.0, 1.0)}))
+    assert "diffuse colour above 1: clamped" in notes
+    material, (output, diffuse) = shader_material("diffuse", "ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    material.node_tree.links.new(diffuse.outputs[0], output.inputs["Surface"])
+    converted, notes = material_convert.convert_material(material)
+    assert converted["color"] == [1.0, 1.0, 1.0] and notes == []
+
+
+def test_the_scene_conversion_summary_fits_its_room() -> None:
+    rows = [("MATERIAL", "Material.001", ["x"]), ("LIGHT", "Light", ["y"]), ("WORLD", "World", ["z"]),
+            ("MATERIAL", "exact", [])]  # fmt: skip
+    assert conversion_report.summary_line(rows) == "1 exact, 3 approximated (Material.001, Light, World)"
+    assert conversion_report.summary_line(rows, 44) == "1 exact, 3 approximated (Material.001, ...)"
+    assert conversion_report.summary_line(rows, 30) == "1 exact, 3 approximated"
+    for width in (200, 280, 400):  # the Properties editor's width: the line in the characters it holds
+        from addon.panels import characters_for
+
+        line = conversion_report.summary_line(rows, characters_for(width))
+        assert len(line) <= characters_for(width) and line.startswith("1 exact, 3 approximated")
