@@ -97,16 +97,22 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         self.update_stats("", status)
 
     def render(self, depsgraph) -> None:
-        from .export import ExportNotes, named_problems, scene_document
+        from .export import ExportCancelledError, ExportNotes, MemoryBudget, named_problems, scene_document
 
         blender_scene = depsgraph.scene
-        loader = module("scene.loader")
+        loader, resources = module("scene.loader"), module("workers.resources")
         notes = ExportNotes()
+        budget = MemoryBudget(blender_scene, cancelled=lambda: cancelled(self))
         try:
-            document = scene_document(bpy.context, depsgraph, blender_scene, notes)
+            document = scene_document(bpy.context, depsgraph, blender_scene, notes, budget, arrays=True)
             scene = loader.scene_from_dict(export.as_json_types(document), "scene")
         except loader.SceneError as error:
             self.report({"ERROR"}, "; ".join(named_problems(error.problems, document)[:4]))
+            return
+        except resources.ResourceError as error:  # refused before its arrays were read: nothing started
+            self.report({"ERROR"}, f"Weathervane Tracer: not started: {error}")
+            return
+        except ExportCancelledError:
             return
         width, height = scene.render.width, scene.render.height
         left_out = camera.unsupported(blender_scene, exporting=False)
@@ -147,11 +153,17 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
                 _write(band_result, shown[bottom : bottom + count])
                 self.end_result(band_result)
 
-        pool, resources = module("workers.pool"), module("workers.resources")
+        def stop_if_cancelled() -> None:  # while the workers prepare a large scene, before any band is done
+            if cancelled(self):
+                raise RenderCancelledError
+
+        pool, renderer = module("workers.pool"), None
         try:
             workers = scene.render.workers
+            renderer = _renderer(workers)
+            renderer.heartbeat = stop_if_cancelled
             turning = _turning.setdefault(workers, module("frames.incremental").TurningFrames())
-            result = turning.render(_renderer(workers), scene, progress, band_done)
+            result = turning.render(renderer, scene, progress, band_done)
         except (RenderCancelledError, pool.PoolClosedError):  # Esc, or Blender quitting (its pools closed)
             # the bands finished before the cancel: in the frame's result, or (Blender 3.4) in results of their own
             self.end_result(render_result, cancel=not _fast_write(render_result))
@@ -160,6 +172,9 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             self.end_result(render_result, cancel=True)
             self.report({"ERROR"}, str(error))  # not enough memory, workers lost: one line, the pool stays usable
             return
+        finally:
+            if renderer is not None:
+                renderer.heartbeat = None  # the renderer outlives this engine
         final = np.flipud(result.image).astype(np.float32)  # Blender's rows go bottom-up
         alpha = getattr(result, "alpha", None)
         if alpha is None and not _fast_write(render_result) and np.array_equal(shown[..., :3], final):

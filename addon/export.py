@@ -270,9 +270,10 @@ def _geometry_source(source: _Source, mode: str, index: int) -> mesh_export.Sour
 class _Export:
     """One export's document materials and notes, the cache's stamp and the frame."""
 
-    def __init__(self, depsgraph, materials: dict, notes: ExportNotes) -> None:
+    def __init__(self, depsgraph, materials: dict, notes: ExportNotes, arrays: bool = False) -> None:
         self.materials = materials
         self.notes = notes
+        self.arrays = arrays
         self.stamp = mesh_export.CACHE.clock  # taken before anything is read: a later update makes it stale
         scene = depsgraph.scene_eval
         self.frame = float(scene.frame_current) + float(scene.frame_subframe)
@@ -292,6 +293,70 @@ class _Collected:
     parts: list = field(default_factory=list)  # names of the vane's turning parts
     lights: list = field(default_factory=list)  # (original light object, evaluated object, world matrix)
     meshes: dict = field(default_factory=dict)  # the document's meshes table
+    arrays: bool = False  # large meshes' fields as arrays (mesh_export.Placed.fields)
+
+
+class MemoryBudget:
+    """The memory a scene's preparation and render will take, counted as the export finds the scene (distinct
+    triangles, instances; tracer/workers/resources.py's figures) and checked against the memory free at the start
+    before each geometry's arrays are read: a scene that cannot fit is refused with one line (ResourceError) before
+    it takes the memory, not after. cancelled: a callable the export asks every CANCEL_EVERY instances (Esc)."""
+
+    CANCEL_EVERY = 512
+    LARGEST = 3
+
+    def __init__(self, blender_scene, cancelled=None) -> None:
+        resources = module("scene.scene")
+        render, settings = blender_scene.render, blender_scene.weathervane
+        scale = render.resolution_percentage / 100.0
+        self.settings = resources.RenderSettings(
+            width=max(1, round(render.resolution_x * scale)),
+            height=max(1, round(render.resolution_y * scale)),
+            samples=int(settings.samples),
+            dtype=settings.precision,
+        )
+        self.workers = module("workers.parallel").worker_count(settings.workers)
+        self.available = module("workers.resources").available_memory()
+        self.cancelled = cancelled
+        self.triangles = self.instances = 0
+        self.meshes: dict[str, int] = {}  # a geometry's name -> its triangles
+
+    def geometry(self, name: str, data) -> None:
+        """A geometry about to be read: its triangles counted (from Blender's counts, nothing read) and checked; a
+        cancel asked for meanwhile stops the export before the read."""
+        if self.cancelled is not None and self.cancelled():
+            raise ExportCancelledError
+        count = max(0, len(data.loops) - 2 * len(data.polygons)) if isinstance(data, bpy.types.Mesh) else 0
+        self.triangles += count
+        self.meshes[name] = self.meshes.get(name, 0) + count
+        self.check()
+
+    def placed(self, count: int) -> None:
+        self.instances += count
+
+    def tick(self, order: int) -> None:
+        """Called for each instance the export walks: asks whether the user cancelled, now and then."""
+        if self.cancelled is not None and order and order % self.CANCEL_EVERY == 0 and self.cancelled():
+            raise ExportCancelledError
+
+    def check(self) -> None:
+        """Raises ResourceError (one line) when what is counted so far cannot fit in the memory free at the start."""
+        if self.available is None:
+            return
+        largest = sorted(self.meshes.items(), key=lambda item: -item[1])[: self.LARGEST]
+        module("workers.resources").check_resources(
+            self.settings,
+            self.workers,
+            triangles=self.triangles,
+            instances=self.instances,
+            largest=tuple((name, count) for name, count in largest if count),
+            available=self.available,
+            blender=True,
+        )
+
+
+class ExportCancelledError(Exception):
+    """The user cancelled (Esc) while the export walked the scene."""
 
 
 def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: ExportNotes) -> _Source:
@@ -322,12 +387,14 @@ def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: Export
     )
 
 
-def _collect(depsgraph, turn, materials: dict, notes: ExportNotes) -> _Collected:
+def _collect(
+    depsgraph, turn, materials: dict, notes: ExportNotes, budget: MemoryBudget | None, arrays: bool = False
+) -> _Collected:
     """Every object instance Blender renders at the depsgraph's frame: the add-on's objects as their own kinds, and
     each other geometry read once (not at all where the cache holds it unchanged), then placed: once in world space
     as a "mesh", several times as a "meshes" entry and "instances" of it."""
-    collected = _Collected()
-    export = _Export(depsgraph, materials, notes)
+    collected = _Collected(arrays=arrays)
+    export = _Export(depsgraph, materials, notes, arrays)
     cache = mesh_export.CACHE
     hidden = _render_hidden_objects() if depsgraph.mode == "VIEWPORT" else None
     sources: dict[tuple, _Source] = {}
@@ -336,6 +403,8 @@ def _collect(depsgraph, turn, materials: dict, notes: ExportNotes) -> _Collected
     items: list[_Item] = []
     bulk: dict[int, np.ndarray | None] = {}  # instancer pointer -> its instances' world matrices, read at once
     for order, instance in enumerate(depsgraph.object_instances):
+        if budget is not None:
+            budget.tick(order)
         parent = instance.parent if instance.is_instance else None
         if parent is not None:
             parent_pointer = parent.as_pointer()
@@ -372,6 +441,8 @@ def _collect(depsgraph, turn, materials: dict, notes: ExportNotes) -> _Collected
             geometry = source.geometry = geometries.get(data_pointer)
         if geometry is None:
             index = distinct[key[1]] = distinct.get(key[1], -1) + 1
+            if budget is not None:
+                budget.geometry(original.name, data)
             # read now, while obj is the instance iterated (Geometry Nodes instances share one temporary object)
             entry = cache.arrays(_geometry_source(source, depsgraph.mode, index), obj, export.frame, export.stamp)
             stem = f"{original.name}/{data.name}" if source.generated else data.name
@@ -379,6 +450,10 @@ def _collect(depsgraph, turn, materials: dict, notes: ExportNotes) -> _Collected
         if geometry.entry.arrays is not None:
             matrices = bulk.get(key[0]) if parent is not None else None
             geometry.placements.append((order, source, instance.matrix_world.copy() if matrices is None else matrices))
+            if budget is not None:
+                budget.placed(1 if matrices is None else len(matrices))
+    if budget is not None:
+        budget.check()
     for geometry in geometries.values():
         items += _placed_items(geometry, export, collected)
     _name(items, collected, notes)
@@ -412,7 +487,8 @@ def _mesh_object(placed: mesh_export.Placed, source: _Source, export: _Export) -
     """One placement of a geometry in world space as a scene-file mesh, with its materials and visibility."""
     slot_materials = source.slot_materials
     slots, used = placed.slots_of(len(slot_materials))
-    body = {"name": "", "type": "mesh", "material": export.material(slot_materials[used[0]]), **placed.fields()}
+    fields = placed.fields(arrays=export.arrays)
+    body = {"name": "", "type": "mesh", "material": export.material(slot_materials[used[0]]), **fields}
     if len(used) > 1:
         body["materials"] = [export.material(material) for material in slot_materials]
         body["material_indices"] = slots.tolist()
@@ -529,7 +605,7 @@ def _mesh_entry(geometry: _Geometry, local: mesh_export.Placed, materials: tuple
     while name in collected.meshes:
         count += 1
         name = f"{geometry.stem}#{count}"
-    entry = local.fields()
+    entry = local.fields(arrays=collected.arrays)
     if materials[0] == "one":
         entry["material"] = materials[1]
     else:
@@ -656,10 +732,20 @@ def as_json_types(value):
     return value
 
 
-def scene_document(context, depsgraph=None, blender_scene=None, notes: ExportNotes | None = None) -> dict:
+def scene_document(
+    context,
+    depsgraph=None,
+    blender_scene=None,
+    notes: ExportNotes | None = None,
+    budget: MemoryBudget | bool = True,
+    arrays: bool = False,
+) -> dict:
     """The Blender scene as Blender renders it at the depsgraph's frame (the current one for the context's
     depsgraph, the frame being rendered inside a render) as a tracer scene document. notes, when given, collects
-    what is approximated or left out; the document's comment says the same in one line."""
+    what is approximated or left out; the document's comment says the same in one line. budget: the memory check
+    (True: one for the scene's render settings; False: none); raises ResourceError, one line, for a scene that
+    cannot fit, before its arrays are read. arrays: a large mesh's vertices, triangles and normals as NumPy arrays
+    rather than lists, for scene_from_dict in this process (F12), not for JSON."""
     blender_scene = blender_scene or context.scene
     settings = blender_scene.weathervane
     depsgraph = depsgraph or context.evaluated_depsgraph_get()
@@ -671,7 +757,9 @@ def scene_document(context, depsgraph=None, blender_scene=None, notes: ExportNot
     turn = bpy.data.objects.get(build.TURN)
     # the parts go out as modelled (heading 0) and the current turn becomes the vane's heading
     heading = math.degrees(turn.evaluated_get(depsgraph).matrix_basis.to_euler("XYZ")[2]) if turn is not None else 0.0
-    collected = _collect(depsgraph, turn, materials, notes)
+    if budget is True:
+        budget = MemoryBudget(blender_scene)
+    collected = _collect(depsgraph, turn, materials, notes, budget or None, arrays)
     objects, parts = collected.objects, collected.parts
     own_vane = any("weathervane_object" in obj for obj in bpy.data.objects)
     light_list = _light_documents(settings, collected, own_vane, notes)

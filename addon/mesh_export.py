@@ -119,9 +119,18 @@ class Placed:
         size = sum(array.nbytes for array in arrays if array is not None)
         return size * 8 if len(self.triangles) <= SMALL_MESH else size
 
-    def fields(self) -> dict:
+    def fields(self, arrays: bool = False) -> dict:
         """The scene file's "vertices", "triangles" and, where faces are smooth, "normals" (lists). A small mesh's are
-        made once: each call gets new outer lists whose rows it shares with the other calls' (read them only)."""
+        made once: each call gets new outer lists whose rows it shares with the other calls' (read them only).
+        arrays: a large mesh's as read-only views of its arrays instead, for the loader in the same process (a
+        render): lists cost about 6 times the memory and the time to make and to check again."""
+        if arrays and len(self.triangles) > SMALL_MESH:
+            views = {"vertices": self.vertices.view(), "triangles": self.triangles.view()}
+            if self.normals is not None:
+                views["normals"] = self.normals.view()
+            for view in views.values():
+                view.flags.writeable = False
+            return views
         lists = self.memo.get("lists")
         if lists is None:
             lists = {"vertices": self.vertices.tolist(), "triangles": self.triangles.tolist()}

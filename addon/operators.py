@@ -267,7 +267,11 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
     def execute(self, context):
         from .export import named_problems, scene_document
 
-        document = scene_document(context)
+        try:
+            document = scene_document(context)
+        except module("workers.resources").ResourceError as error:  # refused before the scene's arrays were read
+            report(self, {"ERROR"}, f"cannot export: {error}")
+            return {"CANCELLED"}
         try:
             module("scene.loader").scene_from_dict(json.loads(json.dumps(document)), "export")
         except module("scene.loader").SceneError as error:

@@ -290,6 +290,43 @@ def test_a_render_that_cannot_fit_in_memory_is_refused_before_it_starts(monkeypa
     assert needed > 16384 * 16384 * 3 * 8  # at least the image itself
 
 
+def test_a_scene_whose_meshes_cannot_fit_is_refused_naming_them(monkeypatch, tmp_path: Path, capsys) -> None:
+    """The scene's own share (distinct triangles, instances) counts beside the image's: a 64x48 frame of a mesh of
+    50,000 triangles instanced 1,000 times, with 100 MB free."""
+    import json
+
+    from tracer.scene.loader import default_scene_dict
+
+    grid = 50
+    vertices = [[x, y, 0.0] for y in range(grid + 1) for x in range(grid + 1)]
+    quads = [
+        (y * (grid + 1) + x, y * (grid + 1) + x + 1, (y + 1) * (grid + 1) + x) for y in range(grid) for x in range(grid)
+    ]
+    document = default_scene_dict()
+    material = next(iter(document["materials"]))
+    document["meshes"] = {
+        "sheet": {"vertices": vertices, "triangles": [list(q) for q in quads] * 20, "material": material}
+    }
+    document["objects"].append(
+        {
+            "name": "sheets",
+            "type": "instances",
+            "mesh": "sheet",
+            "matrices": [[1, 0, 0, i, 0, 1, 0, 0, 0, 0, 1, 0] for i in range(1000)],
+        }
+    )
+    scene_file = tmp_path / "sheets.json"
+    scene_file.write_text(json.dumps(document))
+    monkeypatch.setattr(rs, "available_memory", lambda: 100 * 10**6)
+    target = tmp_path / "sheets.png"
+    code = cli.main(["render", str(scene_file), "--width", "64", "--height", "48", "-o", str(target)])
+    err = capsys.readouterr().err
+    assert code == cli.EXIT_FAILED and not target.exists() and "Traceback" not in err
+    assert "of 50,000 triangles and 1,000 instances needs about" in err, err
+    assert "100.0 MB is available; the largest: sheet (50,000 triangles); try fewer triangles" in err, err
+    assert rs.scene_bytes(50_000, 1000) == 50_000 * rs.BYTES_PER_TRIANGLE + 1000 * rs.BYTES_PER_INSTANCE
+
+
 def test_an_output_larger_than_the_free_disk_is_refused(monkeypatch, tmp_path: Path) -> None:
     monkeypatch.setattr(rs.shutil, "disk_usage", lambda _path: _Usage())
     settings = default_scene().render  # 640x480: a .npy of 3.7 MB

@@ -18,7 +18,14 @@ from .scene.loader import SceneError, check_samples, default_scene, load_scene
 from .tracing.images import SUFFIXES, sweep_stale_temporaries, write_image
 from .workers.parallel import Renderer, worker_count
 from .workers.pool import TaskFailedError, WorkerLostError
-from .workers.resources import ResourceError, check_disk, check_resources, out_of_memory_message, output_bytes
+from .workers.resources import (
+    ResourceError,
+    check_disk,
+    check_resources,
+    out_of_memory_message,
+    output_bytes,
+    scene_counts,
+)
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
@@ -254,7 +261,7 @@ def run_render(args: argparse.Namespace) -> int:
         with Renderer(scene.render.workers) as renderer:
             workers = renderer.workers
             suffix = args.output.suffix.lower()
-            check_resources(scene.render, renderer.workers, output=suffix)
+            check_resources(scene.render, renderer.workers, output=suffix, **scene_counts(scene))
             check_disk(args.output, output_bytes(scene.render, suffix, 4 if scene.has_alpha else 3))
             result = renderer.render(scene, progress)
         progress.close()
@@ -292,7 +299,8 @@ def run_animate(args: argparse.Namespace) -> int:
         if args.scheduler is not None:
             result = _animate_on_cluster(scene, args, fps, progress)
         else:
-            check_resources(scene.render, worker_count(scene.render.workers), frames=3, output=".png")
+            workers = worker_count(scene.render.workers)
+            check_resources(scene.render, workers, frames=3, output=".png", **scene_counts(scene))
             result = animate(
                 scene, args.output, first, last, fps=fps, overwrite=args.overwrite, srgb=args.srgb, progress=progress
             )

@@ -188,7 +188,14 @@ def test_a_cancelled_render_keeps_the_bands_finished_before_the_cancel(
     from tracer.workers.parallel import bands
 
     engine_scene(workers=1)  # bands one after another: the cancel comes after the first
-    monkeypatch.setattr(engine, "cancelled", lambda _engine: True)  # Esc, as soon as the engine asks
+    written, write = [], engine._write
+
+    def counted_write(*args) -> None:
+        written.append(1)
+        write(*args)
+
+    monkeypatch.setattr(engine, "_write", counted_write)
+    monkeypatch.setattr(engine, "cancelled", lambda _engine: bool(written))  # Esc once a band is in the result
     bpy.ops.render.render()
     bpy.data.images["Render Result"].save_render(str(tmp_path / "cancelled.exr"))
     shown = read_exr(tmp_path / "cancelled.exr")

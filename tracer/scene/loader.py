@@ -240,7 +240,7 @@ def _json_type(value: Any) -> str:
 
 def _show_shape(value: Any) -> str:
     """What a wrong value is, for messages: 'a list of 2', 'an object', 'null', 'string "x"', 'boolean true'."""
-    if isinstance(value, list):
+    if isinstance(value, list | np.ndarray):
         return f"a list of {len(value)}"
     if isinstance(value, dict):
         return "an object"
@@ -443,6 +443,9 @@ def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Mater
     raw_vertices = reader.raw("vertices")
     raw_triangles = reader.raw("triangles")
     fast = _mesh_arrays(raw_vertices, raw_triangles)
+    if fast is None:  # a document made in this process may hold arrays (a render's export): its problems named below
+        raw_vertices = raw_vertices.tolist() if isinstance(raw_vertices, np.ndarray) else raw_vertices
+        raw_triangles = raw_triangles.tolist() if isinstance(raw_triangles, np.ndarray) else raw_triangles
     if fast is not None:  # every vertex and triangle valid: checked as arrays, the same numbers as the loop below
         vertices_array, triangles_array = fast
         count = len(triangles_array)
@@ -509,24 +512,30 @@ def _mesh_arrays(raw_vertices: Any, raw_triangles: Any) -> tuple[np.ndarray, np.
     """A mesh's vertices (V, 3) float64 and triangles (T, 3) int64 where every entry is valid (numbers within the
     coordinate limit; integer indices of vertices; triangles that span an area), checked with array operations (a
     million-triangle mesh in a fraction of the per-entry loop's time); None where any is not, for the loop to
-    name it."""
-    if not isinstance(raw_vertices, list) or not raw_vertices or not isinstance(raw_triangles, list):
+    name it. Either may be a NumPy array (a document made in the same process): floats, and integers, shaped as the
+    lists would be."""
+    if not isinstance(raw_vertices, list | np.ndarray) or not len(raw_vertices):
         return None
-    if not raw_triangles:
+    if not isinstance(raw_triangles, list | np.ndarray) or not len(raw_triangles):
         return None
     vertices = _number_array(raw_vertices, (len(raw_vertices), 3))
     if vertices is None:
         return None
-    try:
-        objects = np.asarray(raw_triangles, dtype=object)
-    except ValueError:
-        return None
-    if objects.shape != (len(raw_triangles), 3) or not set(map(type, objects.ravel().tolist())) <= {int}:
-        return None
-    try:
-        triangles = objects.astype(np.int64)
-    except OverflowError:
-        return None
+    if isinstance(raw_triangles, np.ndarray):
+        if raw_triangles.dtype.kind not in "iu" or raw_triangles.shape != (len(raw_triangles), 3):
+            return None
+        triangles = raw_triangles.astype(np.int64, copy=False).view()
+    else:
+        try:
+            objects = np.asarray(raw_triangles, dtype=object)
+        except ValueError:
+            return None
+        if objects.shape != (len(raw_triangles), 3) or not set(map(type, objects.ravel().tolist())) <= {int}:
+            return None
+        try:
+            triangles = objects.astype(np.int64)
+        except OverflowError:
+            return None
     if not (np.all(triangles >= 0) and np.all(triangles < len(vertices))):
         return None
     # the loop's cross product, in the same float64 operations
@@ -552,11 +561,12 @@ def _corner_normals(reader: _Reader, count: int) -> np.ndarray | None:
     if raw is None:
         return None
     expected = f"must be a list of {count} triangles' corner normals [[x, y, z], [x, y, z], [x, y, z]]"
-    if not isinstance(raw, list) or len(raw) != count:
+    if not isinstance(raw, list | np.ndarray) or len(raw) != count:
         reader.fail("normals", f"{expected}, got {_show_shape(raw)}")
         return None
     array = _number_array(raw, (count, 3, 3))
     if array is None:  # the slow way, to name the first bad triangle
+        raw = raw.tolist() if isinstance(raw, np.ndarray) else raw
         bad = next((i for i, item in enumerate(raw) if not _is_corner_triple(item)), 0)
         reader.fail(
             f"normals[{bad}]",
@@ -574,7 +584,13 @@ def _corner_normals(reader: _Reader, count: int) -> np.ndarray | None:
 
 def _number_array(raw: list, shape: tuple[int, ...]) -> np.ndarray | None:
     """Nested lists of JSON numbers (no booleans) of this shape, each of magnitude at most COORDINATE_LIMIT, as a
-    float64 array (checked with array operations: a large mesh's normals); None where they are not."""
+    float64 array (checked with array operations: a large mesh's normals); None where they are not. raw may be a
+    float NumPy array of that shape instead (a document made in the same process): a read-only view of it then."""
+    if isinstance(raw, np.ndarray):
+        if raw.dtype.kind != "f" or raw.shape != shape:
+            return None
+        array = raw.astype(np.float64, copy=False).view()
+        return array if np.all(np.abs(array) <= COORDINATE_LIMIT) else None  # NaN fails too
     try:
         objects = np.asarray(raw, dtype=object)
     except ValueError:

@@ -275,6 +275,9 @@ class Renderer:
         self._images = _SharedImages() if hasattr(os, "memfd_create") else None
         self._scenes = _SharedScenes(hasattr(os, "memfd_create"))
         self._final = False  # closed for good: no pool is started again
+        # called about every 0.1 s while a render waits on its workers with no band finished (a large scene's
+        # preparation): raising there stops the render, as raising from progress does after a band
+        self.heartbeat: Callable[[], None] | None = None
 
     def __enter__(self) -> Renderer:
         return self
@@ -298,7 +301,12 @@ class Renderer:
             raise PoolClosedError("the renderer is closed")
         if self._pool is None:
             self._pool = WorkerPool(self.workers, self._start_method, self._private_descriptors)
+            self._pool.heartbeat = self._beat
         return self._pool
+
+    def _beat(self) -> None:
+        if self.heartbeat is not None:
+            self.heartbeat()
 
     def _private_descriptors(self) -> list[int]:
         """The files this Renderer keeps open (images used again, the current scene's arrays): a forked worker

@@ -138,6 +138,9 @@ def _receive_tasks(conn: connection.Connection, tasks: queue.SimpleQueue) -> Non
     tasks.put(None)
 
 
+HEARTBEAT_SECONDS = 0.1
+
+
 class WorkerPool:
     """workers processes that run Tasks; results are collected by the parent calling wait()."""
 
@@ -152,6 +155,9 @@ class WorkerPool:
         self._queue: deque[Task] = deque()
         self.restarts = 0  # workers replaced after a death, over the pool's life
         self._closed = False  # set by close(), from any thread: no worker is started or replaced after it
+        # called every HEARTBEAT_SECONDS while the parent waits and no result comes (workers preparing a large
+        # scene take seconds before their first band): it may raise to stop waiting, as a user's cancel does
+        self.heartbeat: Callable[[], None] | None = None
         for _ in range(workers):
             self._start_worker()
 
@@ -239,9 +245,12 @@ class WorkerPool:
         workers = list(self._workers)
         if self._closed or not workers:
             raise PoolClosedError("the worker pool is closed")
-        ready = connection.wait([w.conn for w in workers] + [w.process.sentinel for w in workers])
+        timeout = HEARTBEAT_SECONDS if self.heartbeat is not None else None
+        ready = connection.wait([w.conn for w in workers] + [w.process.sentinel for w in workers], timeout)
         if self._closed:
             raise PoolClosedError("the worker pool is closed")
+        if not ready and self.heartbeat is not None:
+            self.heartbeat()
         for worker in list(self._workers):
             # a dead worker's pipe reads as ready too (end of file), after any results it sent before dying
             if (worker.conn in ready or worker.process.sentinel in ready) and not self._receive(worker):

@@ -27,6 +27,12 @@ LARGE_IMAGE_BYTES = 16 << 20
 LARGE_IMAGE_BAND_BYTES = 480_000  # 60,000 samples in float64, 120,000 in float32
 # Beyond the tracer's own estimate, room left for everything else on the machine.
 HEADROOM = 1.1
+# A scene's own share, measured in the bpy 5.0.1 wheel as the growth of Blender's process and its 2 workers over a
+# first F12 at 64x48 (less the workers' WORKER_BASE_BYTES), rounded up: a subdivided cube of 196,608 and 786,432
+# triangles grew by 1.9 and 1.5 KB a triangle (Blender's arrays read, the scene file's lists, the loader's arrays,
+# each worker's hierarchy); a Geometry Nodes forest of 100,000 instances by 2.9 KB an instance (10,000: 0.3 KB).
+BYTES_PER_TRIANGLE = 2048
+BYTES_PER_INSTANCE = 4096
 
 
 def band_samples(settings: sc.RenderSettings) -> int:
@@ -55,6 +61,31 @@ def memory_needed(settings: sc.RenderSettings, workers: int, frames: int = 1, ou
     per_worker = WORKER_BASE_BYTES + at_once * BAND_PEAK_COORDINATES * itemsize
     writing = {".png": 2 * pixels * 3, ".npy": 0, None: 0}.get(output, 0)  # 8-bit copy and the encoded PNG
     return frames * image_bytes(settings) + max(1, workers) * per_worker + writing
+
+
+def scene_bytes(triangles: int, instances: int) -> int:
+    """Bytes preparing a scene of this many distinct triangles (a mesh placed once counts in full, instances of one
+    mesh count its triangles once) and instances takes, beside the render's own (memory_needed)."""
+    return triangles * BYTES_PER_TRIANGLE + instances * BYTES_PER_INSTANCE
+
+
+def scene_counts(scene: sc.Scene, largest: int = 3) -> dict:
+    """A loaded scene's distinct triangles (an instanced mesh once), instances and its largest meshes, as
+    check_resources takes them (triangles=, instances=, largest=)."""
+    meshes: dict[int, tuple[str, int]] = {}
+    instances = 0
+    for obj in scene.objects:
+        if isinstance(obj, sc.MeshInstances):
+            instances += len(obj.matrices)
+            meshes[id(obj.mesh)] = (obj.mesh_name, len(obj.mesh.triangles))
+        elif isinstance(obj, sc.TriangleMesh):
+            meshes[id(obj)] = (obj.name, len(obj.triangles))
+    biggest = sorted(meshes.values(), key=lambda item: -item[1])[:largest]
+    return {
+        "triangles": sum(count for _, count in meshes.values()),
+        "instances": instances,
+        "largest": tuple(item for item in biggest if item[1]),
+    }
 
 
 def available_memory() -> int | None:
@@ -118,13 +149,14 @@ def out_of_memory_message(settings: sc.RenderSettings, workers: int) -> str:
     )
 
 
-def _advice(settings: sc.RenderSettings, workers: int) -> list[str]:
+def _advice(settings: sc.RenderSettings, workers: int, blender: bool = False) -> list[str]:
+    """What would need less memory, in the command line's flags or (blender) in the add-on's settings' words."""
     advice = []
     if settings.dtype == "float64":
-        advice.append("--dtype float32")
+        advice.append("Precision float32" if blender else "--dtype float32")
     if workers > 1:
-        advice.append("fewer --workers")
-    advice.append("a smaller --width/--height")
+        advice.append("fewer Workers" if blender else "fewer --workers")
+    advice.append("a lower Resolution %" if blender else "a smaller --width/--height")
     return advice
 
 
@@ -135,16 +167,50 @@ def _size(count: int) -> str:
     return f"{count} bytes"
 
 
-def check_resources(settings: sc.RenderSettings, workers: int, frames: int = 1, output: str | None = None) -> None:
-    """Raise ResourceError when the render cannot fit in the memory there is now."""
-    needed = memory_needed(settings, workers, frames, output)
-    available = available_memory()
+def check_resources(
+    settings: sc.RenderSettings,
+    workers: int,
+    frames: int = 1,
+    output: str | None = None,
+    *,
+    triangles: int = 0,
+    instances: int = 0,
+    largest: tuple[tuple[str, int], ...] = (),
+    available: int | None = None,
+    blender: bool = False,
+) -> None:
+    """Raise ResourceError when the scene's preparation (triangles, instances: scene_bytes) and the render cannot fit
+    in the memory there is now (available: what available_memory() says, where the caller read it already).
+    largest: the biggest meshes as (name, triangles), named in the message; blender: its advice in the add-on's
+    words."""
+    needed = memory_needed(settings, workers, frames, output) + scene_bytes(triangles, instances)
+    available = available_memory() if available is None else available
     if available is None or needed * HEADROOM <= available:
         return
-    advice = _advice(settings, workers)
-    raise ResourceError(
-        f"a {settings.width}x{settings.height} {settings.dtype} render with {max(1, workers)} workers needs about "
-        f"{_size(needed)} of memory and {_size(available)} is available; try {', '.join(advice)}"
+    raise ResourceError(refusal(settings, workers, needed, available, triangles, instances, largest, blender))
+
+
+def refusal(
+    settings: sc.RenderSettings,
+    workers: int,
+    needed: int,
+    available: int,
+    triangles: int = 0,
+    instances: int = 0,
+    largest: tuple[tuple[str, int], ...] = (),
+    blender: bool = False,
+) -> str:
+    """The one line that refuses a render: what it would need, of what, what is free, and what to change."""
+    counts = [f"{triangles:,} triangles"] if triangles else []
+    counts += [f"{instances:,} instances"] if instances else []
+    scene = f" of {' and '.join(counts)}" if counts else ""
+    advice = _advice(settings, workers, blender)
+    if largest:
+        advice.insert(0, "fewer triangles (a lower Subdivision level) or instances")
+    named = "; the largest: " + ", ".join(f"{name} ({count:,} triangles)" for name, count in largest) if largest else ""
+    return (
+        f"a {settings.width}x{settings.height} {settings.dtype} render with {max(1, workers)} workers{scene} needs "
+        f"about {_size(needed)} of memory and {_size(available)} is available{named}; try {', '.join(advice)}"
     )
 
 
@@ -181,4 +247,7 @@ __all__ = [
     "memory_needed",
     "out_of_memory_message",
     "output_bytes",
+    "refusal",
+    "scene_bytes",
+    "scene_counts",
 ]

@@ -1,0 +1,107 @@
+"""A scene too large for the memory free now is refused before the engine reads it (one line naming the figures
+and the largest objects), and Esc while a large scene is being prepared stops the render at once. The truth: the
+memory Blender's process really grows by (its peak, VmHWM), and the bands written into Blender's result."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import bpy
+import pytest
+
+from addon import engine, mesh_export
+from tracer.workers import resources
+
+
+def subdivided_cube(levels: int) -> int:
+    """The factory scene's cube with a Subdivision Surface modifier at levels for render; its triangle count."""
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    scene = bpy.context.scene
+    scene.render.engine = "WEATHERVANE_TRACER"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+    scene.weathervane.workers = 2
+    modifier = bpy.data.objects["Cube"].modifiers.new("Subdivision", "SUBSURF")
+    modifier.levels = 1
+    modifier.render_levels = levels
+    return 6 * 4**levels * 2
+
+
+def peak_rss_reset() -> None:
+    Path("/proc/self/clear_refs").write_text("5")  # VmHWM starts again from the current size
+
+
+def peak_rss() -> int:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) * 1024
+    raise AssertionError("no VmHWM")
+
+
+def test_a_scene_larger_than_the_free_memory_is_refused_before_it_is_read(monkeypatch: pytest.MonkeyPatch) -> None:
+    triangles = subdivided_cube(7)  # 196,608 triangles: about 400 MB to prepare and trace
+    monkeypatch.setattr(resources, "available_memory", lambda: 250_000_000)  # a machine with 250 MB free
+    reads = []
+    monkeypatch.setattr(mesh_export.CACHE, "arrays", lambda *args: reads.append(args))
+    peak_rss_reset()
+    before = peak_rss()
+    started = time.perf_counter()
+    with pytest.raises(RuntimeError) as raised:
+        bpy.ops.render.render()
+    seconds = time.perf_counter() - started
+    grown = peak_rss() - before
+    message = str(raised.value)
+    print(f"refused in {seconds:.2f} s, Blender's peak grew by {grown / 1e6:.0f} MB: {message}")
+    assert reads == []  # nothing of the scene was read: the count came from Blender's own mesh sizes
+    assert len(message.strip().splitlines()) == 1, message
+    assert "Weathervane Tracer: not started: a 64x48 float64 render with 2 workers" in message
+    assert f"of {triangles:,} triangles needs about" in message
+    assert "250.0 MB is available; the largest: Cube (196,608 triangles); try fewer triangles" in message
+    assert "Precision float32" in message and "Traceback" not in message
+    assert grown < 200_000_000  # Blender's own evaluation of the modifier only
+    image = bpy.data.images.get("Render Result")
+    assert image is None or not image.has_data or max(image.pixels[:]) == 0.0  # nothing was written
+
+
+def test_the_estimate_lets_a_scene_that_fits_render(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same scene with 2 GB free renders; its real growth stays below the estimate (which errs large)."""
+    triangles = subdivided_cube(7)
+    monkeypatch.setattr(resources, "available_memory", lambda: 2_000_000_000)
+    settings = resources.sc.RenderSettings(width=64, height=48)
+    estimate = resources.memory_needed(settings, 2) + resources.scene_bytes(triangles, 1)
+    engine.close_renderers()  # workers started afresh, as in a new Blender
+    engine._closing[0] = False
+    peak_rss_reset()
+    before = peak_rss()
+    bpy.ops.render.render()
+    grown = peak_rss() - before
+    print(f"estimated {estimate / 1e6:.0f} MB; Blender's process grew by {grown / 1e6:.0f} MB (workers not counted)")
+    assert grown < estimate
+
+
+def test_esc_while_the_workers_prepare_a_large_scene_stops_the_render_before_any_band(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    subdivided_cube(8)  # 786,432 triangles: seconds of preparation in each worker before their first band
+    asked: list[float] = []
+    written: list[int] = []
+    write = engine._write
+
+    def counted_write(*args) -> None:
+        written.append(1)
+        write(*args)
+
+    def esc_after_the_export(_engine) -> bool:
+        """The first look is the export's, before it reads the cube; the next ones come while the workers prepare
+        the scene: the user presses Esc half a second into that."""
+        asked.append(time.perf_counter())
+        return len(asked) > 1 and asked[-1] >= asked[1] + 0.5
+
+    monkeypatch.setattr(engine, "_write", counted_write)
+    monkeypatch.setattr(engine, "cancelled", esc_after_the_export)
+    bpy.ops.render.render()
+    returned = time.perf_counter()
+    pressed = asked[1] + 0.5
+    print(f"Esc to the render's return: {returned - pressed:.3f} s; {len(asked)} looks at Esc")
+    assert written == []  # stopped during the preparation: no band was traced
+    assert len(asked) >= 3  # asked while waiting (every 0.1 s), not only when a band finished
