@@ -57,7 +57,7 @@ def test_a_scene_larger_than_the_free_memory_is_refused_before_it_is_read(monkey
     assert "Weathervane Tracer: not started: a 64x48 float64 render with 2 workers" in message
     assert f"of {triangles:,} triangles needs about" in message
     assert "250.0 MB is available; the largest: Cube (196,608 triangles); try fewer triangles" in message
-    assert "Precision float32" in message and "Traceback" not in message
+    assert "Precision 32-bit" in message and "Traceback" not in message
     assert grown < 200_000_000  # Blender's own evaluation of the modifier only
     image = bpy.data.images.get("Render Result")
     assert image is None or not image.has_data or max(image.pixels[:]) == 0.0  # nothing was written

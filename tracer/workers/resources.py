@@ -153,9 +153,9 @@ def _advice(settings: sc.RenderSettings, workers: int, blender: bool = False) ->
     """What would need less memory, in the command line's flags or (blender) in the add-on's settings' words."""
     advice = []
     if settings.dtype == "float64":
-        advice.append("Precision float32" if blender else "--dtype float32")
+        advice.append("Precision 32-bit" if blender else "--dtype float32")
     if workers > 1:
-        advice.append("fewer Workers" if blender else "fewer --workers")
+        advice.append("fewer Processes" if blender else "fewer --workers")
     advice.append("a lower Resolution %" if blender else "a smaller --width/--height")
     return advice
 
