@@ -237,7 +237,7 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     )
     # ---- the documented tracer ----
     depth: IntProperty(
-        name="Mirror Bounces",
+        name="Reflections",
         min=0,
         max=16,
         default=3,

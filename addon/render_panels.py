@@ -158,7 +158,7 @@ class WEATHERVANE_RENDER_PT_conversion(TracerPanel, bpy.types.Panel):
         layout = self.layout
         rows = conversion_report.scene_conversion(context.scene)
         # the counts, and as many of the approximated names as the editor's width holds (each has its row below)
-        width = context.region.width if context.region else 280
+        width = context.region.width if context.region else 240
         layout.label(text=conversion_report.summary_line(rows, characters_for(width)))
         icons = {"MATERIAL": "MATERIAL", "LIGHT": "LIGHT", "WORLD": "WORLD"}
         for kind, name, notes in rows:
