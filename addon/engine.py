@@ -70,11 +70,16 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         return session
 
     def view_update(self, context, depsgraph) -> None:
-        """The depsgraph changed: export the scene again (the view's own camera is added in view_draw)."""
+        """The depsgraph changed: export the scene again and hand it over as this view sees it, so that it is traced
+        while Blender gets to the draw (view_draw hands over the view's own changes: an orbit, a resize)."""
         try:
             # Blender calls this inside the evaluation, before the depsgraph handlers: what changed is told here
             export.observe(depsgraph, from_view_update=True)
-            self._viewport_session(depsgraph.scene).update_scene(context, depsgraph)
+            session = self._viewport_session(depsgraph.scene)
+            session.update_scene(context, depsgraph)
+            region, view = context.region, context.region_data
+            if region is not None and region.type == "WINDOW" and isinstance(view, bpy.types.RegionView3D):
+                session.show(region, view, _playing(context))
         except Exception:  # a viewport must never raise into Blender's draw loop
             import traceback
 
@@ -87,7 +92,8 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             session = self._viewport_session(blender_scene)
             if session.document is None and session.error is None:
                 session.update_scene(context, depsgraph)
-            session.show(context.region, context.region_data)
+            session.show(context.region, context.region_data, _playing(context))
+            session.draw_soon()
             status = session.draw(context.region)
         except Exception as failure:  # one line in the view; the console has the traceback
             import traceback
@@ -215,6 +221,12 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         _write(render_result, shown)
         self.end_result(render_result)
         self.update_stats("Weathervane Tracer", f"{result.seconds * 1000:.0f} ms, render border {x1 - x0}x{y1 - y0}")
+
+
+def _playing(context) -> bool:
+    """Whether an animation is playing in the context's window (the Rendered view then traces frames coarse)."""
+    screen = context.screen
+    return screen is not None and screen.is_animation_playing
 
 
 def border_region(render, width: int, height: int) -> tuple[int, int, int, int] | None:

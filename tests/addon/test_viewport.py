@@ -158,3 +158,49 @@ def test_the_status_line_never_shows_a_previous_scenes_figures_and_says_done_wit
     assert session._status(coarse) == "Weathervane Tracer: 1/8 resolution (0.10 s)"
     edited = SimpleNamespace(image=np.zeros((4, 6, 3)), divisor=1, generation=2, seconds=0.05, traced=3)
     assert session._status(edited) == "Weathervane Tracer: edit, 3 of 24 pixels traced again in 0.05 s"
+
+
+def test_selecting_hovering_or_redrawing_starts_no_trace_and_leaves_the_image_and_status() -> None:
+    """What Blender calls on a selection (a depsgraph update: view_update exports and hands over the view) and on a
+    redraw (hovering, a panel opened: view_draw) leaves the tracer idle, the drawn level and the status as they were;
+    a playing animation traces each frame at 1/4 of the view alone."""
+    view_matrix, window_matrix, _ = view_of({"lens": 30.0}, (48, 36), 0.0)
+    bpy.context.scene.weathervane.workers = 1
+    view = View(view_matrix, window_matrix, 48, 36)
+    session = viewport.ViewportSession(workers=1)
+    try:
+        session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
+        session.show(view.region, view.data)
+        assert session.progressive.wait(120) and session.progressive.error is None
+        shown, generation = session.progressive.latest(), session.progressive.generation
+        session._texture_level, session.status = shown, session._status(shown)  # as a draw leaves them
+        status = session.status
+        ball = bpy.data.objects["WV ball"]
+        for change in ("select", "activate", "deselect", "redraw"):
+            if change == "select":
+                ball.select_set(True)
+            elif change == "activate":
+                bpy.context.view_layer.objects.active = ball
+            elif change == "deselect":
+                ball.select_set(False)
+                bpy.context.view_layer.objects.active = None
+            bpy.context.view_layer.update()
+            session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())  # view_update
+            session.show(view.region, view.data)
+            session.draw_soon()  # view_draw, returning at once
+            assert session.progressive.generation == generation and not session.progressive.busy, change
+            assert session.progressive.latest() is shown and not session.news(), change
+            assert session._status(session.progressive.latest()) == status, change
+
+        # an animation playing: a frame (here a change over most pixels, as a turning vane's frame is not a small
+        # edit) is traced at 1/4 of the view's size only; stopped, the full levels follow
+        materials = {entry.name: entry for entry in bpy.context.scene.weathervane.materials}
+        materials["tiles"].color = (0.1, 0.7, 0.2)
+        session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
+        session.show(view.region, view.data, playing=True)
+        assert session.progressive.wait(120)
+        assert session.progressive.latest().image.shape[:2] == (9, 12)
+        session.show(view.region, view.data)
+        assert session.progressive.wait(120) and session.progressive.latest().divisor == 1
+    finally:
+        session.close()

@@ -29,9 +29,10 @@ from .edits import Edit, EditableImage, edits_between
 
 LEVELS = (8, 4, 2, 1)  # divisors of the image's width and height, coarse to fine
 # Up to this many camera samples (width x height x samples) the full level's ray trees are kept afterwards (234
-# bytes a sample on the default scene: 216 MB at 1280x720, traced again in 1.3 s in one process, in pieces), so that
-# a later scene that differs by one small edit is answered at full size by tracing only the pixels it changes.
-EDITABLE_SAMPLES = 1 << 20
+# bytes a sample on the default scene: 216 MB at 1280x720, 342 MB for the 1586x926 3D View of a full-HD window, traced
+# again in 1.6 s in one process, in pieces), so that a later scene that differs by one small edit is answered at full
+# size by tracing only the pixels it changes (a whole 1920x1080 view at one sample is under it).
+EDITABLE_SAMPLES = 1 << 21
 # Nor when the full level took longer than this many seconds times the pool's workers: the ray trees are traced again
 # in one process, and a scene of many triangles (a subdivided Suzanne in a 1321x786 view) kept them for 16 s after
 # its image was done, its CPU taken from the next edit's coarse levels.
@@ -92,14 +93,30 @@ class ProgressiveRender:
         self._thread = threading.Thread(target=self._run, daemon=True, name="weathervane-progressive")
         self._thread.start()
 
-    def show(self, scene: sc.Scene) -> int:
-        """Trace scene from its coarsest level, dropping the scene being traced; returns its generation."""
+    def show(self, scene: sc.Scene, levels: tuple[int, ...] | None = None) -> int:
+        """Trace scene from its coarsest level, dropping the scene being traced; returns its generation. levels:
+        the divisors to trace for this scene instead of the render's own (an animation playing: (4,) alone)."""
         with self._condition:
             self._generation += 1
-            self._pending = (scene, self._generation, time.perf_counter())
+            self._pending = (scene, self._generation, time.perf_counter(), levels or self._levels)
             self._busy = True
             self._condition.notify()
             return self._generation
+
+    def wait_first(self, timeout: float) -> bool:
+        """Block up to timeout seconds until the newest scene has a level (its coarsest, or its edit at full size);
+        True if it has one. A view about to be drawn waits this short while so that it draws the change itself
+        instead of the previous image (a draw of a full-HD window in software OpenGL costs 0.4-0.6 s)."""
+        with self._condition:
+            return self._condition.wait_for(
+                lambda: (
+                    self._closed
+                    or self._generation == 0
+                    or (self._latest is not None and self._latest.generation == self._generation)
+                    or (not self._busy)
+                ),
+                timeout,
+            )
 
     def latest(self) -> Level | None:
         with self._condition:
@@ -151,7 +168,7 @@ class ProgressiveRender:
                     self._condition.wait_for(lambda: self._pending is not None or self._closed)
                     if self._closed:
                         return
-                    scene, generation, handed_over = self._pending
+                    scene, generation, handed_over, levels = self._pending
                     self._pending = None
 
                 def check(_done: int = 0, _total: int = 0, generation: int = generation) -> None:
@@ -169,14 +186,15 @@ class ProgressiveRender:
                     else:
                         editable = None
                         full_seconds = 0.0
-                        for divisor in self._levels:
+                        for divisor in levels:
                             started = time.perf_counter()
                             result = renderer.render(level_scene(scene, divisor), progress=check)
                             full_seconds = time.perf_counter() - started
                             count = result.image.shape[0] * result.image.shape[1]
                             self._deliver(Level(result.image, divisor, generation, 0.0, count), handed_over)
                         if (
-                            scene.render.width * scene.render.height * scene.render.samples <= EDITABLE_SAMPLES
+                            levels[-1] == 1
+                            and scene.render.width * scene.render.height * scene.render.samples <= EDITABLE_SAMPLES
                             and full_seconds <= EDITABLE_SECONDS * renderer.workers
                         ):
                             editable = EditableImage(scene, between_pieces=check)
@@ -204,6 +222,7 @@ class ProgressiveRender:
             if self._generation != level.generation:
                 raise _SupersededError
             self._latest = level
+            self._condition.notify_all()  # wait_first
         if self._on_level is not None:
             self._on_level(level)
 
