@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found; install Python 3.11" >&2; exit 1; }
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,blender,report,cluster]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,blender,report,cluster,exr]'
 	@touch $@
 
 .venv-bpy-%/.installed: tests/addon/wheels.txt
