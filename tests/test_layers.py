@@ -38,6 +38,7 @@ ADDON_LAYERS: tuple[tuple[str, ...], ...] = (
         "exact_twin",
         "properties",
         "conversion_report",
+        "sync",
     ),  # the scene the add-on builds, reads and keys
     ("viewport", "engine"),  # the render engine and the Rendered view
     ("operators", "panels", "render_panels"),  # what the user clicks

@@ -47,7 +47,7 @@ def render_frames(
     """(frame, image) for each (frame, heading), in order: scene with its vane turned to each heading."""
     dtype = np.dtype(scene.render.dtype)
     # a scene with an alpha (a transparent film, a holdout) or a border is traced in whole frames (see below)
-    whole = scene.has_alpha or scene.render.border is not None
+    whole = scene.has_alpha or scene.render.border is not None or bool(scene.render.passes)
     volume = None if whole else swept_volume(scene, dtype)  # every heading: one image without the vane serves all
     still = None if volume is None else without_vane(scene)
     base: RenderResult | None = None
@@ -117,8 +117,8 @@ class TurningFrames:
     def render(
         self, renderer: Renderer, scene: sc.Scene, progress: Progress | None = None, band_done: BandDone | None = None
     ) -> RenderResult:
-        # an alpha or a render border: whole frames (pixel re-traces keep colour only, of the whole image)
-        if scene.vane is None or scene.has_alpha or scene.render.border is not None:
+        # an alpha, a render border or passes: whole frames (pixel re-traces keep colour only, of the whole image)
+        if scene.vane is None or scene.has_alpha or scene.render.border is not None or scene.render.passes:
             return renderer.render(scene, progress, band_done=band_done)
         still = pickle.dumps(replace(scene, vane=replace(scene.vane, heading=0.0)))
         if still == self._still:

@@ -14,6 +14,7 @@ import numpy as np
 from . import motion as mo
 from . import scene as sc
 from . import wind as wi
+from .passes import PASSES
 
 DEFAULT_SCENE_RESOURCE = "default_scene.json"
 
@@ -25,6 +26,8 @@ LENGTH_RANGE = (1e-6, 1e9)  # metres: radii, heights, sizes
 ANGLE_LIMIT = 1e6  # degrees: rotations and headings, |a| at most
 DIRECTION_MIN_LENGTH = 1e-9  # a direction or axis shorter than this has no usable direction
 INTENSITY_MAX = 1e6
+PASS_INDEX_MAX = 2**15 - 1  # Blender's pass_index range (a short)
+MIST_FALLOFFS = ("QUADRATIC", "LINEAR", "INVERSE_QUADRATIC")  # Blender's World > Mist Pass > Falloff
 SPECULAR_MAX = 1e6  # the specular exponent (and coef times it)
 LENS_RANGE = (1e-3, 1e6)  # millimetres: lens and sensor sizes
 FOV_RANGE = (1e-3, 179.0)  # degrees
@@ -264,6 +267,7 @@ def _material(reader: _Reader) -> sc.Material:
         emission=reader.vector("emission", sc.BLACK, low=0.0, high=INTENSITY_MAX),
         two_sided=reader.boolean("two_sided", False),
         specular_color=reader.vector("specular_color", None, low=0.0, high=INTENSITY_MAX),
+        pass_index=reader.number("pass_index", 0, low=0, high=PASS_INDEX_MAX, integer=True),
     )
     reader.finish()
     return material
@@ -298,6 +302,7 @@ def _object(
         "visible_shadow": reader.boolean("visible_shadow", True),
         "visible_reflection": reader.boolean("visible_reflection", True),
         "holdout": reader.boolean("holdout", False),
+        "pass_index": reader.number("pass_index", 0, low=0, high=PASS_INDEX_MAX, integer=True),
     }
     result: sc.SceneObject | None = None
     if kind == "sphere":
@@ -775,6 +780,10 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         film_transparent=reader.boolean("film_transparent", base.film_transparent),
         border=reader.vector("border", None, length=4, low=0.0, high=1.0),
         crop=reader.boolean("crop", base.crop),
+        passes=_passes(reader),
+        mist_start=reader.number("mist_start", base.mist_start, low=-COORDINATE_LIMIT, high=COORDINATE_LIMIT),
+        mist_depth=reader.number("mist_depth", base.mist_depth, low=0.0, high=COORDINATE_LIMIT),
+        mist_falloff=reader.choice("mist_falloff", MIST_FALLOFFS, base.mist_falloff),
     )
     border = settings.border
     if border is not None and all(isinstance(x, float) for x in border):
@@ -788,6 +797,19 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
             reader.fail("samples", samples_problem)
     reader.finish()
     return settings
+
+
+def _passes(reader: _Reader) -> tuple[str, ...]:
+    """render.passes: a list of pass names (tracer/scene/passes.py), kept in the registry's order."""
+    raw = reader.raw("passes", [])
+    if not isinstance(raw, list) or not all(isinstance(name, str) for name in raw):
+        reader.fail("passes", f"must be a list of pass names, got {_show_shape(raw)}")
+        return ()
+    unknown = [name for name in raw if name not in PASSES]
+    if unknown:
+        reader.fail("passes", f"unknown pass {_show(unknown[0])} (one of {', '.join(PASSES)})")
+        return ()
+    return tuple(name for name in PASSES if name in raw)
 
 
 def check_samples(samples: int) -> str | None:

@@ -47,6 +47,7 @@ class Material:
     emission: Color = BLACK
     two_sided: bool = False
     specular_color: Color | None = None
+    pass_index: int = 0  # Blender's Material > Settings > Pass Index: the Material Index pass's value
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -60,6 +61,7 @@ class Primitive:
     visible_shadow: bool = True
     visible_reflection: bool = True
     holdout: bool = False
+    pass_index: int = 0  # Blender's Object > Relations > Pass Index: the Object Index pass's value
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -417,6 +419,11 @@ class RenderSettings:
     # pixels inside are traced, the others are 0 (alpha 0); crop: the image is the border's region only
     border: tuple[float, float, float, float] | None = None
     crop: bool = False
+    passes: tuple[str, ...] = ()  # render passes beside the image (tracer/scene/passes.py), in the registry's order
+    # the Mist pass: Blender's World > Mist Pass start and depth (metres) and falloff
+    mist_start: float = 5.0
+    mist_depth: float = 25.0
+    mist_falloff: Literal["QUADRATIC", "LINEAR", "INVERSE_QUADRATIC"] = "QUADRATIC"
 
 
 @dataclass(frozen=True)
@@ -442,6 +449,13 @@ class Scene:
         if settings.film_transparent or (settings.border is not None and not settings.crop):
             return True
         return any(obj.holdout for obj in self.objects)
+
+    @property
+    def channels(self) -> int:
+        """A traced pixel's channels: colour, alpha where the scene has one, then each pass's (passes.layout)."""
+        from .passes import width
+
+        return (4 if self.has_alpha else 3) + sum(width(name) for name in self.render.passes)
 
     def with_heading(self, heading: float) -> Scene:
         """The same scene with the vane turned to heading degrees."""

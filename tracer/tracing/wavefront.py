@@ -41,6 +41,7 @@ from ..geometry.rayframes import RayFrames
 from ..geometry.robust import make_robust_kernel, offset_origins
 from ..scene import scene as sc
 from .raystore import RayStore
+from .recorder import PassRecorder, view_axis
 
 # this many still triangle meshes seen by the same rays go into the scene's hierarchy as one kernel (their
 # triangles behind one hierarchy, MergedMeshKernel): 3,000 cubes as separate objects took 16x the time of the same
@@ -168,8 +169,12 @@ class PreparedScene:
         self.holdout = np.asarray([obj.holdout for obj in objects], dtype=bool)
         self.any_holdout = bool(self.holdout.any())
         self.has_alpha = self.scene.has_alpha
-        self.channels = 4 if self.has_alpha else 3  # colour, and alpha where the scene has one
+        self.channels = self.scene.channels  # colour, alpha where the scene has one, then the passes'
         self._materials(objects)
+        if settings.passes:  # what the passes read of the placed objects and the material rows (recorder.py)
+            self.object_names = [obj.name for obj in objects]
+            self.object_pass_index = np.asarray([obj.pass_index for obj in objects], dtype=self.dtype)
+            self.view_axis = view_axis(self.scene.camera, self.dtype)
         self._smooth_normals(objects, primitives, vanes)
         self.lights = []
         for light in self.scene.lights:
@@ -395,8 +400,11 @@ class PreparedScene:
         if self.triangle_materials:
             table = [self.scene.materials[name] for name in names]
             self.object_material = np.asarray([number[obj.material] for obj in objects], dtype=np.intp)
+            self.material_names = names
         else:
             table = [self.scene.materials[obj.material] for obj in objects]
+            self.material_names = [obj.material for obj in objects]
+        self.material_pass_index = np.asarray([m.pass_index for m in table], dtype=self.dtype)
         as_columns = lambda values: np.asarray(values, dtype=self.dtype).T.reshape(3, -1)  # noqa: E731
         self.colors = as_columns([m.color for m in table])  # (3, materials)
         self.specular = np.asarray([m.specular for m in table], dtype=self.dtype)
@@ -425,6 +433,14 @@ class PreparedScene:
             v0 = triangles[:, 0]
             parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, corners[:, 0], corners[:, 1], corners[:, 2])
             self.smooth[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
+
+    def cryptomatte_hashes(self, name: str) -> np.ndarray:
+        """Each placed object's (cryptomatte_object) or material row's (cryptomatte_material) name hashed as
+        Cryptomatte's float id (K,) float32."""
+        from .cryptomatte import name_hash
+
+        names = self.object_names if name == "cryptomatte_object" else self.material_names
+        return np.asarray([name_hash(text)[1] for text in names], dtype=np.float32)
 
     def material_of(self, obj: np.ndarray, part: np.ndarray) -> np.ndarray:
         """Each hit's index into the material arrays (n,): its object's material, or its triangle's."""
@@ -532,6 +548,7 @@ class PreparedScene:
         samples: np.ndarray | None = None,
         geometric: np.ndarray | None = None,
         frames: np.ndarray | None = None,
+        split: dict[str, np.ndarray] | None = None,
     ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """Listing 3.2 for every hit point at once: P, N, V (3, n), specular (n,) -> intensity (n,); where lights or
         materials have colours (self.colored) the (ambient + diffuse, specular) intensities (3, n) each instead.
@@ -543,7 +560,11 @@ class PreparedScene:
         (K + 1,), for a scene prepared with headings (counts is then a list of each frame's).
 
         The shadow rays of all lights go through the hierarchy in one batch; the terms are then added light by
-        light in the listing's order."""
+        light in the listing's order.
+
+        split: a dict to fill with the same sums term by term for the passes: "ambient", "diffuse", "specular" ((n,)
+        each, (3, n) where coloured) and "shadow" (n,), the share of the lights (not ambient) that reach each point
+        (face it and are not blocked); the intensity returned is the same bytes either way."""
         settings = self.scene.render
         count = P.shape[1]
         length_n = np.sqrt(dot(N, N))
@@ -589,13 +610,25 @@ class PreparedScene:
         lit = self._lit(
             [term for term in terms if term is not None], P, normals, counts, surface, footprint, samples, frames
         )
+        if split is not None:
+            reached = [
+                light_lit & (term[3] | term[4]) for light_lit, term in zip(lit, [t for t in terms if t], strict=True)
+            ]
+            share = np.zeros(count, dtype=self.dtype)
+            for light_reached in reached:
+                share += light_reached
+            split["shadow"] = share / len(reached) if reached else np.ones(count, dtype=self.dtype)
         if self.colored:
-            return self._colored(terms, lit, count, length_n, exponent)
+            return self._colored(terms, lit, count, length_n, exponent, split)
         intensity = np.zeros(count, dtype=self.dtype)
+        if split is not None:
+            ambient, diffuse_sum, specular_sum = (np.zeros(count, dtype=self.dtype) for _ in range(3))
         shadow_rays = iter(lit)
         for light, term in zip(self.lights, terms, strict=True):
             if term is None:
                 intensity = intensity + light.intensity
+                if split is not None:
+                    ambient = ambient + light.intensity
                 continue
             L, NL, length_l, diffuse_gate, gate, cosine, needed, _ = term
             light_lit = next(shadow_rays)
@@ -604,19 +637,35 @@ class PreparedScene:
             gate &= light_lit
             highlight = light.intensity * np.power(np.where(gate, cosine, 1.0), exponent)
             intensity = np.where(gate, intensity + highlight, intensity)
+            if split is not None:
+                diffuse_sum = np.where(light_lit & diffuse_gate, diffuse_sum + diffuse, diffuse_sum)
+                specular_sum = np.where(gate, specular_sum + highlight, specular_sum)
+        if split is not None:
+            split.update(ambient=ambient, diffuse=diffuse_sum, specular=specular_sum)
         return intensity
 
     def _colored(
-        self, terms: list, lit: list[np.ndarray], count: int, length_n: np.ndarray, exponent: np.ndarray
+        self,
+        terms: list,
+        lit: list[np.ndarray],
+        count: int,
+        length_n: np.ndarray,
+        exponent: np.ndarray,
+        split: dict[str, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """The light-by-light sums of find_intensity with each light's colour and attenuation: (ambient + diffuse,
-        specular) (3, n) each."""
+        specular) (3, n) each; split: also the ambient and the diffuse sums apart (find_intensity)."""
         diffuse_sum = np.zeros((3, count), dtype=self.dtype)
         specular_sum = np.zeros((3, count), dtype=self.dtype)
+        ambient = lights_diffuse = None
+        if split is not None:
+            ambient, lights_diffuse = np.zeros((3, count), dtype=self.dtype), np.zeros((3, count), dtype=self.dtype)
         shadow_rays = iter(lit)
         for light, term in zip(self.lights, terms, strict=True):
             if term is None:
                 diffuse_sum = diffuse_sum + light.intensity * light.color
+                if split is not None:
+                    ambient = ambient + light.intensity * light.color
                 continue
             _, NL, length_l, diffuse_gate, gate, cosine, _, factor = term
             light_lit = next(shadow_rays)
@@ -626,8 +675,14 @@ class PreparedScene:
                 diffuse = diffuse * factor
                 highlight = highlight * factor
             diffuse_sum = np.where(light_lit & diffuse_gate, diffuse_sum + diffuse * light.color, diffuse_sum)
+            if split is not None:
+                lights_diffuse = np.where(
+                    light_lit & diffuse_gate, lights_diffuse + diffuse * light.color, lights_diffuse
+                )
             gate &= light_lit
             specular_sum = np.where(gate, specular_sum + highlight * light.color, specular_sum)
+        if split is not None:
+            split.update(ambient=ambient, diffuse=lights_diffuse, specular=specular_sum)
         return diffuse_sum, specular_sum
 
     def _attenuation(self, light: _Light, L: np.ndarray, length_l: np.ndarray) -> np.ndarray:
@@ -755,6 +810,7 @@ class PreparedScene:
         alpha: np.ndarray | None = None,
         pixels: np.ndarray | None = None,
         frames: np.ndarray | None = None,
+        recorder: PassRecorder | None = None,
     ) -> np.ndarray:
         """Camera rays (3, N) -> linear colors (3, N), unclamped; alpha (N,), where given (ones), is set to 0 for
         the rays that meet a holdout first, or nothing with a transparent film.
@@ -767,7 +823,7 @@ class PreparedScene:
         screen rectangles cull the camera rays and their first mirror rays).
         origins (3, N): where each ray starts (None: all at the camera); far (N,): where each stops (None: never),
         as camera.band_starts gives them for a clipped or orthographic camera. footprint: records which of the N
-        camera rays' trees meet its volume."""
+        camera rays' trees meet its volume. recorder: keeps the render passes of the N camera rays."""
         depth = self.scene.render.depth
         total = D.shape[1]
         query = None if frames is None else RayFrames(frames[None])  # which frame each ray of a query is of
@@ -805,11 +861,16 @@ class PreparedScene:
             if bounce == 0:  # the misses already hold the background (or 0 under a transparent film)
                 if transparent and alpha is not None:
                     alpha[obj < 0] = 0.0  # the film shows nothing there
+                if recorder is not None:
+                    missed = indices(obj < 0)
+                    recorder.environment(missed, color[:, missed])
             else:
                 miss = indices(obj < 0)
                 if miss.size:
                     sky = weight.take(miss) * self.background(D, miss)
                     _accumulate(color, pixel.take(miss), sky, False)
+                    if recorder is not None:
+                        recorder.environment(pixel.take(miss), sky)
             hit = indices(obj >= 0)
             if hit.size == 0:
                 break
@@ -820,6 +881,8 @@ class PreparedScene:
                         color[:, hit.take(indices(held))] = 0.0
                         if alpha is not None:
                             alpha[hit.take(indices(held))] = 0.0
+                        if recorder is not None:
+                            recorder.holdout(hit.take(indices(held)))
                     hit = hit.take(indices(~held))
                     if not hit.size:
                         break
@@ -837,8 +900,15 @@ class PreparedScene:
             geometric = None if S is N else N
             specular = self.specular.take(material)
             points = None if frames is None else np.searchsorted(pixel, frames)  # where each frame's points start
-            intensity = self.find_intensity(P, S, V, specular, counts, surface, footprint, pixel, geometric, points)
+            split = {} if recorder is not None and bounce == 0 and recorder.shading else None
+            intensity = self.find_intensity(
+                P, S, V, specular, counts, surface, footprint, pixel, geometric, points, split
+            )
             reflective = self.reflective.take(material)
+            if recorder is not None and bounce == 0:
+                recorder.first_hit(pixel, P, S, obj, material)
+                if split is not None:
+                    recorder.terms(pixel, split, material, reflective)
             if self.colored:
                 diffuse, highlight = intensity
                 lit = diffuse * self.colors.take(material, axis=1)
@@ -848,6 +918,8 @@ class PreparedScene:
             if self.emissive:
                 local = local + self.emission.take(material, axis=1)
             _accumulate(color, pixel, weight * local if bounce else local, bounce == 0)
+            if recorder is not None and bounce:
+                recorder.reflection(pixel, weight * local)
             go_on = indices(reflective > 0.0)
             if bounce == depth or go_on.size == 0:
                 break
@@ -1026,6 +1098,7 @@ class PreparedScene:
                 origins, far = cam.pixel_starts(camera, settings, pixels, directions)
                 origins = origins.astype(self.dtype)
             alpha = np.ones(directions.shape[1], dtype=self.dtype) if self.has_alpha else None
+            recorder = PassRecorder(self, directions.shape[1]) if settings.passes else None
             color = self.trace(
                 directions,
                 counts if frames is None else frame_counts,
@@ -1036,11 +1109,14 @@ class PreparedScene:
                 alpha,
                 None if rows is not None else pixels,
                 frames,
+                recorder,
             )
         if alpha is not None:
             color = np.concatenate((color, alpha[None]))
-        samples = color.reshape(self.channels, -1, settings.samples)
+        samples = color.reshape(color.shape[0], -1, settings.samples)
         image = samples.sum(axis=2) / settings.samples if settings.samples > 1 else samples[..., 0]
+        if recorder is not None:
+            image = np.concatenate((image, recorder.combine(settings.samples)))
         hit = None if volume is None else footprint.touched.reshape(-1, settings.samples).any(axis=1)
         return np.ascontiguousarray(image.T), counts, hit
 

@@ -28,6 +28,7 @@ from ..geometry.camera import border_window
 from ..geometry.cull import GRID_BOXES
 from ..geometry.footprint import Volume
 from ..scene import scene as sc
+from ..scene.passes import layout as pass_layout
 from ..tracing.wavefront import PreparedScene, RayCounts
 from .pool import PoolClosedError, Task, WorkerPool
 from .resources import band_samples, check_resources
@@ -87,6 +88,8 @@ class RenderResult:
     # (base, flat pixels (P,)): the image is base (the array given to render_pixels) with those pixels traced again
     # and every other pixel base's; None for a whole frame. A writer can then convert only those pixels to 8 bits.
     retraced: tuple[np.ndarray, np.ndarray] | None = None
+    # pass name -> (height, width, channels) in the scene's dtype, for the settings' passes (tracer/scene/passes.py)
+    passes: dict[str, np.ndarray] | None = None
 
     @property
     def mrays_per_second(self) -> float:
@@ -129,17 +132,26 @@ def _result(
     touched: np.ndarray | None = None,
     settings: sc.RenderSettings | None = None,
 ) -> RenderResult:
-    """A RenderResult from an image of 3 channels, or of 4 (colour and alpha) where the scene has an alpha; cut to
-    the render border where the settings crop to it."""
+    """A RenderResult from an image of 3 channels, or of 4 (colour and alpha) where the scene has an alpha, then
+    the settings' passes' channels; cut to the render border where the settings crop to it."""
     if settings is not None and settings.crop and settings.border is not None:
         x0, x1, y0, y1 = border_window(settings)
         image = image[y0:y1, x0:x1]
         touched = None if touched is None else touched[y0:y1, x0:x1]
         if image.shape[-1] == 3:
             image = np.ascontiguousarray(image)
+    found = None
+    if settings is not None and settings.passes:
+        slots = pass_layout(settings.passes)
+        colour = image.shape[-1] - sum(slot.stop - slot.start for slot in slots.values())
+        found = {name: image[..., colour + slot.start : colour + slot.stop].copy() for name, slot in slots.items()}
+        image = image[..., :colour]
     if image.shape[-1] == 4:
-        return RenderResult(np.ascontiguousarray(image[..., :3]), counts, seconds, touched, image[..., 3].copy())
-    return RenderResult(image, counts, seconds, touched)
+        result = RenderResult(np.ascontiguousarray(image[..., :3]), counts, seconds, touched, image[..., 3].copy())
+    else:
+        result = RenderResult(np.ascontiguousarray(image), counts, seconds, touched)
+    result.passes = found
+    return result
 
 
 def _colour(image: np.ndarray) -> np.ndarray:
@@ -454,7 +466,7 @@ class Renderer:
     def _submit(self, scene: sc.Scene, volume: Volume | None = None) -> _Frame:
         pool = self._start_pool()
         settings = scene.render
-        shape = (settings.height, settings.width, 4 if scene.has_alpha else 3)
+        shape = (settings.height, settings.width, scene.channels)
         dtype = np.dtype(settings.dtype)
         started = time.perf_counter()
         shared = self._images.take(shape, dtype) if self._images is not None else None

@@ -1,0 +1,120 @@
+"""Render passes (tracer/scene/passes.py, tracer/tracing/recorder.py): asking for them leaves the image's bytes as
+they were, the Whitted passes add up to the image, and the data passes hold what the scene's geometry says they must
+(a plane at a known distance, objects' and materials' pass indices, the mist's falloff)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from tests.random_scenes import extended_scene_document
+from tracer.scene import passes as ps
+from tracer.scene import scene as sc
+from tracer.scene.loader import SceneError, default_scene, default_scene_dict, scene_from_dict
+from tracer.workers.parallel import render
+
+SHADING_AND_DATA = tuple(name for name in ps.PASSES if not name.startswith("cryptomatte"))
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_passes_leave_the_image_as_it_was_and_the_whitted_passes_add_up_to_it(seed: int) -> None:
+    document = extended_scene_document(seed, width=24, height=18)
+    document["render"]["samples"] = [1, 4][seed % 2]
+    document["render"]["dtype"] = ["float64", "float64", "float32"][seed % 3]
+    document["render"]["model"] = ["phong", "blinn-phong"][seed % 2]
+    plain = scene_from_dict(document)
+    with_passes = plain.with_render(passes=SHADING_AND_DATA)
+    expected, result = render(plain, workers=1), render(with_passes, workers=2)
+    assert np.array_equal(result.image, expected.image)
+    assert (result.alpha is None) == (expected.alpha is None)
+    if expected.alpha is not None:
+        assert np.array_equal(result.alpha, expected.alpha)
+    assert set(result.passes) == set(SHADING_AND_DATA)
+    for name, values in result.passes.items():
+        assert values.shape == (*result.image.shape[:2], ps.width(name)), name
+    total = sum(result.passes[name].astype(np.float64) for name in ps.WHITTED)
+    # the same terms added in another order: a few units in the last place of the image's dtype
+    tolerance = 8 * np.finfo(result.image.dtype).eps * np.maximum(1.0, np.abs(result.image))
+    assert np.all(np.abs(total - result.image) <= tolerance)
+
+
+def plane_scene(distance: float, **render: object) -> sc.Scene:
+    """A camera at the origin looking down -Z (rotation 0) at a plane z = -distance, facing it; pass indices set."""
+    materials = {"wall": sc.Material(color=(0.5, 0.5, 0.5), pass_index=7)}
+    plane = sc.Plane(name="wall", material="wall", location=(0.0, 0.0, -distance), pass_index=3)
+    camera = sc.Camera(location=(0.0, 0.0, 0.0), rotation=(0.0, 0.0, 0.0), lens=50.0)
+    settings = sc.RenderSettings(width=16, height=12, **render)
+    lights = (sc.AmbientLight(0.2), sc.PointLight(location=(0.0, 0.0, 0.0), intensity=0.8))
+    return sc.Scene(materials, (plane,), lights, camera, render=settings)
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_depth_normal_position_and_indices_of_a_plane_at_a_known_distance(dtype: str) -> None:
+    scene = plane_scene(4.25, passes=("depth", "normal", "position", "object_index", "material_index"), dtype=dtype)
+    passes = render(scene, workers=1).passes
+    tolerance = 1e-4 if dtype == "float32" else 1e-9
+    assert np.allclose(passes["depth"], 4.25, atol=tolerance)  # along the view axis, whatever the pixel's angle
+    assert np.allclose(passes["normal"], [0.0, 0.0, 1.0], atol=tolerance)
+    assert np.allclose(passes["position"][..., 2], -4.25, atol=tolerance)
+    # each pixel's point is where its centre's ray meets the plane: x grows to the right, y down the rows
+    x, y = passes["position"][..., 0], passes["position"][..., 1]
+    assert np.all(np.diff(x, axis=1) > 0) and np.all(np.diff(y, axis=0) < 0)
+    assert np.all(passes["object_index"] == 3) and np.all(passes["material_index"] == 7)
+
+
+def test_the_background_is_far_in_depth_full_in_mist_and_empty_elsewhere() -> None:
+    scene = plane_scene(4.0, passes=("depth", "mist", "normal", "object_index", "shadow"))
+    scene = replace(scene, objects=())
+    passes = render(scene, workers=1).passes
+    assert np.all(passes["depth"] == ps.FAR) and np.all(passes["mist"] == 1.0)
+    assert np.all(passes["normal"] == 0.0) and np.all(passes["object_index"] == 0.0) and np.all(passes["shadow"] == 0)
+
+
+@pytest.mark.parametrize(
+    ("falloff", "shape"), [("LINEAR", lambda m: m), ("QUADRATIC", lambda m: m * m), ("INVERSE_QUADRATIC", math.sqrt)]
+)
+def test_mist_follows_the_worlds_start_depth_and_falloff(falloff: str, shape) -> None:
+    scene = plane_scene(6.0, passes=("mist", "position"), mist_start=2.0, mist_depth=10.0, mist_falloff=falloff)
+    passes = render(scene, workers=1).passes
+    distance = np.sqrt((passes["position"] ** 2).sum(axis=2))  # from the camera at the origin
+    expected = np.vectorize(shape)(np.clip((distance - 2.0) / 10.0, 0.0, 1.0))
+    assert np.allclose(passes["mist"][..., 0], expected, atol=1e-12)
+
+
+def test_shadow_is_the_share_of_lights_that_reach_the_point() -> None:
+    """Two lights in front of the plane and a small sphere hiding one of them from the plane's middle."""
+    scene = plane_scene(4.0, passes=("shadow",))
+    lights = (sc.PointLight((0.0, 0.0, -1.0), 0.5), sc.PointLight((3.0, 0.0, 0.0), 0.5))
+    blocker = sc.Sphere(name="blocker", material="wall", location=(0.0, 0.0, -2.0), radius=0.2, visible_camera=False)
+    scene = replace(scene, objects=(*scene.objects, blocker), lights=lights)
+    shadow = render(scene, workers=1).passes["shadow"][..., 0]
+    assert set(np.unique(shadow)) <= {0.5, 1.0}
+    assert shadow[6, 8] == 0.5 and shadow[0, 0] == 1.0  # the middle loses the light behind the blocker
+
+
+def test_a_holdout_shows_in_no_pass() -> None:
+    scene = plane_scene(4.0, passes=SHADING_AND_DATA)
+    held = replace(scene, objects=(replace(scene.objects[0], holdout=True),))
+    result = render(held, workers=1)
+    for name in SHADING_AND_DATA:
+        if name not in ("depth", "mist"):
+            assert np.all(result.passes[name] == 0.0), name
+
+
+def test_a_scene_file_asks_for_passes_by_name_and_unknown_names_are_refused() -> None:
+    document = default_scene_dict()
+    document["render"]["passes"] = ["normal", "depth"]
+    assert scene_from_dict(document).render.passes == ("depth", "normal")  # the registry's order
+    document["render"]["passes"] = ["depth", "vector"]
+    with pytest.raises(SceneError, match=r'render\.passes: unknown pass "vector"'):
+        scene_from_dict(document)
+    assert ps.parse("all") == tuple(ps.PASSES)
+    with pytest.raises(ValueError, match="unknown pass uv"):
+        ps.parse("depth,uv")
+
+
+def test_passes_are_off_by_default() -> None:
+    assert default_scene().render.passes == () and render(default_scene().with_render(width=8, height=6)).passes is None

@@ -1,0 +1,81 @@
+"""Render pass names -> what each holds, its channels, Blender's name for it, and how a pixel's samples combine.
+
+A render asks for passes by name (`render.passes` in a scene file, `--passes` on the command line, View Layer >
+Passes in Blender); each comes out beside the image as its own (height, width, channels) array. Data passes are the
+first hit's, as Cycles writes them; the Whitted passes split the documented shading term by term and add up to the
+image (docs/passes.md)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+
+@dataclass(frozen=True)
+class Pass:
+    """name: the tracer's; blender: Blender's pass name (a custom pass where Blender has none); channels: Blender's
+    channel letters; combine: how a pixel's samples give its value ("mean"; "first": the first sample's, as
+    Cycles overwrites depth, position and the indices with sample 0's; "ranks": Cryptomatte's (id, coverage)
+    pairs from every sample's id); what: one line for the docs and the tooltips."""
+
+    name: str
+    blender: str
+    channels: str
+    combine: Literal["mean", "first", "ranks"]
+    what: str
+
+
+# Cryptomatte ranks kept per pixel: 4 (two RGBA layers), as Blender's default "Levels 6" rounds to whole layers.
+CRYPTOMATTE_RANKS = 4
+# The depth and position of a camera ray that meets nothing (Cycles' "far" value for the background).
+FAR = 1.0e10
+
+PASSES: dict[str, Pass] = {
+    p.name: p
+    for p in (
+        Pass("depth", "Depth", "Z", "first", "distance along the camera's view axis to the first hit; 1e10 for none"),
+        Pass("mist", "Mist", "Z", "mean", "0 at the mist start to 1 at start + depth, by the World's mist falloff"),
+        Pass("normal", "Normal", "XYZ", "mean", "the first hit's shading normal, world space, unit length"),
+        Pass("position", "Position", "XYZ", "first", "the first hit's point, world space"),
+        Pass("object_index", "IndexOB", "X", "first", "the first hit object's pass index"),
+        Pass("material_index", "IndexMA", "X", "first", "the first hit material's pass index"),
+        Pass("ambient", "Ambient", "RGB", "mean", "ambient lights times colour times (1 - reflectivity)"),
+        Pass("diffuse", "DiffDir", "RGB", "mean", "the lights' diffuse terms times colour times (1 - reflectivity)"),
+        Pass("specular", "GlossDir", "RGB", "mean", "the lights' highlight terms of the model in use"),
+        Pass("emission", "Emit", "RGB", "mean", "the first hit's emission"),
+        Pass("reflection", "Reflection", "RGB", "mean", "what the mirror rays bring back (their surfaces' terms)"),
+        Pass("environment", "Env", "RGB", "mean", "the background seen by camera rays and mirror rays"),
+        Pass("shadow", "Shadow", "X", "mean", "the share of the lights (not ambient) that reach the first hit"),
+        Pass("cryptomatte_object", "CryptoObject", "RGBA" * (CRYPTOMATTE_RANKS // 2), "ranks", "Cryptomatte by object"),
+        Pass("cryptomatte_material", "CryptoMaterial", "RGBA" * (CRYPTOMATTE_RANKS // 2), "ranks", "by material"),
+    )
+}
+WHITTED = ("ambient", "diffuse", "specular", "emission", "reflection", "environment")  # these add up to the image
+SHADING = (*WHITTED, "shadow")  # what the lights and mirrors give: traced with the image's terms
+
+
+def width(name: str) -> int:
+    """The channels a pass takes in the traced image: a Cryptomatte pass holds one id per sample until combined."""
+    return len(PASSES[name].channels)
+
+
+def layout(names: tuple[str, ...]) -> dict[str, slice]:
+    """Where each pass's channels sit after the colour (and alpha) channels of a combined pixel: name -> slice,
+    counted from 0 (the caller adds the colour channels' count)."""
+    where, start = {}, 0
+    for name in names:
+        where[name] = slice(start, start + width(name))
+        start += width(name)
+    return where
+
+
+def parse(text: str) -> tuple[str, ...]:
+    """A --passes value ("all" or names separated by commas) -> the names in the registry's order. Raises
+    ValueError naming what is unknown."""
+    wanted = [part.strip() for part in text.split(",") if part.strip()]
+    if wanted == ["all"]:
+        return tuple(PASSES)
+    unknown = [name for name in wanted if name not in PASSES]
+    if unknown or not wanted:
+        raise ValueError(f"unknown pass {', '.join(unknown) or '(none)'}; one of: all, {', '.join(PASSES)}")
+    return tuple(name for name in PASSES if name in wanted)
