@@ -118,3 +118,48 @@ def test_a_scene_file_asks_for_passes_by_name_and_unknown_names_are_refused() ->
 
 def test_passes_are_off_by_default() -> None:
     assert default_scene().render.passes == () and render(default_scene().with_render(width=8, height=6)).passes is None
+
+
+def test_the_command_line_writes_every_pass_into_a_multilayer_exr(tmp_path) -> None:
+    """`python -m tracer render --passes all -o out.exr`: each pass as Blender names its layers, read back with the
+    OpenEXR bindings, equal to the render's own passes; Cryptomatte's manifest in the header."""
+    import json
+    import subprocess
+    import sys
+
+    from tests.test_cli import ROOT
+    from tracer.tracing.exr import read_exr_channels
+
+    out = tmp_path / "out.exr"
+    size = ["--width", "40", "--height", "30", "--samples", "4", "--workers", "1"]
+    result = subprocess.run(
+        [sys.executable, "-m", "tracer", "render", "--passes", "all", "-o", str(out), *size],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    channels, header = read_exr_channels(out)
+    expected = {f"ViewLayer.Combined.{c}" for c in "RGBA"}
+    for definition in ps.PASSES.values():
+        if definition.combine == "ranks":
+            expected |= {f"ViewLayer.{definition.blender}0{k}.{c}" for k in range(2) for c in "RGBA"}
+        else:
+            expected |= {f"ViewLayer.{definition.blender}.{c}" for c in definition.channels}
+    assert set(channels) == expected
+    scene = default_scene().with_render(width=40, height=30, samples=4, passes=tuple(ps.PASSES))
+    rendered = render(scene, workers=1)
+    assert np.array_equal(channels["ViewLayer.Depth.Z"], rendered.passes["depth"][..., 0].astype(np.float32))
+    assert np.array_equal(channels["ViewLayer.Combined.G"], rendered.image[..., 1].astype(np.float32))
+    manifests = [json.loads(value) for key, value in header.items() if key.endswith("/manifest")]
+    assert sorted(len(manifest) for manifest in manifests) == sorted([len(scene.materials), len(scene.objects)])
+    with_png = subprocess.run(
+        [sys.executable, "-m", "tracer", "render", "--passes", "depth", "-o", str(tmp_path / "beauty.png"), *size],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
+    assert with_png.returncode == 0, with_png.stderr
+    assert (tmp_path / "beauty.png").exists() and "ViewLayer.Depth.Z" in read_exr_channels(tmp_path / "beauty.exr")[0]

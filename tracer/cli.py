@@ -15,6 +15,7 @@ from .frames.cluster import ClusterError
 from .progress import ProgressBar
 from .scene import scene as sc
 from .scene.loader import SceneError, check_samples, default_scene, load_scene
+from .scene.passes import parse as parse_passes
 from .tracing.images import SUFFIXES, sweep_stale_temporaries, write_image
 from .workers.parallel import Renderer, worker_count
 from .workers.pool import TaskFailedError, WorkerLostError
@@ -78,8 +79,8 @@ def _positive_number(text: str) -> float:
 
 def _output(text: str) -> Path:
     path = Path(text)
-    if path.suffix.lower() not in SUFFIXES:
-        raise argparse.ArgumentTypeError(f"must end in .png or .npy, got {text!r}")
+    if path.suffix.lower() not in (*SUFFIXES, ".exr"):
+        raise argparse.ArgumentTypeError(f"must end in .png, .npy or .exr, got {text!r}")
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"must be a file path, got the folder {text!r}")
     return path
@@ -106,7 +107,16 @@ def build_parser() -> argparse.ArgumentParser:
         type=_output,
         metavar="OUT",
         help=".png: 8-bit, clamped to [0, 1] as the seed's canvas (linear values unless --srgb); "
-        ".npy: float32 linear H x W x 3 (RGBA and H x W x 4 where the scene has an alpha: film_transparent, holdouts)",
+        ".npy: float32 linear H x W x 3 (RGBA and H x W x 4 where the scene has an alpha: film_transparent, holdouts); "
+        ".exr: a multilayer OpenEXR with the passes (needs the OpenEXR package)",
+    )
+    render.add_argument(
+        "--passes",
+        type=_passes,
+        metavar="LIST",
+        help="render passes, 'all' or names separated by commas (depth, mist, normal, position, object_index, "
+        "material_index, ambient, diffuse, specular, emission, reflection, environment, shadow, cryptomatte_object, "
+        "cryptomatte_material; docs/passes.md): written into OUT when it is .exr, else into OUT's name with .exr",
     )
     animate = commands.add_parser(
         "animate",
@@ -175,6 +185,13 @@ def _settings_parser() -> argparse.ArgumentParser:
     return settings
 
 
+def _passes(text: str) -> tuple[str, ...]:
+    try:
+        return parse_passes(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def _folder(text: str) -> Path:
     path = Path(text)
     if path.exists() and not path.is_dir():
@@ -215,6 +232,8 @@ def _apply_flags(scene: sc.Scene, args: argparse.Namespace) -> sc.Scene:
     changes = {name: getattr(args, name) for name in names if getattr(args, name) is not None}
     if changes:
         scene = scene.with_render(**changes)
+    if getattr(args, "passes", None):
+        scene = scene.with_render(passes=args.passes)
     if args.background is not None:
         from dataclasses import replace
 
@@ -263,12 +282,25 @@ def run_render(args: argparse.Namespace) -> int:
             suffix = args.output.suffix.lower()
             check_resources(scene.render, renderer.workers, output=suffix, **scene_counts(scene))
             check_disk(args.output, output_bytes(scene.render, suffix, 4 if scene.has_alpha else 3))
+            if scene.render.passes and suffix != ".exr":
+                check_disk(args.output.with_suffix(".exr"), output_bytes(scene.render, ".exr", scene.channels + 1))
             result = renderer.render(scene, progress)
         progress.close()
+        exr = args.output if suffix == ".exr" else args.output.with_suffix(".exr") if scene.render.passes else None
+        written = [] if suffix == ".exr" else [args.output]
         try:
-            write_image(result.image, args.output, srgb=args.srgb, alpha=result.alpha)
+            if suffix != ".exr":
+                write_image(result.image, args.output, srgb=args.srgb, alpha=result.alpha)
+            if exr is not None:
+                from .tracing.pass_files import write_passes_exr
+
+                write_passes_exr(exr, scene, result.image, result.alpha, result.passes)
+                written.append(exr)
         except OSError as error:
-            print(_write_problem(args.output, error), file=sys.stderr)
+            print(_write_problem(exr if written else args.output, error), file=sys.stderr)
+            return EXIT_FAILED
+        except ImportError as error:  # the OpenEXR bindings, an optional extra
+            print(f"error: {exr}: {error}", file=sys.stderr)
             return EXIT_FAILED
     except MemoryError:  # a limit the check could not see (address space, a cgroup, other processes' growth)
         progress.close()
@@ -276,6 +308,8 @@ def run_render(args: argparse.Namespace) -> int:
         return EXIT_FAILED
     if not args.quiet:
         print(_summary(args.output, scene, workers, result, swept))
+        if exr is not None and scene.render.passes:
+            print(f"{exr}: passes {', '.join(scene.render.passes)}")
     return 0
 
 

@@ -220,6 +220,8 @@ def output_bytes(settings: sc.RenderSettings, suffix: str, channels: int = 3) ->
     pixels = settings.width * settings.height
     if suffix == ".npy":
         return pixels * channels * 4 + 128
+    if suffix == ".exr":  # float32 channels, ZIP-compressed at best to nothing less: the raw size bounds it
+        return pixels * channels * 4 + 65536
     return pixels * channels + settings.height + 4096
 
 

@@ -1,0 +1,55 @@
+"""A render's image and passes -> one multilayer OpenEXR file named as Blender names its layers and passes.
+
+Channels are "ViewLayer.Combined.R", "ViewLayer.Depth.Z", "ViewLayer.Normal.X", ... (Blender's own multilayer
+files, which its compositor's Image node and Nuke read as layers), Cryptomatte as "ViewLayer.CryptoObject00.R" ...
+with its manifest in the header, as the Cryptomatte specification and Blender write it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..scene import passes as ps
+from ..scene import scene as sc
+from . import cryptomatte, exr
+
+VIEW_LAYER = "ViewLayer"
+
+
+def exr_channels(
+    scene: sc.Scene, image: np.ndarray, alpha: np.ndarray | None, passes: dict[str, np.ndarray] | None
+) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """image (H, W, 3), alpha (H, W) or None, passes as RenderResult.passes -> (channel name -> (H, W) float32,
+    header attributes)."""
+    channels = {f"{VIEW_LAYER}.Combined.{letter}": image[..., k] for k, letter in enumerate("RGB")}
+    channels[f"{VIEW_LAYER}.Combined.A"] = np.ones(image.shape[:2]) if alpha is None else alpha
+    header: dict[str, str] = {}
+    for name, values in (passes or {}).items():
+        definition = ps.PASSES[name]
+        layer = f"{VIEW_LAYER}.{definition.blender}"
+        if definition.combine == "ranks":
+            names = cryptomatte.channel_names(layer, ps.CRYPTOMATTE_RANKS)
+            kind = "object" if name == "cryptomatte_object" else "material"
+            header.update(cryptomatte.layer_header(layer, _names(scene, kind), kind))
+        else:
+            names = [f"{layer}.{letter}" for letter in definition.channels]
+        for k, channel in enumerate(names):
+            channels[channel] = values[..., k]
+    return {name: np.ascontiguousarray(values, dtype=np.float32) for name, values in channels.items()}, header
+
+
+def _names(scene: sc.Scene, kind: str) -> list[str]:
+    """The names a Cryptomatte layer's manifest lists: every object's, or every material's."""
+    if kind == "object":
+        return list(dict.fromkeys(obj.name for obj in scene.objects))
+    return list(scene.materials)
+
+
+def write_passes_exr(
+    path: Path, scene: sc.Scene, image: np.ndarray, alpha: np.ndarray | None, passes: dict[str, np.ndarray] | None
+) -> Path:
+    """Writes the image and its passes to path (a multilayer .exr), atomically; returns path."""
+    channels, header = exr_channels(scene, image, alpha, passes)
+    exr.write_multilayer_exr(Path(path), channels, header)
+    return Path(path)
