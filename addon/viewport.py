@@ -25,6 +25,7 @@ REDRAW_SECONDS = 0.02  # how often the main thread looks for finished levels whi
 # full-HD window's view; an object moved: 0.2-0.5 s) or an orbit's 1/8 image (0.04-0.08 s) is mostly ready within this,
 # and drawing it at once saves a whole draw of the previous image (0.4-0.6 s of software OpenGL under Xvfb).
 FIRST_LEVEL_WAIT = 0.2
+EDIT_WAIT = 0.5  # the same for a change answered from the kept ray trees (an object moved: 0.2-0.4 s to its pixels)
 INTERMEDIATE_SECONDS = 1.0  # a level between the first drawn and the full one is drawn after this long without a draw
 PLAYBACK_DIVISOR = 4  # while an animation plays, each frame is traced at 1/4 of the view's width and height alone
 
@@ -158,7 +159,7 @@ class ViewportSession:
     def draw_soon(self) -> None:
         """Before a draw: wait up to FIRST_LEVEL_WAIT for the newest scene's first level (its coarse image, or a small
         edit at full size), so that this draw shows the change rather than the previous image under "updating"."""
-        self.progressive.wait_first(FIRST_LEVEL_WAIT)
+        self.progressive.wait_first(FIRST_LEVEL_WAIT, EDIT_WAIT)
 
     def draw(self, region) -> str:
         """Draw the newest level over the region; returns the status line to show."""

@@ -40,6 +40,7 @@ EDITABLE_SECONDS = 1.5
 # An edit that changes more than this share of the pixels goes coarse to fine instead: its re-trace in one process
 # would come later than the pool's first coarse level (the ground's material: 57% of the default scene's pixels).
 EDIT_SHARE = 0.2
+KEEP_AFTER = 0.3  # seconds between the full image and the start of keeping its ray trees (a change meanwhile: none)
 
 
 class _SupersededError(Exception):
@@ -88,6 +89,7 @@ class ProgressiveRender:
         self._generation = 0
         self._latest: Level | None = None
         self._busy = False
+        self._editing = False  # the newest scene is being compared with the kept ray trees, or answered from them
         self._closed = False
         self.error: str | None = None  # the last scene's failure, one line (not enough memory, a worker lost)
         self._thread = threading.Thread(target=self._run, daemon=True, name="weathervane-progressive")
@@ -103,20 +105,25 @@ class ProgressiveRender:
             self._condition.notify()
             return self._generation
 
-    def wait_first(self, timeout: float) -> bool:
+    def wait_first(self, timeout: float, editing_timeout: float = 0.0) -> bool:
         """Block up to timeout seconds until the newest scene has a level (its coarsest, or its edit at full size);
         True if it has one. A view about to be drawn waits this short while so that it draws the change itself
         instead of the previous image (a draw of a full-HD window in software OpenGL costs 0.4-0.6 s)."""
-        with self._condition:
-            return self._condition.wait_for(
-                lambda: (
-                    self._closed
-                    or self._generation == 0
-                    or (self._latest is not None and self._latest.generation == self._generation)
-                    or (not self._busy)
-                ),
-                timeout,
+
+        def ready() -> bool:
+            return (
+                self._closed
+                or self._generation == 0
+                or (self._latest is not None and self._latest.generation == self._generation)
+                or (not self._busy)
             )
+
+        with self._condition:
+            if self._condition.wait_for(ready, timeout):
+                return True
+            # the newest scene is being answered from the kept ray trees (an object moved: its pixels found in
+            # 0.2-0.4 s): up to editing_timeout in all, still sooner than a draw of the old image and another
+            return self._editing and self._condition.wait_for(ready, max(0.0, editing_timeout - timeout))
 
     def latest(self) -> Level | None:
         with self._condition:
@@ -176,7 +183,11 @@ class ProgressiveRender:
                         raise _SupersededError
 
                 try:
+                    with self._condition:
+                        self._editing = editable is not None and self._generation == generation
                     answer = _small_edit(editable, scene)
+                    with self._condition:
+                        self._editing = answer is not None and self._generation == generation
                     if answer is not None:  # one material, light intensity or object place changed, a few pixels
                         edit, pixels = answer
                         if edit is not None:
@@ -192,11 +203,17 @@ class ProgressiveRender:
                             full_seconds = time.perf_counter() - started
                             count = result.image.shape[0] * result.image.shape[1]
                             self._deliver(Level(result.image, divisor, generation, 0.0, count), handed_over)
+                        # the full image drawn first: keeping the trees holds the interpreter that Blender's
+                        # drawing needs too (the full image came 0.2-0.5 s later on screen); a change meanwhile
+                        # goes before them
                         if (
                             levels[-1] == 1
                             and scene.render.width * scene.render.height * scene.render.samples <= EDITABLE_SAMPLES
                             and full_seconds <= EDITABLE_SECONDS * renderer.workers
                         ):
+                            with self._condition:
+                                self._condition.wait_for(lambda: self._pending is not None or self._closed, KEEP_AFTER)
+                            check()
                             editable = EditableImage(scene, between_pieces=check)
                     error = None
                 except _SupersededError:
