@@ -10,7 +10,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from . import camera, export, viewport
+from . import camera, export, pass_map, viewport
 from ._tracer import module
 from .workers import spawn_with_blenders_python
 
@@ -102,6 +102,10 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             status = f"Weathervane Tracer: {failure}"
         self.update_stats("", status)
 
+    def update_render_passes(self, scene=None, renderlayer=None) -> None:
+        """The passes ticked in View Layer > Passes that the tracer makes, for Blender's result and compositor."""
+        pass_map.register_passes(self, scene, renderlayer)
+
     def render(self, depsgraph) -> None:
         from .export import ExportCancelledError, ExportNotes, MemoryBudget, named_problems, scene_document
 
@@ -120,8 +124,12 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             return
         except ExportCancelledError:
             return
+        view_layer = depsgraph.view_layer
+        passes = pass_map.wanted(blender_scene, view_layer)
+        if passes:  # View Layer > Passes: traced with the image (whole frames), written into the result at the end
+            scene = scene.with_render(passes=passes, **pass_map.mist(blender_scene.world))
         width, height = scene.render.width, scene.render.height
-        left_out = camera.unsupported(blender_scene, exporting=False)
+        left_out = camera.unsupported(blender_scene, exporting=False) + pass_map.not_made(view_layer)
         if left_out or notes.line():
             said = [f"does not render: {', '.join(left_out)}"] if left_out else []
             self.report({"WARNING"}, f"Weathervane Tracer {'; '.join([*said, notes.line()] if notes.line() else said)}")
@@ -183,7 +191,8 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
                 renderer.heartbeat = None  # the renderer outlives this engine
         final = np.flipud(result.image).astype(np.float32)  # Blender's rows go bottom-up
         alpha = getattr(result, "alpha", None)
-        if alpha is None and not _fast_write(render_result) and np.array_equal(shown[..., :3], final):
+        fast = _fast_write(render_result)
+        if alpha is None and not fast and not result.passes and np.array_equal(shown[..., :3], final):
             # every pixel went in with its band already (Blender 3.4's lists): no second conversion of the frame
             self.end_result(render_result, cancel=True)
         else:
@@ -191,7 +200,13 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             if alpha is not None:
                 shown[..., 3] = np.flipud(alpha)
             _write(render_result, shown)
+            if result.passes:
+                pass_map.write_passes(render_result, result.passes, fast)
             self.end_result(render_result)
+        if result.passes:  # the manifests go into the frame's own result, whose metadata Blender's files carry
+            whole = self.get_result()
+            for key, value in pass_map.cryptomatte_metadata(scene, view_layer.name).items():
+                whole.stamp_data_add_field(key, value)
         self.update_stats("Weathervane Tracer", f"{result.seconds * 1000:.0f} ms, {result.rays.total} rays")
 
     def _render_region(self, scene, region: tuple[int, int, int, int]) -> None:

@@ -162,7 +162,10 @@ def _converted(material, export: _Export) -> tuple[dict, list[str]]:
             while len(_conversions) > MATERIALS_KEPT:
                 _conversions.popitem(last=False)
     # copies: the document is the caller's to change
-    return {name: list(value) if isinstance(value, list) else value for name, value in document.items()}, list(said)
+    copied = {name: list(value) if isinstance(value, list) else value for name, value in document.items()}
+    if getattr(original, "pass_index", 0):  # Material > Settings > Pass Index, for the Material Index pass
+        copied["pass_index"] = original.pass_index
+    return copied, list(said)
 
 
 def _material_name(material, materials: dict, notes: ExportNotes | None = None, export: _Export | None = None) -> str:
@@ -194,6 +197,8 @@ def _flags(obj) -> dict:
         flags["visible_reflection"] = False
     if getattr(obj, "is_holdout", False):
         flags["holdout"] = True
+    if getattr(obj, "pass_index", 0):  # Object > Relations > Pass Index, for the Object Index pass
+        flags["pass_index"] = obj.pass_index
     return flags
 
 

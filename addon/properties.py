@@ -343,6 +343,19 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         ],
         default="1",
     )
+    # the Whitted tree's passes Blender has no box for (View Layer > Passes draws them beside Blender's own)
+    use_pass_ambient: BoolProperty(
+        name="Ambient",
+        default=False,
+        description="Ambient pass: the ambient lights' share of the image (ambient times colour times 1 - "
+        "reflectivity); with Diffuse, Glossy, Emission, Reflection and Environment it adds up to Combined",
+    )
+    use_pass_reflection: BoolProperty(
+        name="Reflection",
+        default=False,
+        description="Reflection pass: what the mirror rays bring back (the reflected surfaces' shading and their "
+        "emission, weighted by reflectivity)",
+    )
 
 
 CLASSES = (WEATHERVANE_PG_material, WEATHERVANE_PG_light, WEATHERVANE_PG_settings)

@@ -170,11 +170,43 @@ class WEATHERVANE_RENDER_PT_conversion(TracerPanel, bpy.types.Panel):
                 row.label(text=note, icon="INFO")
 
 
+class WEATHERVANE_VIEWLAYER_PT_passes(TracerPanel, bpy.types.Panel):
+    """View Layer > Passes for the tracer: Blender's own boxes for what it makes (its data passes, the light passes
+    that are terms of the documented model, Cryptomatte), and its Ambient and Reflection passes."""
+
+    bl_label = "Passes"
+    bl_context = "view_layer"
+
+    def draw(self, context):
+        layout = self.split_layout()
+        view_layer, settings = context.view_layer, context.scene.weathervane
+        column = layout.column(heading="Data", align=True)
+        column.prop(view_layer, "use_pass_combined")
+        column.prop(view_layer, "use_pass_z")
+        column.prop(view_layer, "use_pass_mist")
+        column.prop(view_layer, "use_pass_normal")
+        column.prop(view_layer, "use_pass_position")
+        column.prop(view_layer, "use_pass_object_index")
+        column.prop(view_layer, "use_pass_material_index")
+        column = layout.column(heading="Light", align=True)
+        column.prop(settings, "use_pass_ambient")
+        column.prop(view_layer, "use_pass_diffuse_direct", text="Diffuse")
+        column.prop(view_layer, "use_pass_glossy_direct", text="Glossy")
+        column.prop(view_layer, "use_pass_emit", text="Emission")
+        column.prop(settings, "use_pass_reflection")
+        column.prop(view_layer, "use_pass_environment")
+        column.prop(view_layer, "use_pass_shadow")
+        column = layout.column(heading="Cryptomatte", align=True)
+        column.prop(view_layer, "use_pass_cryptomatte_object", text="Object")
+        column.prop(view_layer, "use_pass_cryptomatte_material", text="Material")
+
+
 CLASSES = (
     WEATHERVANE_RENDER_PT_tracer,
     WEATHERVANE_RENDER_PT_shading,
     WEATHERVANE_RENDER_PT_conversion,
     WEATHERVANE_WORLD_PT_background,
+    WEATHERVANE_VIEWLAYER_PT_passes,
 )
 
 

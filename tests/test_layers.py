@@ -29,6 +29,7 @@ ADDON_LAYERS: tuple[tuple[str, ...], ...] = (
         "material_convert",
         "light_convert",
         "world_convert",
+        "pass_map",
     ),
     (
         "build",

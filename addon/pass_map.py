@@ -1,0 +1,138 @@
+"""View Layer > Passes -> the tracer's passes to trace, Blender's passes to register, and the traced passes written
+into a render result (Blender's names: Depth, Mist, Normal, Position, IndexOB, IndexMA, DiffDir, GlossDir, Emit,
+Env, Shadow, CryptoObject00..., CryptoMaterial00...; Ambient and Reflection as the engine's own)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._tracer import module
+
+
+@dataclass(frozen=True)
+class BlenderPass:
+    """tracer: the tracer's pass; flag: the View Layer property that asks for it (on scene.weathervane where Blender
+    has none); name, channel letters and kind as RenderEngine.register_pass takes them."""
+
+    tracer: str
+    flag: str
+    name: str
+    letters: str
+    kind: str  # VALUE, VECTOR or COLOR
+    own: bool = False  # the flag is the add-on's (scene.weathervane), not the view layer's
+
+
+PASSES = (
+    BlenderPass("depth", "use_pass_z", "Depth", "Z", "VALUE"),
+    BlenderPass("mist", "use_pass_mist", "Mist", "Z", "VALUE"),
+    BlenderPass("normal", "use_pass_normal", "Normal", "XYZ", "VECTOR"),
+    BlenderPass("position", "use_pass_position", "Position", "XYZ", "VECTOR"),
+    BlenderPass("object_index", "use_pass_object_index", "IndexOB", "X", "VALUE"),
+    BlenderPass("material_index", "use_pass_material_index", "IndexMA", "X", "VALUE"),
+    BlenderPass("ambient", "use_pass_ambient", "Ambient", "RGB", "COLOR", own=True),
+    BlenderPass("diffuse", "use_pass_diffuse_direct", "DiffDir", "RGB", "COLOR"),
+    BlenderPass("specular", "use_pass_glossy_direct", "GlossDir", "RGB", "COLOR"),
+    BlenderPass("emission", "use_pass_emit", "Emit", "RGB", "COLOR"),
+    BlenderPass("reflection", "use_pass_reflection", "Reflection", "RGB", "COLOR", own=True),
+    BlenderPass("environment", "use_pass_environment", "Env", "RGB", "COLOR"),
+    BlenderPass("shadow", "use_pass_shadow", "Shadow", "RGB", "COLOR"),  # EEVEE's is RGB: the share, grey
+    BlenderPass("cryptomatte_object", "use_pass_cryptomatte_object", "CryptoObject", "RGBA", "COLOR"),
+    BlenderPass("cryptomatte_material", "use_pass_cryptomatte_material", "CryptoMaterial", "RGBA", "COLOR"),
+)
+# View Layer passes the tracer has nothing for: named in the render's one warning line when ticked.
+NOT_MADE = {
+    "use_pass_vector": "Vector",
+    "use_pass_uv": "UV",
+    "use_pass_ambient_occlusion": "AO",
+    "use_pass_diffuse_indirect": "Diffuse Indirect",
+    "use_pass_diffuse_color": "Diffuse Color",
+    "use_pass_glossy_indirect": "Glossy Indirect",
+    "use_pass_glossy_color": "Glossy Color",
+    "use_pass_transmission_direct": "Transmission Direct",
+    "use_pass_transmission_indirect": "Transmission Indirect",
+    "use_pass_transmission_color": "Transmission Color",
+    "use_pass_subsurface_direct": "Subsurface Direct",
+    "use_pass_subsurface_indirect": "Subsurface Indirect",
+    "use_pass_subsurface_color": "Subsurface Color",
+    "use_pass_cryptomatte_asset": "Cryptomatte Asset",
+    "use_pass_grease_pencil": "Grease Pencil",
+}
+
+
+def _ticked(entry: BlenderPass, scene, view_layer) -> bool:
+    owner = getattr(scene, "weathervane", None) if entry.own else view_layer
+    return bool(getattr(owner, entry.flag, False))
+
+
+def wanted(scene, view_layer) -> tuple[str, ...]:
+    """The tracer passes the view layer (and the add-on's own boxes) ask for, in the tracer's order."""
+    names = {entry.tracer for entry in PASSES if _ticked(entry, scene, view_layer)}
+    return tuple(name for name in module("scene.passes").PASSES if name in names)
+
+
+def not_made(view_layer) -> list[str]:
+    """The ticked passes the tracer cannot make, in Blender's words."""
+    return [f"{label} pass" for flag, label in NOT_MADE.items() if getattr(view_layer, flag, False)]
+
+
+def layer_names(entry: BlenderPass) -> list[str]:
+    """Blender's pass names for an entry: a Cryptomatte pass is one RGBA pass per two ranks."""
+    if entry.name.startswith("Crypto"):
+        layers = module("scene.passes").CRYPTOMATTE_RANKS // 2
+        return [f"{entry.name}{index:02d}" for index in range(layers)]
+    return [entry.name]
+
+
+def register_passes(engine, scene, view_layer) -> None:
+    """RenderEngine.update_render_passes' work: every ticked pass registered under Blender's name."""
+    for entry in PASSES:
+        if _ticked(entry, scene, view_layer):
+            for name in layer_names(entry):
+                engine.register_pass(scene, view_layer, name, len(entry.letters), entry.letters, entry.kind)
+
+
+def mist(world) -> dict:
+    """The World's Mist Pass settings as the scene file's render fields."""
+    settings = getattr(world, "mist_settings", None)
+    if settings is None:
+        return {}
+    return {"mist_start": settings.start, "mist_depth": settings.depth, "mist_falloff": settings.falloff}
+
+
+def write_passes(render_result, passes: dict[str, np.ndarray], fast: bool) -> None:
+    """The traced passes ((H, W, C), rows top-down) into the result's passes of the same names (Blender's rows go
+    bottom-up); fast: the pass takes foreach_set (Blender 4+), else a list (3.4)."""
+    layer = render_result.layers[0]
+    for entry in PASSES:
+        values = passes.get(entry.tracer)
+        if values is None:
+            continue
+        values = np.flipud(values).astype(np.float32)
+        if entry.tracer == "shadow":
+            values = np.repeat(values, 3, axis=2)
+        for index, name in enumerate(layer_names(entry)):
+            target = layer.passes.find(name)
+            if target < 0:
+                continue
+            part = values[..., 4 * index : 4 * index + 4] if entry.name.startswith("Crypto") else values
+            rect = layer.passes[target].rect
+            if fast:
+                rect.foreach_set(np.ascontiguousarray(part).ravel())
+            else:
+                rect = part.reshape(-1, part.shape[-1]).tolist()
+                layer.passes[target].rect = rect
+
+
+def cryptomatte_metadata(scene, view_layer_name: str) -> dict[str, str]:
+    """The Cryptomatte layers' header fields (name, hash, conversion, manifest) for the render result's metadata,
+    where Blender's Cryptomatte node and its EXR writer find them."""
+    cryptomatte = module("tracing.cryptomatte")
+    fields: dict[str, str] = {}
+    if "cryptomatte_object" in scene.render.passes:
+        names = list(dict.fromkeys(obj.name for obj in scene.objects))
+        fields.update(cryptomatte.layer_header(f"{view_layer_name}.CryptoObject", names, "object"))
+    if "cryptomatte_material" in scene.render.passes:
+        fields.update(cryptomatte.layer_header(f"{view_layer_name}.CryptoMaterial", list(scene.materials), "material"))
+    return fields

@@ -1,0 +1,156 @@
+"""View Layer > Passes with the tracer as the engine: the passes ticked come out in Blender's render result and in
+the multilayer EXR Blender saves, holding what the scene says (a plane at a known distance, its normal, each
+object's pass index), the Whitted passes add up to Combined, Cryptomatte picks each object, and a pass the tracer
+cannot make is named in the warning."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import bpy
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+WHITTED = ("Ambient", "DiffDir", "GlossDir", "Emit", "Reflection", "Env")
+# Reads a multilayer EXR (single- or multi-part) into {channel: (H, W) float32} plus the header's text fields.
+READER = """
+import json, sys
+import numpy as np
+import OpenEXR
+found, header = {}, {}
+for part in OpenEXR.File(sys.argv[1]).parts:
+    for key, value in part.header.items():
+        if isinstance(value, (str, bytes)):
+            header[key] = value.decode() if isinstance(value, bytes) else value
+    for name, channel in part.channels.items():
+        pixels = channel.pixels
+        if pixels.ndim == 3:  # Blender 5 writes a pass as one channel of several components
+            letters = "RGBA" if pixels.shape[2] in (3, 4) else "XYZ"
+            for k in range(pixels.shape[2]):
+                found[f"{name}.{letters[k]}"] = pixels[..., k]
+        else:
+            found[name] = pixels
+np.savez(sys.argv[2], **found)
+print(json.dumps(header))
+"""
+
+
+def read_exr(path: Path, tmp_path: Path) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """The channels and header of an EXR Blender saved, read with the OpenEXR bindings in the project's .venv (Blender
+    3.4's own Python has none)."""
+    python = ROOT / ".venv" / "bin" / "python"
+    arrays = tmp_path / "channels.npz"
+    result = subprocess.run(
+        [str(python if python.exists() else sys.executable), "-c", READER, str(path), str(arrays)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    with np.load(arrays) as loaded:
+        return {name: loaded[name] for name in loaded.files}, json.loads(result.stdout)
+
+
+def plane_and_cube_scene() -> bpy.types.Scene:
+    """A camera 5 m above a large plane, looking straight down; a 2 m cube on the plane below the camera's centre
+    (its top face 3 m from the camera); pass indices 4 (plane) and 9 (cube), material pass index 6 on the cube."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "WEATHERVANE_TRACER"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+    bpy.ops.mesh.primitive_plane_add(size=100.0)
+    bpy.context.object.pass_index = 4
+    bpy.ops.mesh.primitive_cube_add(size=2.0, location=(0.0, 0.0, 1.0))
+    cube = bpy.context.object
+    cube.pass_index = 9
+    material = bpy.data.materials.new("red")
+    material.pass_index = 6
+    cube.data.materials.append(material)
+    bpy.ops.object.camera_add(location=(0.0, 0.0, 5.0), rotation=(0.0, 0.0, 0.0))
+    scene.camera = bpy.context.object
+    bpy.ops.object.light_add(type="POINT", location=(2.0, -3.0, 8.0))
+    world = bpy.data.worlds.new("World")
+    scene.world = world
+    return scene
+
+
+def tick(scene: bpy.types.Scene, *flags: str) -> None:
+    view_layer = scene.view_layers[0]
+    for flag in flags:
+        setattr(view_layer, flag, True)
+
+
+def save_multilayer(scene: bpy.types.Scene, path: Path) -> None:
+    settings = scene.render.image_settings
+    if hasattr(settings, "media_type"):  # Blender 5: the multilayer file is a media type of its own
+        settings.media_type = "MULTI_LAYER_IMAGE"
+    settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.color_depth = "32"
+    bpy.data.images["Render Result"].save_render(str(path))
+
+
+def test_ticked_passes_hold_the_scenes_distances_normals_indices_and_add_up_to_combined(tmp_path: Path) -> None:
+    scene = plane_and_cube_scene()
+    tick(scene, "use_pass_z", "use_pass_normal", "use_pass_object_index", "use_pass_material_index", "use_pass_mist")
+    tick(scene, "use_pass_diffuse_direct", "use_pass_glossy_direct", "use_pass_emit", "use_pass_environment")
+    scene.weathervane.use_pass_ambient = scene.weathervane.use_pass_reflection = True
+    scene.world.mist_settings.start, scene.world.mist_settings.depth = 1.0, 10.0
+    scene.world.mist_settings.falloff = "LINEAR"
+    bpy.ops.render.render()
+    save_multilayer(scene, tmp_path / "passes.exr")
+    channels, _ = read_exr(tmp_path / "passes.exr", tmp_path)
+    depth = channels["ViewLayer.Depth.Z"]
+    # rows bottom-up in the file as in Blender: the image's centre is the cube's top, its corners the plane
+    assert depth.shape == (48, 64)
+    assert abs(depth[24, 32] - 3.0) < 1e-4 and abs(depth[0, 0] - 5.0) < 1e-4 and abs(depth[47, 63] - 5.0) < 1e-4
+    for axis, value in zip("XYZ", (0.0, 0.0, 1.0), strict=True):
+        normal = channels[f"ViewLayer.Normal.{axis}"]
+        assert abs(normal[24, 32] - value) < 1e-5 and abs(normal[0, 0] - value) < 1e-5
+    index = channels["ViewLayer.IndexOB.X"]
+    assert index[24, 32] == 9.0 and index[0, 0] == 4.0
+    assert channels["ViewLayer.IndexMA.X"][24, 32] == 6.0 and channels["ViewLayer.IndexMA.X"][0, 0] == 0.0
+    mist = channels["ViewLayer.Mist.Z"]
+    distance = 3.0  # straight down to the cube's top at the centre
+    assert abs(mist[24, 32] - (distance - 1.0) / 10.0) < 1e-4
+    for letter in "RGB":
+        total = sum(channels[f"ViewLayer.{name}.{letter}"].astype(np.float64) for name in WHITTED)
+        assert np.allclose(total, channels[f"ViewLayer.Combined.{letter}"], atol=2e-6), letter
+
+
+def test_cryptomatte_picks_each_object_as_its_coverage(tmp_path: Path) -> None:
+    """A matte read from the saved EXR alone (the specification's decoding: each rank's id equal to the name's
+    hash adds its coverage) equals the object's coverage, seen in the Object Index pass."""
+    from tracer.tracing.cryptomatte import name_hash
+
+    scene = plane_and_cube_scene()
+    scene.weathervane.samples = "4"
+    tick(scene, "use_pass_cryptomatte_object", "use_pass_object_index")
+    bpy.ops.render.render()
+    save_multilayer(scene, tmp_path / "crypto.exr")
+    channels, header = read_exr(tmp_path / "crypto.exr", tmp_path)
+    manifests = [json.loads(value) for key, value in header.items() if key.endswith("/manifest")]
+    assert manifests and {"Plane", "Cube"} <= set(manifests[0])
+    for name, index in (("Cube", 9.0), ("Plane", 4.0)):
+        target = np.float32(name_hash(name)[1])
+        matte = np.zeros((48, 64))
+        for layer in ("00", "01"):
+            for id_letter, coverage_letter in (("R", "G"), ("B", "A")):
+                ids = channels[f"ViewLayer.CryptoObject{layer}.{id_letter}"].astype(np.float32)
+                matte += np.where(ids == target, channels[f"ViewLayer.CryptoObject{layer}.{coverage_letter}"], 0.0)
+        # the first sample's object (the Object Index pass) has some coverage, and full coverage inside the object
+        first = channels["ViewLayer.IndexOB.X"] == index
+        assert np.all(matte[first] > 0.0)
+        inner = first & (matte == 1.0)
+        assert inner.sum() > 0.9 * first.sum() - 2 * (64 + 48)  # all but a silhouette's width of pixels
+
+
+def test_a_ticked_pass_the_tracer_cannot_make_is_named_in_the_warning(capfd: pytest.CaptureFixture) -> None:
+    scene = plane_and_cube_scene()
+    tick(scene, "use_pass_vector", "use_pass_uv", "use_pass_z")
+    bpy.ops.render.render()
+    printed = capfd.readouterr()
+    assert "does not render: Vector pass, UV pass" in printed.out + printed.err
