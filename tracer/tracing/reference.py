@@ -2,6 +2,11 @@
 
 Plain Python floats and tuples, no NumPy, written to be read beside the seed rather than to be fast (about 19 s for
 a 640x480 frame). The vectorized tracer must equal it to 1e-9 on every pixel.
+
+The render passes (render_reference_passes) come from the same per-ray code, one camera sample at a time: the first
+hit's data (depth, mist, normal, position, indices, Cryptomatte's names), listing 3.2's terms apart (find_intensities'
+split), and listing 3.1's recursion unrolled into what mirror rays' surfaces and skies add. The vectorized tracer's
+passes (recorder.py) must equal them to 1e-9 too (tests/test_reference_passes.py).
 """
 
 from __future__ import annotations
@@ -18,6 +23,50 @@ INF = math.inf
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0, hits behind the camera are dropped
 SHADOW_T_MIN = 0.001  # listing 3.2
 REFLECTION_T_MIN = 0.01  # listing 3.1
+
+# ---- render passes: what the reference gives for each (docs/passes.md) -------------------------------------------
+BACKGROUND_DEPTH = 1.0e10  # Cycles' depth where a camera ray meets nothing
+PASS_NAMES = (
+    "depth",
+    "mist",
+    "normal",
+    "position",
+    "object_index",
+    "material_index",
+    "ambient",
+    "diffuse",
+    "specular",
+    "emission",
+    "reflection",
+    "environment",
+    "shadow",
+)
+FIRST_SAMPLE = ("depth", "position", "object_index", "material_index")  # the first sample's; the others: the mean
+WHITTED = ("ambient", "diffuse", "specular", "emission", "reflection", "environment")  # they add up to the image
+
+
+@dataclass
+class SamplePasses:
+    """One camera sample's passes. As for a camera ray that meets nothing: depth far, mist 1, the environment the
+    background it sees; a holdout met first (held) leaves them so, but with no environment. object, material:
+    the names of what the ray met first (Cryptomatte), None for nothing or a holdout."""
+
+    depth: float = BACKGROUND_DEPTH
+    mist: float = 1.0
+    normal: sc.Vec3 = (0.0, 0.0, 0.0)
+    position: sc.Vec3 = (0.0, 0.0, 0.0)
+    object_index: float = 0.0
+    material_index: float = 0.0
+    ambient: sc.Color = (0.0, 0.0, 0.0)
+    diffuse: sc.Color = (0.0, 0.0, 0.0)
+    specular: sc.Color = (0.0, 0.0, 0.0)
+    emission: sc.Color = (0.0, 0.0, 0.0)
+    reflection: sc.Color = (0.0, 0.0, 0.0)
+    environment: sc.Color = (0.0, 0.0, 0.0)
+    shadow: float = 0.0
+    object: str | None = None
+    material: str | None = None
+    held: bool = False
 
 
 def normalize(v: sc.Vec3) -> sc.Vec3:
@@ -281,12 +330,16 @@ class ReferenceTracer:
 
     def material(self, index: int, part: int) -> sc.Material:
         """The material of object index's part (a mesh's triangle may have its own)."""
+        return self.scene.materials[self.material_name(index, part)]
+
+    def material_name(self, index: int, part: int) -> str:
+        """The name of the material of object index's part."""
         obj = self.scene.objects[index]
         if getattr(obj, "material_indices", None) is not None:
             if isinstance(obj, sc.MeshInstances):
                 part %= len(obj.mesh.triangles)  # instance * T + triangle
-            return self.scene.materials[obj.materials[obj.material_indices[part]]]
-        return self.scene.materials[obj.material]
+            return obj.materials[obj.material_indices[part]]
+        return obj.material
 
     def closest_intersection(
         self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, seen_by: str = ""
@@ -319,21 +372,35 @@ class ReferenceTracer:
         """Listing 3.2 (white lights, no attenuation: the documented mode)."""
         return self.find_intensities(P, N, V, specular)[0][0]
 
-    def find_intensities(self, P: sc.Vec3, N: sc.Vec3, V: sc.Vec3, specular: float) -> tuple[list[float], list[float]]:
+    def find_intensities(
+        self, P: sc.Vec3, N: sc.Vec3, V: sc.Vec3, specular: float, split: dict | None = None
+    ) -> tuple[list[float], list[float]]:
         """Listing 3.2 with each light's colour and attenuation. Documented mode (self.colored false): the whole
         intensity, summed in the listing's order, in every channel of the first list. Else the (ambient + diffuse,
-        specular) sums per channel."""
+        specular) sums per channel.
+
+        split: a dict to fill with the same terms apart, for the render passes: "ambient", "diffuse" and "specular"
+        (each a list of 3: per channel where coloured, else the documented scalar sum in every channel) and "shadow",
+        the share of the lights other than ambient that reach P: its shadow ray is not blocked, the light's factor
+        is above 0 (a spot light's cone), and P faces the light (N.L > 0) or gets its highlight. 1 without such
+        lights."""
         total = 0.0
         diffuse = [0.0, 0.0, 0.0]
         highlight = [0.0, 0.0, 0.0]
         length_n = length(N)
         length_v = length(V)
+        ambient_sum, diffuse_sum, highlight_sum = 0.0, 0.0, 0.0  # the documented mode's terms apart (split)
+        ambient, lights_diffuse = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]  # the coloured mode's terms apart (split)
+        lights, reached = 0, 0
         for light in self.scene.lights:
             color = light.color
             if isinstance(light, sc.AmbientLight):
                 total += light.intensity
                 diffuse = [diffuse[c] + light.intensity * color[c] for c in range(3)]
+                ambient_sum += light.intensity
+                ambient = [ambient[c] + light.intensity * color[c] for c in range(3)]
                 continue
+            lights += 1
             factor = 1.0
             if isinstance(light, sc.PointLight | sc.SpotLight):
                 light_vector = sub(light.location, P)
@@ -356,25 +423,50 @@ class ReferenceTracer:
                 term = light.intensity * NL / (length_n * length(light_vector))
                 total += term
                 diffuse = [diffuse[c] + (term * factor) * color[c] for c in range(3)]
-            if specular <= 0.0 or (self.settings.gate_specular and NL <= 0.0):
-                continue
+                diffuse_sum += term
+                lights_diffuse = [lights_diffuse[c] + (term * factor) * color[c] for c in range(3)]
             term = None
-            if self.settings.model == "phong":
-                R = reflect_ray(light_vector, N)
-                RV = dot(R, V)
-                if RV > 0.0:
-                    term = light.intensity * (RV / (length(R) * length_v)) ** specular
-            else:
-                H = add(normalize(light_vector), normalize(V))
-                HN = dot(H, N)
-                if HN > 0.0:
-                    term = light.intensity * (HN / (length(H) * length_n)) ** (specular * self.settings.coef)
+            if not (specular <= 0.0 or (self.settings.gate_specular and NL <= 0.0)):
+                if self.settings.model == "phong":
+                    R = reflect_ray(light_vector, N)
+                    RV = dot(R, V)
+                    if RV > 0.0:
+                        term = light.intensity * (RV / (length(R) * length_v)) ** specular
+                else:
+                    H = add(normalize(light_vector), normalize(V))
+                    HN = dot(H, N)
+                    if HN > 0.0:
+                        term = light.intensity * (HN / (length(H) * length_n)) ** (specular * self.settings.coef)
             if term is not None:
                 total += term
                 highlight = [highlight[c] + (term * factor) * color[c] for c in range(3)]
+                highlight_sum += term
+            if (NL > 0.0 or term is not None) and factor > 0.0:
+                reached += 1
+        if split is not None:
+            split["shadow"] = reached / lights if lights else 1.0
+            if self.colored:
+                split.update(ambient=ambient, diffuse=lights_diffuse, specular=highlight)
+            else:
+                split.update(ambient=[ambient_sum] * 3, diffuse=[diffuse_sum] * 3, specular=[highlight_sum] * 3)
         if not self.colored:
             return [total, total, total], [0.0, 0.0, 0.0]
         return diffuse, highlight
+
+    def shading_normal(self, index: int, part: int, P: sc.Vec3, V: sc.Vec3, material: sc.Material) -> sc.Vec3:
+        """The unit normal a hit at P on object index's part is shaded with: the surface's own, or the corner
+        normals interpolated (smooth meshes and instances), flipped on the back of a two-sided material."""
+        N = normalize(find_normal(self.primitives[index], part, P))
+        S = N
+        corners = self.corners[index]
+        if corners is not None:
+            S = barycentric_normal(self.primitives[index].triangles[part], corners[part], P) or N
+        instance_corners = self.instance_corners[index]
+        if instance_corners is not None:
+            S = instance_normal(self.primitives[index], part, instance_corners, P) or N
+        if material.two_sided and dot(N, V) < 0.0:
+            S = (-S[0], -S[1], -S[2])
+        return S
 
     def trace_ray(
         self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, depth: int, camera: bool = False
@@ -388,18 +480,9 @@ class ReferenceTracer:
         if self.scene.objects[closest_object].holdout:
             return (0.0, 0.0, 0.0)
         P = add(O, scale(D, closest_t))
-        N = normalize(find_normal(self.primitives[closest_object], part, P))
         material = self.material(closest_object, part)
         V = (-D[0], -D[1], -D[2])
-        S = N  # the shading normal: smooth, and flipped on the back of a two-sided material
-        corners = self.corners[closest_object]
-        if corners is not None:
-            S = barycentric_normal(self.primitives[closest_object].triangles[part], corners[part], P) or N
-        instance_corners = self.instance_corners[closest_object]
-        if instance_corners is not None:
-            S = instance_normal(self.primitives[closest_object], part, instance_corners, P) or N
-        if material.two_sided and dot(N, V) < 0.0:
-            S = (-S[0], -S[1], -S[2])
+        S = self.shading_normal(closest_object, part, P, V, material)
         diffuse, highlight = self.find_intensities(P, S, V, material.specular)
         color = material.color
         if self.colored:
@@ -438,6 +521,111 @@ class ReferenceTracer:
             return (total[0] / n, total[1] / n, total[2] / n, total[3] / n)
         return (total[0] / n, total[1] / n, total[2] / n)
 
+    # ---- render passes, one camera sample at a time (docs/passes.md) ------------------------------------------
+
+    def sample_passes(self, x: float, y: float) -> SamplePasses:
+        """The passes of the camera sample through image position (x, y): what its ray meets first (data passes,
+        ids), the first hit's terms of listing 3.2 apart, and what its mirror rays' tree adds (reflection,
+        environment). The ray counts stay those of the image."""
+        counted = dict(self.rays)
+        camera = self.scene.camera
+        O, D, t_max = cam.primary_ray(camera, self.settings, x, y)
+        out = SamplePasses()
+        first, part, t = self.closest_intersection(O, D, CAMERA_T_MIN, t_max, "visible_camera")
+        if first < 0:  # the background: far in depth, full mist, and the camera's view of the world
+            if not self.settings.film_transparent:
+                out.environment = self.background(D)
+            return out
+        if self.scene.objects[first].holdout:  # nothing of it shows; depth and mist as the background's
+            out.held = True
+            return out
+        P = add(O, scale(D, t))
+        material = self.material(first, part)
+        V = (-D[0], -D[1], -D[2])
+        S = self.shading_normal(first, part, P, V, material)
+        offset = sub(P, camera.location)
+        r = tf.euler_xyz_matrix(camera.rotation)
+        out.depth = dot(offset, (-r[0][2], -r[1][2], -r[2][2]))  # along the view axis, the camera's local -Z
+        out.mist = mist(length(offset), self.settings)
+        out.normal = normalize(S)
+        out.position = P
+        out.object_index = float(self.scene.objects[first].pass_index)
+        out.material_index = float(material.pass_index)
+        out.object, out.material = self.scene.objects[first].name, self.material_name(first, part)
+        terms = self.local_terms(P, S, V, material)
+        out.ambient, out.diffuse, out.specular = terms["ambient"], terms["diffuse"], terms["specular"]
+        out.emission = material.emission
+        out.shadow = terms["shadow"]
+        if self.settings.depth > 0 and material.reflective > 0.0:
+            reflection, environment = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+            self.mirror_passes(
+                P, reflect_ray(V, S), self.settings.depth - 1, material.reflective, reflection, environment
+            )
+            out.reflection, out.environment = tuple(reflection), tuple(environment)
+        self.rays = counted
+        return out
+
+    def local_terms(self, P: sc.Vec3, S: sc.Vec3, V: sc.Vec3, material: sc.Material) -> dict:
+        """A hit's local colour term by term: "ambient", "diffuse", "specular" (r, g, b) each times the material's
+        colour (its specular colour for the highlight, where lights or materials are coloured) and (1 -
+        reflectivity), as listing 3.1 weighs the local colour; and "shadow" (find_intensities' split)."""
+        split: dict = {}
+        self.find_intensities(P, S, V, material.specular, split)
+        keep = 1.0 - material.reflective
+        color = material.color
+        tint = color if material.specular_color is None or not self.colored else material.specular_color
+        terms = {}
+        for name, paint in (("ambient", color), ("diffuse", color), ("specular", tint)):
+            value = split[name]
+            if self.colored:
+                terms[name] = tuple(value[c] * paint[c] * keep for c in range(3))
+            else:
+                terms[name] = tuple((value[c] * keep) * paint[c] for c in range(3))
+        terms["shadow"] = split["shadow"]
+        return terms
+
+    def mirror_passes(
+        self, O: sc.Vec3, D: sc.Vec3, depth: int, weight: float, reflection: list, environment: list
+    ) -> None:
+        """A mirror ray from O along D, its reflectivities' product weight: what its surface adds (its local terms
+        and emission, weighted) into reflection, the sky it sees when it meets nothing into environment; then its
+        own mirror ray, while depth lasts (listing 3.1's recursion unrolled into sums)."""
+        self.rays["reflection"] += 1
+        index, part, t = self.closest_intersection(O, D, REFLECTION_T_MIN, INF, "visible_reflection")
+        if index < 0:
+            sky = self.background(D)
+            for c in range(3):
+                environment[c] += weight * sky[c]
+            return
+        if self.scene.objects[index].holdout:
+            return
+        P = add(O, scale(D, t))
+        material = self.material(index, part)
+        V = (-D[0], -D[1], -D[2])
+        S = self.shading_normal(index, part, P, V, material)
+        terms = self.local_terms(P, S, V, material)
+        for c in range(3):
+            local = terms["ambient"][c] + terms["diffuse"][c] + terms["specular"][c] + material.emission[c]
+            reflection[c] += weight * local
+        if depth > 0 and material.reflective > 0.0:
+            self.mirror_passes(P, reflect_ray(V, S), depth - 1, weight * material.reflective, reflection, environment)
+
+    def pixel_passes(self, i: int, j: int) -> tuple[dict[str, tuple[float, ...]], list[SamplePasses]]:
+        """Pixel (i, j)'s passes (name -> its channels) from its samples: the mean of the samples', except depth,
+        position and the indices, which are the first sample's (Cycles writes them at sample 0); and the samples'
+        own SamplePasses (their Cryptomatte names)."""
+        samples = [
+            self.sample_passes(*cam.sample_position(self.settings, i, j, s)) for s in range(self.settings.samples)
+        ]
+        values = {}
+        for name in PASS_NAMES:
+            if name in FIRST_SAMPLE:
+                values[name] = _channels(getattr(samples[0], name))
+                continue
+            per_sample = [_channels(getattr(sample, name)) for sample in samples]
+            values[name] = tuple(sum(column) / len(samples) for column in zip(*per_sample, strict=True))
+        return values, samples
+
 
 def render_reference(scene: sc.Scene) -> list[list[sc.Color]]:
     """The whole image as rows of (r, g, b) linear floats, unclamped, (r, g, b, alpha) where the scene has an
@@ -454,3 +642,58 @@ def render_reference(scene: sc.Scene) -> list[list[sc.Color]]:
         for j in range(settings.height)
     ]
     return [row[x0:x1] for row in image[y0:y1]] if settings.crop else image
+
+
+@dataclass
+class ReferencePasses:
+    """The reference's passes of a whole image: values (pass name -> rows from the top of each pixel's channels),
+    and per pixel its samples' first object and material names (None: nothing, or a holdout) and whether one of
+    its samples met a holdout first. Pixels outside a render border (not cropped): every pass 0, no samples."""
+
+    values: dict[str, list[list[tuple[float, ...]]]]
+    objects: list[list[list[str | None]]]
+    materials: list[list[list[str | None]]]
+    held: list[list[bool]]
+
+
+def render_reference_passes(scene: sc.Scene) -> ReferencePasses:
+    """Every pass of PASS_NAMES for every pixel, one sample at a time, where the image has its pixels (the render
+    border, cropped or not, as render_reference)."""
+    tracer = ReferenceTracer(scene)
+    settings = scene.render
+    window = cam.border_window(settings)
+    x0, x1, y0, y1 = (0, settings.width, 0, settings.height) if window is None else window
+    blank = {name: (0.0,) * len(_channels(getattr(SamplePasses(), name))) for name in PASS_NAMES}
+    result = ReferencePasses({name: [] for name in PASS_NAMES}, [], [], [])
+    rows = range(y0, y1) if settings.crop else range(settings.height)
+    columns = range(x0, x1) if settings.crop else range(settings.width)
+    for j in rows:
+        for store in (*result.values.values(), result.objects, result.materials, result.held):
+            store.append([])
+        for i in columns:
+            if x0 <= i < x1 and y0 <= j < y1:
+                values, samples = tracer.pixel_passes(i, j)
+            else:
+                values, samples = blank, []
+            for name in PASS_NAMES:
+                result.values[name][-1].append(values[name])
+            result.objects[-1].append([sample.object for sample in samples])
+            result.materials[-1].append([sample.material for sample in samples])
+            result.held[-1].append(any(sample.held for sample in samples))
+    return result
+
+
+def mist(distance: float, settings: sc.RenderSettings) -> float:
+    """Blender's mist at a distance from the camera: 0 at mist_start to 1 at mist_start + mist_depth (clamped),
+    then the falloff: QUADRATIC m^2, LINEAR m, INVERSE_QUADRATIC sqrt(m) (Cycles' falloff exponents 2, 1, 1/2)."""
+    depth = settings.mist_depth if settings.mist_depth > 0.0 else 1e-9
+    m = min(max((distance - settings.mist_start) / depth, 0.0), 1.0)
+    if settings.mist_falloff == "QUADRATIC":
+        return m * m
+    if settings.mist_falloff == "INVERSE_QUADRATIC":
+        return math.sqrt(m)
+    return m
+
+
+def _channels(value: float | tuple[float, ...]) -> tuple[float, ...]:
+    return tuple(value) if isinstance(value, tuple) else (value,)
