@@ -86,7 +86,10 @@ def layer_names(entry: BlenderPass) -> list[str]:
 
 
 def register_passes(engine, scene, view_layer) -> None:
-    """RenderEngine.update_render_passes' work: every ticked pass registered under Blender's name."""
+    """RenderEngine.update_render_passes' work: Combined (the compositor's Render Layers node has an Image socket
+    only for a registered pass) and every ticked pass, under Blender's names."""
+    if getattr(view_layer, "use_pass_combined", True):
+        engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", "COLOR")
     for entry in PASSES:
         if _ticked(entry, scene, view_layer):
             for name in layer_names(entry):

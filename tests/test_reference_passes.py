@@ -198,11 +198,6 @@ def test_the_references_passes_of_a_plane_at_a_known_distance() -> None:
 # ---- where the vectorized recorder differs from the semantics the reference writes (reported, not fixed here) ----
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="recorder.PassRecorder.holdout() zeroes depth and mist too: a holdout's pixels read depth 0 (Cycles, and "
-    "the reference: 1e10, as it writes no data pass for a full holdout) and mist 0 (1)",
-)
 def test_a_holdout_leaves_depth_and_mist_as_the_background_s() -> None:
     materials = {"wall": sc.Material(color=(0.5, 0.5, 0.5))}
     plane = sc.Plane(name="wall", material="wall", location=(0.0, 0.0, -4.0), holdout=True)
@@ -216,11 +211,6 @@ def test_a_holdout_leaves_depth_and_mist_as_the_background_s() -> None:
     np.testing.assert_array_equal(passes["mist"], values["mist"])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="without per-triangle materials the material rows are the objects (wavefront._materials), and "
-    "recorder._ranks ranks rows: two objects of one material seen by one pixel take two ranks with the same ID",
-)
 def test_cryptomatte_material_gives_each_material_one_rank() -> None:
     materials = {"wall": sc.Material(color=(0.5, 0.5, 0.5))}
     objects = (

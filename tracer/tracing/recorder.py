@@ -54,8 +54,12 @@ class PassRecorder:
             offset = P - prepared.origin
             if "depth" in self.rows:
                 self._put("depth", pixel, (offset * prepared.view_axis).sum(axis=0))
-            if "mist" in self.rows:
-                self._put("mist", pixel, _mist(np.sqrt((offset * offset).sum(axis=0)), prepared.scene.render))
+            if "mist" in self.rows:  # Cycles' camera distance: along the view axis for an orthographic camera
+                if prepared.scene.camera.type == "ORTHO":
+                    distance = np.abs((offset * prepared.view_axis).sum(axis=0))
+                else:
+                    distance = np.sqrt((offset * offset).sum(axis=0))
+                self._put("mist", pixel, _mist(distance, prepared.scene.render))
         if "normal" in self.rows:
             self._put("normal", pixel, S / np.sqrt((S * S).sum(axis=0)))
         self._put("position", pixel, P)
@@ -72,16 +76,23 @@ class PassRecorder:
         split: dict[str, np.ndarray],
         material: np.ndarray,
         reflective: np.ndarray,
+        surface: tuple[np.ndarray, np.ndarray | None, np.ndarray | None] | None = None,
     ) -> None:
         """A first hit's shading split term by term (find_intensity's split: ambient, diffuse, specular sums and
-        the lights reached), each times the material's colour and (1 - reflectivity) as the image's local term."""
+        the lights reached), each times the material's colour and (1 - reflectivity) as the image's local term.
+        surface: the hits' colours, specular colours and emission as the image used them (PreparedScene.
+        surface_colors: a texture's samples); None: the material rows'."""
         if not self.shading:
             return
         prepared = self.prepared
         keep = 1.0 - reflective
-        colors = prepared.colors.take(material, axis=1)
+        if surface is None:
+            colors = prepared.colors.take(material, axis=1)
+            specular_colors = prepared.specular_colors.take(material, axis=1) if prepared.colored else None
+            emission = prepared.emission.take(material, axis=1) if prepared.emissive else None
+        else:
+            colors, specular_colors, emission = surface
         if prepared.colored:
-            specular_colors = prepared.specular_colors.take(material, axis=1)
             self._put("ambient", pixel, split["ambient"] * colors * keep)
             self._put("diffuse", pixel, split["diffuse"] * colors * keep)
             self._put("specular", pixel, split["specular"] * specular_colors * keep)
@@ -90,7 +101,7 @@ class PassRecorder:
             self._put("diffuse", pixel, (split["diffuse"] * keep) * colors)
             self._put("specular", pixel, (split["specular"] * keep) * colors)
         if prepared.emissive:
-            self._put("emission", pixel, prepared.emission.take(material, axis=1))
+            self._put("emission", pixel, emission)
         self._put("shadow", pixel, split["shadow"])
 
     def reflection(self, pixel: np.ndarray, value: np.ndarray) -> None:
@@ -104,9 +115,10 @@ class PassRecorder:
             self._put("environment", pixel, value, add=True)
 
     def holdout(self, pixel: np.ndarray) -> None:
-        """Camera rays that met a holdout first: nothing of them shows in any pass."""
+        """Camera rays that met a holdout first: nothing of them shows in any pass (depth and mist keep the
+        background's values, as Cycles writes no data pass there)."""
         for name, rows in self.rows.items():
-            if ps.PASSES[name].combine == "ranks":
+            if ps.PASSES[name].combine == "ranks" or name in ("depth", "mist"):
                 continue
             self.values[rows, pixel] = 0.0
 
@@ -130,8 +142,10 @@ class PassRecorder:
         """(P, samples) object or material rows, -1 for nothing -> (2 * ranks, P) Cryptomatte id/coverage pairs."""
         from .cryptomatte import ranks
 
-        hashes = self.prepared.cryptomatte_hashes(name)
-        ranked = ranks(ids.astype(np.int64), hashes, levels=ps.CRYPTOMATTE_RANKS)
+        # rows -> distinct names (material rows may be objects: one material of two objects is one id)
+        hashes, distinct = self.prepared.cryptomatte_hashes(name)
+        rows = ids.astype(np.int64)
+        ranked = ranks(np.where(rows >= 0, distinct.take(np.maximum(rows, 0)), -1), hashes, levels=ps.CRYPTOMATTE_RANKS)
         return ranked.T.astype(self.values.dtype)
 
 

@@ -546,7 +546,8 @@ class ReferenceTracer:
         offset = sub(P, camera.location)
         r = tf.euler_xyz_matrix(camera.rotation)
         out.depth = dot(offset, (-r[0][2], -r[1][2], -r[2][2]))  # along the view axis, the camera's local -Z
-        out.mist = mist(length(offset), self.settings)
+        # Cycles' camera distance: the view axis's for an orthographic camera, the straight line's for a perspective
+        out.mist = mist(abs(out.depth) if camera.type == "ORTHO" else length(offset), self.settings)
         out.normal = normalize(S)
         out.position = P
         out.object_index = float(self.scene.objects[first].pass_index)

@@ -434,13 +434,16 @@ class PreparedScene:
             parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, corners[:, 0], corners[:, 1], corners[:, 2])
             self.smooth[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
 
-    def cryptomatte_hashes(self, name: str) -> np.ndarray:
-        """Each placed object's (cryptomatte_object) or material row's (cryptomatte_material) name hashed as
-        Cryptomatte's float id (K,) float32."""
+    def cryptomatte_hashes(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """The distinct names of the placed objects (cryptomatte_object) or material rows (cryptomatte_material)
+        hashed as Cryptomatte's float ids (K,) float32, and each object's or row's index into them."""
         from .cryptomatte import name_hash
 
         names = self.object_names if name == "cryptomatte_object" else self.material_names
-        return np.asarray([name_hash(text)[1] for text in names], dtype=np.float32)
+        distinct = list(dict.fromkeys(names))
+        where = {text: index for index, text in enumerate(distinct)}
+        hashes = np.asarray([name_hash(text)[1] for text in distinct], dtype=np.float32)
+        return hashes, np.asarray([where[text] for text in names], dtype=np.int64)
 
     def material_of(self, obj: np.ndarray, part: np.ndarray) -> np.ndarray:
         """Each hit's index into the material arrays (n,): its object's material, or its triangle's."""
