@@ -298,6 +298,7 @@ class _Collected:
     parts: list = field(default_factory=list)  # names of the vane's turning parts
     lights: list = field(default_factory=list)  # (original light object, evaluated object, world matrix)
     meshes: dict = field(default_factory=dict)  # the document's meshes table
+    materials: dict = field(default_factory=dict)  # the document's materials (whether a mesh entry needs UVs)
     arrays: bool = False  # large meshes' fields as arrays (mesh_export.Placed.fields)
 
 
@@ -398,7 +399,7 @@ def _collect(
     """Every object instance Blender renders at the depsgraph's frame: the add-on's objects as their own kinds, and
     each other geometry read once (not at all where the cache holds it unchanged), then placed: once in world space
     as a "mesh", several times as a "meshes" entry and "instances" of it."""
-    collected = _Collected(arrays=arrays)
+    collected = _Collected(arrays=arrays, materials=materials)
     export = _Export(depsgraph, materials, notes, arrays)
     cache = mesh_export.CACHE
     hidden = _render_hidden_objects() if depsgraph.mode == "VIEWPORT" else None
@@ -492,13 +493,29 @@ def _mesh_object(placed: mesh_export.Placed, source: _Source, export: _Export) -
     """One placement of a geometry in world space as a scene-file mesh, with its materials and visibility."""
     slot_materials = source.slot_materials
     slots, used = placed.slots_of(len(slot_materials))
-    fields = placed.fields(arrays=export.arrays)
-    body = {"name": "", "type": "mesh", "material": export.material(slot_materials[used[0]]), **fields}
+    first = export.material(slot_materials[used[0]])
+    names = [export.material(material) for material in slot_materials] if len(used) > 1 else [first]
+    fields = placed.fields(arrays=export.arrays, uvs=_textured(names, export.materials))
+    body = {"name": "", "type": "mesh", "material": first, **fields}
     if len(used) > 1:
-        body["materials"] = [export.material(material) for material in slot_materials]
+        body["materials"] = names
         body["material_indices"] = slots.tolist()
     body.update(source.flags)
     return body
+
+
+def _textured(names, materials: dict) -> bool:
+    """Whether any of these scene-file materials has an image texture (its meshes then carry their corner UVs)."""
+    return any("texture" in materials.get(name, {}) for name in names)
+
+
+def _texture_lists(materials: dict) -> None:
+    """The materials' texture pixels as nested lists (a document for JSON: File > Export, the Rendered view's key);
+    each texture dict replaced, never changed (the conversions' cache shares them)."""
+    for name, material in materials.items():
+        texture = material.get("texture")
+        if texture is not None and isinstance(texture.get("pixels"), np.ndarray):
+            materials[name] = {**material, "texture": {**texture, "pixels": texture["pixels"].tolist()}}
 
 
 def _instance_groups(geometry: _Geometry, placements: list, export: _Export, collected: _Collected) -> list[_Item]:
@@ -610,7 +627,8 @@ def _mesh_entry(geometry: _Geometry, local: mesh_export.Placed, materials: tuple
     while name in collected.meshes:
         count += 1
         name = f"{geometry.stem}#{count}"
-    entry = local.fields(arrays=collected.arrays)
+    names = [materials[1]] if materials[0] == "one" else list(materials[1])
+    entry = local.fields(arrays=collected.arrays, uvs=_textured(names, collected.materials))
     if materials[0] == "one":
         entry["material"] = materials[1]
     else:
@@ -806,6 +824,8 @@ def scene_document(
         document["render"]["film_transparent"] = True
     if notes.line():
         document["comment"] = notes.line()
+    if not arrays:
+        _texture_lists(materials)
     pivot = bpy.data.objects.get(build.PIVOT)
     if parts and pivot is not None:
         axis = pivot.matrix_world.to_3x3() @ Vector((0.0, 0.0, 1.0))

@@ -25,8 +25,14 @@ a mirror; at rho >= 0.5 (n <= 30, a lobe 14 degrees wide) the scene's reflection
 only the lights' highlight is kept; in between the share moves linearly: mirror w = (0.5 - rho) / 0.4 of F, and
 (1 - w) F is the highlight's weight. Where n < 1 (rho > 0.84) the highlight is as wide as a diffuse lobe and goes to D.
 
-Image textures and colour attributes on a colour input give their mean colour (linear, computed once per image or
-attribute and kept in a cache), named. Transmission, subsurface, coat, sheen, alpha, normal and bump maps, and
+An Image Texture on Base Color (Principled) or Color (Diffuse BSDF) read by the mesh's UV map (its Vector input
+unlinked, or from Texture Coordinate > UV or a UV Map node naming no map), flat projection, directly or through a
+Mix (Mix or Multiply blend, a constant factor, a constant other colour), becomes the material's "texture": the
+image's linear pixels (sRGB byte images decoded; float, Non-Color and Linear images as they are) through that Mix,
+times the same factors as the colour (color = texture's mean), Closest or Linear (Cubic and Smart: Linear, named),
+Repeat, Extend or Clip. Anything else (other coordinates, Mirror, a Color Ramp, another image node in between)
+keeps the image's mean colour, named, as colour attributes do (the means computed once per image or attribute and
+kept in a cache). Transmission, subsurface, coat, sheen, alpha, normal and bump maps, and
 volumes are named and rendered as the opaque base. With no node tree the Viewport Display colour is the colour.
 The add-on's own materials (materials.py) convert back to exactly the values the panel holds.
 """
@@ -36,6 +42,7 @@ from __future__ import annotations
 import math
 
 import bpy
+import numpy as np
 
 from . import compat, materials
 
@@ -72,9 +79,14 @@ def mirror_share(roughness: float) -> float:
 
 
 class _Lobes:
-    """A surface as the documented model's parts: diffuse, mirror, highlights and emission (linear RGB)."""
+    """A surface as the documented model's parts: diffuse, mirror, highlights and emission (linear RGB).
+
+    texture: an image texture in the diffuse, (pixels (H, W, 3) linear, bottom row first, as Blender's; its mean
+    (3,); weight (3,); interpolation; extension): the diffuse at a point is diffuse + weight * (pixel - mean)."""
 
     def __init__(self) -> None:
+        self.texture: tuple | None = None
+        self.textures_dropped = 0  # textures of shaders added to a textured one: only the first kept (named)
         self.diffuse = [0.0, 0.0, 0.0]
         # the diffuse as the colour inputs give it, before the conversion's own factors (Principled's diffuse share):
         # above 1 only where an input is, or inputs add up past 1
@@ -90,6 +102,10 @@ class _Lobes:
         out.mirror = [c * k for c in self.mirror]
         out.highlights = [([c * k for c in weight], n) for weight, n in self.highlights]
         out.emission = [c * k for c in self.emission]
+        if self.texture is not None:
+            pixels, mean, weight, interpolation, extension = self.texture
+            out.texture = (pixels, mean, [w * k for w in weight], interpolation, extension)
+        out.textures_dropped = self.textures_dropped
         return out
 
     def plus(self, other: _Lobes) -> _Lobes:
@@ -99,6 +115,9 @@ class _Lobes:
         out.mirror = [a + b for a, b in zip(self.mirror, other.mirror, strict=True)]
         out.highlights = self.highlights + other.highlights
         out.emission = [a + b for a, b in zip(self.emission, other.emission, strict=True)]
+        out.texture = self.texture if self.texture is not None else other.texture
+        both = self.texture is not None and other.texture is not None
+        out.textures_dropped = self.textures_dropped + other.textures_dropped + int(both)
         return out
 
     def add_specular(self, weight, roughness: float) -> None:
@@ -217,6 +236,84 @@ def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, 
     return own
 
 
+def _rgba_pixels(image) -> np.ndarray | None:
+    """An image's linear pixels (H, W, 3), bottom row first, kept with the means' cache (by name, size and file)."""
+    key = ("pixels", image.name, tuple(image.size), image.filepath)
+    if key not in _means:
+        _means[key] = linear_rgb(image)
+    return _means[key]
+
+
+INTERPOLATIONS = {"Closest": "closest", "Linear": "linear", "Cubic": "linear", "Smart": "linear"}
+EXTENSIONS = {"REPEAT": "repeat", "EXTEND": "extend", "CLIP": "clip"}
+
+
+def _uv_coordinates(texture_node) -> bool:
+    """Whether an Image Texture node reads the mesh's default UV map: its Vector unlinked, or from a Texture
+    Coordinate's UV output or a UV Map node that names no map."""
+    node, output = _source(texture_node.inputs["Vector"])
+    if node is None:
+        return True
+    if node.bl_idname == "ShaderNodeTexCoord":
+        return output.name == "UV" and getattr(node, "object", None) is None
+    return node.bl_idname == "ShaderNodeUVMap" and not getattr(node, "uv_map", "")
+
+
+def _mix_sockets(node):
+    """A colour Mix node's (factor, A, B) sockets and blend type (the Mix node of 3.4+, and MixRGB), or None."""
+    if node.bl_idname == "ShaderNodeMix" and getattr(node, "data_type", "") == "RGBA":
+        by_id = {socket.identifier: socket for socket in node.inputs}
+        return by_id.get("Factor_Float"), by_id.get("A_Color"), by_id.get("B_Color"), node.blend_type
+    if node.bl_idname == "ShaderNodeMixRGB":
+        return node.inputs["Fac"], node.inputs["Color1"], node.inputs["Color2"], node.blend_type
+    return None
+
+
+def texture_input(socket, label: str, notes: list[str], depth: int = 0) -> tuple | None:
+    """The image texture a colour input reads by the mesh's UVs, as (pixels (H, W, 3) linear, bottom row first;
+    interpolation; extension), through Mix nodes (Mix, Multiply) with a constant factor and a constant other colour;
+    None where it is not one (the caller then takes the mean, named)."""
+    node, output = _source(socket)
+    if node is None or depth > 8:
+        return None
+    if node.bl_idname == "ShaderNodeTexImage":
+        image = node.image
+        if image is None or output.name != "Color" or getattr(node, "projection", "FLAT") != "FLAT":
+            return None
+        if not _uv_coordinates(node) or node.extension not in EXTENSIONS:
+            return None
+        pixels = _rgba_pixels(image)
+        if pixels is None:
+            return None
+        if node.interpolation in ("Cubic", "Smart"):
+            notes.append(f"{node.interpolation.lower()} interpolation on {label}: linear")
+        return pixels, INTERPOLATIONS.get(node.interpolation, "linear"), EXTENSIONS[node.extension]
+    mix = _mix_sockets(node)
+    if mix is None or any(part is None for part in mix[:3]) or mix[3] not in ("MIX", "MULTIPLY"):
+        return None
+    factor, first, second, blend = mix
+    if factor.is_linked:
+        return None
+    f = min(1.0, max(0.0, float(factor.default_value)))
+    found = [texture_input(part, label, notes, depth + 1) for part in (first, second)]
+    if (found[0] is None) == (found[1] is None):
+        return None
+    other = second if found[0] is not None else first
+    other_node, _ = _source(other)
+    if other_node is not None and other_node.bl_idname != "ShaderNodeRGB":
+        return None
+    source = other if other_node is None else other_node.outputs[0]
+    constant = np.asarray([float(c) for c in source.default_value[:3]], dtype=np.float64)
+    pixels, interpolation, extension = found[0] if found[0] is not None else found[1]
+    if blend == "MIX":
+        mixed = pixels * (1.0 - f) + constant * f if found[0] is not None else constant * (1.0 - f) + pixels * f
+    else:
+        mixed = pixels * ((1.0 - f) + f * constant)
+    if getattr(node, "clamp_result", False) or getattr(node, "use_clamp", False):
+        mixed = np.clip(mixed, 0.0, 1.0)
+    return mixed, interpolation, extension
+
+
 def value_input(socket, label: str, notes: list[str]) -> float:
     """A factor input's own value; a linked one is named and read unlinked."""
     node, _ = _source(socket)
@@ -230,15 +327,31 @@ def value_input(socket, label: str, notes: list[str]) -> float:
 # --- shaders ---------------------------------------------------------------------------------------------------------
 
 
+def _textured_color(socket, material, label: str, notes: list[str]) -> tuple[tuple, tuple | None]:
+    """A colour input's value and, where an image texture by UV feeds it (texture_input), that texture: its value
+    is then the texture's mean."""
+    texture = texture_input(socket, label, notes)
+    if texture is None:
+        return color_input(socket, material, label, notes), None
+    pixels = texture[0]
+    mean = tuple(float(c) for c in pixels.reshape(-1, 3).mean(axis=0))
+    return mean, texture
+
+
 def _principled(node, material, notes: list[str]) -> _Lobes:
     lobes = _Lobes()
-    base = color_input(node.inputs["Base Color"], material, "Base Color", notes)
+    base, texture = _textured_color(node.inputs["Base Color"], material, "Base Color", notes)
     metallic = min(1.0, max(0.0, value_input(node.inputs["Metallic"], "Metallic", notes)))
     roughness = min(1.0, max(0.0, value_input(node.inputs["Roughness"], "Roughness", notes)))
     level = value_input(compat.principled_socket(node, "specular"), "Specular", notes)
     f0 = compat.principled_f0(node, level)
     lobes.diffuse = [(1.0 - metallic) * compat.principled_diffuse_factor(roughness, f0) * c for c in base]
     lobes.given = [(1.0 - metallic) * c for c in base]
+    if texture is not None:
+        weight = (1.0 - metallic) * compat.principled_diffuse_factor(roughness, f0)
+        lobes.texture = (texture[0], base, [weight] * 3, texture[1], texture[2])
+        if metallic > 0.0:
+            notes.append("metallic image texture: its highlight of the texture's mean colour")
     lobes.add_specular([metallic * c + (1.0 - metallic) * f0 for c in base], roughness)
     emission = color_input(compat.principled_socket(node, "emission"), material, "Emission", notes)
     strength = value_input(node.inputs["Emission Strength"], "Emission Strength", notes)
@@ -281,8 +394,11 @@ def _glossy(node, material, notes: list[str]) -> _Lobes:
 
 def _diffuse(node, material, notes: list[str]) -> _Lobes:
     lobes = _Lobes()
-    lobes.diffuse = list(color_input(node.inputs["Color"], material, f"{node.name} Color", notes))
+    color, texture = _textured_color(node.inputs["Color"], material, f"{node.name} Color", notes)
+    lobes.diffuse = list(color)
     lobes.given = list(lobes.diffuse)
+    if texture is not None:
+        lobes.texture = (texture[0], color, [1.0, 1.0, 1.0], texture[1], texture[2])
     roughness = node.inputs.get("Roughness")
     if roughness is not None and (roughness.is_linked or float(roughness.default_value) > 0.0):
         notes.append("diffuse roughness (Oren-Nayar): Lambert")
@@ -455,6 +571,10 @@ def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
     elif any(c > 1.01 for c in color):  # inputs of at most 1 that 3.x Principled's Disney diffuse makes brighter
         notes.append("diffuse brighter than white (Principled's): white")
     document = {"color": [min(1.0, max(0.0, c)) for c in color], "specular": 0, "reflective": reflective}
+    if lobes.texture is not None:
+        document["texture"] = _texture_document(lobes, local)
+        if lobes.textures_dropped:
+            notes.append("several image textures: the first's")
     if lobes.highlights:
         weight, exponent = max(lobes.highlights, key=lambda item: sum(item[0]))
         if len(lobes.highlights) > 1:
@@ -472,3 +592,14 @@ def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
             notes.append("emission above 1: clipped at 1")
         document["emission"] = [min(MAX_COLOR, c) for c in lobes.emission]
     return document
+
+
+def _texture_document(lobes: _Lobes, local: float) -> dict:
+    """The scene file's "texture" of a textured diffuse: at each texel (diffuse + weight (pixel - mean)) / (1 - r),
+    clipped to [0, 1] as the colour is, rows top first, float32 linear."""
+    pixels, mean, weight, interpolation, extension = lobes.texture
+    offset = np.asarray(lobes.diffuse, dtype=np.float64) - np.asarray(weight) * np.asarray(mean)
+    values = (pixels * np.asarray(weight) + offset) * local
+    values = np.ascontiguousarray(np.clip(values, 0.0, 1.0)[::-1], dtype=np.float32)
+    values.flags.writeable = False
+    return {"pixels": values, "colorspace": "linear", "interpolation": interpolation, "extension": extension}

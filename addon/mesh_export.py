@@ -32,6 +32,7 @@ class MeshArrays:
     triangles: np.ndarray  # (T, 3) int64, counter-clockwise seen from the face normal's side
     corner_normals: np.ndarray | None  # (T, 3, 3) float64, None when every face is flat
     slots: np.ndarray  # (T,) int64, the material slot of each triangle
+    uvs: np.ndarray | None = None  # (T, 3, 2) float64 the active render UV map's per corner, None without one
     memo: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -46,8 +47,22 @@ class MeshArrays:
 
     @property
     def nbytes(self) -> int:
-        arrays = (self.vertices, self.triangles, self.corner_normals, self.slots)
+        arrays = (self.vertices, self.triangles, self.corner_normals, self.slots, self.uvs)
         return sum(array.nbytes for array in arrays if array is not None)
+
+
+def _corner_uvs(mesh, loop_triangles, count: int) -> np.ndarray | None:
+    """The mesh's UV map that Cycles' image textures read by default (the active render one, else the active one)
+    at each triangle corner (T, 3, 2) float64, through foreach_get; None where the mesh has no UV map."""
+    layers = getattr(mesh, "uv_layers", None)
+    if not layers:
+        return None
+    layer = next((uv for uv in layers if uv.active_render), None) or layers.active or layers[0]
+    uvs = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    layer.data.foreach_get("uv", uvs)
+    loops = np.empty(count * 3, dtype=np.int32)
+    loop_triangles.foreach_get("loops", loops)
+    return uvs.reshape(-1, 2).astype(np.float64)[loops].reshape(count, 3, 2)
 
 
 def read(obj) -> MeshArrays | None:
@@ -87,6 +102,7 @@ def read(obj) -> MeshArrays | None:
             # a flat face shades with each triangle's own normal, as Cycles does (a non-planar quad's split normal is
             # the polygon's, which neither triangle has): only smooth faces carry corner normals
             corner_normals[flat] = face_normals.astype(np.float64).reshape(count, 1, 3)[flat]
+        uvs = _corner_uvs(mesh, loop_triangles, count)
     finally:
         obj.to_mesh_clear()
     return MeshArrays(
@@ -94,6 +110,7 @@ def read(obj) -> MeshArrays | None:
         triangles=triangles.astype(np.int64).reshape(count, 3),
         corner_normals=corner_normals,
         slots=slots.astype(np.int64),
+        uvs=uvs,
     )
 
 
@@ -109,17 +126,34 @@ class Placed:
     normals: np.ndarray | None  # (T, 3, 3) float64 unit corner normals, None when every face is flat
     slots: np.ndarray  # (T,) int64, the material slot of each kept triangle
     dropped: int  # triangles left out for spanning no area (the tracer refuses them; Blender renders nothing of them)
+    uvs: np.ndarray | None = None  # (T, 3, 2) float64 corner UVs of the kept triangles, None without a UV map
     memo: dict = field(default_factory=dict, compare=False, repr=False)  # what fields() and slots_of() made
 
     @property
     def nbytes(self) -> int:
         """Its arrays' bytes; a small mesh's counted 8 times, for the lists it keeps (a row of 3 floats is a list of
         float objects: about 150 bytes against 24)."""
-        arrays = (self.vertices, self.triangles, self.normals, self.slots)
+        arrays = (self.vertices, self.triangles, self.normals, self.slots, self.uvs)
         size = sum(array.nbytes for array in arrays if array is not None)
         return size * 8 if len(self.triangles) <= SMALL_MESH else size
 
-    def fields(self, arrays: bool = False) -> dict:
+    def fields(self, arrays: bool = False, uvs: bool = False) -> dict:
+        """fields_without_uvs(arrays), with the corner "uvs" where asked (a textured material) and the mesh has a UV
+        map: an array where arrays are asked (a render in this process), else lists made once."""
+        found = self.fields_without_uvs(arrays)
+        if uvs and self.uvs is not None:
+            if arrays:
+                view = self.uvs.view()
+                view.flags.writeable = False
+                found["uvs"] = view
+            else:
+                listed = self.memo.get("uv lists")
+                if listed is None:
+                    listed = self.memo["uv lists"] = self.uvs.tolist()
+                found["uvs"] = list(listed)
+        return found
+
+    def fields_without_uvs(self, arrays: bool = False) -> dict:
         """The scene file's "vertices", "triangles" and, where faces are smooth, "normals" (lists). A small mesh's are
         made once: each call gets new outer lists whose rows it shares with the other calls' (read them only).
         arrays: a large mesh's as read-only views of its arrays instead, for the loader in the same process (a
@@ -218,7 +252,12 @@ def place(arrays: MeshArrays, matrix=None) -> Placed:
         normals = np.where(lengths > 0, normals / np.where(lengths > 0, lengths, 1.0), flat)
     slots = arrays.slots if everything else arrays.slots[spans_area]
     dropped = 0 if everything else int(len(triangles) - np.count_nonzero(spans_area))
-    return Placed(placed_vertices, remapped, normals, slots, dropped)
+    uvs = None
+    if arrays.uvs is not None:  # the corners as kept, in the order kept (a mirroring placement swaps two)
+        uvs = arrays.uvs if everything else arrays.uvs[spans_area]
+        if mirrored:
+            uvs = uvs[:, order]
+    return Placed(placed_vertices, remapped, normals, slots, dropped, uvs)
 
 
 def in_world(arrays: MeshArrays, matrix) -> tuple[dict, np.ndarray, int]:

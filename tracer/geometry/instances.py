@@ -282,10 +282,10 @@ class InstancesKernel(MeshKernel):
         """The mesh's triangles in its own space (T, 3 vertices, 3) float64, as its kernel was made from them."""
         return self.source_triangles
 
-    def smooth_normals(self, P: np.ndarray, part: np.ndarray, corners: np.ndarray, flat: np.ndarray) -> np.ndarray:
-        """Interpolated corner normals (3, n) at hit points P (3, n): the barycentric coordinates of P taken into its
-        instance's space, the mesh's corner normals corners (T, 3, 3) interpolated there, placed by the cofactor and
-        normalised; flat (3, n) where they cancel. float64 throughout, as the reference."""
+    def corner_values(self, P: np.ndarray, part: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per-corner values of the mesh's triangles, corners (T, 3, k) (normals, UVs), interpolated (k, n) at hit
+        points P (3, n) by their barycentric coordinates in their instance's space; and each hit's instance (n,).
+        float64 throughout, as the reference."""
         instance, triangle = self.split(part)
         m = self.inverse64.take(instance, axis=0)  # (n, 3, 4)
         point = P.astype(np.float64)
@@ -295,9 +295,16 @@ class InstancesKernel(MeshKernel):
         triangles = self.local_triangles().take(triangle, axis=0)  # (n, 3, 3)
         a = triangles[:, 0].T
         corner = (corners[:, k].take(triangle, axis=0).T for k in range(3))
-        n = interpolated_corners(
+        values = interpolated_corners(
             local - a, (triangles[:, 1] - triangles[:, 0]).T, (triangles[:, 2] - triangles[:, 0]).T, *corner
         )
+        return values, instance
+
+    def smooth_normals(self, P: np.ndarray, part: np.ndarray, corners: np.ndarray, flat: np.ndarray) -> np.ndarray:
+        """Interpolated corner normals (3, n) at hit points P (3, n): the barycentric coordinates of P taken into its
+        instance's space, the mesh's corner normals corners (T, 3, 3) interpolated there, placed by the cofactor and
+        normalised; flat (3, n) where they cancel. float64 throughout, as the reference."""
+        n, instance = self.corner_values(P, part, corners)
         cof = self.cofactor64.take(instance, axis=0)  # (n, 3, 3)
         placed = np.stack([cof[:, i, 0] * n[0] + cof[:, i, 1] * n[1] + cof[:, i, 2] * n[2] for i in range(3)])
         return unit_or(placed, flat)

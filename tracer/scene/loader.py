@@ -13,6 +13,7 @@ import numpy as np
 
 from . import motion as mo
 from . import scene as sc
+from . import textures as tx
 from . import wind as wi
 from .passes import PASSES
 
@@ -259,7 +260,9 @@ def _fallback_number(low: float | None) -> float:
 # ---- sections ----------------------------------------------------------------------------------------------------
 
 
-def _material(reader: _Reader) -> sc.Material:
+def _material(reader: _Reader, base: Path | None = None) -> sc.Material:
+    texture = _texture(reader.reader("texture"), base)
+    emission_texture = _texture(reader.reader("emission_texture"), base)
     material = sc.Material(
         color=reader.color("color"),
         specular=reader.number("specular", 0.0, low=0.0, high=SPECULAR_MAX),
@@ -268,9 +271,113 @@ def _material(reader: _Reader) -> sc.Material:
         two_sided=reader.boolean("two_sided", False),
         specular_color=reader.vector("specular_color", None, low=0.0, high=INTENSITY_MAX),
         pass_index=reader.number("pass_index", 0, low=0, high=PASS_INDEX_MAX, integer=True),
+        texture=texture,
+        emission_texture=emission_texture,
     )
     reader.finish()
     return material
+
+
+def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
+    """A material's "texture" or "emission_texture": an image's pixels inline ("pixels") or by a file's path
+    ("image", relative to the scene file's folder), its colour space, interpolation and extension."""
+    if reader is None:
+        return None
+    colorspace = reader.choice("colorspace", tx.COLORSPACES, "sRGB")
+    interpolation = reader.choice("interpolation", sc.INTERPOLATIONS, "linear")
+    extension = reader.choice("extension", sc.EXTENSIONS, "repeat")
+    image = reader.raw("image", None)
+    pixels = reader.raw("pixels", None)
+    reader.finish()
+    values, source = None, ""
+    if (image is None) == (pixels is None):
+        reader.fail("", 'must give its pixels either inline ("pixels") or by a file\'s path ("image"), one of them')
+        return None
+    if image is not None:
+        if not isinstance(image, str) or not image:
+            reader.fail("image", f"must be a file's path (a non-empty string), got {_show_shape(image)}")
+            return None
+        path = Path(image) if base is None or Path(image).is_absolute() else Path(base) / image
+        source = str(path)
+        try:
+            values = tx.read_image(path)
+        except tx.TextureFileError as error:
+            reader.fail("image", f"{_show(image)} {error}")
+            return None
+    else:
+        values = _texture_pixels(reader, pixels)
+        if values is None:
+            return None
+    try:
+        linear = tx.linear_pixels(values, colorspace)
+    except tx.TextureFileError as error:
+        reader.fail("image" if image is not None else "pixels", str(error))
+        return None
+    if linear.shape[0] * linear.shape[1] > tx.MAX_TEXTURE_PIXELS:
+        reader.fail(
+            "pixels", f"must have at most {tx.MAX_TEXTURE_PIXELS} pixels, got {linear.shape[0] * linear.shape[1]}"
+        )
+        return None
+    if not np.all(np.isfinite(linear)) or linear.min() < 0.0 or linear.max() > INTENSITY_MAX:
+        reader.fail("image" if image is not None else "pixels", f"must hold finite values in 0..{_show(INTENSITY_MAX)}")
+        return None
+    linear.flags.writeable = False  # the texture keeps it, without a copy
+    return sc.Texture(pixels=linear, interpolation=interpolation, extension=extension, source=source)
+
+
+def _texture_pixels(reader: _Reader, raw: Any) -> np.ndarray | None:
+    """Inline pixels: rows (top first) of pixels, each [r, g, b] (or [r, g, b, a], or one grey number); a NumPy
+    array (H, W[, C]) in a document made in the same process."""
+    expected = "must be a non-empty list of rows, each a list of pixels [r, g, b] (top row first)"
+    if isinstance(raw, np.ndarray):
+        if raw.dtype.kind not in "fiu" or raw.ndim not in (2, 3) or raw.size == 0:
+            reader.fail("pixels", f"{expected}, got an array of shape {raw.shape} and dtype {raw.dtype}")
+            return None
+        return raw
+    if not isinstance(raw, list) or not raw or not all(isinstance(row, list) and row for row in raw):
+        reader.fail("pixels", f"{expected}, got {_show_shape(raw)}")
+        return None
+    try:
+        objects = np.asarray(raw, dtype=object)
+    except ValueError:
+        objects = None
+    if objects is None or objects.ndim not in (2, 3) or objects.shape[1] != len(raw[0]):
+        widths = sorted({len(row) for row in raw})
+        reader.fail("pixels", f"{expected}, all rows as long and all pixels of one size, got row lengths {widths}")
+        return None
+    if not set(map(type, objects.ravel().tolist())) <= {int, float}:
+        bad = next(i for i, row in enumerate(raw) if not _numbers_only(row))
+        reader.fail(f"pixels[{bad}]", f"must hold numbers only, got {_show(raw[bad])}")
+        return None
+    return objects.astype(np.float64)
+
+
+def _numbers_only(value: Any) -> bool:
+    if isinstance(value, list):
+        return all(_numbers_only(item) for item in value)
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _corner_uvs(reader: _Reader, count: int) -> np.ndarray | None:
+    """A mesh's "uvs": one [[u, v] x 3] per triangle (its corners'), checked as one array (large meshes)."""
+    raw = reader.raw("uvs", None)
+    if raw is None:
+        return None
+    expected = f"must be a list of {count} triangles' corner UVs [[u, v], [u, v], [u, v]]"
+    if not isinstance(raw, list | np.ndarray) or len(raw) != count:
+        reader.fail("uvs", f"{expected}, got {_show_shape(raw)}")
+        return None
+    array = _number_array(raw, (count, 3, 2))
+    if array is None:
+        raw = raw.tolist() if isinstance(raw, np.ndarray) else raw
+        bad = next((i for i, item in enumerate(raw) if _number_array([item], (1, 3, 2)) is None), 0)
+        reader.fail(
+            f"uvs[{bad}]",
+            f"must be 3 corner UVs [u, v] of numbers up to {_show(COORDINATE_LIMIT)}, got {_show(raw[bad])}",
+        )
+        return None
+    array.flags.writeable = False  # (T, 3, 2): the mesh keeps it, without a copy
+    return array
 
 
 def _object(
@@ -460,6 +567,7 @@ def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Mater
             vertices=vertices_array,
             triangles=triangles_array,
             normals=normals,
+            uvs=_corner_uvs(reader, count),
             materials=names,
             material_indices=indices,
             **common,
@@ -507,6 +615,7 @@ def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Mater
         vertices=tuple(vertices),
         triangles=tuple(triangles),
         normals=normals,
+        uvs=_corner_uvs(reader, count),
         materials=names,
         material_indices=indices,
         **common,
@@ -940,8 +1049,9 @@ def _motion(reader: _Reader | None, wind_reader: _Reader | None) -> mo.Motion | 
 # ---- entry points ------------------------------------------------------------------------------------------------
 
 
-def scene_from_dict(data: Any, source: str = "scene") -> sc.Scene:
-    """Validate a parsed JSON document and build the Scene; raises SceneError listing every problem."""
+def scene_from_dict(data: Any, source: str = "scene", base: str | Path | None = None) -> sc.Scene:
+    """Validate a parsed JSON document and build the Scene; raises SceneError listing every problem. base: the
+    folder that textures' relative image paths start from (the scene file's; None: the current directory)."""
     problems: list[str] = []
     top = _Reader(data, "", problems)
     if not isinstance(data, dict):
@@ -956,7 +1066,7 @@ def scene_from_dict(data: Any, source: str = "scene") -> sc.Scene:
             top.fail("materials", f"must be a non-empty object of name: material, got {_show_shape(raw_materials)}")
         else:
             for name, body in raw_materials.items():
-                materials[name] = _material(_Reader(body, f"materials.{name}", problems))
+                materials[name] = _material(_Reader(body, f"materials.{name}", problems), base)
 
     meshes = _mesh_table(top.reader("meshes"), materials)
     objects: list[sc.SceneObject] = []
@@ -1009,7 +1119,7 @@ def scene_from_dict(data: Any, source: str = "scene") -> sc.Scene:
 def load_scene(path: str | Path) -> sc.Scene:
     """Read and validate a JSON scene file; raises SceneError (unreadable file, bad JSON, bad fields)."""
     source = str(path)
-    return scene_from_dict(parse_json(_read_scene_bytes(Path(path), source), source), source)
+    return scene_from_dict(parse_json(_read_scene_bytes(Path(path), source), source), source, Path(path).parent)
 
 
 def _read_scene_bytes(path: Path, source: str) -> bytes:

@@ -48,6 +48,10 @@ class Material:
     two_sided: bool = False
     specular_color: Color | None = None
     pass_index: int = 0  # Blender's Material > Settings > Pass Index: the Material Index pass's value
+    # an image by the hit's UVs (meshes with uvs): its sample replaces color (texture) or emission
+    # (emission_texture) at the hit; color and emission stay the values of hits without UVs
+    texture: Texture | None = None
+    emission_texture: Texture | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -196,6 +200,35 @@ class ArraysByBits:
         return state
 
 
+INTERPOLATIONS = ("linear", "closest")  # Blender's Image Texture interpolation Linear, Closest
+EXTENSIONS = ("repeat", "extend", "clip")  # Blender's REPEAT, EXTEND, CLIP
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Texture(ArraysByBits):
+    """An image looked up by a mesh's UVs (Blender's Image Texture node): pixels (H, W, 3) float32 linear RGB, row 0
+    the image's top (v = 1), column 0 its left (u = 0). interpolation: linear (bilinear between the four nearest
+    texel centres, as Cycles) or closest; extension: repeat, extend (the edge texels continue) or clip (texels
+    outside the image are black). source: where the pixels came from (a file's path, or "" for pixels given inline), for
+    messages and exports only. Equality compares the pixels' bits (ArraysByBits)."""
+
+    ARRAYS = ("pixels",)
+
+    pixels: np.ndarray = field(default_factory=lambda: np.zeros((1, 1, 3), dtype=np.float32))
+    interpolation: Literal["linear", "closest"] = "linear"
+    extension: Literal["repeat", "extend", "clip"] = "repeat"
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "pixels", frozen_array(self.pixels, np.float32, (-1, -1, 3)))
+
+    def __setstate__(self, state: dict) -> None:
+        for value in state.values():
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+        self.__dict__.update(state)
+
+
 @dataclass(frozen=True, kw_only=True, eq=False)
 class TriangleMesh(ArraysByBits, Primitive):
     """Triangles in local coordinates (vertices and index triples), counter-clockwise seen from outside.
@@ -210,13 +243,14 @@ class TriangleMesh(ArraysByBits, Primitive):
     pickle; as arrays it is 36 MB and goes to the kernels without a conversion. Equality compares the arrays' bits
     (ArraysByBits)."""
 
-    ARRAYS = ("vertices", "triangles", "normals", "material_indices")
+    ARRAYS = ("vertices", "triangles", "normals", "material_indices", "uvs")
 
     vertices: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     triangles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
     normals: np.ndarray | None = None
     materials: tuple[str, ...] | None = None
     material_indices: np.ndarray | None = None
+    uvs: np.ndarray | None = None  # (T, 3, 2) float64: each triangle's corners' (u, v), for textures
 
     def __post_init__(self) -> None:
         set_field = object.__setattr__  # frozen: the conversion happens once, before anyone sees the object
@@ -228,6 +262,8 @@ class TriangleMesh(ArraysByBits, Primitive):
             set_field(self, "materials", tuple(self.materials))
         if self.material_indices is not None:
             set_field(self, "material_indices", frozen_array(self.material_indices, np.int64, (-1,)))
+        if self.uvs is not None:
+            set_field(self, "uvs", frozen_array(self.uvs, np.float64, (-1, 3, 2)))
 
     def __setstate__(self, state: dict) -> None:
         """Unpickled (a worker's copy): the arrays read-only again, as made (pickle does not keep the flag)."""
@@ -276,6 +312,11 @@ class MeshInstances(ArraysByBits, Primitive):
     def normals(self) -> np.ndarray | None:
         """The mesh's corner normals (T, 3, 3) in its local space, or None (flat)."""
         return self.mesh.normals
+
+    @property
+    def uvs(self) -> np.ndarray | None:
+        """The mesh's corner UVs (T, 3, 2), or None."""
+        return self.mesh.uvs
 
     def __setstate__(self, state: dict) -> None:
         for value in state.values():

@@ -468,6 +468,37 @@ class ReferenceTracer:
             S = (-S[0], -S[1], -S[2])
         return S
 
+    def textured(self, material: sc.Material, index: int, part: int, P: sc.Vec3) -> sc.Material:
+        """The material as a hit at P on object index's part sees it: where the material has a texture (an emission
+        texture) and the object corner UVs, its colour (emission) replaced by the texture's sample at P's UV, the
+        corner UVs weighted by P's barycentric coordinates (as smooth normals'; an instance's in its own space)."""
+        if material.texture is None and material.emission_texture is None:
+            return material
+        obj = self.scene.objects[index]
+        if getattr(obj, "uvs", None) is None:
+            return material
+        from dataclasses import replace
+
+        from .texturing import sample_one
+
+        kept = self.__dict__.setdefault("_uv_corners", {})
+        if index not in kept:  # each corner's (u, v, 0): _interpolated's three components
+            kept[index] = [[(u, v, 0.0) for u, v in corners] for corners in obj.uvs.tolist()]
+        corners = kept[index]
+        primitive = self.primitives[index]
+        if isinstance(obj, sc.MeshInstances):
+            instance, triangle = divmod(part, len(primitive.mesh.triangles))
+            local = _affine(primitive.inverses[instance], P, True)
+            u, v, _ = _interpolated(primitive.mesh.triangles[triangle], corners[triangle], local)
+        else:
+            u, v, _ = _interpolated(primitive.triangles[part], corners[part], P)
+        changes = {}
+        if material.texture is not None:
+            changes["color"] = sample_one(material.texture, u, v)
+        if material.emission_texture is not None:
+            changes["emission"] = sample_one(material.emission_texture, u, v)
+        return replace(material, **changes)
+
     def trace_ray(
         self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, depth: int, camera: bool = False
     ) -> sc.Color:
@@ -481,6 +512,7 @@ class ReferenceTracer:
             return (0.0, 0.0, 0.0)
         P = add(O, scale(D, closest_t))
         material = self.material(closest_object, part)
+        material = self.textured(material, closest_object, part, P)
         V = (-D[0], -D[1], -D[2])
         S = self.shading_normal(closest_object, part, P, V, material)
         diffuse, highlight = self.find_intensities(P, S, V, material.specular)
@@ -541,6 +573,7 @@ class ReferenceTracer:
             return out
         P = add(O, scale(D, t))
         material = self.material(first, part)
+        material = self.textured(material, first, part, P)
         V = (-D[0], -D[1], -D[2])
         S = self.shading_normal(first, part, P, V, material)
         offset = sub(P, camera.location)
@@ -602,6 +635,7 @@ class ReferenceTracer:
             return
         P = add(O, scale(D, t))
         material = self.material(index, part)
+        material = self.textured(material, index, part, P)
         V = (-D[0], -D[1], -D[2])
         S = self.shading_normal(index, part, P, V, material)
         terms = self.local_terms(P, S, V, material)

@@ -42,6 +42,7 @@ from ..geometry.robust import make_robust_kernel, offset_origins
 from ..scene import scene as sc
 from .raystore import RayStore
 from .recorder import PassRecorder, view_axis
+from .texturing import sample as sample_texture
 
 # this many still triangle meshes seen by the same rays go into the scene's hierarchy as one kernel (their
 # triangles behind one hierarchy, MergedMeshKernel): 3,000 cubes as separate objects took 16x the time of the same
@@ -176,6 +177,7 @@ class PreparedScene:
             self.object_pass_index = np.asarray([obj.pass_index for obj in objects], dtype=self.dtype)
             self.view_axis = view_axis(self.scene.camera, self.dtype)
         self._smooth_normals(objects, primitives, vanes)
+        self._textures(objects, primitives)
         self.lights = []
         for light in self.scene.lights:
             color = column(light.color, self.dtype)
@@ -433,6 +435,74 @@ class PreparedScene:
             v0 = triangles[:, 0]
             parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, corners[:, 0], corners[:, 1], corners[:, 2])
             self.smooth[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
+
+    def _textures(self, objects: tuple[sc.SceneObject, ...], primitives: list) -> None:
+        """Where a material row has a texture and a mesh has UVs (textured): each such row's textures, and each
+        such mesh's triangles' v0, e1, e2 (3, T) and corner UVs (2, T) each (float64, as for smooth normals), or an
+        instanced mesh's corner UVs (T, 3, 2) in its own space. Without them nothing here runs while tracing."""
+        rows = [self.scene.materials[name] for name in self.material_names]
+        self.row_textures = [m.texture for m in rows]
+        self.row_emission_textures = [m.emission_texture for m in rows]
+        with_texture = [m.texture is not None or m.emission_texture is not None for m in rows]
+        self.textured = any(with_texture) and any(getattr(obj, "uvs", None) is not None for obj in objects)
+        if not self.textured:
+            return
+        self.has_texture = np.asarray(with_texture, dtype=bool)
+        self.emissive = self.emissive or any(e is not None for e in self.row_emission_textures)
+        self.uv_meshes: dict[int, tuple[np.ndarray, ...]] = {}
+        self.uv_instances: dict[int, np.ndarray] = {}
+        for index, (obj, primitive) in enumerate(zip(objects, primitives, strict=True)):
+            uvs = getattr(obj, "uvs", None)
+            if uvs is None:
+                continue
+            if isinstance(obj, sc.MeshInstances):
+                self.uv_instances[index] = np.asarray(uvs, dtype=np.float64).reshape(-1, 3, 2)
+                continue
+            triangles = np.asarray(primitive.triangles, dtype=np.float64)  # (T, 3, 3), world
+            v0 = triangles[:, 0]
+            parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, uvs[:, 0], uvs[:, 1], uvs[:, 2])
+            self.uv_meshes[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
+
+    def surface_colors(
+        self, material: np.ndarray, P: np.ndarray, obj: np.ndarray, part: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """The hits' material colours (3, n), specular colours (3, n; None unless self.colored) and emission (3, n;
+        None unless self.emissive): the material rows' own, and on a textured mesh the texture's sample at the hit's
+        UV (the barycentric interpolation of its triangle's corner UVs, as smooth normals'): a texture replaces the
+        colour (and the specular colour of a material without one), an emission texture the emission."""
+        colors = self.colors.take(material, axis=1)
+        specular = self.specular_colors.take(material, axis=1) if self.colored else None
+        emission = self.emission.take(material, axis=1) if self.emissive else None
+        if not self.textured:
+            return colors, specular, emission
+        for index in (*self.uv_meshes, *self.uv_instances):
+            rows = indices(obj == index)
+            if rows.size:
+                rows = rows.take(indices(self.has_texture.take(material.take(rows))))
+            if not rows.size:
+                continue
+            triangle = part.take(rows)
+            if index in self.uv_meshes:
+                v0, e1, e2, uv0, uv1, uv2 = self.uv_meshes[index]
+                w = take(P, rows).astype(np.float64) - v0.take(triangle, axis=1)
+                corners = (uv.take(triangle, axis=1) for uv in (uv0, uv1, uv2))
+                uv = interpolated_corners(w, e1.take(triangle, axis=1), e2.take(triangle, axis=1), *corners)
+            else:
+                uv, _ = self.kernels[index].corner_values(take(P, rows), triangle, self.uv_instances[index])
+            rows_material = material.take(rows)
+            for row in np.unique(rows_material).tolist():
+                mine = indices(rows_material == row)
+                where = rows.take(mine)
+                u, v = uv[0].take(mine), uv[1].take(mine)
+                texture, glow = self.row_textures[row], self.row_emission_textures[row]
+                if texture is not None:
+                    value = sample_texture(texture, u, v).astype(self.dtype)
+                    colors[:, where] = value
+                    if specular is not None and self.scene.materials[self.material_names[row]].specular_color is None:
+                        specular[:, where] = value
+                if glow is not None:
+                    emission[:, where] = sample_texture(glow, u, v).astype(self.dtype)
+        return colors, specular, emission
 
     def cryptomatte_hashes(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """The distinct names of the placed objects (cryptomatte_object) or material rows (cryptomatte_material)
@@ -908,18 +978,19 @@ class PreparedScene:
                 P, S, V, specular, counts, surface, footprint, pixel, geometric, points, split
             )
             reflective = self.reflective.take(material)
+            colors, specular_colors, emission = self.surface_colors(material, P, obj, part)
             if recorder is not None and bounce == 0:
                 recorder.first_hit(pixel, P, S, obj, material)
                 if split is not None:
-                    recorder.terms(pixel, split, material, reflective)
+                    recorder.terms(pixel, split, material, reflective, (colors, specular_colors, emission))
             if self.colored:
                 diffuse, highlight = intensity
-                lit = diffuse * self.colors.take(material, axis=1)
-                local = (lit + highlight * self.specular_colors.take(material, axis=1)) * (1.0 - reflective)
+                lit = diffuse * colors
+                local = (lit + highlight * specular_colors) * (1.0 - reflective)
             else:
-                local = (intensity * (1.0 - reflective)) * self.colors.take(material, axis=1)
+                local = (intensity * (1.0 - reflective)) * colors
             if self.emissive:
-                local = local + self.emission.take(material, axis=1)
+                local = local + emission
             _accumulate(color, pixel, weight * local if bounce else local, bounce == 0)
             if recorder is not None and bounce:
                 recorder.reflection(pixel, weight * local)

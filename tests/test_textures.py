@@ -1,0 +1,325 @@
+"""Image textures by UV (docs/scene-format.md, Textures): the loader's checks and messages, a textured quad whose
+pixels are the texels their UVs fall on (closest) or their bilinear mix (linear), repeat/extend/clip outside [0, 1],
+sRGB images linearised, PNG and .npy files, instanced meshes, emission textures, and the Whitted passes still adding
+up to the image."""
+
+from __future__ import annotations
+
+import random
+import struct
+import zlib
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tests.random_scenes import extended_scene_document
+from tests.test_reference_passes import check_against_reference, with_passes
+from tracer.scene import passes as ps
+from tracer.scene import textures as tx
+from tracer.scene.loader import SceneError, scene_from_dict
+from tracer.tracing.reference import render_reference
+from tracer.workers.parallel import render
+
+SIZE = 48  # the quad's image is SIZE x SIZE pixels, one world unit across
+TEXELS = [  # 3 rows (top first) of 4 texels: every texel a different colour
+    [[0.9, 0.1, 0.1], [0.1, 0.9, 0.1], [0.1, 0.1, 0.9], [0.9, 0.9, 0.1]],
+    [[0.1, 0.9, 0.9], [0.9, 0.1, 0.9], [0.5, 0.5, 0.5], [0.2, 0.4, 0.6]],
+    [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [0.3, 0.7, 0.2], [0.6, 0.3, 0.8]],
+]
+
+
+def quad_document(texture: dict[str, Any], uv_scale: float = 1.0, uv_offset: float = 0.0) -> dict[str, Any]:
+    """A unit quad [0, 1]^2 at z = 0 seen straight down by an orthographic camera that fills the image with it, lit
+    by an ambient light of 1 alone (so a pixel's colour is its material colour); its UVs (x, y) * scale + offset."""
+    corners = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
+    triangles = [[0, 1, 2], [0, 2, 3]]
+    uv = [[c * uv_scale + uv_offset for c in corner] for corner in corners]
+    return {
+        "materials": {"tex": {"color": [0.5, 0.5, 0.5], "texture": texture}},
+        "objects": [
+            {
+                "type": "mesh",
+                "name": "quad",
+                "material": "tex",
+                "vertices": [[x, y, 0.0] for x, y in corners],
+                "triangles": triangles,
+                "uvs": [[uv[k] for k in triangle] for triangle in triangles],
+            }
+        ],
+        "lights": [{"type": "ambient", "intensity": 1.0}],
+        "camera": {"type": "ORTHO", "location": [0.5, 0.5, 5.0], "rotation": [0, 0, 0], "ortho_scale": 1.0},
+        "background": {"type": "none"},
+        "render": {"width": SIZE, "height": SIZE, "depth": 0},
+    }
+
+
+def pixel_uvs(uv_scale: float = 1.0, uv_offset: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel centre's UV on the quad (SIZE, SIZE) each: pixel (i, j) from the top-left sees x = (i + 0.5) / SIZE,
+    y = 1 - (j + 0.5) / SIZE."""
+    centre = (np.arange(SIZE) + 0.5) / SIZE
+    x, y = np.meshgrid(centre, 1.0 - centre)
+    return x * uv_scale + uv_offset, y * uv_scale + uv_offset
+
+
+def expected_texels(pixels: np.ndarray, u: np.ndarray, v: np.ndarray, interpolation: str, extension: str):
+    """Cycles' lookup written out here on its own (intern/cycles/kernel/device/cpu/image.h), row 0 the top."""
+    height, width = pixels.shape[:2]
+
+    def texel(i, j):
+        if extension == "repeat":
+            i, j = i % width, j % height
+        elif extension == "extend":
+            i, j = np.clip(i, 0, width - 1), np.clip(j, 0, height - 1)
+        inside = (i >= 0) & (i < width) & (j >= 0) & (j < height)
+        value = pixels[height - 1 - np.clip(j, 0, height - 1), np.clip(i, 0, width - 1)].astype(np.float64)
+        return np.where(inside[..., None], value, 0.0)
+
+    if interpolation == "closest":
+        return texel(np.floor(u * width).astype(int), np.floor(v * height).astype(int))
+    x, y = u * width - 0.5, v * height - 0.5
+    i, j = np.floor(x).astype(int), np.floor(y).astype(int)
+    a, b = (x - i)[..., None], (y - j)[..., None]
+    return (
+        texel(i, j) * (1 - a) * (1 - b)
+        + texel(i + 1, j) * a * (1 - b)
+        + texel(i, j + 1) * (1 - a) * b
+        + texel(i + 1, j + 1) * a * b
+    )
+
+
+@pytest.mark.parametrize("interpolation", ["closest", "linear"])
+@pytest.mark.parametrize("extension", ["repeat", "extend", "clip"])
+def test_each_pixel_is_the_texel_its_uv_falls_on_or_their_bilinear_mix(interpolation: str, extension: str) -> None:
+    # UVs from -0.8 to 1.9: the image once, then outside it on every side
+    texture = {"pixels": TEXELS, "colorspace": "linear", "interpolation": interpolation, "extension": extension}
+    image = render(scene_from_dict(quad_document(texture, 2.7, -0.8)), workers=1).image
+    u, v = pixel_uvs(2.7, -0.8)
+    expected = expected_texels(np.asarray(TEXELS, dtype=np.float32), u, v, interpolation, extension)
+    assert np.abs(image - expected).max() <= 1e-9
+    if interpolation == "closest":  # every texel shows, each as its exact value
+        assert {tuple(c) for c in np.float32(TEXELS).reshape(-1, 3).tolist()} <= {
+            tuple(c) for c in image.astype(np.float32).reshape(-1, 3).tolist()
+        }
+    if extension == "clip":
+        outside = (u < 0) | (u >= 1) | (v < 0) | (v >= 1)
+        assert np.all(image[outside & ((u < -0.5) | (v < -0.5))] == 0.0)
+
+
+def test_an_srgb_image_is_linearised_and_a_linear_one_kept() -> None:
+    grey = [[[0.5, 0.5, 0.5]]]
+    srgb = render(scene_from_dict(quad_document({"pixels": grey})), workers=1).image  # sRGB is the default
+    linear = render(scene_from_dict(quad_document({"pixels": grey, "colorspace": "linear"})), workers=1).image
+    # one texel, linear interpolation: its four weights add up to 1 within a few ulps
+    assert np.allclose(srgb, np.float32(((0.5 + 0.055) / 1.055) ** 2.4), atol=1e-15, rtol=0)
+    assert np.allclose(linear, 0.5, atol=1e-15, rtol=0)
+
+
+def _png(image: np.ndarray, filters: list[int]) -> bytes:
+    """A PNG (8-bit RGB) of image (H, W, 3) uint8 with each row's filter as given (0-4), written out here."""
+    height, width, _ = image.shape
+    data, above = b"", np.zeros(width * 3, dtype=np.int64)
+    for y in range(height):
+        row = image[y].reshape(-1).astype(np.int64)
+        left = np.concatenate(([0, 0, 0], row[:-3]))
+        corner = np.concatenate(([0, 0, 0], above[:-3]))
+        kind = filters[y % len(filters)]
+        if kind == 0:
+            predicted = np.zeros_like(row)
+        elif kind == 1:
+            predicted = left
+        elif kind == 2:
+            predicted = above
+        elif kind == 3:
+            predicted = (left + above) // 2
+        else:
+            p = left + above - corner
+            pa, pb, pc = np.abs(p - left), np.abs(p - above), np.abs(p - corner)
+            predicted = np.where((pa <= pb) & (pa <= pc), left, np.where(pb <= pc, above, corner))
+        data += bytes([kind]) + ((row - predicted) % 256).astype(np.uint8).tobytes()
+        above = row
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return tx.PNG_SIGNATURE + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(data)) + chunk(b"IEND", b"")
+
+
+def test_png_and_npy_files_by_path_relative_to_the_scene_file(tmp_path) -> None:
+    rng = np.random.default_rng(3)
+    picture = rng.integers(0, 256, size=(7, 9, 3), dtype=np.uint8)
+    (tmp_path / "pictures").mkdir()
+    (tmp_path / "pictures" / "grid.png").write_bytes(_png(picture, [0, 1, 2, 3, 4]))
+    np.save(tmp_path / "pictures" / "grid.npy", picture)
+    for name in ("grid.png", "grid.npy"):
+        document = quad_document({"image": f"pictures/{name}", "interpolation": "closest"})
+        (tmp_path / "scene.json").write_text(__import__("json").dumps(document))
+        from tracer.scene.loader import load_scene
+
+        texture = load_scene(tmp_path / "scene.json").materials["tex"].texture
+        assert np.array_equal(texture.pixels, tx.linear_pixels(picture, "sRGB")), name
+        assert texture.source.endswith(name)
+
+
+def test_instances_of_a_textured_mesh_show_the_texture_and_emission_textures_glow() -> None:
+    texture = {"pixels": TEXELS, "colorspace": "linear", "interpolation": "closest"}
+    document = quad_document(texture)
+    quad = document["objects"].pop()
+    document["meshes"] = {"quad": {k: quad[k] for k in ("vertices", "triangles", "uvs", "material")}}
+    document["objects"] = [{"type": "instances", "name": "quads", "mesh": "quad", "matrices": [[1, 0, 0, 0] * 3]}]
+    document["objects"][0]["matrices"] = [[[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]]
+    image = render(scene_from_dict(document), workers=1).image
+    expected = expected_texels(np.asarray(TEXELS, dtype=np.float32), *pixel_uvs(), "closest", "repeat")
+    assert np.array_equal(image, expected)
+    # an emission texture: lit by nothing, the quad shows its emission's texels
+    document["lights"] = []
+    document["materials"]["tex"] = {"color": [0.5, 0.5, 0.5], "emission_texture": texture}
+    assert np.array_equal(render(scene_from_dict(document), workers=1).image, expected)
+
+
+def test_hits_without_uvs_keep_the_materials_colour() -> None:
+    document = quad_document({"pixels": TEXELS})
+    del document["objects"][0]["uvs"]
+    assert np.all(render(scene_from_dict(document), workers=1).image == 0.5)
+
+
+@pytest.mark.parametrize(
+    ("texture", "message"),
+    [
+        ({}, 'materials.tex.texture: must give its pixels either inline ("pixels") or by a file\'s path ("image")'),
+        ({"pixels": TEXELS, "image": "a.png"}, "materials.tex.texture: must give its pixels either inline"),
+        ({"pixels": [[[1, 0, 0]], [[1, 0, 0], [0, 1, 0]]]}, "materials.tex.texture.pixels: must be a non-empty list"),
+        ({"pixels": [[[1, 0, "red"]]]}, "materials.tex.texture.pixels[0]: must hold numbers only"),
+        ({"pixels": [[[1, 0]]]}, "materials.tex.texture.pixels: must be an image of (height, width[, 1, 3 or 4])"),
+        ({"pixels": [[[-1, 0, 0]]]}, "materials.tex.texture.pixels: must hold finite values in 0..1000000"),
+        ({"pixels": TEXELS, "extension": "MIRROR"}, 'materials.tex.texture.extension: must be one of "repeat"'),
+        ({"pixels": TEXELS, "interpolation": "cubic"}, 'materials.tex.texture.interpolation: must be one of "linear"'),
+        ({"pixels": TEXELS, "colorspace": "Non-Color"}, 'materials.tex.texture.colorspace: must be one of "sRGB"'),
+        ({"pixels": TEXELS, "size": 3}, "materials.tex.texture.size: is not a known field"),
+        ({"image": "missing.png"}, 'materials.tex.texture.image: "missing.png" cannot be read'),
+        ({"image": 7}, "materials.tex.texture.image: must be a file's path (a non-empty string), got number 7"),
+    ],
+)
+def test_the_loader_names_each_problem_of_a_texture(texture: dict, message: str) -> None:
+    with pytest.raises(SceneError) as raised:
+        scene_from_dict(quad_document(texture))
+    assert any(line.startswith(message) for line in raised.value.problems), raised.value.problems
+
+
+def test_the_loader_names_bad_uvs_and_bad_files(tmp_path) -> None:
+    document = quad_document({"pixels": TEXELS})
+    document["objects"][0]["uvs"] = document["objects"][0]["uvs"][:1]
+    with pytest.raises(SceneError, match=r"objects\[0\]\.uvs: must be a list of 2 triangles' corner UVs"):
+        scene_from_dict(document)
+    document = quad_document({"pixels": TEXELS})
+    document["objects"][0]["uvs"][1][2] = [0.5, None]
+    with pytest.raises(SceneError, match=r"objects\[0\]\.uvs\[1\]: must be 3 corner UVs \[u, v\]"):
+        scene_from_dict(document)
+    (tmp_path / "not.png").write_bytes(b"hello, world")
+    with pytest.raises(SceneError, match=r"must be a PNG or \.npy image file"):
+        scene_from_dict(quad_document({"image": str(tmp_path / "not.png")}))
+    (tmp_path / "cut.png").write_bytes(_png(np.zeros((4, 4, 3), dtype=np.uint8), [0])[:40])
+    with pytest.raises(SceneError, match=r"not a complete PNG file|damaged PNG data"):
+        scene_from_dict(quad_document({"image": str(tmp_path / "cut.png")}))
+
+
+def textured_scene_document(seed: int, width: int = 16, height: int = 12) -> dict[str, Any]:
+    """extended_scene_document(seed) with corner UVs on its meshes (some of them in a meshes table, placed twice)
+    and textures and emission textures of random pixels, interpolations, extensions and colour spaces."""
+    document = extended_scene_document(seed, width, height)
+    rng = random.Random(20_000 + seed)
+
+    def random_texture() -> dict[str, Any]:
+        rows, columns = rng.randrange(1, 6), rng.randrange(1, 6)
+        return {
+            "pixels": [[[rng.random() for _ in range(3)] for _ in range(columns)] for _ in range(rows)],
+            "interpolation": rng.choice(["linear", "closest"]),
+            "extension": rng.choice(["repeat", "extend", "clip"]),
+            "colorspace": rng.choice(["sRGB", "linear"]),
+        }
+
+    for name, material in document["materials"].items():
+        if name == "m0" or rng.random() < 0.7:  # m0 always: the wall below wears it
+            material["texture"] = random_texture()
+        if rng.random() < 0.25:
+            material["emission_texture"] = random_texture()
+    wall = [[-2.0, 2.0, -1.0], [2.0, 2.0, -1.0], [2.0, 2.0, 2.0], [-2.0, 2.0, 2.0], [0.0, 1.5, 0.5]]
+    document["objects"].append(  # a wall behind the random objects, facing the camera: textures fill the picture
+        {
+            "type": "mesh",
+            "name": "wall",
+            "material": "m0",
+            "vertices": wall,
+            "triangles": [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]],
+            "rotation": [0.0, 0.0, rng.uniform(-20, 20)],
+        }
+    )
+    meshes = [body for body in document["objects"] if body["type"] == "mesh"]
+    for body in meshes:
+        body["uvs"] = [[[rng.uniform(-1.5, 2.5), rng.uniform(-1.5, 2.5)] for _ in range(3)] for _ in body["triangles"]]
+    if meshes and rng.random() < 0.6:
+        body = meshes[0]
+        keys = ("vertices", "triangles", "normals", "uvs", "material", "materials", "material_indices")
+        document["meshes"] = {"shared": {k: body[k] for k in keys if k in body}}
+        document["objects"].append(
+            {
+                "type": "instances",
+                "name": "placed",
+                "mesh": "shared",
+                "matrices": [
+                    [[0.8, 0.1, 0, rng.uniform(-1, 1)], [0, 0.9, 0.2, rng.uniform(-1, 1)], [0, 0, 1.1, 0.3]],
+                    [[-1, 0, 0, rng.uniform(-1, 1)], [0, 1, 0, 0], [0, 0, 1, rng.uniform(0, 1)]],
+                ],
+            }
+        )
+    return document
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_textured_scenes_render_the_same_in_workers_and_bands_and_their_passes_add_up(seed: int) -> None:
+    document = textured_scene_document(seed, width=24, height=18)
+    document["render"]["samples"] = [1, 4][seed % 2]
+    document["render"]["dtype"] = ["float64", "float64", "float32"][seed % 3]
+    plain = scene_from_dict(document)
+    names = tuple(name for name in ps.PASSES if not name.startswith("cryptomatte"))
+    expected, result = render(plain, workers=1), render(plain.with_render(passes=names), workers=2)
+    assert np.array_equal(result.image, expected.image)
+    total = sum(result.passes[name].astype(np.float64) for name in ps.WHITTED)
+    tolerance = 8 * np.finfo(result.image.dtype).eps * np.maximum(1.0, np.abs(result.image))
+    assert np.all(np.abs(total - result.image) <= tolerance)
+
+
+def test_random_textured_scenes_use_textures() -> None:
+    """The random scenes above do show textures: without their textures most of them render differently."""
+    differs = 0
+    for seed in range(8):
+        document = textured_scene_document(seed)
+        plain = {**document, "materials": {k: {f: x for f, x in m.items() if "texture" not in f} for k, m in
+                                           document["materials"].items()}}  # fmt: skip
+        document["render"].pop("border", None)
+        differs += not np.array_equal(
+            render(scene_from_dict(document), workers=1).image, render(scene_from_dict(plain), workers=1).image
+        )
+    assert differs == 8
+
+
+def _with_alpha(result) -> np.ndarray:
+    if result.alpha is None:
+        return result.image
+    return np.concatenate((result.image, result.alpha[..., None]), axis=2)
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_random_textured_scenes_match_the_reference(seed: int) -> None:
+    """The vectorized tracer and the per-pixel reference (texturing.sample and sample_one) agree to 1e-9."""
+    scene = scene_from_dict(textured_scene_document(seed))
+    expected = np.asarray(render_reference(scene))
+    image = _with_alpha(render(scene, workers=1))
+    assert image.shape == expected.shape and np.all(np.isfinite(image))
+    np.testing.assert_allclose(image, expected, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_random_textured_scene_passes_match_the_reference(seed: int) -> None:
+    check_against_reference(scene_from_dict(with_passes(textured_scene_document(seed), seed, samples=(1, 4)[seed % 2])))
