@@ -119,6 +119,9 @@ class ViewportSession:
 
         try:
             document = scene_document(context, depsgraph, depsgraph.scene)
+        except module("workers.resources").ResourceError as refusal:  # too large for the free memory: not read
+            self.error, self.document = f"Weathervane Tracer: not started: {refusal}", None  # as F12 says it
+            return
         except Exception as failure:  # shown in the view as one line; the console has the rest
             import traceback
 
@@ -165,7 +168,8 @@ class ViewportSession:
         """Draw the newest level over the region; returns the status line to show."""
         level = self.progressive.latest()
         if level is None:
-            return self.error or self.progressive.error or "Weathervane Tracer: starting"
+            self.status = self.error or self.progressive.error or "Weathervane Tracer: starting"
+            return self.status
         if self._texture_level is not level:
             self._texture = _texture(texture_rgba(level.image))
             self._texture_level = level

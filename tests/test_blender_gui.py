@@ -56,6 +56,7 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
             "-s",
             "-screen 0 1600x900x24",
             BLENDER,
+            "--enable-event-simulate",  # the session's keys (numpad orbit, Space, N) sent with Window.event_simulate
             "--python",
             str(ROOT / "tests" / "addon" / "gui_session.py"),
             "--",
@@ -66,7 +67,7 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
         env=environment,
         capture_output=True,
         text=True,
-        timeout=300,
+        timeout=420,  # 1.5-4 minutes on the 2-core machine, with others' work beside it
         cwd=tmp_path,
     )
     log = result.stdout + result.stderr
@@ -110,6 +111,57 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
     check_rendered_view_is_the_tracers_image(tmp_path, SCREENSHOT.with_name("weathervane-gui-rendered.png"))
     assert "WEATHERVANE-GUI foreign scene added" in log and "foreign rendered screenshot" in log, log[-4000:]
     check_foreign_scene(tmp_path)
+    check_latencies(log)
+    check_material_tab_colour_in_f12(tmp_path)
+    check_memory_refusal(log)
+
+
+LATENCIES = (
+    "f12-factory-cube-1920x1080",  # F12 of the factory scene at Blender's default size, key to the job's end
+    "material-colour",  # the tail fin's colour set as the sidebar sets it, to its finished pixels on screen
+    "object-moved",  # the ball moved, likewise
+    "orbit-first-image",  # numpad 4 over the view, to its first image on screen
+    "orbit",  # ... and to its finished image
+    "playback",  # Space over 10 keyed frames: seconds a frame, new images on screen
+    "f12-material-tab-colour",  # F12 at 320x240 after a colour edit in the Material tab
+)
+
+
+def check_latencies(log: str) -> None:
+    """What the user sees, from the session (tests/addon/gui_session.py reads the view's pixels from the X server):
+    each figure printed, none asserted (the machine is shared); the pixels changed on screen for every change (the
+    session asserts it), and playback showed new images."""
+    import re
+
+    found = dict(re.findall(r"^WEATHERVANE-GUI latency (\S+) ([0-9.]+|inf)", log, flags=re.MULTILINE))
+    assert sorted(found) == sorted(LATENCIES), (found, log[-4000:])
+    assert all(float(value) > 0 for value in found.values()), found
+    assert found["playback"] != "inf", "no new image on screen while the animation played"
+
+
+def check_material_tab_colour_in_f12(work: Path) -> None:
+    """The tail fin's Color set in the Material tab (its "WV Surface" node) to (0.05, 0.1, 0.9): F12's pixels of the
+    fin moved toward blue (its previous colour was red-orange), and the sidebar shows the same colour."""
+    figures = json.loads((work / "material-tab.json").read_text())
+    assert figures["changed"] >= 20, figures  # a 320x240 F12: the fin spans dozens of pixels
+    before, after = np.array(figures["before"]), np.array(figures["after"])
+    assert after[2] - before[2] >= 30 and before[0] - after[0] >= 30, figures
+    assert np.allclose(figures["sidebar"], figures["colour"], atol=1e-6), figures
+
+
+def check_memory_refusal(log: str) -> None:
+    """A level-7 subdivided cube with 300 MB free (faked in the add-on's tracer): the Rendered view showed the one
+    refusal line naming the figures and traced nothing, the window answered a key, and F12 was refused with that line
+    and wrote nothing."""
+    lines = [line for line in log.splitlines() if line.startswith("WEATHERVANE-GUI memory refusal")]
+    assert len(lines) == 3, (lines, log[-4000:])
+    view, answered, f12 = lines
+    assert "1 line, traced nothing: Weathervane Tracer: not started: a " in view, view
+    assert "196,608 triangles needs about" in view and "300.0 MB is available" in view, view
+    assert "Subdivision" in view and "Cube (" in view, view
+    assert "the window answered N over the view in" in answered, answered
+    assert "nothing written: " in f12 and "Weathervane Tracer: not started: a " in f12, f12
+    assert "196,608 triangles needs about" in f12 and "300.0 MB is available" in f12, f12
 
 
 def check_quit_errors(at_quit: str) -> None:

@@ -72,20 +72,20 @@ def bring_tab_forward() -> None:
 
 def prepare() -> float | None:
     try:
-        setup()
+        assert bpy.ops.preferences.addon_install(filepath=ADDON_ZIP, overwrite=True) == {"FINISHED"}
+        assert bpy.ops.preferences.addon_enable(module="weathervane") == {"FINISHED"}
+        open_every_panel()
+        bring_tab_forward()  # after: the other tabs' panels registered last, the Weathervane tab first
     except Exception:
         import traceback
 
         traceback.print_exc()
         bpy.ops.wm.quit_blender()
-    return None
+        return None
+    return run_steps([f12_factory_cube()], setup)
 
 
 def setup() -> None:
-    assert bpy.ops.preferences.addon_install(filepath=ADDON_ZIP, overwrite=True) == {"FINISHED"}
-    assert bpy.ops.preferences.addon_enable(module="weathervane") == {"FINISHED"}
-    open_every_panel()
-    bring_tab_forward()  # after: the other tabs' panels registered last, the Weathervane tab first
     cube = bpy.data.objects.get("Cube")
     if cube is not None:
         bpy.data.objects.remove(cube)
@@ -438,11 +438,7 @@ def edit_in_rendered_view() -> float | None:
                 f"{session.status!r}; statuses drawn: {seen}"
             )
             assert before not in seen and not any("1/1 resolution" in status for status in seen), seen
-            _, area, _ = view3d()
-            # back to Solid shading: Blender frees the view's engine, which stops its thread and workers
-            area.spaces.active.shading.type = "SOLID"
-            area.tag_redraw()
-            return guarded(when_the_rendered_view_stopped(rendered_view_stopped))
+            return measure_latencies()  # then Solid shading
         assert time.perf_counter() - started < RENDERED_WAIT_SECONDS, f"the edit was not drawn: {seen}"
         return 0.02
 
@@ -467,7 +463,7 @@ def when_the_rendered_view_stopped(then):
 
 def rendered_view_stopped() -> float | None:
     print("WEATHERVANE-GUI rendered view stopped with Solid shading")
-    return guarded(render_empty_f12)
+    return guarded(refuse_a_scene_too_large)  # then render_empty_f12
 
 
 def open_export_menu() -> float | None:
@@ -539,7 +535,7 @@ def render_empty_f12() -> float | None:
     FOREIGN_START[0] = time.perf_counter()
     foreign_f12(os.path.join(WORK, "foreign-f12-empty.png"))
     print(f"WEATHERVANE-GUI foreign f12 without the new objects in {time.perf_counter() - FOREIGN_START[0]:.2f} s")
-    return guarded(add_foreign_scene)
+    return guarded(material_tab_colour_in_f12)  # then add_foreign_scene
 
 
 def add_foreign_scene() -> float | None:
@@ -689,6 +685,616 @@ def capture_foreign_rendered() -> float | None:
     space.shading.type = "SOLID"
     area.tag_redraw()
     return guarded(when_the_rendered_view_stopped(lambda: guarded(open_export_menu)))
+
+
+# --- what the user sees: latencies read from the X screen ------------------------------------------------------------
+
+
+class XScreen:
+    """The X server's root window read with Xlib's XGetImage (what Xvfb shows: Blender's window after its swap), on a
+    display connection of its own (one per thread). A 1600x900 read takes 7 ms, a box of a few hundred pixels 0.3 ms."""
+
+    def __init__(self) -> None:
+        import ctypes
+
+        fields = "width height xoffset format data byte_order bitmap_unit bitmap_bit_order bitmap_pad depth"
+        fields += " bytes_per_line bits_per_pixel"  # XImage's fields up to the ones read here
+
+        class XImage(ctypes.Structure):
+            _fields_ = [(name, ctypes.c_void_p if name == "data" else ctypes.c_int) for name in fields.split(" ")]
+
+        x11 = ctypes.CDLL("libX11.so.6")
+        x11.XOpenDisplay.restype, x11.XOpenDisplay.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+        x11.XDefaultRootWindow.restype, x11.XDefaultRootWindow.argtypes = ctypes.c_ulong, [ctypes.c_void_p]
+        x11.XGetImage.restype = ctypes.POINTER(XImage)
+        x11.XGetImage.argtypes = [ctypes.c_void_p, ctypes.c_ulong] + [ctypes.c_int] * 2 + [ctypes.c_uint] * 2
+        x11.XGetImage.argtypes += [ctypes.c_ulong, ctypes.c_int]
+        x11.XDestroyImage.argtypes = [ctypes.POINTER(XImage)]
+        x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+        self.ctypes, self.x11 = ctypes, x11
+        self.display = x11.XOpenDisplay(None)
+        assert self.display, "no X display"
+        self.root = x11.XDefaultRootWindow(self.display)
+
+    def grab(self, box):
+        """box: (left, top, width, height) in screen pixels from the top left -> (height, width, 3) uint8 RGB."""
+        import numpy as np
+
+        left, top, width, height = box
+        image = self.x11.XGetImage(self.display, self.root, left, top, width, height, 0xFFFFFFFF, 2)  # ZPixmap
+        assert image, box
+        try:
+            found = image.contents
+            assert found.bits_per_pixel == 32, found.bits_per_pixel
+            raw = self.ctypes.string_at(found.data, found.bytes_per_line * found.height)
+            pixels = np.frombuffer(raw, np.uint8).reshape(found.height, found.bytes_per_line // 4, 4)
+            return pixels[:, :width, 2::-1]  # BGRX -> RGB
+        finally:
+            self.x11.XDestroyImage(image)
+
+    def close(self) -> None:
+        self.x11.XCloseDisplay(self.display)
+
+
+class Watch:
+    """A thread reading a box of the screen every INTERVAL seconds from before a change: for each read, the seconds
+    since started, the share of the box's pixels that differ from the read before the change, and a checksum."""
+
+    INTERVAL = 0.005  # between reads of a box of an object; a whole view's every 0.015 s (its read takes 0.01 s)
+
+    def __init__(self, box, compare: bool = True) -> None:
+        import threading
+
+        self.box, self.compare = box, compare
+        self.interval = self.INTERVAL if box[2] * box[3] < 100_000 else 3 * self.INTERVAL
+        self.samples: list = []
+        self.started = 0.0
+        self._ready, self._stop = threading.Event(), threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True, name="weathervane-gui-watch")
+        self._thread.start()
+        assert self._ready.wait(10.0), "the screen could not be read"
+
+    def _run(self) -> None:
+        import time
+        import zlib
+
+        import numpy as np
+
+        screen = XScreen()
+        try:
+            self.reference = screen.grab(self.box).astype(np.int16)
+            self._ready.set()
+            while not self._stop.is_set():
+                pixels = screen.grab(self.box)
+                if self.box[2] * self.box[3] >= 100_000:  # a whole view: every second row and column
+                    pixels = pixels[::2, ::2]
+                share = 0.0
+                if self.compare:
+                    reference = self.reference if pixels.shape == self.reference.shape else self.reference[::2, ::2]
+                    difference = np.abs(pixels.astype(np.int16) - reference)
+                    share = float((difference.max(axis=2) > 8).mean())
+                self.samples.append(
+                    (time.perf_counter() - self.started, share, zlib.crc32(np.ascontiguousarray(pixels)))
+                )
+                time.sleep(self.interval)
+        finally:
+            self._ready.set()
+            screen.close()
+
+    def stop(self) -> list:
+        self._stop.set()
+        self._thread.join(5.0)
+        return self.samples
+
+    def times(self) -> tuple[float | None, float | None, float]:
+        """(first change, finished, final share): the first read whose share is at least half the final read's, and
+        the first read from which every read equals the final one (the finished image on screen)."""
+        samples = self.samples
+        final_share, final_sum = samples[-1][1], samples[-1][2]
+        first = next((t for t, share, _ in samples if share >= 0.5 * final_share and share > 0), None)
+        finished = None
+        for t, _, checksum in reversed(samples):
+            if checksum != final_sum:
+                break
+            finished = t
+        return first, finished, final_share
+
+
+def window_box(region, left: float, top: float, right: float, bottom: float, margin: int = 4) -> tuple:
+    """A box in the region's pixels (from its bottom left, as Blender counts) -> screen pixels (left, top, width,
+    height) from the top left, clipped to the region and grown by margin."""
+    window, _, _ = view3d()
+    left, right = max(0, int(left) - margin), min(region.width, int(right) + margin + 1)
+    bottom, top = max(0, int(bottom) - margin), min(region.height, int(top) + margin + 1)
+    assert right - left >= 4 and top - bottom >= 4, (left, top, right, bottom)
+    return (region.x + left, window.height - (region.y + top), right - left, top - bottom)
+
+
+def objects_box(names, offset=(0.0, 0.0, 0.0)) -> tuple:
+    """The screen box of the named objects' bounding boxes as the view projects them (also moved by offset)."""
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+    from mathutils import Vector
+
+    _, area, region = view3d()
+    view = area.spaces.active.region_3d
+    points = []
+    for name in names:
+        obj = bpy.data.objects[name]
+        for corner in obj.bound_box:
+            world = obj.matrix_world @ Vector(corner)
+            points += [location_3d_to_region_2d(region, view, world + Vector(shift)) for shift in ((0, 0, 0), offset)]
+    xs, ys = [p[0] for p in points if p is not None], [p[1] for p in points if p is not None]
+    return window_box(region, min(xs), max(ys), max(xs), min(ys))
+
+
+def view_box() -> tuple:
+    """The view's image on screen less its edges, the status text (top left) and the navigation gizmo (top right)."""
+    _, _, region = view3d()
+    return window_box(region, 12, region.height - 110, region.width - 110, 12, margin=0)
+
+
+LATENCIES: dict = {}  # what -> [seconds, ...]
+LATENCY_REPEATS = 3
+
+
+def the_session():
+    sessions = list(sys.modules["weathervane.viewport"]._sessions)
+    assert len(sessions) == 1, sessions
+    return sessions[0]
+
+
+def idle_view(least: float = 0.3):
+    """A step: until the Rendered view's image is finished and its ray trees kept (and least seconds more)."""
+    import time
+
+    began: list = []
+
+    def step() -> float | None:
+        session = the_session()
+        if session.progressive.busy or not session.progressive.done:
+            began.clear()
+            return 0.05
+        began.append(began[0] if began else time.perf_counter())
+        return None if time.perf_counter() - began[0] >= least else 0.05
+
+    return step
+
+
+def watched(what: str, box, change):
+    """A step: reads the box of the screen, makes the change (the input event), waits for the view to finish, then
+    records the seconds from the event to the first changed pixels and to the finished image on screen."""
+    import time
+
+    state: dict = {}
+
+    def step() -> float | None:
+        if "watch" not in state:
+            state["watch"] = watch = Watch(box() if callable(box) else box)
+            state["generation"] = the_session().progressive.generation
+            watch.started = time.perf_counter()
+            change()
+            return 0.02
+        watch = state["watch"]
+        session = the_session()
+        waited = time.perf_counter() - watch.started
+        assert waited < RENDERED_WAIT_SECONDS, f"{what}: the view did not finish"
+        if session.progressive.generation == state["generation"] or session.progressive.busy:
+            return 0.05
+        if waited < state.setdefault("finished", waited) + 0.5:  # half a second of reads after the view is idle
+            return 0.05
+        watch.stop()
+        first, finished, share = watch.times()
+        assert first is not None and finished is not None and share > 0, (what, first, finished, share)
+        LATENCIES.setdefault(what, []).append((first, finished, share))
+        return None
+
+    return step
+
+
+def run_steps(steps: list, then) -> float | None:
+    """Run the steps one after another from one timer (each returns None when done, else seconds to its next look)."""
+
+    def run() -> float | None:
+        while steps:
+            answer = steps[0]()
+            if answer is not None:
+                return answer
+            steps.pop(0)
+        return then()
+
+    return guarded(run)
+
+
+def recolour(colour):
+    def change() -> None:
+        materials = {entry.name: entry for entry in bpy.context.scene.weathervane.materials}
+        materials["verdigris"].color = colour  # as the sidebar's Materials panel sets it
+
+    return change
+
+
+def move_ball(dx: float):
+    def change() -> None:
+        bpy.data.objects["WV ball"].location.x += dx
+
+    return change
+
+
+def keys(*names: str):
+    """Keys pressed and released with the mouse over the view's centre (Blender's event_simulate)."""
+
+    def change() -> None:
+        window, _, region = view3d()
+        x, y = region.x + region.width // 2, region.y + region.height // 2
+        window.event_simulate("MOUSEMOVE", "NOTHING", x=x, y=y)
+        for name in names:
+            window.event_simulate(name, "PRESS", x=x, y=y)
+            window.event_simulate(name, "RELEASE", x=x, y=y)
+
+    return change
+
+
+def measure_latencies() -> float | None:
+    """In the Rendered view as the artist sees it (headers and overlays on): from the change or the input event to
+    the changed pixels on screen (read from the X server), medians of LATENCY_REPEATS: the tail fin's colour set as
+    the sidebar sets it, the ball moved, a numpad orbit (its first image and its finished one); then playback (Space)
+    of the vane's turn keyed over 10 frames. Printed, not asserted: the machine is shared."""
+    _, area, _ = view3d()
+    view = area.spaces.active.region_3d
+    saved = {
+        "view_location": view.view_location.copy(),
+        "view_rotation": view.view_rotation.copy(),
+        "view_distance": view.view_distance,
+        "view_camera_zoom": view.view_camera_zoom,
+        "view_camera_offset": tuple(view.view_camera_offset),
+    }
+    perspective = view.view_perspective
+    colour = tuple({entry.name: entry for entry in bpy.context.scene.weathervane.materials}["verdigris"].color)
+    ball = ["WV ball"]
+    steps: list = [idle_view(1.0)]
+    for repeat, new in enumerate(((0.1, 0.3, 0.9), (0.95, 0.85, 0.1), (0.2, 0.9, 0.2))[:LATENCY_REPEATS]):
+        steps += [watched("material-colour", lambda: objects_box(["WV tail_fin"]), recolour(new)), idle_view()]
+        dx = 0.3 if repeat % 2 == 0 else -0.3
+        box = lambda dx=dx: objects_box(ball, (dx, 0.0, 0.0))  # noqa: E731 - where it is and where it goes
+        steps += [watched("object-moved", box, move_ball(dx)), idle_view()]
+    back = -0.3 if LATENCY_REPEATS % 2 else 0.0
+
+    def as_built() -> None:  # the colour and the ball's place as before, for the steps after (not measured)
+        recolour(colour)()
+        move_ball(back)()
+
+    steps += [as_built, idle_view()]
+
+    def leave_the_camera_view() -> None:  # numpad 4 in the camera view turns nothing there in 3.4.1
+        view.view_perspective = "PERSP"
+        area.tag_redraw()
+
+    steps += [leave_the_camera_view, idle_view()]
+    for _ in range(LATENCY_REPEATS):
+        steps += [watched("orbit", view_box, keys("NUMPAD_4")), idle_view()]
+
+    def restore_view() -> None:
+        for name, value in saved.items():
+            setattr(view, name, value)
+        view.view_perspective = perspective
+        area.tag_redraw()
+
+    steps += [restore_view, idle_view(0.5), playback(), idle_view(0.5)]
+    return run_steps(steps, report_latencies)
+
+
+PLAYBACK_SECONDS = 5.0
+
+
+def playback():
+    """A step: the vane's turn keyed over frames 1-10, Space over the view, the view's image read from the screen
+    for PLAYBACK_SECONDS (each new image on screen is a frame seen), Space again; then the turn, its keys and the
+    frame range as they were."""
+    import time
+
+    from mathutils import Euler
+
+    state: dict = {}
+
+    def step() -> float | None:
+        scene, turn = bpy.context.scene, bpy.data.objects["WV Turn"]
+        if "keyed" not in state:
+            assert turn.animation_data is None or turn.animation_data.action is None, "the turn is keyed already"
+            state.update(rotation=Euler(turn.rotation_euler), frames=(scene.frame_start, scene.frame_end))
+            state["frame"] = scene.frame_current
+            scene.frame_start, scene.frame_end = 1, 10
+            for frame in range(1, 11):
+                turn.rotation_euler.z = state["rotation"].z + 0.3 * frame
+                turn.keyframe_insert("rotation_euler", index=2, frame=frame)
+            state["action"] = turn.animation_data.action
+            scene.frame_set(1)
+            state["keyed"] = time.perf_counter()
+            return 0.3
+        if "watch" not in state:
+            if not idle():
+                return 0.05
+            state["watch"] = Watch(view_box(), compare=False)
+            state["watch"].started = time.perf_counter()
+            keys("SPACE")()
+            return 0.05
+        watch = state["watch"]
+        if time.perf_counter() - watch.started < PLAYBACK_SECONDS:
+            return 0.05
+        keys("SPACE")()  # stops it where it is
+        samples = watch.stop()
+        changes = [t for (t, _, new), (_, _, old) in zip(samples[1:], samples[:-1], strict=True) if new != old]
+        LATENCIES["playback"] = [(len(changes) / PLAYBACK_SECONDS, changes[0] if changes else None, len(samples))]
+        turn.animation_data_clear()
+        bpy.data.actions.remove(state["action"])
+        turn.rotation_euler = state["rotation"]
+        scene.frame_start, scene.frame_end = state["frames"]
+        scene.frame_set(state["frame"])
+        return None
+
+    return step
+
+
+def idle() -> bool:
+    progressive = the_session().progressive
+    return progressive.done and not progressive.busy
+
+
+def report_latencies() -> float | None:
+    import statistics
+
+    for what, runs in LATENCIES.items():
+        if what == "playback":
+            fps, first, reads = runs[0]
+            print(
+                f"WEATHERVANE-GUI latency playback {1.0 / fps if fps else float('inf'):.3f} s a frame: {fps:.1f} new "
+                f"images a second on screen over {PLAYBACK_SECONDS:.0f} s of Space (10 keyed frames, {reads} reads "
+                f"of the screen), the first {first if first is None else round(first, 2)} s after the key"
+            )
+            continue
+        firsts, finished = [run[0] for run in runs], [run[1] for run in runs]
+        shares = ", ".join(f"{100 * run[2]:.0f}%" for run in runs)
+        runs_text = ", ".join(f"{a:.2f}/{b:.2f}" for a, b in zip(firsts, finished, strict=True))
+        _, _, region = view3d()
+        if what == "orbit":
+            print(f"WEATHERVANE-GUI latency orbit-first-image {statistics.median(firsts):.3f}")
+        print(
+            f"WEATHERVANE-GUI latency {what} {statistics.median(finished):.3f} s to the finished pixels on screen "
+            f"(first change {statistics.median(firsts):.3f} s; {len(runs)} runs first/finished: {runs_text}; pixels "
+            f"changed in the watched box: {shares}; view {region.width}x{region.height})"
+        )
+    _, area, _ = view3d()
+    area.spaces.active.shading.type = "SOLID"  # Blender frees the view's engine, which stops its thread and workers
+    area.tag_redraw()
+    return guarded(when_the_rendered_view_stopped(rendered_view_stopped))
+
+
+FACTORY_F12_RUNS = 2
+
+
+def f12_factory_cube():
+    """A step: F12 of Blender's factory scene (its cube, camera and light) at the default 1920x1080, 100%, with the
+    tracer as the engine, as the key starts it (a render job, with Render In: Keep User Interface): seconds from the
+    key to the job's end, FACTORY_F12_RUNS times (the first starts the engine's worker processes); then the engine
+    and the preference as they were."""
+    import time
+
+    state: dict = {"runs": []}
+
+    def step() -> float | None:
+        scene = bpy.context.scene
+        if "engine" not in state:
+            assert "Cube" in bpy.data.objects and scene.render.resolution_percentage == 100
+            assert (scene.render.resolution_x, scene.render.resolution_y) == (1920, 1080)
+            state["engine"] = scene.render.engine
+            scene.render.engine = "WEATHERVANE_TRACER"
+            # no render window: a second window would cover the view the later steps read from the screen (and
+            # closing it from a script crashed Blender 3.4.1 in the build that followed)
+            state["display"] = bpy.context.preferences.view.render_display_type
+            bpy.context.preferences.view.render_display_type = "NONE"
+        if "started" not in state:
+            window, area, region = view3d()
+            with bpy.context.temp_override(window=window, area=area, region=region):
+                assert bpy.ops.render.render("INVOKE_DEFAULT") == {"RUNNING_MODAL"}
+            state["started"] = time.perf_counter()
+            return 0.02
+        seconds = time.perf_counter() - state["started"]
+        if bpy.app.is_job_running("RENDER"):
+            assert seconds < RENDERED_WAIT_SECONDS, "F12 of the factory cube did not end"
+            return 0.02
+        state["runs"].append(seconds)
+        del state["started"]
+        if len(state["runs"]) < FACTORY_F12_RUNS:
+            return 0.5
+        scene.render.engine = state["engine"]
+        bpy.context.preferences.view.render_display_type = state["display"]
+        first, *others = state["runs"]
+        print(
+            f"WEATHERVANE-GUI latency f12-factory-cube-1920x1080 {others[-1] if others else first:.3f} s from F12 to "
+            f"the render job's end (F12s: {', '.join(f'{run:.2f}' for run in state['runs'])} s; the first starts "
+            "the workers)"
+        )
+        return None
+
+    return step
+
+
+FAKE_FREE_MEMORY = 300_000_000  # bytes: the vane at F12's size fits (about 0.25 GB), a level-7 cube does not
+HEARTBEAT_SECONDS = 0.02
+
+
+def refuse_a_scene_too_large() -> float | None:
+    """A scene whose preparation needs more than the free memory (faked: FAKE_FREE_MEMORY in the add-on's own copy
+    of the tracer, as tests/addon/test_memory_guard.py fakes it): a cube with Subdivision Surface at level 7, 196,608
+    triangles, added as a user adds it; the 3D View switched to Rendered shows the one refusal line and traces
+    nothing, the window keeps answering (a timer every HEARTBEAT_SECONDS; N over the view toggles the sidebar), and
+    F12 is refused with Blender's report, nothing written; then the free memory, the scene and Solid shading as they
+    were."""
+    import time
+
+    resources = sys.modules["weathervane._tracer"].module("workers.resources")
+    real = resources.available_memory
+    resources.available_memory = lambda: FAKE_FREE_MEMORY
+    window, area, region = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        assert bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, -3.0)) == {"FINISHED"}
+        cube = bpy.context.active_object
+        modifier = cube.modifiers.new("Subdivision", "SUBSURF")
+        modifier.levels = modifier.render_levels = 7
+    cube.select_set(False)
+    bpy.context.view_layer.objects.active = None
+    ticks: list = []
+
+    def heartbeat() -> float | None:
+        ticks.append(time.perf_counter())
+        return HEARTBEAT_SECONDS if "done" not in state else None
+
+    state: dict = {}
+
+    def switch() -> None:
+        state["started"] = time.perf_counter()
+        bpy.app.timers.register(heartbeat, first_interval=HEARTBEAT_SECONDS)
+        area.spaces.active.shading.type = "RENDERED"
+        area.tag_redraw()
+
+    def refused() -> float | None:
+        sessions = list(sys.modules["weathervane.viewport"]._sessions)
+        waited = time.perf_counter() - state["started"]
+        assert waited < 30.0, "the Rendered view showed no refusal"
+        if not sessions or not sessions[0].error or sessions[0].status != sessions[0].error:
+            return 0.02
+        state.update(session=sessions[0], shown=waited)
+        return None
+
+    def press_n() -> float | None:
+        space = area.spaces.active
+        if "sidebar" not in state:
+            state.update(sidebar=space.show_region_ui, pressed=time.perf_counter())
+            keys("N")()
+            return 0.01
+        if space.show_region_ui == state["sidebar"]:
+            assert time.perf_counter() - state["pressed"] < 30.0, "N over the view was not answered"
+            return 0.01
+        state["answered"] = time.perf_counter() - state["pressed"]
+        space.show_region_ui = state["sidebar"]
+        return None
+
+    def f12() -> None:
+        import os
+
+        scene = bpy.context.scene
+        target = os.path.join(WORK, "refused.png")
+        scene.render.filepath = target
+        started = time.perf_counter()
+        try:
+            bpy.ops.render.render(write_still=True)
+            message = "F12 was not refused"
+        except RuntimeError as error:
+            message = str(error).strip()
+        state.update(f12=message, f12_seconds=time.perf_counter() - started, written=os.path.exists(target))
+
+    def report() -> float | None:
+        state["done"] = True
+        session = state["session"]
+        import itertools
+
+        gaps = [later - earlier for earlier, later in itertools.pairwise(ticks)]
+        traced = session.progressive.latest() is not None or session.progressive.generation != 0
+        resources.available_memory = real
+        mesh = cube.data
+        bpy.data.objects.remove(cube)
+        bpy.data.meshes.remove(mesh)
+        print(
+            f"WEATHERVANE-GUI memory refusal in the Rendered view {state['shown']:.2f} s after Rendered shading, "
+            f"{len(session.error.splitlines())} line, traced {'something' if traced else 'nothing'}: {session.error}"
+        )
+        print(
+            f"WEATHERVANE-GUI memory refusal: the window answered N over the view in {state['answered']:.2f} s; a "
+            f"timer every {HEARTBEAT_SECONDS} s fired {len(ticks)} times, the longest gap {max(gaps):.2f} s"
+        )
+        print(
+            f"WEATHERVANE-GUI memory refusal in F12 in {state['f12_seconds']:.2f} s, "
+            f"{'an image written' if state['written'] else 'nothing written'}: {state['f12']}"
+        )
+        area.spaces.active.shading.type = "SOLID"
+        area.tag_redraw()
+        return guarded(when_the_rendered_view_stopped(lambda: guarded(render_empty_f12)))
+
+    return run_steps([switch, refused, idle_seconds(1.0), press_n, f12], report)
+
+
+def idle_seconds(seconds: float):
+    """A step: nothing for seconds (the window drawing, timers firing)."""
+    import time
+
+    began: list = []
+
+    def step() -> float | None:
+        began.append(began[0] if began else time.perf_counter())
+        return None if time.perf_counter() - began[0] >= seconds else 0.05
+
+    return step
+
+
+def material_tab_colour_in_f12() -> float | None:
+    """The tail fin's colour edited in the Material tab (its "WV Surface" group node's Color input, as the tab's
+    colour field sets it): F12 at FOREIGN_F12's size shows it (the fin's pixels against F12 before the edit, in
+    WORK/material-tab.json for the test) and the sidebar shows the same value; then the colour as it was."""
+    import json
+    import os
+    import time
+
+    import numpy as np
+    from bpy_extras.object_utils import world_to_camera_view
+    from mathutils import Vector
+
+    scene = bpy.context.scene
+    node = bpy.data.materials["WV verdigris"].node_tree.nodes["WV Surface"]
+    before = tuple(node.inputs["Color"].default_value)
+    edited = (0.05, 0.1, 0.9, 1.0)
+    node.inputs["Color"].default_value = edited
+    started = time.perf_counter()
+    target = os.path.join(WORK, "material-tab-f12.png")
+    foreign_f12(target)
+    seconds = time.perf_counter() - started
+    sidebar = tuple({entry.name: entry for entry in scene.weathervane.materials}["verdigris"].color)
+    node.inputs["Color"].default_value = before
+
+    def pixels(path: str):
+        image = bpy.data.images.load(path)
+        try:
+            width, height = image.size
+            values = np.array(image.pixels[:], dtype=np.float32).reshape(height, width, 4)[::-1, :, :3]
+        finally:
+            bpy.data.images.remove(image)
+        return np.round(values * 255.0)
+
+    width, height = FOREIGN_F12
+    fin = bpy.data.objects["WV tail_fin"]
+    corners = [world_to_camera_view(scene, scene.camera, fin.matrix_world @ Vector(c)) for c in fin.bound_box]
+    left, right = int(min(c.x for c in corners) * width), int(np.ceil(max(c.x for c in corners) * width))
+    top, bottom = int((1 - max(c.y for c in corners)) * height), int(np.ceil((1 - min(c.y for c in corners)) * height))
+    old = pixels(os.path.join(WORK, "foreign-f12-empty.png"))[top:bottom, left:right]
+    new = pixels(target)[top:bottom, left:right]
+    changed = np.abs(new - old).max(axis=2) > 3
+    figures = {
+        "box": [left, top, right, bottom],
+        "pixels": int(changed.size),
+        "changed": int(changed.sum()),
+        "before": old[changed].mean(axis=0).tolist() if changed.any() else None,
+        "after": new[changed].mean(axis=0).tolist() if changed.any() else None,
+        "colour": list(edited[:3]),
+        "previous colour": list(before[:3]),
+        "sidebar": list(sidebar),
+        "seconds": seconds,
+    }
+    with open(os.path.join(WORK, "material-tab.json"), "w") as file:
+        json.dump(figures, file)
+    print(
+        f"WEATHERVANE-GUI latency f12-material-tab-colour {seconds:.3f} s for F12 at {width}x{height}: "
+        f"{figures['changed']} of the tail fin's {figures['pixels']} box pixels changed, their mean "
+        f"{figures['before']} -> {figures['after']} (Color {edited[:3]}); the sidebar shows {sidebar}"
+    )
+    return guarded(add_foreign_scene)
 
 
 bpy.app.timers.register(prepare, first_interval=1.0)
