@@ -94,7 +94,11 @@ MALFORMED = [
     ("materials/brass/color", DELETE, "materials.brass.color: is required"),
     ("materials/brass/reflective", 2, "materials.brass.reflective: must be <= 1, got 2"),
     ("materials/brass/specular", -5, "materials.brass.specular: must be >= 0, got -5"),
-    ("lights/0/type", "area", 'lights[0].type: must be one of "ambient", "point", "directional", "spot", got "area"'),
+    (
+        "lights/0/type",
+        "lamp",
+        'lights[0].type: must be one of "ambient", "point", "directional", "spot", "area", got "lamp"',
+    ),
     ("lights/1/intensity", -0.5, "lights[1].intensity: must be >= 0, got -0.5"),
     ("lights/1/location", DELETE, "lights[1].location: is required"),
     ("lights/2/direction", [0, 0, 0], "lights[2].direction: must not be the zero vector, got [0, 0, 0]"),
@@ -114,7 +118,7 @@ MALFORMED = [
     (
         "background/type",
         "gradient",
-        'background.type: must be one of "solid", "sky", "documented", "none", got "gradient"',
+        'background.type: must be one of "solid", "sky", "documented", "none", "image", got "gradient"',
     ),
     ("background/zenith", [0, 0, -1], "background.zenith[2]: must be >= 0, got -1"),
     ("vane/parts", ["shaft", "propeller"], 'vane.parts[1]: must name an object of the scene, got "propeller"'),
@@ -156,7 +160,7 @@ def test_every_problem_is_reported_at_once() -> None:
     document = copy.deepcopy(default_scene_dict())
     document["objects"][2]["radius"] = -1
     document["render"]["width"] = 0
-    document["lights"][0]["type"] = "area"
+    document["lights"][0]["type"] = "lamp"
     with pytest.raises(SceneError) as caught:
         scene_from_dict(document)
     assert len(caught.value.problems) == 3

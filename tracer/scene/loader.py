@@ -771,10 +771,13 @@ def _mesh_materials(
     return tuple(names), indices
 
 
+LIGHT_TYPES = ("ambient", "point", "directional", "spot", "area")
+
+
 def _light(reader: _Reader) -> sc.Light | None:
-    kind = reader.choice("type", ("ambient", "point", "directional", "spot"), None)
+    kind = reader.choice("type", LIGHT_TYPES, None)
     if kind is None and "type" not in reader.data:
-        reader.fail("type", "is required (one of ambient, point, directional, spot)")
+        reader.fail("type", f"is required (one of {', '.join(LIGHT_TYPES)})")
     intensity = reader.number("intensity", low=0.0, high=INTENSITY_MAX)
     color = reader.vector("color", sc.WHITE, low=0.0, high=INTENSITY_MAX)
     result: sc.Light | None = None
@@ -787,11 +790,17 @@ def _light(reader: _Reader) -> sc.Light | None:
             intensity=intensity,
             color=color,
             falloff=reader.choice("falloff", sc.FALLOFFS, "none"),
+            radius=reader.number("radius", 0.0, low=0.0, high=LENGTH_RANGE[1]),
         )
     elif kind == "directional":
         result = sc.DirectionalLight(
-            direction=reader.vector("direction", **direction), intensity=intensity, color=color
+            direction=reader.vector("direction", **direction),
+            intensity=intensity,
+            color=color,
+            angle=reader.number("angle", 0.0, low=0.0, high=180.0),
         )
+    elif kind == "area":
+        result = _area_light(reader, intensity, color, direction)
     elif kind == "spot":
         base = sc.SpotLight()
         result = sc.SpotLight(
@@ -803,9 +812,42 @@ def _light(reader: _Reader) -> sc.Light | None:
             spot_size=reader.number("spot_size", base.spot_size, low=0.0, low_open=True, high=180.0),
             spot_blend=reader.number("spot_blend", base.spot_blend, low=0.0, high=1.0),
             spot_model=reader.choice("spot_model", sc.SPOT_MODELS, base.spot_model),
+            radius=reader.number("radius", 0.0, low=0.0, high=LENGTH_RANGE[1]),
         )
     reader.finish()
     return result
+
+
+def _area_light(reader: _Reader, intensity: float, color: sc.Color, direction: dict) -> sc.AreaLight:
+    """An "area" light: location, direction (the way it shines), x_axis (its local X; not along direction),
+    shape and size (one length, or [x, y] for a rectangle or an ellipse)."""
+    base = sc.AreaLight()
+    shine = reader.vector("direction", **direction)
+    x_axis = reader.vector("x_axis", base.x_axis, **direction)
+    shape = reader.choice("shape", sc.AREA_SHAPES, base.shape)
+    raw = reader.data.get("size")
+    if isinstance(raw, list):
+        size = reader.lengths("size", count=2)
+        if shape in ("square", "disk") and size[0] != size[1]:
+            reader.fail("size", f"must be one length for a {shape} ([x, y] is for a rectangle or an ellipse)")
+    else:
+        side = reader.length("size")
+        size = (side, side)
+    numbers = all(isinstance(c, float) for c in (*shine, *x_axis))
+    if numbers and min(math.hypot(*shine), math.hypot(*x_axis)) >= DIRECTION_MIN_LENGTH:
+        a, b = np.asarray(shine) / math.hypot(*shine), np.asarray(x_axis) / math.hypot(*x_axis)
+        if np.linalg.norm(np.cross(a, b)) < 1e-6:
+            shown = ", ".join(_show(c) for c in x_axis)
+            reader.fail("x_axis", f"must not lie along direction ({', '.join(_show(c) for c in shine)}), got [{shown}]")
+    return sc.AreaLight(
+        location=reader.position("location"),
+        direction=shine,
+        x_axis=x_axis,
+        shape=shape,
+        size=size,
+        intensity=intensity,
+        color=color,
+    )
 
 
 def _camera(reader: _Reader | None) -> sc.Camera:
@@ -853,18 +895,94 @@ def _camera(reader: _Reader | None) -> sc.Camera:
     return camera
 
 
-def _background(reader: _Reader | None) -> sc.Background:
+BACKGROUND_SIDE_MAX = 32768  # texels along either side of a background image
+
+
+def _background(reader: _Reader | None, folder: str | Path | None = None) -> sc.Background:
     if reader is None:
         return sc.Background()
     base = sc.Background()
+    kind = reader.choice("type", sc.BACKGROUNDS, base.type)
+    image = None
+    if kind == "image":
+        image = _background_image(reader, folder)
+    else:
+        for key in ("image", "pixels", "colorspace", "rotation", "strength", "interpolation"):
+            if key in reader.data:
+                reader.raw(key)
+                reader.fail(key, f'is a field of the "image" background only, got type {_show(kind)}')
     background = sc.Background(
-        type=reader.choice("type", sc.BACKGROUNDS, base.type),
+        type=kind,
         color=reader.color("color", base.color),
         horizon=reader.color("horizon", base.horizon),
         zenith=reader.color("zenith", base.zenith),
+        image=image,
+        rotation=reader.number("rotation", base.rotation, low=-ANGLE_LIMIT, high=ANGLE_LIMIT),
+        strength=reader.number("strength", base.strength, low=0.0, high=INTENSITY_MAX),
+        interpolation=reader.choice("interpolation", sc.BACKGROUND_INTERPOLATIONS, base.interpolation),
     )
     reader.finish()
     return background
+
+
+def _background_image(reader: _Reader, folder: str | Path | None) -> np.ndarray:
+    """The "image" background's equirectangular picture: "image", a PNG or .npy file's path (relative to the scene
+    file's folder), or "pixels", the texels themselves (rows of [r, g, b], top row first; from the add-on in the
+    same process an (H, W, 3) array), in "colorspace" (sRGB decoded, linear kept) -> (H, W, 3) float32 linear.
+    A 1 x 1 black picture stands in where it is unusable (the problem is reported)."""
+    fallback = np.zeros((1, 1, 3), dtype=np.float32)
+    colorspace = reader.choice("colorspace", tx.COLORSPACES, "sRGB")
+    given = [key for key in ("image", "pixels") if key in reader.data]
+    if len(given) != 1:
+        message = 'give the picture either by a file\'s path ("image") or inline ("pixels")'
+        reader.fail(given[1] if given else "image", message + (", not both" if given else ": one of them is required"))
+        for key in given:
+            reader.raw(key)
+        return fallback
+    key = given[0]
+    raw = reader.raw(key)
+    if key == "image":
+        if not isinstance(raw, str) or not raw:
+            reader.fail(key, f"must be a PNG or .npy file's path (a non-empty string), got {_show_shape(raw)}")
+            return fallback
+        path = Path(raw) if folder is None or Path(raw).is_absolute() else Path(folder) / raw
+        try:
+            raw = tx.read_image(path)
+        except tx.TextureFileError as error:
+            reader.fail(key, f"{_show(str(path))} {error}")
+            return fallback
+    elif not isinstance(raw, np.ndarray):
+        try:
+            raw = np.asarray(raw, dtype=np.float64)
+        except (ValueError, TypeError):
+            reader.fail(key, "must be rows of texels, each [r, g, b] numbers, every row as long (top row first)")
+            return fallback
+    try:
+        if raw.ndim != 3 or raw.shape[2] not in (3, 4):
+            raise tx.TextureFileError(f"must be (height, width, 3 or 4) numbers, got shape {list(raw.shape)}")
+        texels = tx.linear_pixels(raw, colorspace)
+    except tx.TextureFileError as error:
+        reader.fail(key, str(error))
+        return fallback
+    height, width = texels.shape[:2]
+    if max(height, width) > BACKGROUND_SIDE_MAX or height * width > tx.MAX_TEXTURE_PIXELS:
+        reader.fail(
+            key,
+            f"must be at most {BACKGROUND_SIDE_MAX} texels a side and {tx.MAX_TEXTURE_PIXELS} in all, got "
+            f"{width} x {height}",
+        )
+        return fallback
+    bad = ~np.isfinite(texels) | (texels < 0.0) | (texels > INTENSITY_MAX)
+    if bad.any():
+        row, column, _ = np.argwhere(bad)[0].tolist()
+        channel = int(np.argmax(bad[row, column]))
+        value = float(raw[row, column, channel]) if raw.dtype.kind == "f" else float(texels[row, column, channel])
+        reader.fail(
+            key, f"texel (row {row}, column {column}) must lie in 0..{_show(INTENSITY_MAX)}, got {_show(value)}"
+        )
+        return fallback
+    texels.flags.writeable = False  # the background keeps it without a copy
+    return texels
 
 
 def _render(reader: _Reader | None) -> sc.RenderSettings:
@@ -893,6 +1011,7 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         mist_start=reader.number("mist_start", base.mist_start, low=-COORDINATE_LIMIT, high=COORDINATE_LIMIT),
         mist_depth=reader.number("mist_depth", base.mist_depth, low=0.0, high=COORDINATE_LIMIT),
         mist_falloff=reader.choice("mist_falloff", MIST_FALLOFFS, base.mist_falloff),
+        shadow_samples=reader.number("shadow_samples", base.shadow_samples, low=1, high=1024, integer=True),
     )
     border = settings.border
     if border is not None and all(isinstance(x, float) for x in border):
@@ -904,6 +1023,11 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         samples_problem = check_samples(raw_samples)
         if samples_problem:
             reader.fail("samples", samples_problem)
+    raw_shadow = reader.data.get("shadow_samples")
+    if isinstance(raw_shadow, int) and not isinstance(raw_shadow, bool) and 1 <= raw_shadow <= 1024:
+        shadow_problem = check_samples(raw_shadow)
+        if shadow_problem:
+            reader.fail("shadow_samples", shadow_problem.replace("stratified grid", "stratified grid over a light"))
     reader.finish()
     return settings
 
@@ -1097,7 +1221,7 @@ def scene_from_dict(data: Any, source: str = "scene", base: str | Path | None = 
                 lights.append(made_light)
 
     camera = _camera(top.reader("camera"))
-    background = _background(top.reader("background"))
+    background = _background(top.reader("background"), base)
     render = _render(top.reader("render"))
     vane = _vane(top.reader("vane"), set(names))
     motion = _motion(top.reader("motion"), top.reader("wind"))

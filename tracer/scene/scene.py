@@ -18,7 +18,9 @@ Vec3 = tuple[float, float, float]
 Color = tuple[float, float, float]
 
 MODELS = ("phong", "blinn-phong")
-BACKGROUNDS = ("solid", "sky", "documented", "none")
+BACKGROUNDS = ("solid", "sky", "documented", "none", "image")
+AREA_SHAPES = ("square", "rectangle", "disk", "ellipse")
+BACKGROUND_INTERPOLATIONS = ("linear", "closest")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 CAMERA_TYPES = ("PERSP", "ORTHO")
 DTYPES = ("float32", "float64")
@@ -356,6 +358,9 @@ class PointLight:
     intensity: float = 0.6
     color: Color = WHITE
     falloff: Literal["none", "inverse_square"] = "none"
+    # Blender's light radius (metres): with render.shadow_samples > 1 its shadow rays go to points on the disk of
+    # this radius that faces each shaded point, each carrying intensity / samples (soft shadows)
+    radius: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -365,6 +370,9 @@ class DirectionalLight:
     direction: Vec3 = (0.0, 0.0, 1.0)
     intensity: float = 0.2
     color: Color = WHITE
+    # the sun's angular diameter in degrees (Blender's sun angle): with render.shadow_samples > 1 its shadow rays
+    # go to directions spread over that disk of the sky (soft shadows), each carrying intensity / samples
+    angle: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -383,9 +391,27 @@ class SpotLight:
     spot_size: float = 45.0
     spot_blend: float = 0.15
     spot_model: Literal["cycles4", "cycles3"] = "cycles4"
+    radius: float = 0.0  # as a point light's
 
 
-Light = AmbientLight | PointLight | DirectionalLight | SpotLight
+@dataclass(frozen=True)
+class AreaLight:
+    """Blender's area light: a one-sided cosine emitter (Lambertian) of shape square, rectangle, disk or ellipse,
+    size (x, y) metres along x_axis and the axis perpendicular to it and to direction, centred on location, shining
+    along direction (Blender's local -Z). From a point P, each of its render.shadow_samples stratified sample points
+    Q adds (intensity / samples) * max(0, cos_e) / |Q - P|^2 times the documented diffuse and specular terms, cos_e
+    the cosine at the light between direction and P (docs/scene-format.md); 1 sample: the centre alone."""
+
+    location: Vec3 = (0.0, 0.0, 5.0)
+    direction: Vec3 = (0.0, 0.0, -1.0)
+    x_axis: Vec3 = (1.0, 0.0, 0.0)
+    shape: Literal["square", "rectangle", "disk", "ellipse"] = "square"
+    size: tuple[float, float] = (1.0, 1.0)
+    intensity: float = 1.0
+    color: Color = WHITE
+
+
+Light = AmbientLight | PointLight | DirectionalLight | SpotLight | AreaLight
 
 
 @dataclass(frozen=True)
@@ -422,15 +448,37 @@ class Vane:
     name: str = "vane"
 
 
-@dataclass(frozen=True)
-class Background:
+@dataclass(frozen=True, eq=False)
+class Background(ArraysByBits):
     """solid: color for every miss; sky: a vertical gradient from horizon to zenith by the ray's elevation;
-    documented: the seed's mode, every miss takes the sky's color at the canvas centre; none: black."""
+    documented: the seed's mode, every miss takes the sky's color at the canvas centre; none: black; image: an
+    equirectangular picture looked up by the ray's direction (Blender's Environment Texture).
 
-    type: Literal["solid", "sky", "documented", "none"] = "sky"
+    image: (H, W, 3) float32 linear RGB, row 0 the picture's top (the zenith), read-only; rotation: degrees about Z
+    (a Mapping node's Z rotation: the direction looked up is Rz(rotation) D); strength: multiplies it;
+    interpolation: linear (bilinear between texel centres, wrapping around in longitude) or closest. Equality
+    compares the image's bits (ArraysByBits)."""
+
+    ARRAYS = ("image",)
+
+    type: Literal["solid", "sky", "documented", "none", "image"] = "sky"
     color: Color = (0.05, 0.05, 0.05)
     horizon: Color = (0.75, 0.82, 0.9)
     zenith: Color = (0.25, 0.45, 0.8)
+    image: np.ndarray | None = None
+    rotation: float = 0.0
+    strength: float = 1.0
+    interpolation: Literal["linear", "closest"] = "linear"
+
+    def __post_init__(self) -> None:
+        if self.image is not None:
+            object.__setattr__(self, "image", frozen_array(self.image, np.float32, (-1, -1, 3)))
+
+    def __setstate__(self, state: dict) -> None:
+        for value in state.values():
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+        self.__dict__.update(state)
 
     def sky(self, elevation: float) -> Color:
         """The sky gradient for a ray whose direction has this z component (horizon below 0, zenith at 1)."""
@@ -465,6 +513,9 @@ class RenderSettings:
     mist_start: float = 5.0
     mist_depth: float = 25.0
     mist_falloff: Literal["QUADRATIC", "LINEAR", "INVERSE_QUADRATIC"] = "QUADRATIC"
+    # sample points per light of a size (area lights, a sun's angle), a perfect square: a stratified grid over the
+    # light; 1 = its centre alone (a hard shadow)
+    shadow_samples: int = 1
 
 
 @dataclass(frozen=True)

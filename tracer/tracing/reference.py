@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass
 
 from ..geometry import camera as cam
+from ..geometry import lightsamples
 from ..geometry import transforms as tf
 from ..geometry.transforms import add, cross, dot, length, scale, sub
 from ..scene import scene as sc
@@ -324,9 +325,39 @@ class ReferenceTracer:
             for obj in scene.objects
         ]
         self.colored = any(m.specular_color is not None for m in scene.materials.values()) or any(
-            light.color != sc.WHITE or getattr(light, "falloff", "none") != "none" or isinstance(light, sc.SpotLight)
+            light.color != sc.WHITE
+            or getattr(light, "falloff", "none") != "none"
+            or isinstance(light, sc.SpotLight | sc.AreaLight)
             for light in scene.lights
         )
+        self.lights = self._light_samples()
+
+    def _light_samples(self) -> list[tuple]:
+        """Each light as find_intensities visits it: (light, where: a point light's location or a directional
+        light's direction, intensity, weight, emitter, disk), a light of a size once per sample (lightsamples.py)
+        with 1 / samples of its intensity and of its weight in the Shadow pass; emitter: an area light's unit
+        normal; disk: a point or spot light's sample offset (radius * (a, b)) on the disk facing each point."""
+        samples = self.settings.shadow_samples
+        made = []
+        for light in self.scene.lights:
+            if isinstance(light, sc.AreaLight):
+                points = lightsamples.area_points(light, samples)
+                normal = lightsamples.area_frame(light)[0]
+                share = light.intensity / len(points) if len(points) > 1 else light.intensity
+                made.extend((light, point, share, 1.0 / len(points), normal, None) for point in points)
+            elif isinstance(light, sc.DirectionalLight):
+                directions = lightsamples.sun_directions(light, samples)
+                share = light.intensity / len(directions) if len(directions) > 1 else light.intensity
+                made.extend((light, direction, share, 1.0 / len(directions), None, None) for direction in directions)
+            elif isinstance(light, sc.PointLight | sc.SpotLight) and light.radius > 0.0 and samples > 1:
+                offsets = lightsamples.disk_offsets(samples)
+                share = light.intensity / len(offsets)
+                for a, b in offsets:
+                    disk = (light.radius * a, light.radius * b)
+                    made.append((light, light.location, share, 1.0 / len(offsets), None, disk))
+            else:
+                made.append((light, getattr(light, "location", None), light.intensity, 1.0, None, None))
+        return made
 
     def material(self, index: int, part: int) -> sc.Material:
         """The material of object index's part (a mesh's triangle may have its own)."""
@@ -363,6 +394,8 @@ class ReferenceTracer:
             return (0.0, 0.0, 0.0)
         if background.type == "solid":
             return background.color
+        if background.type == "image":
+            return environment(background, D)
         direction = self.documented_direction if background.type == "documented" else D
         k = min(max(direction[2], 0.0), 1.0)
         h, z = background.horizon, background.zenith
@@ -392,7 +425,7 @@ class ReferenceTracer:
         ambient_sum, diffuse_sum, highlight_sum = 0.0, 0.0, 0.0  # the documented mode's terms apart (split)
         ambient, lights_diffuse = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]  # the coloured mode's terms apart (split)
         lights, reached = 0, 0
-        for light in self.scene.lights:
+        for light, where, intensity, weight, emitter, disk in self.lights:
             color = light.color
             if isinstance(light, sc.AmbientLight):
                 total += light.intensity
@@ -400,10 +433,14 @@ class ReferenceTracer:
                 ambient_sum += light.intensity
                 ambient = [ambient[c] + light.intensity * color[c] for c in range(3)]
                 continue
-            lights += 1
+            lights += weight
             factor = 1.0
             if isinstance(light, sc.PointLight | sc.SpotLight):
                 light_vector = sub(light.location, P)
+                if disk is not None:  # a sample on the disk of the light's radius that faces P
+                    e1, e2 = lightsamples.facing_basis(normalize(light_vector))
+                    offset = tuple(disk[0] * e1[k] + disk[1] * e2[k] for k in range(3))
+                    light_vector = add(light_vector, offset)
                 t_max = 1.0
                 if isinstance(light, sc.SpotLight):
                     cosine = -dot(light_vector, normalize(light.direction)) / length(light_vector)
@@ -411,8 +448,13 @@ class ReferenceTracer:
                 if light.falloff == "inverse_square":
                     falloff = 1.0 / dot(light_vector, light_vector)
                     factor = falloff if not isinstance(light, sc.SpotLight) else factor * falloff
+            elif emitter is not None:  # an area light's sample point: a one-sided cosine emitter, inverse square
+                light_vector = sub(where, P)
+                t_max = 1.0
+                factor = max(-dot(light_vector, emitter) / length(light_vector), 0.0)
+                factor = factor * (1.0 / dot(light_vector, light_vector))
             else:
-                light_vector = light.direction
+                light_vector = where
                 t_max = INF
             self.rays["shadow"] += 1
             shadow_object, _, _ = self.closest_intersection(P, light_vector, SHADOW_T_MIN, t_max, "visible_shadow")
@@ -420,7 +462,7 @@ class ReferenceTracer:
                 continue
             NL = dot(N, light_vector)
             if NL > 0.0:
-                term = light.intensity * NL / (length_n * length(light_vector))
+                term = intensity * NL / (length_n * length(light_vector))
                 total += term
                 diffuse = [diffuse[c] + (term * factor) * color[c] for c in range(3)]
                 diffuse_sum += term
@@ -431,18 +473,18 @@ class ReferenceTracer:
                     R = reflect_ray(light_vector, N)
                     RV = dot(R, V)
                     if RV > 0.0:
-                        term = light.intensity * (RV / (length(R) * length_v)) ** specular
+                        term = intensity * (RV / (length(R) * length_v)) ** specular
                 else:
                     H = add(normalize(light_vector), normalize(V))
                     HN = dot(H, N)
                     if HN > 0.0:
-                        term = light.intensity * (HN / (length(H) * length_n)) ** (specular * self.settings.coef)
+                        term = intensity * (HN / (length(H) * length_n)) ** (specular * self.settings.coef)
             if term is not None:
                 total += term
                 highlight = [highlight[c] + (term * factor) * color[c] for c in range(3)]
                 highlight_sum += term
             if (NL > 0.0 or term is not None) and factor > 0.0:
-                reached += 1
+                reached += weight
         if split is not None:
             split["shadow"] = reached / lights if lights else 1.0
             if self.colored:
@@ -660,6 +702,34 @@ class ReferenceTracer:
             per_sample = [_channels(getattr(sample, name)) for sample in samples]
             values[name] = tuple(sum(column) / len(samples) for column in zip(*per_sample, strict=True))
         return values, samples
+
+
+def environment(background: sc.Background, D: sc.Vec3) -> sc.Color:
+    """An image background's colour for direction D: the equirectangular (u, v) (lightsamples.equirectangular),
+    then the texel by Cycles' rules (linear: bilinear between the texel centres around (u W - 0.5, v H - 0.5), v
+    from the bottom, wrapping in u, clamped at the poles; closest: the texel (floor(u W), floor(v H))), times the
+    strength; the same operations as wavefront.environment."""
+    image = background.image
+    height, width = image.shape[:2]
+    u, v = lightsamples.equirectangular(D, background.rotation)
+
+    def texel(row: int, column: int) -> tuple[float, float, float]:
+        value = image[height - 1 - min(max(row, 0), height - 1), column % width]  # rows from the top
+        return (float(value[0]), float(value[1]), float(value[2]))
+
+    if background.interpolation == "closest":
+        color = texel(math.floor(v * height), math.floor(u * width))
+    else:
+        px, py = u * width - 0.5, v * height - 0.5
+        fx, fy = math.floor(px), math.floor(py)
+        tx, ty = px - fx, py - fy
+        a, b, c, d = texel(fy, fx), texel(fy, fx + 1), texel(fy + 1, fx), texel(fy + 1, fx + 1)
+        color = tuple(
+            (1.0 - ty) * ((1.0 - tx) * a[k] + tx * b[k]) + ty * ((1.0 - tx) * c[k] + tx * d[k]) for k in range(3)
+        )
+    if background.strength != 1.0:
+        color = tuple(k * background.strength for k in color)
+    return color
 
 
 def render_reference(scene: sc.Scene) -> list[list[sc.Color]]:

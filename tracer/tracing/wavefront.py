@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..geometry import camera as cam
+from ..geometry import lightsamples
 from ..geometry import transforms as tf
 from ..geometry.bvh import Hierarchy
 from ..geometry.cull import CoverageGrid, ScreenRectangles, kernel_sets
@@ -82,11 +83,22 @@ class _Light:
     inverse_square: bool = False  # a point or spot light's terms divided by |L|^2
     spot: sc.SpotLight | None = None  # a spot light: its terms multiplied by spot_attenuation()
     axis: np.ndarray | None = None  # a spot light's unit axis (3, 1)
+    # one sample point of an area light: the unit normal it shines along (3, 1), its terms multiplied by the
+    # cosine there (a one-sided Lambertian emitter) and by 1 / |L|^2
+    emitter: np.ndarray | None = None
+    source: int = 0  # the scene light it is (or is a sample of): its index in scene.lights
+    weight: float = 1.0  # its share of that light (1 / samples for a light of a size), for the Shadow pass
+    # one sample of a point or spot light of a radius: its offset (radius * (a, b)) on the disk facing each point
+    # (lightsamples.facing_basis of the direction toward the light's centre)
+    disk: tuple[float, float] | None = None
 
     @property
-    def view(self) -> View:
+    def view(self) -> View | None:
         """What the light's shadow rays share, for the meshes' pictures: they end at a point light (their vectors
-        point toward it) and run along a directional light's direction."""
+        point toward it) and run along a directional light's direction; nothing for a sample on a disk that faces
+        each point (its rays end at different points: the meshes' hierarchies are walked)."""
+        if self.disk is not None:
+            return None
         vector = tuple(self.vector.ravel().astype(np.float64).tolist())
         return View("point", vector, reverse=True) if self.kind == "point" else View("direction", vector)
 
@@ -179,23 +191,41 @@ class PreparedScene:
         self._smooth_normals(objects, primitives, vanes)
         self._textures(objects, primitives)
         self.lights = []
-        for light in self.scene.lights:
+        for source, light in enumerate(self.scene.lights):
             color = column(light.color, self.dtype)
+            first = len(self.lights)
             if isinstance(light, sc.AmbientLight):
                 self.lights.append(_Light("ambient", light.intensity, color=color))
             elif isinstance(light, sc.PointLight | sc.SpotLight):
-                made = _Light("point", light.intensity, column(light.location, self.dtype), 1.0, color=color)
-                made.inverse_square = light.falloff == "inverse_square"
-                if isinstance(light, sc.SpotLight):
-                    made.spot, made.axis = light, column(tf.normalize(light.direction), self.dtype)
-                self.lights.append(made)
-            else:
-                self.lights.append(
-                    _Light("directional", light.intensity, column(light.direction, self.dtype), color=color)
+                offsets = lightsamples.disk_offsets(settings.shadow_samples) if light.radius > 0.0 else [None]
+                share = light.intensity / len(offsets) if len(offsets) > 1 else light.intensity
+                for offset in offsets:
+                    made = _Light("point", share, column(light.location, self.dtype), 1.0, color=color)
+                    made.inverse_square = light.falloff == "inverse_square"
+                    if isinstance(light, sc.SpotLight):
+                        made.spot, made.axis = light, column(tf.normalize(light.direction), self.dtype)
+                    if len(offsets) > 1:
+                        made.disk, made.weight = (
+                            (light.radius * offset[0], light.radius * offset[1]),
+                            1.0 / len(offsets),
+                        )
+                    self.lights.append(made)
+            elif isinstance(light, sc.AreaLight):
+                self.lights.extend(self._area_samples(light, color))
+            else:  # a sun of an angle: its samples' directions (one: the direction itself)
+                directions = lightsamples.sun_directions(light, settings.shadow_samples)
+                share = light.intensity / len(directions) if len(directions) > 1 else light.intensity
+                self.lights.extend(
+                    _Light("directional", share, column(d, self.dtype), color=color, weight=1.0 / len(directions))
+                    for d in directions
                 )
+            for made in self.lights[first:]:
+                made.source = source
         # the documented arithmetic (one intensity per point) unless a light or a material needs colours
         self.colored = self.colored or any(
-            light.color != sc.WHITE or getattr(light, "falloff", "none") != "none" or isinstance(light, sc.SpotLight)
+            light.color != sc.WHITE
+            or getattr(light, "falloff", "none") != "none"
+            or isinstance(light, sc.SpotLight | sc.AreaLight)
             for light in self.scene.lights
         )
         background = self.scene.background
@@ -216,6 +246,8 @@ class PreparedScene:
         if self.shadow_hierarchy.boxes is not None:
             boxes = self.shadow_hierarchy.boxes
             for light in self.lights:
+                if light.kind == "point" and light.disk is not None:
+                    continue  # its rays end on a disk that faces each point: no grid from one point
                 if light.kind == "point":
                     light.grid = CoverageGrid.from_point(light.vector.ravel().astype(np.float64), *boxes)
                 elif light.kind == "directional":
@@ -224,6 +256,19 @@ class PreparedScene:
                     shares = self._sample_shares(light)
                     if shares is None or not self.shadow_hierarchy.culls_well(light.grid.kernels, shares):
                         light.grid = None
+
+    def _area_samples(self, light: sc.AreaLight, color: np.ndarray) -> list[_Light]:
+        """An area light as point lights at its render.shadow_samples sample points (lightsamples.area_points),
+        each with 1 / samples of its intensity, shining as a one-sided cosine emitter with inverse-square falloff."""
+        points = lightsamples.area_points(light, self.scene.render.shadow_samples)
+        normal = column(lightsamples.area_frame(light)[0], self.dtype)
+        share = light.intensity / len(points) if len(points) > 1 else light.intensity
+        made = []
+        for point in points:
+            sample = _Light("point", share, column(point, self.dtype), 1.0, color=color, weight=1.0 / len(points))
+            sample.inverse_square, sample.emitter = True, normal
+            made.append(sample)
+        return made
 
     def _merged_meshes(
         self,
@@ -646,11 +691,17 @@ class PreparedScene:
         exponent = specular * settings.coef if settings.model == "blinn-phong" else specular
         terms = []
         toward_eye = None  # V / |V|, the same for every light's half vector
+        facing: dict[int, tuple] = {}  # a light of a radius: the disk's axes at each point, by scene light
         for light in self.lights:
             if light.kind == "ambient":
                 terms.append(None)
                 continue
             L = light.vector - P if light.kind == "point" else light.vector  # a directional L broadcasts
+            if light.disk is not None:  # a sample on the disk of the light's radius that faces the point
+                if light.source not in facing:
+                    facing[light.source] = facing_basis(L)
+                e1, e2 = facing[light.source]
+                L = L + (light.disk[0] * e1 + light.disk[1] * e2).astype(self.dtype, copy=False)
             NL = dot(N, L)
             length_l = np.sqrt(dot(L, L))
             gate = shiny.copy()
@@ -672,9 +723,9 @@ class PreparedScene:
             # a shadow ray only where this light could add something: the result is the listing's, with fewer rays
             diffuse_gate = NL > 0.0
             factor = None
-            if light.inverse_square or light.spot is not None:
+            if light.inverse_square or light.spot is not None or light.emitter is not None:
                 factor = self._attenuation(light, L, length_l)
-            if light.spot is not None:
+            if light.spot is not None or light.emitter is not None:
                 needed = indices((diffuse_gate | gate) & (factor > 0.0))
             else:
                 needed = indices(diffuse_gate | gate)
@@ -688,9 +739,15 @@ class PreparedScene:
                 light_lit & (term[3] | term[4]) for light_lit, term in zip(lit, [t for t in terms if t], strict=True)
             ]
             share = np.zeros(count, dtype=self.dtype)
-            for light_reached in reached:
-                share += light_reached
-            split["shadow"] = share / len(reached) if reached else np.ones(count, dtype=self.dtype)
+            weights = [light.weight for light in self.lights if light.kind != "ambient"]
+            if all(weight == 1.0 for weight in weights):
+                for light_reached in reached:
+                    share += light_reached
+                split["shadow"] = share / len(reached) if reached else np.ones(count, dtype=self.dtype)
+            else:  # a light of a size counts once, each of its samples by its share
+                for light_reached, weight in zip(reached, weights, strict=True):
+                    share += light_reached * weight
+                split["shadow"] = share / sum(weights)
         if self.colored:
             return self._colored(terms, lit, count, length_n, exponent, split)
         intensity = np.zeros(count, dtype=self.dtype)
@@ -765,6 +822,8 @@ class PreparedScene:
         if light.spot is not None:
             cosine = -dot(L, light.axis) / length_l  # the angle at the light between its axis and the point
             factor = spot_attenuation(cosine, light.spot)
+        if light.emitter is not None:  # an area light's sample: a one-sided cosine emitter
+            factor = np.maximum(-dot(L, light.emitter) / length_l, 0.0)
         if light.inverse_square:
             falloff = 1.0 / dot(L, L)
             factor = falloff if factor is None else factor * falloff
@@ -790,15 +849,16 @@ class PreparedScene:
         t_min = 0.0 if self.robust else SHADOW_T_MIN
         shadows, origins, vectors, limits, bits, views, runs = [], [], [], [], [], [], []
         start = 0  # where the light's rays start in the query of all lights
-        for (index, light), (L, *_, needed, _) in zip(lights, terms, strict=True):
+        for (_, light), (L, *_, needed, _) in zip(lights, terms, strict=True):
             vector = take(L, needed)  # a directional light's vector stays a shared column
             origin = take(P, needed)
             if self.robust:
+                target = take(P, needed) + vector if light.disk is not None else light.vector
                 origin = offset_origins(origin, take(N, needed), vector, *(part.take(needed) for part in surface))
                 if light.kind == "point":
-                    vector = light.vector - origin  # t = 1 is still exactly the light
+                    vector = target - origin  # t = 1 is still exactly the light
             if footprint is not None:  # the whole segment: a blocker that moves in could block it anywhere
-                footprint.record(samples.take(needed), origin, vector, t_min, light.t_max, light=index)
+                footprint.record(samples.take(needed), origin, vector, t_min, light.t_max, light=light.source)
             own = None if frames is None else RayFrames.of(needed, frames)  # the light's rays by frame
             _tally(counts, "shadow", needed.size, own)
             # planes first, light by light (a shared direction keeps their test cheap); then only the rays that
@@ -864,6 +924,9 @@ class PreparedScene:
             return np.broadcast_to(column(background.color, self.dtype), (3, count))
         if background.type == "documented":
             return np.broadcast_to(self.documented_color, (3, count))
+        if background.type == "image":
+            seen = D if miss is None or D.shape[1] == 1 else take(D, miss)
+            return spread(environment(background, seen).astype(self.dtype, copy=False), (3, count))
         z = D[2] if D.shape[1] == 1 or miss is None else D[2].take(miss)  # one direction for all, or each ray's own
         k = np.minimum(np.maximum(z, 0.0), 1.0)
         horizon = column(background.horizon, self.dtype)
@@ -1211,6 +1274,53 @@ def spot_attenuation(cosine: np.ndarray, spot: sc.SpotLight) -> np.ndarray:
         step = 3.0 * ff - 2.0 * ff * f
     attenuation = np.where(inside, cosine * step if spot.spot_model == "cycles3" else step, 0.0)
     return attenuation.astype(cosine.dtype, copy=False)
+
+
+def facing_basis(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """lightsamples.facing_basis of each column's direction (3, n) -> its two axes (3, n) each, float64 (the same
+    operations)."""
+    L = np.asarray(L, dtype=np.float64)
+    x, y, z = L / np.sqrt(x_y_z_squared(L))
+    sign = np.copysign(1.0, z)
+    a = -1.0 / (sign + z)
+    b = x * y * a
+    return np.stack((1.0 + sign * x * x * a, sign * b, -sign * x)), np.stack((b, sign + y * y * a, -y))
+
+
+def x_y_z_squared(L: np.ndarray) -> np.ndarray:
+    return L[0] * L[0] + L[1] * L[1] + L[2] * L[2]
+
+
+def environment(background: sc.Background, D: np.ndarray) -> np.ndarray:
+    """An image background's colours (3, n) float64 for directions D (3, n): Blender's equirectangular (u, v)
+    (lightsamples.equirectangular, the same operations on arrays), then the texel by Cycles' rules: linear, bilinear
+    between the texel centres around (u W - 0.5, v H - 0.5), v counted from the picture's bottom, wrapping around in
+    u and clamped at the poles; closest, the texel (floor(u W), floor(v H)); times the strength."""
+    image = background.image
+    height, width = image.shape[:2]
+    x, y, z = (np.asarray(axis, dtype=np.float64) for axis in D)
+    if background.rotation != 0.0:
+        c, s = math.cos(math.radians(background.rotation)), math.sin(math.radians(background.rotation))
+        x, y = c * x - s * y, s * x + c * y
+    u = 0.5 - np.arctan2(y, x) / (2.0 * math.pi)
+    v = 0.5 + np.arctan2(z, np.hypot(x, y)) / math.pi
+    if background.interpolation == "closest":
+        column_ = np.floor(u * width).astype(np.int64) % width
+        row = height - 1 - np.clip(np.floor(v * height).astype(np.int64), 0, height - 1)
+        color = image[row, column_].T.astype(np.float64)
+    else:
+        px, py = u * width - 0.5, v * height - 0.5
+        fx, fy = np.floor(px), np.floor(py)
+        tx, ty = px - fx, py - fy
+        x0 = fx.astype(np.int64) % width
+        x1 = (x0 + 1) % width
+        y0 = height - 1 - np.clip(fy.astype(np.int64), 0, height - 1)  # rows from the top
+        y1 = height - 1 - np.clip(fy.astype(np.int64) + 1, 0, height - 1)
+        texel = lambda r, c: image[r, c].T.astype(np.float64)  # noqa: E731
+        color = (1.0 - ty) * ((1.0 - tx) * texel(y0, x0) + tx * texel(y0, x1)) + ty * (
+            (1.0 - tx) * texel(y1, x0) + tx * texel(y1, x1)
+        )
+    return color * background.strength if background.strength != 1.0 else color
 
 
 @functools.lru_cache(maxsize=16)

@@ -1,0 +1,117 @@
+"""Where the shadow rays of a light of a size go: stratified points on an area light, directions over a sun's disk,
+and the equirectangular lookup of an image background. Plain Python floats, so that the vectorized tracer and the
+per-pixel reference use the very same numbers (docs/scene-format.md, "Lights of a size").
+
+A light of a size is taken as n = render.shadow_samples point (or directional) lights, each with 1/n of its
+intensity: the stratified m x m grid's cell centres ((a + 0.5) / m, (b + 0.5) / m), mapped onto the light's shape
+(a rectangle as it is, a disk or an ellipse by Shirley and Chiu's concentric map, which keeps the cells' areas
+equal). One sample is the centre: the light's hard shadow. The grid is the same for every point: its penumbra is a
+staircase of n steps (no noise), as wide as the light's.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..scene import scene as sc
+
+
+def grid(samples: int) -> list[tuple[float, float]]:
+    """The stratified grid's cell centres in [-1, 1]^2, row by row: m x m of them for samples = m^2."""
+    side = math.isqrt(samples)
+    return [(2.0 * (a + 0.5) / side - 1.0, 2.0 * (b + 0.5) / side - 1.0) for b in range(side) for a in range(side)]
+
+
+def concentric(a: float, b: float) -> tuple[float, float]:
+    """Shirley and Chiu's concentric map of the square [-1, 1]^2 onto the unit disk (areas kept)."""
+    if a == 0.0 and b == 0.0:
+        return 0.0, 0.0
+    if abs(a) > abs(b):
+        radius, angle = a, math.pi / 4.0 * (b / a)
+    else:
+        radius, angle = b, math.pi / 2.0 - math.pi / 4.0 * (a / b)
+    return radius * math.cos(angle), radius * math.sin(angle)
+
+
+def _unit(v: sc.Vec3) -> sc.Vec3:
+    length = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    return (v[0] / length, v[1] / length, v[2] / length)
+
+
+def _cross(a: sc.Vec3, b: sc.Vec3) -> sc.Vec3:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def area_frame(light: sc.AreaLight) -> tuple[sc.Vec3, sc.Vec3, sc.Vec3]:
+    """The light's unit normal (the way it shines, Blender's local -Z) and its local X and Y axes in the world
+    (X: x_axis made perpendicular to the normal; Y = X x normal, Blender's local Y)."""
+    normal = _unit(light.direction)
+    x = light.x_axis
+    along = x[0] * normal[0] + x[1] * normal[1] + x[2] * normal[2]
+    x_axis = _unit((x[0] - along * normal[0], x[1] - along * normal[1], x[2] - along * normal[2]))
+    return normal, x_axis, _cross(x_axis, normal)
+
+
+def area_points(light: sc.AreaLight, samples: int) -> list[sc.Vec3]:
+    """The area light's sample points (samples of them; 1: its centre)."""
+    if samples == 1:
+        return [tuple(float(c) for c in light.location)]
+    _, x_axis, y_axis = area_frame(light)
+    half_x, half_y = light.size[0] / 2.0, light.size[1] / 2.0
+    points = []
+    for a, b in grid(samples):
+        if light.shape in ("disk", "ellipse"):
+            a, b = concentric(a, b)
+        x, y = a * half_x, b * half_y
+        points.append(tuple(light.location[k] + x * x_axis[k] + y * y_axis[k] for k in range(3)))
+    return points
+
+
+def sun_directions(light: sc.DirectionalLight, samples: int) -> list[sc.Vec3]:
+    """A sun's directions toward the light over its disk of angular diameter light.angle (samples of them, each
+    as long as light.direction; 1 sample or angle 0: the direction itself)."""
+    if samples == 1 or light.angle == 0.0:
+        return [tuple(float(c) for c in light.direction)]
+    d = light.direction
+    length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    axis = _unit(d)
+    other = (1.0, 0.0, 0.0) if abs(axis[2]) > 0.9 else (0.0, 0.0, 1.0)
+    e1 = _unit(_cross(axis, other))
+    e2 = _cross(axis, e1)
+    radius = math.tan(math.radians(light.angle) / 2.0)
+    directions = []
+    for a, b in grid(samples):
+        x, y = concentric(a, b)
+        toward = _unit(tuple(axis[k] + radius * (x * e1[k] + y * e2[k]) for k in range(3)))
+        directions.append(tuple(length * c for c in toward))
+    return directions
+
+
+def equirectangular(D: sc.Vec3, rotation: float) -> tuple[float, float]:
+    """A direction -> Blender's equirectangular (u, v) in [0, 1] (Cycles' direction_to_equirectangular: u = 0.5 -
+    atan2(y, x) / 2 pi, so +X is the picture's centre and +Y a quarter from its left; v = 0.5 + elevation / pi, 1 at
+    the zenith), after the Mapping's rotation about Z (degrees): the direction looked up is Rz(rotation) D."""
+    x, y, z = D
+    if rotation != 0.0:
+        c, s = math.cos(math.radians(rotation)), math.sin(math.radians(rotation))
+        x, y = c * x - s * y, s * x + c * y
+    return 0.5 - math.atan2(y, x) / (2.0 * math.pi), 0.5 + math.atan2(z, math.hypot(x, y)) / math.pi
+
+
+def disk_offsets(samples: int) -> list[tuple[float, float]]:
+    """A point or spot light's samples on the unit disk (the concentric map of the grid; 1: the centre alone),
+    scaled by its radius on the disk that faces each shaded point (facing_basis)."""
+    if samples == 1:
+        return [(0.0, 0.0)]
+    return [concentric(a, b) for a, b in grid(samples)]
+
+
+def facing_basis(w: sc.Vec3) -> tuple[sc.Vec3, sc.Vec3]:
+    """Two unit vectors perpendicular to the unit vector w and to each other (Duff et al. 2017, "Building an
+    orthonormal basis, revisited": continuous except where w.z changes sign): the disk of a light of a radius, seen
+    from a point, lies along them."""
+    x, y, z = w
+    sign = math.copysign(1.0, z)
+    a = -1.0 / (sign + z)
+    b = x * y * a
+    return (1.0 + sign * x * x * a, sign * b, -sign * x), (b, sign + y * y * a, -y)
