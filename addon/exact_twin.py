@@ -136,7 +136,7 @@ def shader_source(scene) -> str:
                 '        int shadowed = trace(P, L / dist, "mindist", 0.001 * dist, "maxdist", dist);\n        '
             )
             factor = _spot(light) if isinstance(light, sc.SpotLight) else ""
-            if light.falloff == "inverse_square":
+            if getattr(light, "falloff", "inverse_square") == "inverse_square":  # an area light: its centre's
                 factor += "factor *= 1.0 / dot(L, L);\n        "
         gate = "NL > 0.0 && " if settings.gate_specular else ""
         blocks.append(
@@ -192,7 +192,7 @@ def background_source(scene) -> str:
             f"    color sky = {_color(h)} + ({_color(z)} - {_color(h)}) * k;\n"
         )
     else:
-        if background.type == "none":
+        if background.type in ("none", "image"):  # an image background: black (approximated() names it)
             flat = (0.0, 0.0, 0.0)
         elif background.type == "solid":
             flat = background.color
@@ -384,4 +384,13 @@ def approximated(scene) -> list[str]:
         notes.append(f"{len(names)} object{'s' if len(names) > 1 else ''} casting no shadow (they cast one here)")
     if scene.render.film_transparent:
         notes.append("a transparent film (the background is rendered)")
+    sc = module("scene.scene")
+    if any(isinstance(light, sc.AreaLight) for light in scene.lights):
+        notes.append("area lights (point lights at their centres here)")
+    if scene.render.shadow_samples > 1 and any(
+        getattr(light, "radius", 0.0) > 0.0 or getattr(light, "angle", 0.0) > 0.0 for light in scene.lights
+    ):
+        notes.append("soft shadows (hard here)")
+    if scene.background.type == "image":
+        notes.append("an image background (black here)")
     return notes

@@ -797,6 +797,8 @@ def scene_document(
     if not own_vane:  # the scene's world is its background and, as Cycles lights with it, an ambient light
         background, ambient, notes.world = world_convert.convert_world(blender_scene.world, blender_scene=blender_scene)
         light_list += [ambient] if ambient is not None else []
+        if not arrays:  # an image background's pixels as a .npy file's path: the document stays JSON, and small
+            background = world_convert.background_for_json(background)
     render = blender_scene.render
     scale = render.resolution_percentage / 100.0
     document = {
@@ -822,6 +824,8 @@ def scene_document(
         document["camera"] = camera_module.to_tracer(blender_scene.camera.evaluated_get(depsgraph))
     if render.film_transparent:
         document["render"]["film_transparent"] = True
+    if int(settings.shadow_samples) > 1:  # lights of a size sampled over their surface (1: as before: not written)
+        document["render"]["shadow_samples"] = int(settings.shadow_samples)
     if notes.line():
         document["comment"] = notes.line()
     if not arrays:

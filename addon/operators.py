@@ -282,6 +282,14 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
         images = module("tracing.images")
         swept = images.sweep_stale_temporaries(target.parent)
         try:
+            picture = document.get("background", {}).get("image")
+            if picture:  # a World's picture (world_convert.background_for_json): a .npy beside the scene file
+                import shutil
+
+                beside = target.with_name(f"{target.stem}.world.npy")
+                with images.atomic_path(beside) as temporary:
+                    shutil.copyfile(picture, temporary)
+                document["background"] = {**document["background"], "image": beside.name}
             with images.atomic_path(target) as temporary:  # nothing is left behind if it fails
                 temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
         except OSError as error:

@@ -343,6 +343,19 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         ],
         default="1",
     )
+    shadow_samples: EnumProperty(
+        name="Shadow Samples",
+        description="Points sampled on each light of a size (area lights, a sun's angle) for its shadow "
+        "(render.shadow_samples): 1 is a hard shadow from the light's centre, more a penumbra as wide as the light",
+        items=[
+            ("1", "1", "The light's centre alone: hard shadows"),
+            ("4", "4", "Stratified 2 x 2 over the light"),
+            ("9", "9", "Stratified 3 x 3 over the light"),
+            ("16", "16", "Stratified 4 x 4 over the light"),
+            ("64", "64", "Stratified 8 x 8 over the light"),
+        ],
+        default="1",
+    )
     # the Whitted tree's passes Blender has no box for (View Layer > Passes draws them beside Blender's own)
     use_pass_ambient: BoolProperty(
         name="Ambient",

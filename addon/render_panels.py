@@ -116,6 +116,7 @@ class WEATHERVANE_RENDER_PT_tracer(TracerPanel, bpy.types.Panel):
         settings = context.scene.weathervane
         layout.prop(settings, "depth")
         layout.prop(settings, "samples")
+        layout.prop(settings, "shadow_samples")
         draw_processes(layout, settings)
         layout.prop(settings, "numerics")
         layout.prop(settings, "precision")

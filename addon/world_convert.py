@@ -9,14 +9,20 @@ unoccluded white diffuse surface to exactly W (measured in Cycles 5.0.1 and 3.4.
                 because Cycles' world light is occluded (ambient occlusion) and the documented ambient is not
                 (a W above 1 becomes intensity max(W) and colour W / max(W), the same light; the background clips)
 
-An environment texture's colour is its image's mean (weighted by solid angle), named; a sky texture has no colour
-to read without rendering it: a clear-sky blue (SKY_MEAN) times its strength, named. No world is black with no
-ambient, as in Cycles. The add-on's own world (twin.py, "WV World") is the panel's background, lighting nothing.
+An Environment Texture (equirectangular) is the background itself: {"type": "image", "pixels": (H, W, 3) linear
+float32, top row first, "strength": S, "rotation": a Mapping node's Z rotation in degrees} (docs/scene-format.md), its
+pixels read once per image (environment_pixels, kept) and handed to the tracer as an array (F12) or a .npy file
+(the Rendered view's and File > Export's documents, which are JSON); its mean (weighted by solid angle) times S is
+the ambient light, named. A mirror-ball projection, a Mapping the tracer cannot express (anything but a Z rotation)
+or an input between them other than a Mapping keep the mean colour as a solid background, named. A sky texture has
+no colour to read without rendering it: a clear-sky blue (SKY_MEAN) times its strength, named. No world is black with
+no ambient, as in Cycles. The add-on's own world (twin.py, "WV World") is the panel's background, lighting nothing.
 """
 
 from __future__ import annotations
 
 import math
+import os
 
 import bpy
 
@@ -43,6 +49,112 @@ def environment_mean(image) -> tuple[float, float, float] | None:
     return _means[key]
 
 
+_pixels: dict[tuple, object] = {}
+
+
+def _image_key(image) -> tuple:
+    return (image.name, tuple(image.size), image.filepath, image.colorspace_settings.name, image.is_float)
+
+
+def environment_pixels(image):
+    """An image's linear RGB (H, W, 3) float32, top row first, read-only, read once and kept (the last few)."""
+    import numpy as np
+
+    key = _image_key(image)
+    if key not in _pixels:
+        rgb = material_convert.linear_rgb(image)  # Blender's rows run from the bottom
+        if rgb is None:
+            return None
+        pixels = np.ascontiguousarray(rgb[::-1], dtype=np.float32)
+        pixels.flags.writeable = False
+        while len(_pixels) >= 4:
+            _pixels.pop(next(iter(_pixels)))
+        _pixels[key] = pixels
+    return _pixels[key]
+
+
+_files: dict[int, tuple[object, str]] = {}
+
+
+def background_for_json(background: dict) -> dict:
+    """An image background for a JSON document (the Rendered view's, File > Export's): its pixels written once to
+    a .npy file in a temporary folder (kept while the pixels are) and named by "image" instead, so that the document
+    stays small and changes when the picture does (the file's name is the pixels' digest). Other backgrounds as
+    they are."""
+    pixels = background.get("pixels")
+    if background.get("type") != "image" or pixels is None or isinstance(pixels, list):
+        return background
+    import hashlib
+    import tempfile
+
+    import numpy as np
+
+    kept = _files.get(id(pixels))
+    if kept is None or kept[0] is not pixels:
+        digest = hashlib.blake2b(pixels.tobytes(), digest_size=12).hexdigest()
+        folder = os.path.join(tempfile.gettempdir(), f"weathervane-worlds-{os.getuid()}")
+        os.makedirs(folder, exist_ok=True)
+        path = os.path.join(folder, f"world-{digest}.npy")
+        if not os.path.exists(path):
+            partial = f"{path}.{os.getpid()}.partial"
+            np.save(partial, pixels)  # np.save adds .npy to a name without it
+            os.replace(partial + ".npy" if not partial.endswith(".npy") else partial, path)
+        while len(_files) >= 4:
+            _files.pop(next(iter(_files)))
+        kept = _files[id(pixels)] = (pixels, path)
+    document = {key: value for key, value in background.items() if key != "pixels"}
+    document["image"] = kept[1]
+    return document
+
+
+def _mapping_rotation(node, notes: list[str]) -> float | None:
+    """The Z rotation (degrees) of what feeds an Environment Texture's Vector: 0 unlinked (the ray's direction) or
+    from a Texture Coordinate's Generated/Object output, a Mapping (Point or Vector) of a Z rotation alone over
+    that; None (named) for anything else."""
+    socket = node.inputs["Vector"]
+    if not socket.is_linked:
+        return 0.0
+    source = socket.links[0].from_node
+    if source.bl_idname == "ShaderNodeTexCoord":
+        return 0.0
+    if source.bl_idname == "ShaderNodeMapping" and source.vector_type in ("POINT", "VECTOR"):
+        inputs = source.inputs
+        plain = all(not inputs[name].is_linked for name in ("Location", "Rotation", "Scale") if name in inputs) and (
+            not inputs["Vector"].is_linked or inputs["Vector"].links[0].from_node.bl_idname == "ShaderNodeTexCoord"
+        )
+        rotation = tuple(inputs["Rotation"].default_value)
+        location = tuple(inputs["Location"].default_value) if source.vector_type == "POINT" else (0.0, 0.0, 0.0)
+        scale = tuple(inputs["Scale"].default_value)
+        if plain and rotation[0] == rotation[1] == 0.0 and not any(location) and all(k == 1.0 for k in scale):
+            return math.degrees(rotation[2])
+    notes.append(f"{source.name} on the environment texture's Vector: its mean colour")
+    return None
+
+
+def _environment_background(node, strength: float, notes: list[str]) -> dict | None:
+    """An equirectangular Environment Texture as the tracer's image background; None where it cannot be one."""
+    if node.bl_idname != "ShaderNodeTexEnvironment" or node.image is None:
+        return None
+    if node.projection != "EQUIRECTANGULAR":
+        notes.append(f"environment texture's {node.projection.lower().replace('_', ' ')} projection: its mean colour")
+        return None
+    rotation = _mapping_rotation(node, notes)
+    pixels = environment_pixels(node.image) if rotation is not None else None
+    if pixels is None:
+        return None
+    interpolation = "closest" if node.interpolation == "Closest" else "linear"
+    if node.interpolation not in ("Linear", "Closest"):
+        notes.append(f"environment texture's {node.interpolation} interpolation: linear")
+    return {
+        "type": "image",
+        "pixels": pixels,
+        "colorspace": "linear",
+        "rotation": rotation,
+        "strength": strength,
+        "interpolation": interpolation,
+    }
+
+
 def _own_background(blender_scene) -> dict:
     settings = blender_scene.weathervane
     return {
@@ -64,7 +176,6 @@ def _color_of(socket, notes: list[str]) -> tuple[float, float, float]:
     if node.bl_idname == "ShaderNodeTexEnvironment" and node.image is not None:
         mean = environment_mean(node.image)
         if mean is not None:
-            notes.append("environment texture: its mean colour")
             return mean
     if node.bl_idname == "ShaderNodeTexSky":
         notes.append(f"sky texture: a clear-sky blue {SKY_MEAN}")
@@ -77,6 +188,7 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
     """scene.world (or None) -> (tracer background dict, ambient light dict or None, notes)."""
     blender_scene = blender_scene or bpy.context.scene
     notes: list[str] = []
+    picture = None
     if world is None:
         return dict(BLACK), None, notes
     if world.name == OWN_WORLD and hasattr(blender_scene, "weathervane"):
@@ -100,15 +212,24 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
         if strength.is_linked:
             notes.append(f"{strength.links[0].from_node.name} on the world's Strength: the input's own value")
         color = [c * float(strength.default_value) for c in color]
-    background = {"type": "solid", "color": [min(1.0, c) for c in color]}
-    if max(color) > 1.0:
-        notes.append("world brighter than 1: background clipped at 1, as the display shows it")
+        picture = None
+        if shader.inputs["Color"].is_linked:
+            source = shader.inputs["Color"].links[0].from_node
+            picture = _environment_background(source, float(strength.default_value), notes)
+            if source.bl_idname == "ShaderNodeTexEnvironment" and picture is None and source.image is not None:
+                notes.append("environment texture: its mean colour")
+    if not compat.uses_nodes(world) or picture is None:
+        background = {"type": "solid", "color": [min(1.0, c) for c in color]}
+        if max(color) > 1.0:
+            notes.append("world brighter than 1: background clipped at 1, as the display shows it")
+    else:
+        background = picture
     visibility = getattr(world, "cycles_visibility", None)
     if visibility is not None and not visibility.camera:
         background = dict(BLACK)  # Cycles' camera rays do not see it
     if not any(c > 0.0 for c in color) or (visibility is not None and not visibility.diffuse):
         return background, None, notes
-    notes.append("world light: unshadowed ambient")
+    notes.append("world light: unshadowed ambient" + (" of the picture's mean colour" if picture is not None else ""))
     # intensity 1 and colour W; a W above 1 (the format's colours lie in [0, 1]) puts its largest channel in the
     # intensity: the same light
     brightest = max(1.0, max(color))
