@@ -371,3 +371,22 @@ def test_soft_lights_keep_the_passes_adding_up_and_workers_and_robust_numerics_a
     assert np.all((shadow >= 0.0) & (shadow <= 1.0 + 1e-12))
     robust = render(plain.with_render(numerics="robust"), workers=1).image
     assert np.all(np.isfinite(robust))
+
+
+def test_a_large_background_picture_travels_to_the_workers_in_the_shared_file_not_in_each_task() -> None:
+    from tracer.workers.parallel import SHARED_SCENE_BYTES, _SharedScenes
+
+    picture = np.random.default_rng(1).uniform(0.0, 1.0, size=(512, 1024, 3)).astype(np.float32)
+    assert picture.nbytes > SHARED_SCENE_BYTES
+    scene = default_scene().with_render(width=32, height=24)
+    scene = replace(scene, background=sc.Background(type="image", image=picture))
+    shared = _SharedScenes(True)
+    try:
+        message, file = shared.message(scene)
+        assert file is not None and message.offsets is not None
+        assert len(message.pickled) < picture.nbytes / 100  # the task carries the scene without the picture
+        _, same = shared.message(replace(scene, camera=replace(scene.camera, lens=35.0)))
+        assert same is file  # the next frame's scene, the same picture: the file is used again
+    finally:
+        shared.close()
+    assert np.array_equal(render(scene, workers=2).image, render(scene, workers=1).image)
