@@ -177,7 +177,7 @@ def _settings_parser() -> argparse.ArgumentParser:
     )
     settings.add_argument(
         "--background",
-        choices=sc.BACKGROUNDS,
+        choices=tuple(kind for kind in sc.BACKGROUNDS if kind != "image"),  # a picture comes with its scene file
         help="solid color, sky gradient, the seed's single-color mode (documented), or none (black)",
     )
     settings.add_argument("--srgb", action="store_true", help="encode PNGs as sRGB instead of linear values")
