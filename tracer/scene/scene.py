@@ -473,6 +473,8 @@ class Background(ArraysByBits):
     def __post_init__(self) -> None:
         if self.image is not None:
             object.__setattr__(self, "image", frozen_array(self.image, np.float32, (-1, -1, 3)))
+        elif self.type == "image":
+            raise ValueError('an "image" background needs its image (H, W, 3)')
 
     def __setstate__(self, state: dict) -> None:
         for value in state.values():
