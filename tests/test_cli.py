@@ -103,7 +103,7 @@ def test_bad_flags_exit_2_and_name_the_flag(tmp_path: Path, flags: list[str], me
 
 def test_bad_output_name_and_missing_scene_file(tmp_path: Path) -> None:
     result = run("render", "-o", str(tmp_path / "x.jpg"))
-    assert result.returncode == 2 and "must end in .png or .npy" in result.stderr
+    assert result.returncode == 2 and "must end in .png, .npy or .exr" in result.stderr
     result = run("render", str(tmp_path / "nowhere.json"), "-o", str(tmp_path / "x.png"))
     assert result.returncode == 2 and "cannot read the file" in result.stderr and "Traceback" not in result.stderr
 
