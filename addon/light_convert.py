@@ -12,7 +12,7 @@ So a point or spot light is {"intensity": P / (4 pi^2), "falloff": "inverse_squa
 S / pi, every light with its colour (times the blackbody colour where Use Temperature is on, and the power times
 2^exposure, as Cycles emits them). A spot shines along the light's -Z axis in world space with Blender's spot_size
 (the full cone, here in degrees) and spot_blend. A sun's angle is the directional light's "angle" (soft shadows with
-the render's Shadow Samples).
+the render's Shadows setting).
 
 An area light is the tracer's "area" light (a one-sided cosine emitter sampled over its shape, docs/scene-format.md):
 its intensity along the normal is P / pi W/sr, so {"intensity": P / pi^2} in Blender 4.0-5.0 and P / pi^2 * pi / 4 in
@@ -23,7 +23,7 @@ square, disk, 2 x 1 m rectangle and ellipse at 1, 2 and 5 m, straight under and 
 against the tracer's 1024 shadow samples): within 0.31% in 5.0.1 and 0.08% in 3.4.1 (the 2 m square in the 4.2.23 wheel:
 as 5.0.1's, within 0.2%) (tests/addon/test_area_lights_cycles.py repeats a few). A spread below 180 degrees is named
 (the tracer's emitter is a full cosine). A point or spot light's radius is the tracer's "radius" (its shadow rays go
-to a disk of that radius facing each point: soft shadows with Shadow Samples above 1); its intensity stays a point's,
+to a disk of that radius facing each point: soft shadows with Shadows above 1 sample); its intensity stays a point's,
 and 4.0+'s Soft Falloff near the light is named (a 100 W point of radius 0.1 m is 0.25% darker than radius 0 at 2 m,
 3.9% at 0.5 m; radius 0.25 m at 0.5 m: 20%).
 
@@ -47,7 +47,7 @@ AREA_FACTOR_BEFORE_4 = math.pi / 4.0  # Cycles 3.4's area lights emit this share
 
 
 def _shadow_samples(blender_scene) -> int:
-    """The render's Shadow Samples (1 where the add-on's settings are not there)."""
+    """The render's Shadows samples (1 where the add-on's settings are not there)."""
     settings = getattr(blender_scene, "weathervane", None)
     return int(getattr(settings, "shadow_samples", "1"))
 
@@ -157,11 +157,11 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
         if light.angle > 0.0:
             document["angle"] = math.degrees(light.angle)
             if _shadow_samples(blender_scene) == 1:
-                notes.append(f"sun angle {math.degrees(light.angle):.3g}°: hard shadow (Shadow Samples 1)")
+                notes.append(f"sun angle {math.degrees(light.angle):.3g}°: hard shadow (Shadows: 1 sample)")
     elif kind == "AREA":
         document = _area_document(obj, light, power, notes)
         if _shadow_samples(blender_scene) == 1:
-            notes.append("area light: hard shadow from its centre (Shadow Samples 1)")
+            notes.append("area light: hard shadow from its centre (Shadows: 1 sample)")
         if falloff is not None and falloff != "Quadratic":
             notes.append(f"{falloff.lower()} falloff node on an area light: inverse square")
     else:
@@ -185,7 +185,7 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
         if kind in ("POINT", "SPOT") and light.shadow_soft_size > 0.0:
             document["radius"] = float(light.shadow_soft_size)
             if _shadow_samples(blender_scene) == 1:
-                notes.append(f"radius {light.shadow_soft_size:.3g} m: hard shadow (Shadow Samples 1)")
+                notes.append(f"radius {light.shadow_soft_size:.3g} m: hard shadow (Shadows: 1 sample)")
             if compat.light_soft_falloff(light):
                 notes.append(f"radius {light.shadow_soft_size:.3g} m, soft falloff: inverse square")
     brightest = max(color)

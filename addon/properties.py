@@ -344,9 +344,10 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         default="1",
     )
     shadow_samples: EnumProperty(
-        name="Shadow Samples",
-        description="Points sampled on each light of a size (area lights, a sun's angle) for its shadow "
-        "(render.shadow_samples): 1 is a hard shadow from the light's centre, more a penumbra as wide as the light",
+        name="Shadows",
+        description="Shadow samples: points sampled on each light of a size (area lights, a sun's angle) for its "
+        "shadow (render.shadow_samples): 1 is a hard shadow from the light's centre, more a penumbra as wide as the "
+        "light",
         items=[
             ("1", "1", "The light's centre alone: hard shadows"),
             ("4", "4", "Stratified 2 x 2 over the light"),
