@@ -157,11 +157,11 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
         if light.angle > 0.0:
             document["angle"] = math.degrees(light.angle)
             if _shadow_samples(blender_scene) == 1:
-                notes.append(f"sun angle {math.degrees(light.angle):.3g}°: hard shadow (Shadows: 1 sample)")
+                notes.append(f"sun angle {math.degrees(light.angle):.3g}°: hard shadow")
     elif kind == "AREA":
         document = _area_document(obj, light, power, notes)
         if _shadow_samples(blender_scene) == 1:
-            notes.append("area light: hard shadow from its centre (Shadows: 1 sample)")
+            notes.append("area light: hard shadow")
         if falloff is not None and falloff != "Quadratic":
             notes.append(f"{falloff.lower()} falloff node on an area light: inverse square")
     else:
@@ -185,7 +185,7 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
         if kind in ("POINT", "SPOT") and light.shadow_soft_size > 0.0:
             document["radius"] = float(light.shadow_soft_size)
             if _shadow_samples(blender_scene) == 1:
-                notes.append(f"radius {light.shadow_soft_size:.3g} m: hard shadow (Shadows: 1 sample)")
+                notes.append(f"radius {light.shadow_soft_size:.3g} m: hard shadow")
             if compat.light_soft_falloff(light):
                 notes.append(f"radius {light.shadow_soft_size:.3g} m, soft falloff: inverse square")
     brightest = max(color)
