@@ -360,23 +360,36 @@ def _numbers_only(value: Any) -> bool:
 
 def _corner_uvs(reader: _Reader, count: int) -> np.ndarray | None:
     """A mesh's "uvs": one [[u, v] x 3] per triangle (its corners'), checked as one array (large meshes)."""
-    raw = reader.raw("uvs", None)
+    array = _corner_array(reader, "uvs", count, "UVs [u, v]")
+    if array is not None:
+        array.flags.writeable = False  # (T, 3, 2): the mesh keeps it, without a copy
+    return array
+
+
+def _corner_array(reader: _Reader, key: str, count: int, what: str) -> np.ndarray | None:
+    """A mesh's per-corner key: count triangles' three corners, each what ("normals [x, y, z]", "UVs [u, v]")
+    (T, 3, C) float64, checked as one array; None where absent or (after one message naming the first bad
+    triangle) not valid."""
+    raw = reader.raw(key, None)
     if raw is None:
         return None
-    expected = f"must be a list of {count} triangles' corner UVs [[u, v], [u, v], [u, v]]"
+    width = what.count(",") + 1
+    brackets = ", ".join([what.split(" ", 1)[1]] * 3)
     if not isinstance(raw, list | np.ndarray) or len(raw) != count:
-        reader.fail("uvs", f"{expected}, got {_show_shape(raw)}")
-        return None
-    array = _number_array(raw, (count, 3, 2))
-    if array is None:
-        raw = raw.tolist() if isinstance(raw, np.ndarray) else raw
-        bad = next((i for i, item in enumerate(raw) if _number_array([item], (1, 3, 2)) is None), 0)
         reader.fail(
-            f"uvs[{bad}]",
-            f"must be 3 corner UVs [u, v] of numbers up to {_show(COORDINATE_LIMIT)}, got {_show(raw[bad])}",
+            key,
+            f"must be a list of {count} triangles' corner {what.split(' ', 1)[0]} [{brackets}], got {_show_shape(raw)}",
         )
         return None
-    array.flags.writeable = False  # (T, 3, 2): the mesh keeps it, without a copy
+    array = _number_array(raw, (count, 3, width))
+    if array is None:  # the slow way, to name the first bad triangle
+        raw = raw.tolist() if isinstance(raw, np.ndarray) else raw
+        bad = next((i for i, item in enumerate(raw) if _number_array([item], (1, 3, width)) is None), 0)
+        reader.fail(
+            f"{key}[{bad}]",
+            f"must be 3 corner {what} of numbers up to {_show(COORDINATE_LIMIT)}, got {_show(raw[bad])}",
+        )
+        return None
     return array
 
 
@@ -671,21 +684,8 @@ def _mesh_arrays(raw_vertices: Any, raw_triangles: Any) -> tuple[np.ndarray, np.
 
 def _corner_normals(reader: _Reader, count: int) -> np.ndarray | None:
     """A mesh's "normals": one [[x, y, z] x 3] per triangle, checked as one array (large meshes)."""
-    raw = reader.raw("normals", None)
-    if raw is None:
-        return None
-    expected = f"must be a list of {count} triangles' corner normals [[x, y, z], [x, y, z], [x, y, z]]"
-    if not isinstance(raw, list | np.ndarray) or len(raw) != count:
-        reader.fail("normals", f"{expected}, got {_show_shape(raw)}")
-        return None
-    array = _number_array(raw, (count, 3, 3))
-    if array is None:  # the slow way, to name the first bad triangle
-        raw = raw.tolist() if isinstance(raw, np.ndarray) else raw
-        bad = next((i for i, item in enumerate(raw) if not _is_corner_triple(item)), 0)
-        reader.fail(
-            f"normals[{bad}]",
-            f"must be 3 corner normals [x, y, z] of numbers up to {_show(COORDINATE_LIMIT)}, got {_show(raw[bad])}",
-        )
+    array = _corner_array(reader, "normals", count, "normals [x, y, z]")
+    if array is None:
         return None
     short = np.sqrt((array * array).sum(axis=2)) < DIRECTION_MIN_LENGTH
     if short.any():
@@ -718,19 +718,6 @@ def _number_array(raw: list, shape: tuple[int, ...]) -> np.ndarray | None:
     if not np.all(np.abs(array) <= COORDINATE_LIMIT):
         return None
     return array
-
-
-def _is_corner_triple(item: Any) -> bool:
-    return (
-        isinstance(item, list)
-        and len(item) == 3
-        and all(
-            isinstance(c, list)
-            and len(c) == 3
-            and all(isinstance(x, int | float) and not isinstance(x, bool) and abs(x) <= COORDINATE_LIMIT for x in c)
-            for c in item
-        )
-    )
 
 
 def _mesh_materials(
