@@ -27,6 +27,11 @@ def _color(name: str, default: tuple[float, float, float], description: str, **e
     )
 
 
+def _square_counts(one: str, where: str) -> list[tuple[str, str, str]]:
+    """Enum items for a stratified n x n count (1, 4, 9, 16, 64): one's tooltip, and "Stratified n x n" + where."""
+    return [("1", "1", one)] + [(str(n * n), str(n * n), f"Stratified {n} x {n}{where}") for n in (2, 3, 4, 8)]
+
+
 def _material_changed(part, context) -> None:
     if not materials.syncing():  # the node's edit being copied here: the node holds it already
         materials.refresh_all(context.scene)
@@ -334,13 +339,7 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     )
     samples: EnumProperty(
         name="Samples",
-        items=[
-            ("1", "1", "One ray through each pixel centre"),
-            ("4", "4", "Stratified 2 x 2"),
-            ("9", "9", "Stratified 3 x 3"),
-            ("16", "16", "Stratified 4 x 4"),
-            ("64", "64", "Stratified 8 x 8"),
-        ],
+        items=_square_counts("One ray through each pixel centre", ""),
         default="1",
     )
     shadow_samples: EnumProperty(
@@ -348,13 +347,7 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         description="Shadow samples: points sampled on each light of a size (area lights, a sun's angle) for its "
         "shadow (render.shadow_samples): 1 is a hard shadow from the light's centre, more a penumbra as wide as the "
         "light",
-        items=[
-            ("1", "1", "The light's centre alone: hard shadows"),
-            ("4", "4", "Stratified 2 x 2 over the light"),
-            ("9", "9", "Stratified 3 x 3 over the light"),
-            ("16", "16", "Stratified 4 x 4 over the light"),
-            ("64", "64", "Stratified 8 x 8 over the light"),
-        ],
+        items=_square_counts("The light's centre alone: hard shadows", " over the light"),
         default="1",
     )
     # the Whitted tree's passes Blender has no box for (View Layer > Passes draws them beside Blender's own)
