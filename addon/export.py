@@ -311,16 +311,17 @@ class MemoryBudget:
     CANCEL_EVERY = 512
     LARGEST = 3
 
-    def __init__(self, blender_scene, cancelled=None) -> None:
+    def __init__(self, blender_scene, cancelled=None, size: tuple[int, int] | None = None, extra: int = 0) -> None:
+        """size: the image's (width, height) where it is not the render's (a Rendered view's region); extra: bytes
+        held beside the render (the view's kept ray trees)."""
         resources = module("scene.scene")
         render, settings = blender_scene.render, blender_scene.weathervane
         scale = render.resolution_percentage / 100.0
+        width, height = size or (max(1, round(render.resolution_x * scale)), max(1, round(render.resolution_y * scale)))
         self.settings = resources.RenderSettings(
-            width=max(1, round(render.resolution_x * scale)),
-            height=max(1, round(render.resolution_y * scale)),
-            samples=int(settings.samples),
-            dtype=settings.precision,
+            width=width, height=height, samples=int(settings.samples), dtype=settings.precision
         )
+        self.extra = extra
         self.workers = module("workers.parallel").worker_count(settings.workers)
         self.available = module("workers.resources").available_memory()
         self.cancelled = cancelled
@@ -358,6 +359,7 @@ class MemoryBudget:
             largest=tuple((name, count) for name, count in largest if count),
             available=self.available,
             blender=True,
+            extra=self.extra,
         )
 
 

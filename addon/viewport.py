@@ -107,6 +107,9 @@ class ViewportSession:
         self._texture_level = None
         self._drawn_at = 0.0  # when a level was last drawn (time.perf_counter)
         self.status = ""  # the status line last drawn
+        self._view_size: tuple[int, int] | None = None  # the region's (width, height) when last shown
+        progressive = module("frames.progressive")
+        self._editable_samples, self._kept_bytes = progressive.EDITABLE_SAMPLES, progressive.KEPT_BYTES_PER_SAMPLE
         _sessions.add(self)
 
     def close(self) -> None:
@@ -115,10 +118,16 @@ class ViewportSession:
         _sessions.discard(self)
 
     def update_scene(self, context, depsgraph) -> None:
-        from .export import scene_document
+        from .export import MemoryBudget, scene_document
 
+        # the memory check counts the view's image (the last size it was drawn at) and its kept ray trees
+        budget = True
+        if self._view_size is not None:
+            width, height = self._view_size
+            samples = min(width * height * int(depsgraph.scene.weathervane.samples), self._editable_samples)
+            budget = MemoryBudget(depsgraph.scene, size=self._view_size, extra=samples * self._kept_bytes)
         try:
-            document = scene_document(context, depsgraph, depsgraph.scene)
+            document = scene_document(context, depsgraph, depsgraph.scene, budget=budget)
         except module("workers.resources").ResourceError as refusal:  # too large for the free memory: not read
             self.error, self.document = f"Weathervane Tracer: not started: {refusal}", None  # as F12 says it
             return
@@ -136,6 +145,7 @@ class ViewportSession:
         """Hand the scene as seen from this view to the tracing thread, if it differs from the one shown. playing:
         an animation is playing, each frame is traced at PLAYBACK_DIVISOR of the view's size alone (the full levels
         come when it stops)."""
+        self._view_size = (region.width, region.height)
         if self.document is None:
             return
         render = {**self.document["render"], "width": region.width, "height": region.height, "pixel_aspect": [1.0, 1.0]}

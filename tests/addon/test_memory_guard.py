@@ -105,3 +105,29 @@ def test_esc_while_the_workers_prepare_a_large_scene_stops_the_render_before_any
     print(f"Esc to the render's return: {returned - pressed:.3f} s; {len(asked)} looks at Esc")
     assert written == []  # stopped during the preparation: no band was traced
     assert len(asked) >= 3  # asked while waiting (every 0.1 s), not only when a band finished
+
+
+def test_the_rendered_views_check_counts_the_views_size_and_its_kept_ray_trees(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Once a view was shown, the check is made for its size, with the ray trees it keeps (2^21 samples at most,
+    about 0.5 GB at full HD): the factory cube alone is refused in a 1920x1005 view with 400 MB free, its line naming
+    the view's size, and traced with 2 GB."""
+    from addon import viewport
+    from tracer.frames.progressive import EDITABLE_SAMPLES, KEPT_BYTES_PER_SAMPLE
+
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    bpy.context.scene.render.engine = "WEATHERVANE_TRACER"
+    bpy.context.scene.weathervane.workers = 1
+    session = viewport.ViewportSession(workers=1)
+    try:
+        session._view_size = (1920, 1005)  # as show() leaves it for a full-HD window's view
+        kept = EDITABLE_SAMPLES * KEPT_BYTES_PER_SAMPLE
+        monkeypatch.setattr(resources, "available_memory", lambda: 400_000_000)
+        assert kept > 400_000_000 / resources.HEADROOM  # the trees alone would not fit
+        session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
+        assert session.document is None
+        assert session.error.startswith("Weathervane Tracer: not started: a 1920x1005 float64 render with 1 workers")
+        monkeypatch.setattr(resources, "available_memory", lambda: 2_000_000_000)
+        session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
+        assert session.error is None and session.document is not None
+    finally:
+        session.close()

@@ -33,6 +33,7 @@ LEVELS = (8, 4, 2, 1)  # divisors of the image's width and height, coarse to fin
 # again in 1.6 s in one process, in pieces), so that a later scene that differs by one small edit is answered at full
 # size by tracing only the pixels it changes (a whole 1920x1080 view at one sample is under it).
 EDITABLE_SAMPLES = 1 << 21
+KEPT_BYTES_PER_SAMPLE = 234  # measured on the default scene (above): what the memory check counts for kept trees
 # Nor when the full level took longer than this many seconds times the pool's workers: the ray trees are traced again
 # in one process, and a scene of many triangles (a subdivided Suzanne in a 1321x786 view) kept them for 16 s after
 # its image was done, its CPU taken from the next edit's coarse levels.

@@ -178,12 +178,13 @@ def check_resources(
     largest: tuple[tuple[str, int], ...] = (),
     available: int | None = None,
     blender: bool = False,
+    extra: int = 0,
 ) -> None:
     """Raise ResourceError when the scene's preparation (triangles, instances: scene_bytes) and the render cannot fit
     in the memory there is now (available: what available_memory() says, where the caller read it already).
     largest: the biggest meshes as (name, triangles), named in the message; blender: its advice in the add-on's
-    words."""
-    needed = memory_needed(settings, workers, frames, output) + scene_bytes(triangles, instances)
+    words; extra: bytes the caller holds beside the render (the Rendered view's kept ray trees)."""
+    needed = memory_needed(settings, workers, frames, output) + scene_bytes(triangles, instances) + extra
     available = available_memory() if available is None else available
     if available is None or needed * HEADROOM <= available:
         return
