@@ -27,6 +27,8 @@ REDRAW_SECONDS = 0.02  # how often the main thread looks for finished levels whi
 FIRST_LEVEL_WAIT = 0.2
 EDIT_WAIT = 0.5  # the same for a change answered from the kept ray trees (an object moved: 0.2-0.4 s to its pixels)
 INTERMEDIATE_SECONDS = 1.0  # a level between the first drawn and the full one is drawn after this long without a draw
+# the longest a closing view waits for its tracing thread's current piece (a piece of kept ray trees: well under 1 s)
+CLOSE_WAIT = 2.0
 PLAYBACK_DIVISOR = 4  # while an animation plays, each frame is traced at 1/4 of the view's width and height alone
 
 
@@ -113,7 +115,10 @@ class ViewportSession:
         _sessions.add(self)
 
     def close(self) -> None:
-        self.progressive.close()
+        # Blender frees the view's engine as the shading leaves Rendered: the tracing thread is let finish its piece
+        # first (keeping a view's ray trees runs in Blender's own process; 2 of 8 real-window runs in Blender 3.4.1
+        # crashed when the view was switched to Solid while that ran: a suspected cause, not a proven one)
+        self.progressive.close(wait=CLOSE_WAIT)
         self._texture = self._texture_level = None  # the GPU texture freed now, not when Python ends
         _sessions.discard(self)
 

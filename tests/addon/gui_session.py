@@ -345,7 +345,7 @@ def show_rendered(then=None) -> float | None:
     space.show_gizmo = False
     bpy.context.scene.camera.data.show_passepartout = False
     space.shading.type = "RENDERED"
-    return full_image_then(then or capture_rendered, idle=then is None)
+    return full_image_then(then or capture_rendered)
 
 
 def full_image_then(step, idle: bool = True) -> float | None:

@@ -160,12 +160,15 @@ class ProgressiveRender:
         with self._condition:
             return self._condition.wait_for(lambda: not self._busy, timeout)
 
-    def close(self) -> None:
-        """Stop tracing and stop the worker pool (returns at once; the thread ends after its current band)."""
+    def close(self, wait: float = 0.0) -> None:
+        """Stop tracing and stop the worker pool; the thread ends after its current band or piece. wait: block up to
+        this many seconds for it to end (the caller frees what the thread's work shares its process with)."""
         with self._condition:
             self._closed = True
             self._generation += 1
             self._condition.notify_all()
+        if wait > 0.0 and self._thread is not threading.current_thread():
+            self._thread.join(wait)
 
     def _run(self) -> None:
         renderer = Renderer(self._workers, start_method=self._start_method)
