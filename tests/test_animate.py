@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from tracer.frames.animate import headings
@@ -111,3 +112,41 @@ def test_frame_pngs_reuse_unchanged_rows_and_decode_to_their_pixels() -> None:
                 assert np.array_equal(np.asarray(image), pixels)
             pixels = pixels.copy()
             pixels[rng.integers(0, height), rng.integers(0, width)] += 1  # one pixel of one piece changes
+
+
+def test_passes_go_into_each_frames_exr_beside_its_png_and_a_stopped_run_resumes_them(tmp_path: Path) -> None:
+    pytest.importorskip("OpenEXR", reason="the exr extra: make test installs the OpenEXR bindings")
+    from tracer.tracing.exr import read_exr_channels
+    from tracer.tracing.pass_files import exr_channels
+
+    out, plain = tmp_path / "frames", tmp_path / "plain"
+    asked = "depth,normal,object_index,diffuse,reflection,cryptomatte_object"
+    result = run("-o", str(out), "--frames", "20-22", "--passes", asked, *SMALL)
+    assert result.returncode == 0, result.stderr
+    assert sorted(p.name for p in out.iterdir()) == [
+        f"frame_{k:04d}.{e}" for k in range(20, 23) for e in ("exr", "png")
+    ]
+    assert run("-o", str(plain), "--frames", "20-22", *SMALL).returncode == 0
+    scene = default_scene().with_render(width=32, height=24, passes=tuple(asked.split(",")))
+    angles = headings(scene, 22)
+    for frame in range(20, 23):  # the passes asked for do not change the image
+        assert (out / f"frame_{frame:04d}.png").read_bytes() == (plain / f"frame_{frame:04d}.png").read_bytes()
+    # each file holds what a single render of the frame's heading gives (the same channels, bit for bit)
+    single = render(scene.with_heading(float(angles[20])), workers=1)
+    expected, _ = exr_channels(scene, single.image, single.alpha, single.passes)
+    written, header = read_exr_channels(out / "frame_0021.exr")
+    assert sorted(written) == sorted(expected)
+    assert all(np.array_equal(written[name], expected[name]) for name in expected)
+    assert any(key.endswith("/manifest") for key in header)
+
+    (out / "frame_0021.exr").unlink()  # a run stopped between the two files of a frame
+    (out / "frame_0022.exr").write_bytes((out / "frame_0022.exr").read_bytes()[:500])  # damaged: not trusted
+    kept = (out / "frame_0020.exr").read_bytes()
+    result = run("-o", str(out), "--frames", "20-22", "--passes", asked, "--width", "32", "--height", "24")
+    assert "2 rendered, 1 already there" in result.stdout, result.stderr
+    assert (out / "frame_0020.exr").read_bytes() == kept
+    assert read_exr_channels(out / "frame_0022.exr")[0].keys() == expected.keys()
+    more = run("-o", str(out), "--frames", "20-22", "--passes", f"{asked},mist", *SMALL)  # a pass the files lack
+    assert more.returncode == 0 and "mist" in {
+        n.split(".")[1].lower() for n in read_exr_channels(out / "frame_0020.exr")[0]
+    }

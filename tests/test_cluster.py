@@ -52,6 +52,21 @@ def test_the_command_line_on_two_workers_writes_the_local_runs_bytes(tmp_path: P
     assert all("Registered to" in log for log in worker_logs)
 
 
+def test_the_passes_files_come_back_from_the_workers_as_the_local_run_writes_them(tmp_path: Path) -> None:
+    pytest.importorskip("OpenEXR", reason="the exr extra: make test installs the OpenEXR bindings")
+    scene = small_scene().with_render(passes=("depth", "normal", "diffuse", "cryptomatte_object"))
+    local, remote = tmp_path / "local", tmp_path / "remote"
+    animate(scene, local, 1, 6, srgb=True)
+    with LocalCluster(workers=2) as dask:
+        result = cluster.animate_on_cluster(scene, remote, 1, 6, dask.address, srgb=True, chunk_frames=2)
+    assert result.rendered == list(range(1, 7))
+    names = sorted(path.name for path in local.iterdir())
+    assert names == [f"frame_{frame:04d}.{kind}" for frame in range(1, 7) for kind in ("exr", "png")]
+    assert sorted(path.name for path in remote.iterdir()) == names  # nothing else, no temporary left
+    assert all((remote / name).read_bytes() == (local / name).read_bytes() for name in names)
+    assert animate(scene, remote, 1, 6).skipped == list(range(1, 7))  # the files resume as a local run's do
+
+
 def test_a_worker_killed_mid_run_changes_nothing_and_no_frame_is_written_twice(
     tmp_path: Path, local_frames, monkeypatch
 ) -> None:

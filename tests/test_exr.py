@@ -82,7 +82,7 @@ def test_a_failed_write_keeps_the_old_file(tmp_path: Path, monkeypatch: pytest.M
     old = {"R": np.ones((HEIGHT, WIDTH), dtype=np.float32)}
     write_multilayer_exr(path, old)
     before = path.read_bytes()
-    real = exr._openexr()
+    real = exr.openexr_module()
 
     class Breaking:
         """The bindings, except that a write stops halfway (a full disk, a kill)."""
@@ -99,7 +99,7 @@ def test_a_failed_write_keeps_the_old_file(tmp_path: Path, monkeypatch: pytest.M
 
             return Half()
 
-    monkeypatch.setattr(exr, "_openexr", lambda: Breaking())
+    monkeypatch.setattr(exr, "openexr_module", lambda: Breaking())
     with pytest.raises(OSError, match="no space"):
         write_multilayer_exr(path, {"R": np.zeros((HEIGHT, WIDTH), dtype=np.float32)})
     assert path.read_bytes() == before
@@ -137,3 +137,23 @@ def test_the_bindings_are_installed() -> None:
     import OpenEXR
 
     assert hasattr(OpenEXR, "File")
+
+
+@pytest.mark.parametrize("command", ["render", "animate"])
+def test_without_the_bindings_a_passes_run_says_so_before_it_renders(tmp_path: Path, command: str) -> None:
+    import subprocess
+
+    target = tmp_path / ("out.png" if command == "render" else "frames")
+    frames = ["--frames", "1-2"] if command == "animate" else []
+    script = (
+        "import sys; sys.modules['OpenEXR'] = None\n"
+        "from tracer.cli import main\n"
+        f"sys.exit(main([{command!r}, *{frames!r}, '--passes', 'depth', '-o', {str(target)!r}, '--width', '8',"
+        " '--height', '6']))"
+    )
+    root = Path(__file__).resolve().parents[1]
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=root, timeout=120)
+    assert result.returncode == 1
+    assert result.stderr.strip().splitlines() == [f"error: {target}: OpenEXR files need the OpenEXR Python bindings: "
+                                                   f"{exr.INSTALL_HINT}"]  # fmt: skip
+    assert not list(tmp_path.iterdir())  # nothing rendered, nothing written

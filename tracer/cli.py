@@ -110,14 +110,7 @@ def build_parser() -> argparse.ArgumentParser:
         ".npy: float32 linear H x W x 3 (RGBA and H x W x 4 where the scene has an alpha: film_transparent, holdouts); "
         ".exr: a multilayer OpenEXR with the passes (needs the OpenEXR package)",
     )
-    render.add_argument(
-        "--passes",
-        type=_passes,
-        metavar="LIST",
-        help="render passes, 'all' or names separated by commas (depth, mist, normal, position, object_index, "
-        "material_index, ambient, diffuse, specular, emission, reflection, environment, shadow, cryptomatte_object, "
-        "cryptomatte_material; docs/passes.md): written into OUT when it is .exr, else into OUT's name with .exr",
-    )
+    _add_passes_flag(render, "written into OUT when it is .exr, else into OUT's name with .exr")
     animate = commands.add_parser(
         "animate",
         parents=[settings],
@@ -133,6 +126,7 @@ def build_parser() -> argparse.ArgumentParser:
     animate.add_argument("--fps", type=_positive_number, help="frames per second (default: the scene's motion.fps)")
     animate.add_argument("--overwrite", action="store_true", help="render frames again even where files exist")
     animate.add_argument("--gif", type=_gif, metavar="OUT.gif", help="also assemble the frames into a looping GIF")
+    _add_passes_flag(animate, "each frame's into DIR/frame_0001.exr, ... beside its PNG")
     animate.add_argument(
         "--scheduler",
         type=_scheduler,
@@ -147,6 +141,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="with --scheduler: consecutive frames per task (default 8; more reuses more between frames)",
     )
     return parser
+
+
+def _add_passes_flag(parser: argparse.ArgumentParser, where: str) -> None:
+    parser.add_argument(
+        "--passes",
+        type=_passes,
+        metavar="LIST",
+        help="render passes, 'all' or names separated by commas (depth, mist, normal, position, object_index, "
+        "material_index, ambient, diffuse, specular, emission, reflection, environment, shadow, cryptomatte_object, "
+        f"cryptomatte_material; docs/passes.md) in a multilayer EXR (needs the OpenEXR package): {where}",
+    )
 
 
 def _settings_parser() -> argparse.ArgumentParser:
@@ -273,6 +278,8 @@ def run_render(args: argparse.Namespace) -> int:
     scene = _load(args)
     if scene is None:
         return EXIT_BAD_INPUT
+    if (scene.render.passes or args.output.suffix.lower() == ".exr") and not _exr_bindings(args.output):
+        return EXIT_FAILED
     swept = sweep_stale_temporaries(args.output.parent)
     progress = ProgressBar("render", enabled=None if not args.quiet else False)
     workers = scene.render.workers
@@ -313,6 +320,18 @@ def run_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _exr_bindings(output: Path) -> bool:
+    """Whether the OpenEXR bindings (an optional extra) are there for the passes file; says so before any work."""
+    from .tracing.exr import openexr_module
+
+    try:
+        openexr_module()
+    except ImportError as error:
+        print(f"error: {output}: {error}", file=sys.stderr)
+        return False
+    return True
+
+
 def run_animate(args: argparse.Namespace) -> int:
     scene = _load(args)
     if scene is None:
@@ -326,6 +345,8 @@ def run_animate(args: argparse.Namespace) -> int:
     if args.chunk is not None and args.scheduler is None:
         print("error: --chunk: only with --scheduler (it sets how many frames go to a cluster's task)", file=sys.stderr)
         return EXIT_BAD_INPUT
+    if scene.render.passes and not _exr_bindings(args.output):
+        return EXIT_FAILED
     first, last = args.frames
     fps = args.fps or (scene.motion.fps if scene.motion else 24.0)
     progress = ProgressBar("frames", enabled=None if not args.quiet else False)
@@ -367,6 +388,7 @@ def run_animate(args: argparse.Namespace) -> int:
             f"{args.output}: frames {first}-{last} at {fps:g} fps: {rendered} rendered, {len(result.skipped)} "
             f"already there; {result.seconds:.2f} s, {per_frame:.1f} ms per rendered frame, {mrays:.2f} Mrays/s; "
             f"the motion needs {result.keys} keyframes of {result.frames} frames at {DEFAULT_TOLERANCE} degrees"
+            + (f"; passes {', '.join(scene.render.passes)} in each frame's .exr" if scene.render.passes else "")
             + (f"; traced on the Dask cluster at {args.scheduler}" if args.scheduler else "")
             + (f"; preview {args.gif}" if args.gif else "")
             + _swept(swept)

@@ -3,7 +3,8 @@
 The client plans the run as `animate` does (frames already written stay, so a stopped run resumes), simulates the
 vane's motion, and sends runs of up to CHUNK_FRAMES consecutive frames to the cluster as tasks: a worker traces a
 run incrementally (its frames share what the vane cannot change; tracer/frames/incremental.py) and answers with the
-frames' PNG bytes, which the client writes atomically itself, so workers need no shared disk. A frame is a pure
+frames' PNG bytes (and, with render passes, each frame's multilayer EXR bytes: workers then need the OpenEXR
+bindings), which the client writes atomically itself, so workers need no shared disk. A frame is a pure
 function of the scene and its heading, so a task run again elsewhere (its worker died) gives the same bytes, and
 the client writes each frame once, from the first answer it receives.
 """
@@ -12,7 +13,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
 from typing import TypeVar
@@ -26,6 +27,7 @@ from .animate import (
     FrameProgress,
     frame_path,
     frame_results,
+    passes_path,
     plan_frames,
 )
 
@@ -44,6 +46,7 @@ class ChunkResult:
     frames: list[tuple[int, bytes]]  # (frame, PNG bytes)
     rays: RayCounts
     seconds: float  # tracing and encoding on the worker
+    passes: dict[int, bytes] = field(default_factory=dict)  # frame -> its passes file's bytes, with render passes
 
 
 def render_chunk(scene: sc.Scene, frames: list[tuple[int, float]], srgb: bool, incremental: bool) -> ChunkResult:
@@ -51,13 +54,17 @@ def render_chunk(scene: sc.Scene, frames: list[tuple[int, float]], srgb: bool, i
     PNG files (the same bytes `animate` writes)."""
     started = time.perf_counter()
     rays = RayCounts()
-    encoded = []
+    encoded, passes = [], {}
     png = FramePng()
     with Renderer(1) as renderer:
         for frame, result in frame_results(renderer, scene, iter(frames), incremental):
             encoded.append((frame, encode_frame(result.image, srgb, result.alpha, frames=png)))
+            if result.passes:
+                from ..tracing.pass_files import encode_passes_exr
+
+                passes[frame] = encode_passes_exr(scene, result.image, result.alpha, result.passes)
             rays.add(result.rays)
-    return ChunkResult(encoded, rays, time.perf_counter() - started)
+    return ChunkResult(encoded, rays, time.perf_counter() - started, passes)
 
 
 def chunks(wanted: Iterator[tuple[int, float]], size: int = CHUNK_FRAMES) -> Iterator[list[tuple[int, float]]]:
@@ -138,6 +145,9 @@ def animate_on_cluster(
         for frame, png in result.frames:
             if frame in written:
                 continue
+            if frame in result.passes:  # before the PNG: a frame whose PNG is there is whole
+                with atomic_path(passes_path(folder, frame)) as temporary:
+                    temporary.write_bytes(result.passes[frame])
             with atomic_path(frame_path(folder, frame)) as temporary:
                 temporary.write_bytes(png)
             written.add(frame)
@@ -164,6 +174,8 @@ def _result(future, scheduler: str, distributed, kept: Callable[[], str]):
         raise ClusterError(f"work kept killing the cluster's workers ({_reason(error)}); {kept()}") from None
     except (OSError, TimeoutError) as error:
         raise ClusterError(f"lost the Dask scheduler at {scheduler}: {_reason(error)}; {kept()}") from None
+    except ImportError as error:  # a worker without an optional package the work needs (OpenEXR for passes)
+        raise ClusterError(f"a worker of the cluster cannot do the work: {_reason(error)}; {kept()}") from None
 
 
 def _reason(error: BaseException) -> str:

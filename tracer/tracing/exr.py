@@ -11,6 +11,7 @@ The bindings are imported only when a file is written or read: the tracer itself
 
 from __future__ import annotations
 
+import io
 from collections.abc import Mapping
 from pathlib import Path
 from types import ModuleType
@@ -38,7 +39,7 @@ RESERVED_ATTRIBUTES = frozenset(
 )
 
 
-def _openexr() -> ModuleType:
+def openexr_module() -> ModuleType:
     """The OpenEXR bindings module, or an ImportError that says how to install them."""
     try:
         import OpenEXR
@@ -63,7 +64,23 @@ def write_multilayer_exr(
     header: extra string attributes, e.g. cryptomatte.layer_header(...); the writer's own (compression, windows,
         channels, ...) cannot be overridden.
     half: names of channels to store as half floats."""
-    OpenEXR = _openexr()
+    file = _exr_file(channels, header, half)
+    with atomic_path(Path(path)) as temporary:
+        file.write(str(temporary))
+
+
+def encode_multilayer_exr(
+    channels: Mapping[str, np.ndarray], header: Mapping[str, str] | None = None, half: set[str] | None = None
+) -> bytes:
+    """The bytes write_multilayer_exr would write (for a process that hands the file to another to write)."""
+    stream = io.BytesIO()
+    _exr_file(channels, header, half).write(stream)
+    return stream.getvalue()
+
+
+def _exr_file(channels: Mapping[str, np.ndarray], header: Mapping[str, str] | None, half: set[str] | None):
+    """channels, header and half as write_multilayer_exr takes them -> an OpenEXR.File, checked."""
+    OpenEXR = openexr_module()
     if not channels:
         raise ValueError("an EXR file needs at least one channel")
     half = set(half or ())
@@ -95,14 +112,13 @@ def write_multilayer_exr(
         attributes[key] = value
     attributes["compression"] = OpenEXR.ZIP_COMPRESSION
     attributes["type"] = OpenEXR.scanlineimage
-    with atomic_path(Path(path)) as temporary:
-        OpenEXR.File(attributes, pixels).write(str(temporary))
+    return OpenEXR.File(attributes, pixels)
 
 
 def read_exr_channels(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object]]:
     """An OpenEXR file (one part) -> (its channels by full name, each (H, W) as stored: float32, float16 or uint32;
     its header attributes, including the format's own such as "compression" and "channels")."""
-    OpenEXR = _openexr()
+    OpenEXR = openexr_module()
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no EXR file at {path}")

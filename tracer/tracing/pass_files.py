@@ -26,17 +26,22 @@ def exr_channels(
     channels[f"{VIEW_LAYER}.Combined.A"] = np.ones(image.shape[:2]) if alpha is None else alpha
     header: dict[str, str] = {}
     for name, values in (passes or {}).items():
-        definition = ps.PASSES[name]
-        layer = f"{VIEW_LAYER}.{definition.blender}"
-        if definition.combine == "ranks":
-            names = cryptomatte.channel_names(layer, ps.CRYPTOMATTE_RANKS)
+        if ps.PASSES[name].combine == "ranks":
+            layer = f"{VIEW_LAYER}.{ps.PASSES[name].blender}"
             kind = "object" if name == "cryptomatte_object" else "material"
             header.update(cryptomatte.layer_header(layer, _names(scene, kind), kind))
-        else:
-            names = [f"{layer}.{letter}" for letter in definition.channels]
-        for k, channel in enumerate(names):
+        for k, channel in enumerate(pass_channel_names(name)):
             channels[channel] = values[..., k]
     return {name: np.ascontiguousarray(values, dtype=np.float32) for name, values in channels.items()}, header
+
+
+def pass_channel_names(name: str) -> list[str]:
+    """The file's channel names of the pass name, e.g. ["ViewLayer.Normal.X", "ViewLayer.Normal.Y", ...]."""
+    definition = ps.PASSES[name]
+    layer = f"{VIEW_LAYER}.{definition.blender}"
+    if definition.combine == "ranks":
+        return cryptomatte.channel_names(layer, ps.CRYPTOMATTE_RANKS)
+    return [f"{layer}.{letter}" for letter in definition.channels]
 
 
 def _names(scene: sc.Scene, kind: str) -> list[str]:
@@ -53,3 +58,23 @@ def write_passes_exr(
     channels, header = exr_channels(scene, image, alpha, passes)
     exr.write_multilayer_exr(Path(path), channels, header)
     return Path(path)
+
+
+def encode_passes_exr(
+    scene: sc.Scene, image: np.ndarray, alpha: np.ndarray | None, passes: dict[str, np.ndarray] | None
+) -> bytes:
+    """The bytes of the file write_passes_exr writes (a cluster's worker sends them to the client, which writes)."""
+    return exr.encode_multilayer_exr(*exr_channels(scene, image, alpha, passes))
+
+
+def passes_file_is_complete(path: Path, scene: sc.Scene) -> bool:
+    """Whether an earlier run's passes file at path is a whole EXR holding the scene's passes at its size (a file
+    damaged or left by other settings is rendered again rather than trusted)."""
+    try:
+        channels, _ = exr.read_exr_channels(path)
+    except (OSError, ValueError, RuntimeError):
+        return False
+    combined = channels.get(f"{VIEW_LAYER}.Combined.R")
+    if combined is None or combined.shape != (scene.render.height, scene.render.width):
+        return False
+    return all(channel in channels for name in scene.render.passes for channel in pass_channel_names(name))
