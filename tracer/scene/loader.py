@@ -28,6 +28,7 @@ ANGLE_LIMIT = 1e6  # degrees: rotations and headings, |a| at most
 DIRECTION_MIN_LENGTH = 1e-9  # a direction or axis shorter than this has no usable direction
 INTENSITY_MAX = 1e6
 PASS_INDEX_MAX = 2**15 - 1  # Blender's pass_index range (a short)
+IOR_MAX = 1000.0  # Blender's IOR sockets stop at 1000
 MIST_FALLOFFS = ("QUADRATIC", "LINEAR", "INVERSE_QUADRATIC")  # Blender's World > Mist Pass > Falloff
 SPECULAR_MAX = 1e6  # the specular exponent (and coef times it)
 LENS_RANGE = (1e-3, 1e6)  # millimetres: lens and sensor sizes
@@ -273,6 +274,9 @@ def _material(reader: _Reader, base: Path | None = None) -> sc.Material:
         pass_index=reader.number("pass_index", 0, low=0, high=PASS_INDEX_MAX, integer=True),
         texture=texture,
         emission_texture=emission_texture,
+        transmission=reader.number("transmission", 0.0, low=0.0, high=1.0),
+        ior=reader.number("ior", 1.45, low=0.0, low_open=True, high=IOR_MAX),
+        alpha=reader.number("alpha", 1.0, low=0.0, high=1.0),
     )
     reader.finish()
     return material

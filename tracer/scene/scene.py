@@ -29,6 +29,10 @@ FALLOFFS = ("none", "inverse_square")
 SPOT_MODELS = ("cycles4", "cycles3")
 WHITE = (1.0, 1.0, 1.0)
 BLACK = (0.0, 0.0, 0.0)
+# straight-through (alpha) continuations along one path, as Cycles' Transparent Max Bounces (default 8): a ray that
+# would pass a ninth partly transparent surface ends there (black, and opaque to the film's alpha); a shadow ray is
+# blocked by it (docs/algorithm.md, "Glass and transparency")
+TRANSPARENT_BOUNCES = 8
 
 
 @dataclass(frozen=True)
@@ -41,6 +45,10 @@ class Material:
     two_sided: a hit on the back of a surface (geometric N.D > 0) shades with the flipped normals.
     specular_color: None, the documented rule (the whole intensity multiplies color); else the specular terms
     multiply this color and the ambient and diffuse terms multiply color.
+    transmission: t in [0, 1], the share of the surface that is a clear dielectric of index ior (> 0; outside is
+    air): Fresnel-weighted mirror and refracted rays (the refracted tinted by color); its shadow is opaque.
+    alpha: a in [0, 1], coverage: 1 - a of every ray (camera, mirror, refracted, shadow) passes straight through.
+    The defaults (t = 0, a = 1) are the documented model (docs/algorithm.md, "Glass and transparency").
     """
 
     color: Color = (0.8, 0.8, 0.8)
@@ -54,6 +62,14 @@ class Material:
     # (emission_texture) at the hit; color and emission stay the values of hits without UVs
     texture: Texture | None = None
     emission_texture: Texture | None = None
+    transmission: float = 0.0
+    ior: float = 1.45
+    alpha: float = 1.0
+
+    @property
+    def see_through(self) -> bool:
+        """Whether rays go on through the surface (refracted or straight): transmission > 0 or alpha < 1."""
+        return self.transmission > 0.0 or self.alpha < 1.0
 
 
 @dataclass(frozen=True, kw_only=True)
