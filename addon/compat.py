@@ -144,6 +144,23 @@ def principled_input(node: bpy.types.Node, role: str):
     return next((node.inputs[name] for name in names if name in node.inputs), None)
 
 
+def principled_transmission_roughness(node: bpy.types.Node, roughness: float) -> float:
+    """The roughness of a Principled BSDF's transmission: 4.0+ its Roughness; 3.x also has Transmission Roughness,
+    which Cycles combines as 1 - (1 - Roughness)(1 - Transmission Roughness)."""
+    extra = node.inputs.get("Transmission Roughness")
+    if extra is None:
+        return roughness
+    return 1.0 - (1.0 - roughness) * (1.0 - min(1.0, max(0.0, float(extra.default_value))))
+
+
+def transparent_shadow(material: bpy.types.Material) -> bool:
+    """Whether Cycles lets shadow rays through the material's transparency: 3.x keeps the switch in its Cycles
+    settings (material.cycles.use_transparent_shadow), 4.2+ on the material (Settings > Transparent Shadows)."""
+    if VERSION >= (4, 2, 0) and hasattr(material, "use_transparent_shadow"):
+        return bool(material.use_transparent_shadow)
+    return bool(getattr(getattr(material, "cycles", None), "use_transparent_shadow", True))
+
+
 def principled_f0(node: bpy.types.Node, level: float) -> float:
     """A dielectric Principled BSDF's reflectance at normal incidence for its specular level.
 

@@ -32,8 +32,17 @@ image's linear pixels (sRGB byte images decoded; float, Non-Color and Linear ima
 times the same factors as the colour (color = texture's mean), Closest or Linear (Cubic and Smart: Linear, named),
 Repeat, Extend or Clip. Anything else (other coordinates, Mirror, a Color Ramp, another image node in between)
 keeps the image's mean colour, named, as colour attributes do (the means computed once per image or attribute and
-kept in a cache). Transmission, subsurface, coat, sheen, alpha, normal and bump maps, and
-volumes are named and rendered as the opaque base. With no node tree the Viewport Display colour is the colour.
+kept in a cache).
+
+Glass and transparency are shares of the same sum: Glass BSDF (Color, IOR) and Refraction BSDF (its Fresnel
+reflection added, named) are a clear dielectric of weight 1; Principled's Transmission t is one of weight (1 - m) t
+after Metallic m, tinted by Base Color, of its IOR; Transparent BSDF lets the mean of its Color through; Principled's
+Alpha a mixes the whole BSDF with a Transparent BSDF: (1 - a) clear, the rest scaled by a. Of the sum's clear weight p
+and glass weight g, the material's alpha is 1 - p, its transmission g / (1 - p), and the opaque lobes, divided by their
+share 1 - p - g, are the documented material the tracer weighs by alpha (1 - transmission). The format tints the
+refracted light by color: the glass's tint where no opaque diffuse shows, else the opaque colour (named where they
+differ). Rough glass is sharp (named). Subsurface, coat, sheen, thin film, normal and bump maps, and volumes are named
+and rendered as the opaque base. With no node tree the Viewport Display colour is the colour.
 The add-on's own materials (materials.py) convert back to exactly the values the panel holds.
 """
 
@@ -52,6 +61,9 @@ DEFAULT_GREY = (0.8, 0.8, 0.8)  # Cycles' surface for an object without a materi
 # The scene format's colours lie in [0, 1] (the loader checks): a highlight or emission brighter than that is clipped,
 # named. Where the format lets specular_color and emission be weights above 1, raise this.
 MAX_COLOR = 1.0
+# A glass lobe's index of refraction: Cycles clamps it to at least 1e-5; Blender's IOR sockets stop at 1000
+IOR_MIN, IOR_MAX = 1e-5, 1000.0
+SHARE_EPSILON = 1e-6  # a share of glass, transparency or the opaque rest below this is none
 
 _means: dict[tuple, tuple[float, float, float]] = {}  # image or attribute -> its mean linear colour
 
@@ -94,6 +106,13 @@ class _Lobes:
         self.mirror = [0.0, 0.0, 0.0]
         self.highlights: list[tuple[list[float], float]] = []  # (colour weight, exponent n)
         self.emission = [0.0, 0.0, 0.0]
+        # the surface's shares that are a clear dielectric (glass) and that let rays through (Transparent BSDF,
+        # Principled Alpha): weights of the whole as the other lobes are; the glass's tint and IOR times its weight
+        self.glass = 0.0
+        self.glass_tint = [0.0, 0.0, 0.0]
+        self.glass_ior = 0.0
+        self.iors: set[float] = set()  # the IORs of the glass lobes (several: one, their weighted mean, named)
+        self.clear = 0.0
 
     def scaled(self, k: float) -> _Lobes:
         out = _Lobes()
@@ -102,6 +121,9 @@ class _Lobes:
         out.mirror = [c * k for c in self.mirror]
         out.highlights = [([c * k for c in weight], n) for weight, n in self.highlights]
         out.emission = [c * k for c in self.emission]
+        out.glass, out.glass_ior, out.clear = self.glass * k, self.glass_ior * k, self.clear * k
+        out.glass_tint = [c * k for c in self.glass_tint]
+        out.iors = set(self.iors) if k > 0.0 else set()
         if self.texture is not None:
             pixels, mean, weight, interpolation, extension = self.texture
             out.texture = (pixels, mean, [w * k for w in weight], interpolation, extension)
@@ -115,10 +137,23 @@ class _Lobes:
         out.mirror = [a + b for a, b in zip(self.mirror, other.mirror, strict=True)]
         out.highlights = self.highlights + other.highlights
         out.emission = [a + b for a, b in zip(self.emission, other.emission, strict=True)]
+        out.glass, out.glass_ior = self.glass + other.glass, self.glass_ior + other.glass_ior
+        out.glass_tint = [a + b for a, b in zip(self.glass_tint, other.glass_tint, strict=True)]
+        out.iors = self.iors | other.iors
+        out.clear = self.clear + other.clear
         out.texture = self.texture if self.texture is not None else other.texture
         both = self.texture is not None and other.texture is not None
         out.textures_dropped = self.textures_dropped + other.textures_dropped + int(both)
         return out
+
+    def add_glass(self, weight: float, tint, ior: float) -> None:
+        """A clear dielectric lobe of this weight, tint (linear RGB) and index of refraction."""
+        ior = min(IOR_MAX, max(IOR_MIN, ior))
+        self.glass += weight
+        self.glass_tint = [g + weight * c for g, c in zip(self.glass_tint, tint, strict=True)]
+        self.glass_ior += weight * ior
+        if weight > 0.0:
+            self.iors.add(ior)
 
     def add_specular(self, weight, roughness: float) -> None:
         """A specular lobe of colour weight and roughness: mirror, highlight, or diffuse where it is that wide."""
@@ -345,19 +380,30 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
     roughness = min(1.0, max(0.0, value_input(node.inputs["Roughness"], "Roughness", notes)))
     level = value_input(compat.principled_socket(node, "specular"), "Specular", notes)
     f0 = compat.principled_f0(node, level)
-    lobes.diffuse = [(1.0 - metallic) * compat.principled_diffuse_factor(roughness, f0) * c for c in base]
-    lobes.given = [(1.0 - metallic) * c for c in base]
+    # Metallic first, then Transmission of the rest (a glass of the IOR tinted by Base Color), then the dielectric
+    # specular over the diffuse: shares m, (1 - m) t and (1 - m)(1 - t), as Cycles layers them (3.4 and 4.0+)
+    transmission = _transmission(node, notes)
+    glass = (1.0 - metallic) * transmission
+    dielectric = (1.0 - metallic) * (1.0 - transmission)
+    lobes.diffuse = [dielectric * compat.principled_diffuse_factor(roughness, f0) * c for c in base]
+    lobes.given = [dielectric * c for c in base]
     if texture is not None:
-        weight = (1.0 - metallic) * compat.principled_diffuse_factor(roughness, f0)
+        weight = dielectric * compat.principled_diffuse_factor(roughness, f0)
         lobes.texture = (texture[0], base, [weight] * 3, texture[1], texture[2])
         if metallic > 0.0:
             notes.append("metallic image texture: its highlight of the texture's mean colour")
-    lobes.add_specular([metallic * c + (1.0 - metallic) * f0 for c in base], roughness)
+    lobes.add_specular([metallic * c + dielectric * f0 for c in base], roughness)
+    if glass > 0.0:
+        ior = value_input(node.inputs["IOR"], "IOR", notes)
+        lobes.add_glass(glass, base, ior)
+        if compat.principled_transmission_roughness(node, roughness) > 0.0:
+            notes.append("rough transmission: sharp")
+        if texture is not None:
+            notes.append("image texture on transmission: its mean colour")
     emission = color_input(compat.principled_socket(node, "emission"), material, "Emission", notes)
     strength = value_input(node.inputs["Emission Strength"], "Emission Strength", notes)
     lobes.emission = [c * strength for c in emission]
-    for role, what in (("transmission", "transmission"), ("subsurface", "subsurface"), ("coat", "coat"),
-                       ("sheen", "sheen")):  # fmt: skip
+    for role, what in (("subsurface", "subsurface"), ("coat", "coat"), ("sheen", "sheen")):
         socket = compat.principled_input(node, role)
         if socket is not None and (socket.is_linked or float(socket.default_value) > 0.0):
             notes.append(f"{what}: rendered as the opaque base")
@@ -370,12 +416,60 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
     roughness_diffuse = node.inputs.get("Diffuse Roughness")
     if roughness_diffuse is not None and (roughness_diffuse.is_linked or float(roughness_diffuse.default_value) > 0.0):
         notes.append("diffuse roughness (Oren-Nayar): Lambert")
-    alpha = node.inputs.get("Alpha")
-    if alpha is not None and (alpha.is_linked or float(alpha.default_value) < 1.0):
-        notes.append("alpha: rendered opaque")
     anisotropic = compat.principled_input(node, "Anisotropic")
     if anisotropic is not None and (anisotropic.is_linked or float(anisotropic.default_value) != 0.0):
         notes.append("anisotropy: an isotropic highlight")
+    _name_thin_film(node, notes)
+    alpha = node.inputs.get("Alpha")
+    coverage = 1.0 if alpha is None else min(1.0, max(0.0, value_input(alpha, "Alpha", notes)))
+    if coverage >= 1.0:
+        return lobes
+    covered = lobes.scaled(coverage)  # Alpha mixes the whole BSDF (emission too) with a Transparent BSDF
+    covered.clear += 1.0 - coverage
+    return covered
+
+
+def _transmission(node, notes: list[str]) -> float:
+    """A Principled BSDF's Transmission (3.4) or Transmission Weight (4.0+) in [0, 1]."""
+    socket = compat.principled_input(node, "transmission")
+    if socket is None:
+        return 0.0
+    return min(1.0, max(0.0, value_input(socket, "Transmission", notes)))
+
+
+def _name_thin_film(node, notes: list[str]) -> None:
+    """4.2 and later: a thin film on Principled and Glass (iridescence) is not rendered."""
+    thickness = node.inputs.get("Thin Film Thickness")
+    if thickness is not None and (thickness.is_linked or float(thickness.default_value) > 0.0):
+        notes.append("thin film: none")
+
+
+def _glass(node, material, notes: list[str]) -> _Lobes:
+    """Glass BSDF: a clear dielectric of its Color and IOR; Refraction BSDF: the same, its Fresnel reflection
+    added (Cycles' Refraction BSDF refracts all the light it takes and reflects none)."""
+    lobes = _Lobes()
+    color = color_input(node.inputs["Color"], material, f"{node.name} Color", notes)
+    ior = value_input(node.inputs["IOR"], f"{node.name} IOR", notes)
+    lobes.add_glass(1.0, color, ior)
+    roughness = value_input(node.inputs["Roughness"], f"{node.name} Roughness", notes)
+    if roughness > 0.0 and getattr(node, "distribution", "") != "SHARP":  # 3.4's Sharp ignores the roughness
+        notes.append(f"rough {node.bl_label}: sharp")
+    if node.bl_idname == "ShaderNodeBsdfRefraction":
+        notes.append("Refraction BSDF: glass, its reflection added")
+    elif max(color) - min(color) > 1e-3 or min(color) < 1.0 - 1e-3:
+        notes.append("Glass BSDF colour: tints the refraction only")
+    _name_thin_film(node, notes)
+    return lobes
+
+
+def _transparent(node, material, notes: list[str]) -> _Lobes:
+    """Transparent BSDF: rays pass through it by its colour's mean (the rest of its weight is black)."""
+    lobes = _Lobes()
+    color = color_input(node.inputs["Color"], material, f"{node.name} Color", notes)
+    clear = min(1.0, max(0.0, sum(color) / 3.0))
+    lobes.clear = clear
+    if max(color) - min(color) > 1e-3:
+        notes.append("tinted transparency: grey of its mean")
     return lobes
 
 
@@ -427,6 +521,10 @@ def _shader(socket, material, notes: list[str], depth: int = 0) -> _Lobes:
         return _diffuse(node, material, notes)
     if kind == "ShaderNodeEmission":
         return _emission(node, material, notes)
+    if kind in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
+        return _glass(node, material, notes)
+    if kind == "ShaderNodeBsdfTransparent":
+        return _transparent(node, material, notes)
     if kind == "ShaderNodeAddShader":
         return _shader(node.inputs[0], material, notes, depth + 1).plus(
             _shader(node.inputs[1], material, notes, depth + 1)
@@ -546,6 +644,8 @@ def convert_material(
             notes.append("displacement: ignored")
     _name_normal_maps(material.node_tree, notes)
     document = _document(lobes, model, coef, notes)
+    if document.get("alpha", 1.0) < 1.0 and not compat.transparent_shadow(material):
+        notes.append("Transparent Shadows off: its shadow lets 1 - alpha through")
     if two_sided is not False:
         document["two_sided"] = True
     return document, list(dict.fromkeys(notes))
@@ -559,7 +659,59 @@ def _name_normal_maps(tree, notes: list[str]) -> None:
             return
 
 
+def _shares(lobes: _Lobes, notes: list[str]) -> tuple[_Lobes, float, float, float | None, list[float] | None]:
+    """The surface's coverage alpha a, glass share t of what it covers, the glass's IOR and tint, and the opaque
+    rest's lobes as a whole surface: I = (1 - a) T + a ((1 - t) I_opaque + t glass), so of the lobes' weights p
+    (transparent) and g (glass) a = 1 - p, t = g / a, and the opaque lobes are divided by their share 1 - p - g."""
+    clear, glass = lobes.clear, lobes.glass
+    if clear + glass > 1.0 + SHARE_EPSILON:
+        notes.append("glass and transparency add up past 1: scaled to 1")
+        clear, glass = clear / (clear + glass), glass / (clear + glass)
+    if clear <= SHARE_EPSILON and glass <= SHARE_EPSILON:
+        return lobes, 1.0, 0.0, None, None
+    alpha = min(1.0, max(0.0, 1.0 - clear))
+    transmission = min(1.0, glass / alpha) if alpha > SHARE_EPSILON else 0.0
+    opaque = 1.0 - clear - glass
+    if opaque > SHARE_EPSILON:
+        rest = lobes.scaled(1.0 / opaque)
+    else:
+        rest = _Lobes()
+        if any(lobes.diffuse) or any(lobes.mirror) or lobes.highlights or any(lobes.emission):
+            notes.append("shaders added to full glass or transparency: left out")
+    if transmission <= SHARE_EPSILON:
+        return rest, alpha, 0.0, None, None
+    tint = [c / lobes.glass for c in lobes.glass_tint]
+    if len(lobes.iors) > 1:
+        notes.append("glass of several IORs: their weighted mean")
+    ior = compat.float32_decimal(next(iter(lobes.iors))) if len(lobes.iors) == 1 else lobes.glass_ior / lobes.glass
+    return rest, alpha, transmission, ior, tint
+
+
+def _glass_color(document: dict, rest: _Lobes, tint: list[float], notes: list[str]) -> None:
+    """The format tints the refracted light by the material's color: the glass's tint where nothing opaque shows a
+    diffuse, else the opaque colour (named where the tint differs from it by more than 0.05)."""
+    tint = [min(1.0, max(0.0, c)) for c in tint]
+    shows_diffuse = document["transmission"] < 1.0 and document["reflective"] < 1.0
+    if not shows_diffuse or not any(c > 0.0 for c in rest.diffuse):
+        if shows_diffuse and any(c > 0.0 for c in tint):
+            notes.append("glass tint: also the colour of its opaque part")
+        document["color"] = tint
+    elif max(abs(a - b) for a, b in zip(document["color"], tint, strict=True)) > 0.05:
+        notes.append("glass tint: the opaque part's colour")
+
+
 def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
+    lobes, alpha, transmission, ior, tint = _shares(lobes, notes)
+    document = _opaque_document(lobes, model, coef, notes)
+    if transmission > 0.0:
+        document["transmission"], document["ior"] = transmission, ior
+        _glass_color(document, lobes, tint, notes)
+    if alpha < 1.0:
+        document["alpha"] = alpha
+    return document
+
+
+def _opaque_document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
     mirror = [min(1.0, max(0.0, c)) for c in lobes.mirror]
     reflective = sum(mirror) / 3.0
     if reflective > 0.0 and max(mirror) - min(mirror) > 1e-3:

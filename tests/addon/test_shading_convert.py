@@ -162,10 +162,11 @@ def test_an_image_texture_on_base_color_is_rendered_by_uv_its_mean_the_colour() 
 
 def test_what_the_model_cannot_say_is_named() -> None:
     material = principled(**{"Alpha": 0.5})
-    compat.principled_input(next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED"),
-                            "transmission").default_value = 1.0  # fmt: skip
+    for role in ("subsurface", "coat"):
+        compat.principled_input(next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED"),
+                                role).default_value = 1.0  # fmt: skip
     _, notes = material_convert.convert_material(material)
-    assert "alpha: rendered opaque" in notes and "transmission: rendered as the opaque base" in notes
+    assert "subsurface: rendered as the opaque base" in notes and "coat: rendered as the opaque base" in notes
     plain = bpy.data.materials.new("plain")
     plain.diffuse_color = (0.1, 0.2, 0.3, 1.0)
     if compat.VERSION < (5, 0, 0):
@@ -495,6 +496,8 @@ def test_the_scene_conversion_panel_converts_once_per_change(monkeypatch) -> Non
     obj = triangle(scene)
     mesh = obj.data
     material = principled("glass", **{"Alpha": 0.5})
+    node = next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    compat.principled_input(node, "sheen").default_value = 0.5
     mesh.materials.append(material)
     light_object("AREA", 100.0)
     bpy.context.view_layer.update()
@@ -509,12 +512,13 @@ def test_the_scene_conversion_panel_converts_once_per_change(monkeypatch) -> Non
         ("LIGHT", "Area"),
         ("WORLD", "no world (black)"),
     ]
-    assert rows[0][2] == ["alpha: rendered opaque"] and rows[1][2][0].startswith("area light") and rows[2][2] == []
+    assert rows[0][2] == ["sheen: rendered as the opaque base"] and rows[1][2][0].startswith("area light")
+    assert rows[2][2] == []
     assert conversion_report.summary_line(rows) == "1 exact, 2 approximated (glass, Area)"
     for _ in range(50):  # redraws
         assert conversion_report.scene_conversion(scene) is rows
     assert calls == ["glass"]
-    next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED").inputs["Alpha"].default_value = 1.0
+    compat.principled_input(node, "sheen").default_value = 0.0
     material.node_tree.update_tag()
     bpy.context.view_layer.update()
     rows = conversion_report.scene_conversion(scene)
