@@ -235,6 +235,7 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
             model=scene.render.model,
             coef=scene.render.coef,
         )
+        made_materials[name].pass_index = material.pass_index  # Material > Settings > Pass Index
     pivot = turn = None
     if scene.vane is not None:
         pivot = bpy.data.objects.new(PIVOT, None)
@@ -258,6 +259,7 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
         mesh = primitive_mesh(scene, obj, world)
         blender_object = bpy.data.objects.new(f"WV {obj.name}", mesh)
         blender_object.data.materials.append(made_materials[obj.material])
+        blender_object.pass_index = obj.pass_index  # Object > Relations > Pass Index
         collection.objects.link(blender_object)
         rotation, location = transforms.object_frame(obj, still.vane)
         blender_object.matrix_world = Matrix.Translation(location) @ Matrix(rotation).to_4x4()

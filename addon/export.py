@@ -38,6 +38,7 @@ from mathutils import Vector
 
 from . import build, light_convert, material_convert, mesh_export, world_convert
 from . import camera as camera_module
+from . import materials as vane_materials
 from ._tracer import module
 from .animation import motion_for
 
@@ -779,6 +780,10 @@ def scene_document(
         entry.name: {"color": list(entry.color), "specular": entry.specular, "reflective": entry.reflective}
         for entry in settings.materials
     }
+    for name, document in materials.items():  # the vane material's Material > Settings > Pass Index
+        blender_material = bpy.data.materials.get(vane_materials.material_name(name))
+        if blender_material is not None and blender_material.pass_index:
+            document["pass_index"] = blender_material.pass_index
     turn = bpy.data.objects.get(build.TURN)
     # the parts go out as modelled (heading 0) and the current turn becomes the vane's heading
     heading = math.degrees(turn.evaluated_get(depsgraph).matrix_basis.to_euler("XYZ")[2]) if turn is not None else 0.0

@@ -1,11 +1,15 @@
 """Rendered images (linear float .npy) -> metrics.json, a difference heat map per pair and report.html.
 
 Usage: python scripts/compare_images.py FOLDER [--reference tracer]
-FOLDER holds `<engine>.npy` (H x W x 3 linear) and `timings.json` from render_both.py. Every pair is compared in
+FOLDER holds `<engine>.npy` (H x W x 3 linear) and `timings.json` from render_both.py (and, from its --passes, the
+tracer's data passes as passes/tracer.<pass>.npy beside Cycles' passes/cycles.exr). Every pair is compared in
 the same color space, the display's: linear values clamped to [0, 1] and sRGB-encoded, as a viewer sees them (and
 as FLIP's LDR mode expects). Metrics: PSNR and SSIM (scikit-image), mean FLIP (flip-evaluator), the largest
 per-channel error, and the share of pixels whose error exceeds 0.016 in any channel, the threshold of Blender's
-own render tests. Needs the `report` extra; render_both.py calls it with the project's Python when Blender's lacks it.
+own render tests. Passes are compared where both engines see a surface, away from silhouettes (a pixel whose
+3 x 3 neighbours all hit in both): coverage IoU, depth and mist relative error, position distance, normal angle,
+share of equal indices. Needs the `report` extra (and `exr` for passes); render_both.py calls it with the project's
+Python when Blender's lacks it.
 """
 
 from __future__ import annotations
@@ -23,6 +27,16 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 BLENDER_THRESHOLD = 0.016
+# Cycles' channels of each tracer pass in its multilayer file: Blender 3.4/4.x names first, then Blender 5's
+CYCLES_CHANNELS = {
+    "depth": (["Depth.Z"],),
+    "mist": (["Mist.Z"],),
+    "normal": (["Normal.X", "Normal.Y", "Normal.Z"],),
+    "position": (["Position.X", "Position.Y", "Position.Z"],),
+    "object_index": (["IndexOB.X"], ["Object Index.X"]),
+    "material_index": (["IndexMA.X"], ["Material Index.X"]),
+}
+BACKGROUND_DEPTH = 1.0e9  # both engines write 1e10 where a camera ray meets nothing
 
 
 def display(linear: np.ndarray) -> np.ndarray:
@@ -47,6 +61,53 @@ def compare(reference: np.ndarray, test: np.ndarray) -> tuple[dict, np.ndarray]:
         "share_over_0.016": round(float((error.max(axis=2) > BLENDER_THRESHOLD).mean()), 5),
     }
     return metrics, np.asarray(flip_map)
+
+
+def compare_passes(folder: Path) -> dict | None:
+    """The tracer's passes (folder/passes/tracer.<pass>.npy, (H, W, C)) against Cycles' (folder/passes/cycles.exr)
+    -> {pass: metrics}, or None where render_both.py compared no passes."""
+    from tracer.tracing.exr import read_exr_channels
+
+    tracer = {path.name.split(".")[1]: np.load(path) for path in sorted(folder.glob("passes/tracer.*.npy"))}
+    if "depth" not in tracer or not (folder / "passes" / "cycles.exr").exists():
+        return None
+    channels, _ = read_exr_channels(folder / "passes" / "cycles.exr")
+    cycles = {name: _cycles_pass(channels, name) for name in tracer}
+    hit_tracer = tracer["depth"][..., 0] < BACKGROUND_DEPTH
+    hit_cycles = cycles["depth"][..., 0] < BACKGROUND_DEPTH
+    both = hit_tracer & hit_cycles
+    inside = both.copy()  # away from silhouettes: every 3 x 3 neighbour hits in both engines
+    padded = np.pad(both, 1)
+    for dy in range(3):
+        for dx in range(3):
+            inside &= padded[dy : dy + both.shape[0], dx : dx + both.shape[1]]
+    result = {"coverage_iou": round(float(both.sum() / max(1, (hit_tracer | hit_cycles).sum())), 5)}
+    result["pixels_compared"] = int(inside.sum())
+    for name, ours in tracer.items():
+        a, b = ours[inside].astype(np.float64), cycles[name][inside].astype(np.float64)
+        if name in ("depth", "mist"):
+            error = np.abs(a - b)[:, 0] / np.maximum(np.abs(b[:, 0]), 1e-6)
+            label = "relative_error"
+        elif name == "position":
+            error, label = np.linalg.norm(a - b, axis=1), "distance"
+        elif name == "normal":
+            cosine = (a * b).sum(axis=1) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-12)
+            error, label = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))), "angle_degrees"
+        else:
+            result[name] = {"share_equal": round(float((np.rint(a) == np.rint(b)).mean()) if a.size else 1.0, 5)}
+            continue
+        quantiles = np.quantile(error, [0.5, 0.95]) if error.size else (0.0, 0.0)
+        result[name] = {f"median_{label}": float(f"{quantiles[0]:.4g}"), f"p95_{label}": float(f"{quantiles[1]:.4g}")}
+    return result
+
+
+def _cycles_pass(channels: dict[str, np.ndarray], name: str) -> np.ndarray:
+    """A pass of Cycles' multilayer file as (H, W, C), by the channel names of any supported Blender."""
+    for names in CYCLES_CHANNELS[name]:
+        found = [next((v for key, v in channels.items() if key.endswith(f".{wanted}")), None) for wanted in names]
+        if all(values is not None for values in found):
+            return np.stack(found, axis=-1)
+    raise ValueError(f"Cycles' passes file has no {name} pass (channels: {', '.join(sorted(channels))})")
 
 
 def _save_png(pixels: np.ndarray, path: Path) -> None:
@@ -82,15 +143,21 @@ def write_report(folder: Path, reference: str = "tracer") -> dict:
         "timings_s": timings,
         "color_space": "display sRGB, clamped to [0, 1]",
     }
+    passes = compare_passes(folder)
+    if passes is not None:
+        result["passes"] = {"cycles_vs_tracer": passes}
     with atomic_path(folder / "metrics.json") as temporary:
         temporary.write_text(json.dumps(result, indent=2))
     with atomic_path(folder / "report.html") as temporary:
-        temporary.write_text(_html(order, pairs, timings), encoding="utf-8")
+        temporary.write_text(_html(order, pairs, timings, passes), encoding="utf-8")
     return result
 
 
-def _html(order: list[str], pairs: dict, timings: dict) -> str:
+def _html(order: list[str], pairs: dict, timings: dict, passes: dict | None = None) -> str:
     rows = []
+    if passes:
+        cells = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>" for k, v in passes.items())
+        rows.append(f"<h2>Data passes: Cycles against the tracer</h2><table>{cells}</table>")
     for key, metrics in pairs.items():
         test, reference = key.split("_vs_")
         cells = "".join(f"<td>{html.escape(str(value))}</td>" for value in metrics.values())

@@ -9,7 +9,9 @@ the add-on exports from it, and Cycles renders its twins. The exact twin (`exact
 documented model itself in OSL) where this Blender's Cycles has OSL, beside the physically based twin (`cycles`,
 addon/twin.py); --twin physical, or a Blender without OSL, renders the physical one only. Writes <engine>.npy
 (linear) and .png, a FLIP heat map per pair, metrics.json, timings.json and report.html into the output folder (one
-folder per frame with --frames A-B), and prints the headline numbers.
+folder per frame with --frames A-B), and prints the headline numbers. With --passes depth,normal,... the data passes
+both the tracer and Cycles make are compared too: the tracer's as passes/tracer.<pass>.npy, Cycles' in
+passes/cycles.exr (Blender's multilayer file), their agreement in metrics.json's "passes".
 """
 
 from __future__ import annotations
@@ -31,6 +33,9 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 ENGINES = ("tracer", "exact", "cycles", "eevee", "workbench")
+# The passes both engines make from the same definition (Blender's data passes); the tracer's shading passes split
+# the documented model, which Cycles' light passes do not, so they are not compared.
+COMPARABLE_PASSES = ("depth", "mist", "normal", "position", "object_index", "material_index")
 
 
 def parse(argv: list[str]) -> argparse.Namespace:
@@ -63,6 +68,12 @@ def parse(argv: list[str]) -> argparse.Namespace:
     )
     parser.add_argument("--chunk", type=int, default=1, help="with --scheduler: frames per task (default 1)")
     parser.add_argument("--no-bake", action="store_true", help="render the file's keyed motion as it is")
+    parser.add_argument(
+        "--passes",
+        metavar="LIST",
+        help=f"compare data passes with Cycles' (needs tracer and cycles in --engines): 'all' or from "
+        f"{', '.join(COMPARABLE_PASSES)}",
+    )
     args = parser.parse_args(argv)
     if args.scheduler and not args.frames:
         parser.error("--scheduler: needs --frames A-B (the frames are what goes to the cluster)")
@@ -75,9 +86,23 @@ def parse(argv: list[str]) -> argparse.Namespace:
     if args.width < 1 or args.height < 1:
         parser.error("--width and --height must be >= 1")
     args.engines = engines
+    args.passes = _passes(parser, args.passes, engines)
     if args.pixel_centres:
         args.tracer_samples = 1
     return args
+
+
+def _passes(parser: argparse.ArgumentParser, text: str | None, engines: list[str]) -> tuple[str, ...]:
+    """--passes -> the passes to compare, depth always among them (it gives both engines' coverage)."""
+    if text is None:
+        return ()
+    names = COMPARABLE_PASSES if text.strip() == "all" else [name.strip() for name in text.split(",") if name.strip()]
+    unknown = [name for name in names if name not in COMPARABLE_PASSES]
+    if unknown or not names:
+        parser.error(f"--passes: must be 'all' or name passes from {', '.join(COMPARABLE_PASSES)}, got {text!r}")
+    if "tracer" not in engines or "cycles" not in engines:
+        parser.error("--passes: compares the tracer's passes with Cycles': --engines must hold tracer and cycles")
+    return tuple(dict.fromkeys(("depth", *names)))
 
 
 def choose_twin(args: argparse.Namespace) -> None:
@@ -121,24 +146,55 @@ def prepare(args: argparse.Namespace) -> None:
     scene.render.resolution_percentage = 100
 
 
-def render_tracer(samples: int) -> np.ndarray:
+def render_tracer(samples: int, passes: tuple[str, ...] = (), folder: Path | None = None) -> np.ndarray:
+    """The tracer's image of what the add-on exports; with passes, each saved as folder/passes/tracer.<pass>.npy."""
     from addon.export import scene_document
     from tracer.scene.loader import scene_from_dict
     from tracer.workers.parallel import render
 
     document = scene_document(bpy.context)
     document["render"]["samples"] = samples
+    if passes:
+        document["render"]["passes"] = list(passes)
     scene = scene_from_dict(json.loads(json.dumps(document)), "export")
-    return render(scene).image
+    result = render(scene)
+    for name, values in (result.passes or {}).items():
+        (folder / "passes").mkdir(exist_ok=True)
+        np.save(folder / "passes" / f"tracer.{name}.npy", values.astype(np.float32))
+    return result.image
 
 
-def render_blender(folder: Path, name: str) -> np.ndarray:
+def render_blender(folder: Path, name: str, passes: tuple[str, ...] = ()) -> np.ndarray:
+    """Blender's image with the scene's engine; with passes, its View Layer passes of those names ticked for this
+    render and saved as Blender's multilayer EXR, folder/passes/<name>.exr."""
+    from addon.pass_map import PASSES
+
     scene = bpy.context.scene
+    view_layer = bpy.context.view_layer
     path = folder / f".{name}.exr"
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    scene.render.filepath = str(path)
-    bpy.ops.render.render(write_still=True)
+    flags = [entry.flag for entry in PASSES if entry.tracer in passes]
+    ticked = {flag: getattr(view_layer, flag) for flag in flags}
+    for flag in flags:
+        setattr(view_layer, flag, True)
+    settings = scene.render.image_settings
+    try:
+        bpy.ops.render.render()
+        result = bpy.data.images["Render Result"]
+        settings.file_format = "OPEN_EXR"
+        settings.color_depth = "32"
+        result.save_render(filepath=str(path), scene=scene)
+        if passes:
+            (folder / "passes").mkdir(exist_ok=True)
+            if hasattr(settings, "media_type"):  # Blender 5: the multilayer file is a media type of its own
+                settings.media_type = "MULTI_LAYER_IMAGE"
+            settings.file_format = "OPEN_EXR_MULTILAYER"
+            result.save_render(filepath=str(folder / "passes" / f"{name}.exr"), scene=scene)
+            if hasattr(settings, "media_type"):
+                settings.media_type = "IMAGE"
+            settings.file_format = "OPEN_EXR"
+    finally:
+        for flag, value in ticked.items():
+            setattr(view_layer, flag, value)
     image = bpy.data.images.load(str(path), check_existing=False)
     width, height = image.size
     pixels = np.empty(width * height * 4, dtype=np.float32)
@@ -152,7 +208,8 @@ def render_frame(args: argparse.Namespace, folder: Path) -> dict:
     from addon import twin
 
     folder.mkdir(parents=True, exist_ok=True)
-    for stale in [*(folder / f"{name}.npy" for name in ENGINES), *folder.glob("diff_*_vs_*.png")]:
+    stale_passes = [*folder.glob("passes/tracer.*.npy"), folder / "passes" / "cycles.exr"]
+    for stale in [*(folder / f"{name}.npy" for name in ENGINES), *folder.glob("diff_*_vs_*.png"), *stale_passes]:
         stale.unlink(missing_ok=True)  # this script's own outputs of an earlier run
     scene = bpy.context.scene
     engine_before = scene.render.engine
@@ -160,7 +217,7 @@ def render_frame(args: argparse.Namespace, folder: Path) -> dict:
     for name in args.engines:
         started = time.perf_counter()
         if name == "tracer":
-            image = render_tracer(args.tracer_samples)
+            image = render_tracer(args.tracer_samples, args.passes, folder)
         elif name == "exact":
             from addon import exact_twin
 
@@ -178,7 +235,7 @@ def render_frame(args: argparse.Namespace, folder: Path) -> dict:
                 twin.eevee(scene, args.eevee_samples)
             else:
                 twin.workbench(scene)
-            image = render_blender(folder, name)
+            image = render_blender(folder, name, args.passes if name == "cycles" else ())
         timings[name] = round(time.perf_counter() - started, 3)
         np.save(folder / f"{name}.npy", image.astype(np.float32))
         print(f"{name}: {timings[name]:.2f} s", flush=True)
@@ -235,6 +292,7 @@ def frames_on_cluster(args: argparse.Namespace, frames: range) -> dict[int, dict
         options += ["--tracer-samples", str(args.tracer_samples)]
         options += ["--twin", args.twin] if args.twin else []
         options += ["--pixel-centres"] if args.pixel_centres else []
+        options += ["--passes", ",".join(args.passes)] if args.passes else []
         runs: list[list[int]] = []  # runs of consecutive frames, --chunk at most
         for frame in wanted:
             if runs and len(runs[-1]) < args.chunk and runs[-1][-1] == frame - 1:
@@ -287,7 +345,8 @@ def render_frames_on_worker(blend: bytes, frames: list[int], options: list[str])
         return {
             str(path.relative_to(out)): path.read_bytes()
             for frame in frames
-            for path in sorted((out / f"frame_{frame:04d}").iterdir())
+            for path in sorted((out / f"frame_{frame:04d}").rglob("*"))
+            if path.is_file()
         }
 
 
@@ -326,6 +385,8 @@ def main() -> None:
                 f"{key}: PSNR {metrics['psnr_db']:.2f} dB, SSIM {metrics['ssim']:.4f}, mean FLIP "
                 f"{metrics['mean_flip']:.4f}, pixels over 0.016: {100 * metrics['share_over_0.016']:.1f}%"
             )
+        for name, metrics in result.get("passes", {}).get("cycles_vs_tracer", {}).items():
+            print(f"pass {name}: {metrics}")
     print("timings: " + ", ".join(f"{name} {seconds:.2f} s" for name, seconds in timings.items()))
 
 

@@ -6,6 +6,7 @@ import json
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tests.scripts_run import BLENDER, in_blender, in_python
@@ -51,6 +52,42 @@ def test_matte_scene_twin_agrees_to_40_db(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stdout + result.stderr
     metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())["pairs"]["cycles_vs_tracer"]
     assert metrics["psnr_db"] >= 40.0  # measured 46.7 dB here, 50.8 dB at 640x480 and 256 samples
+
+
+def test_data_passes_agree_with_cycles_where_both_engines_see_a_surface(tmp_path: Path) -> None:
+    pytest.importorskip("OpenEXR", reason="the exr extra reads Cycles' multilayer file")
+    document = default_scene_dict()
+    indices = {}
+    for number, obj in enumerate(document["objects"], start=1):
+        obj["pass_index"] = indices[obj["name"]] = number  # every object its own index
+    for number, material in enumerate(document["materials"].values(), start=20):
+        material["pass_index"] = number
+    scene = tmp_path / "indexed.json"
+    scene.write_text(json.dumps(document))
+    out = tmp_path / "out"
+    # the tracer at the pixel centres: Cycles writes depth, position and the indices from its first sample, which
+    # lands there (the 4 x 4 grid's first sample is a quarter pixel off it: depth 1.1% off on the ground)
+    result = run_python(str(scene), "--out", str(out), *SMALL, "--twin", "physical", "--passes", "all",
+                        "--tracer-samples", "1")  # fmt: skip
+    assert result.returncode == 0, result.stdout + result.stderr
+    passes = json.loads((out / "metrics.json").read_text())["passes"]["cycles_vs_tracer"]
+    # measured at 96x72: coverage 0.9998, depth 1.4e-5 (median) / 3.0e-5 (p95), position 0.16 / 0.73 mm
+    assert passes["coverage_iou"] > 0.99 and passes["pixels_compared"] > 0.5 * 96 * 72
+    assert passes["depth"]["median_relative_error"] < 1e-4 and passes["depth"]["p95_relative_error"] < 1e-3
+    assert passes["position"]["p95_distance"] < 0.01
+    assert passes["normal"]["p95_angle_degrees"] < 1.0
+    assert passes["mist"]["median_relative_error"] < 0.01  # Cycles averages its 64 samples, the tracer has one
+    # measured 0.9997 and 1.0: one pixel on the line where two objects meet, hit at slightly different points
+    assert passes["object_index"]["share_equal"] > 0.995 and passes["material_index"]["share_equal"] > 0.995
+    tracer_indices = np.load(out / "passes" / "tracer.object_index.npy")
+    assert len(np.unique(tracer_indices)) >= 4  # several objects in view, each with its own index
+    assert "pass depth:" in result.stdout and "Data passes" in (out / "report.html").read_text()
+
+
+def test_passes_other_than_the_data_passes_are_refused(tmp_path: Path) -> None:
+    result = run_python("--out", str(tmp_path), "--passes", "depth,diffuse")
+    assert result.returncode == 2 and "--passes: must be 'all' or name passes from depth" in result.stderr
+    assert not any(tmp_path.iterdir())
 
 
 def test_bad_engine_name_is_refused(tmp_path: Path) -> None:

@@ -20,22 +20,12 @@ WHITTED = ("Ambient", "DiffDir", "GlossDir", "Emit", "Reflection", "Env")
 READER = """
 import json, sys
 import numpy as np
-import OpenEXR
-found, header = {}, {}
-for part in OpenEXR.File(sys.argv[1]).parts:
-    for key, value in part.header.items():
-        if isinstance(value, (str, bytes)):
-            header[key] = value.decode() if isinstance(value, bytes) else value
-    for name, channel in part.channels.items():
-        pixels = channel.pixels
-        if pixels.ndim == 3:  # Blender 5 writes a pass as one channel of several components
-            letters = "RGBA" if pixels.shape[2] in (3, 4) else "XYZ"
-            for k in range(pixels.shape[2]):
-                found[f"{name}.{letters[k]}"] = pixels[..., k]
-        else:
-            found[name] = pixels
+sys.path.insert(0, sys.argv[3])
+from tracer.tracing.exr import read_exr_channels
+found, header = read_exr_channels(sys.argv[1])
 np.savez(sys.argv[2], **found)
-print(json.dumps(header))
+print(json.dumps({key: value.decode() if isinstance(value, bytes) else value for key, value in header.items()
+                  if isinstance(value, (str, bytes))}))
 """
 
 
@@ -45,7 +35,7 @@ def read_exr(path: Path, tmp_path: Path) -> tuple[dict[str, np.ndarray], dict[st
     python = ROOT / ".venv" / "bin" / "python"
     arrays = tmp_path / "channels.npz"
     result = subprocess.run(
-        [str(python if python.exists() else sys.executable), "-c", READER, str(path), str(arrays)],
+        [str(python if python.exists() else sys.executable), "-c", READER, str(path), str(arrays), str(ROOT)],
         capture_output=True,
         text=True,
         timeout=120,

@@ -116,15 +116,18 @@ def _exr_file(channels: Mapping[str, np.ndarray], header: Mapping[str, str] | No
 
 
 def read_exr_channels(path: Path) -> tuple[dict[str, np.ndarray], dict[str, object]]:
-    """An OpenEXR file (one part) -> (its channels by full name, each (H, W) as stored: float32, float16 or uint32;
-    its header attributes, including the format's own such as "compression" and "channels")."""
+    """An OpenEXR file -> (its channels by full name, each (H, W) as stored: float32, float16 or uint32; its header
+    attributes, including the format's own such as "compression" and "channels"). A multi-part file (Blender 5
+    writes a part per pass, each channel under its full name) gives every part's channels, and the attributes of
+    the first part that has each."""
     OpenEXR = openexr_module()
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no EXR file at {path}")
-    exr = OpenEXR.File(str(path), separate_channels=True)
-    if len(exr.parts) != 1:
-        raise ValueError(f"{path} has {len(exr.parts)} parts; read_exr_channels reads single-part files")
-    part = exr.parts[0]
-    channels = {name: np.asarray(channel.pixels) for name, channel in part.channels.items()}
-    return channels, dict(part.header)
+    channels: dict[str, np.ndarray] = {}
+    header: dict[str, object] = {}
+    for part in OpenEXR.File(str(path), separate_channels=True).parts:
+        channels.update((name, np.asarray(channel.pixels)) for name, channel in part.channels.items())
+        for key, value in part.header.items():
+            header.setdefault(key, value)
+    return channels, header
