@@ -280,8 +280,11 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
     for index, light in enumerate(scene.lights):
         entry = settings.lights.add()
         kind = type(light).__name__
+        made = lights.create_from_scene(light, lights.object_name(_entry_kind(kind), index), collection)
         if kind == "AmbientLight":
             entry.kind, entry.intensity = "AMBIENT", light.intensity
+        elif made is not None:  # converted back as Blender's light of its type (entry_kind: the light's type)
+            entry.kind, entry.intensity, entry.object_name = _entry_kind(kind), light.intensity, made.name
         elif kind == "PointLight":
             obj = lights.create(
                 "POINT", light.intensity, lights.object_name("POINT", index), collection, light.location
@@ -293,6 +296,12 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
             entry.kind, entry.intensity, entry.object_name = "DIRECTIONAL", light.intensity, obj.name
     _fill_settings(context, scene)
     return collection
+
+
+def _entry_kind(kind: str) -> str:
+    """The Lights panel entry's kind for a scene file light's class: a sun is DIRECTIONAL, the rest POINT (an entry
+    of a spot or area light shows and converts as its Blender light's type)."""
+    return "DIRECTIONAL" if kind == "DirectionalLight" else "POINT"
 
 
 def _with_kept_materials(scene, kept: dict):

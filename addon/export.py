@@ -36,7 +36,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from . import build, light_convert, material_convert, mesh_export, world_convert
+from . import build, compat, light_convert, material_convert, mesh_export, world_convert
 from . import camera as camera_module
 from . import materials as vane_materials
 from ._tracer import module
@@ -727,14 +727,18 @@ def _light_documents(settings, collected: _Collected, own_vane: bool, notes: Exp
         if obj.name not in placed:
             continue  # not rendered (an excluded collection, Disable in Renders)
         evaluated, matrix = placed[obj.name]
-        if kind == "POINT":
-            documents.append({"type": "point", "location": list(matrix.translation), "intensity": entry.intensity})
-        elif kind == "DIRECTIONAL":
-            documents.append(
-                {"type": "directional", "direction": _direction_toward(obj, matrix), "intensity": entry.intensity}
-            )
-        else:  # made a spot or area light in Blender's Light tab: it renders as Blender's light of that type
+        if kind not in ("POINT", "DIRECTIONAL") or not light_convert.documented(evaluated.data):
+            # a spot or area light made in the Light tab, or a radius, inverse square, a sun's angle: as Blender's
             documents.append(_blender_light(evaluated, notes))
+            continue
+        if kind == "POINT":
+            light = {"type": "point", "location": list(matrix.translation), "intensity": entry.intensity}
+        else:
+            light = {"type": "directional", "direction": _direction_toward(obj, matrix), "intensity": entry.intensity}
+        color = compat.light_color(evaluated.data)  # recoloured in the Light tab
+        if any(c != 1.0 for c in color):
+            light["color"] = [float(c) for c in color]
+        documents.append(light)
     if settings.other_lights or not own_vane:
         for original, evaluated, _ in collected.lights:
             if original.name not in driven:

@@ -101,19 +101,27 @@ def _falloff_node(light) -> tuple[str | None, float, tuple[float, float, float]]
     return None, float(strength.default_value), color
 
 
+def documented(light) -> bool:
+    """Whether a Blender point light or sun is the documented light the Lights panel's entry holds, in any colour:
+    a point of radius 0 driven by a Light Falloff node's Constant output, a sun of angle 0. Else it converts as
+    Blender's light of its type, falloff, radius and angle included."""
+    if light.type == "SUN":
+        return light.angle == 0.0
+    if light.type != "POINT" or light.shadow_soft_size != 0.0:
+        return False
+    return _falloff_node(light) == ("Constant", 1.0, (1.0, 1.0, 1.0))
+
+
 def _own(obj, blender_scene) -> dict | None:
     """The add-on's own light as the documented light its panel entry holds; None where it is not one."""
     entries = getattr(getattr(blender_scene, "weathervane", None), "lights", ())
     name = obj.original.name if getattr(obj, "original", None) is not None else obj.name
     entry = next((e for e in entries if e.object_name == name and e.kind != "AMBIENT"), None)
     light = obj.data
-    if entry is None:
+    if entry is None or not documented(light):
         return None
     power = compat.light_power(light)
     if entry.kind == "POINT" and light.type == "POINT":
-        falloff, strength, _ = _falloff_node(light)
-        if falloff != "Constant" or strength != 1.0:
-            return None
         expected = entry.intensity * POINT_WATTS_PER_UNIT
         intensity = entry.intensity if math.isclose(power, expected, rel_tol=1e-6) else power / POINT_WATTS_PER_UNIT
         document = {

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 import bpy
-from mathutils import Vector
+from mathutils import Matrix, Vector
 
 POINT_WATTS_PER_UNIT = 4.0 * math.pi**2
 SUN_STRENGTH_PER_UNIT = math.pi
@@ -67,6 +67,60 @@ def create(kind: str, intensity: float, name: str, collection, vector=(0.0, 0.0,
         obj["weathervane_direction"] = [float(c) for c in vector]  # exactly, while the light still points along it
     collection.objects.link(obj)
     return obj
+
+
+def create_from_scene(light, name: str, collection):
+    """A Blender light object for a scene file's point, directional, spot or area light that the documented panel
+    entry cannot hold (a colour, inverse-square falloff, a radius, a sun's angle, a cone or a surface): made so that
+    the add-on's conversion (light_convert.py) gives the same light back. None for a documented point or directional
+    light (create() makes those)."""
+    kind = type(light).__name__
+    if kind == "AmbientLight":
+        return None
+    plain = tuple(light.color) == (1.0, 1.0, 1.0)
+    if kind == "PointLight" and plain and light.falloff == "none" and light.radius == 0.0:
+        return None
+    if kind == "DirectionalLight" and plain and light.angle == 0.0:
+        return None
+    if kind == "DirectionalLight":
+        obj = create("DIRECTIONAL", light.intensity, name, collection, light.direction)
+        obj.data.angle = math.radians(light.angle)
+    else:
+        blender_type = {"PointLight": "POINT", "SpotLight": "SPOT", "AreaLight": "AREA"}[kind]
+        data = bpy.data.lights.new(name, type=blender_type)
+        obj = bpy.data.objects.new(name, data)
+        obj.location = light.location
+        collection.objects.link(obj)
+        if blender_type == "AREA":
+            _shape_area(obj, light)
+        else:
+            data.energy = point_power(light.intensity)
+            data.shadow_soft_size = light.radius
+            if hasattr(data, "use_soft_falloff"):  # 4.0+: the tracer's radius light keeps a point's inverse square
+                data.use_soft_falloff = False
+            if light.falloff == "none":
+                _constant_falloff(data)
+        if blender_type == "SPOT":
+            data.spot_size, data.spot_blend = math.radians(light.spot_size), light.spot_blend
+            obj.rotation_euler = (-Vector(light.direction)).to_track_quat("Z", "Y").to_euler("XYZ")
+    obj.data.color = light.color
+    return obj
+
+
+def _shape_area(obj, light) -> None:
+    """An area light's shape, size, power and orientation (local -Z along the light's direction, local X along its
+    x_axis) as the tracer's area light has them."""
+    data = obj.data
+    data.shape = light.shape.upper()
+    data.size = light.size[0]
+    if light.shape in ("rectangle", "ellipse"):
+        data.size_y = light.size[1]
+    factor = math.pi / 4.0 if bpy.app.version < (4, 0, 0) else 1.0  # Cycles 3.4 emits pi / 4 of 4.0+'s
+    data.energy = light.intensity * math.pi**2 / factor
+    z = -Vector(light.direction).normalized()
+    x = Vector(light.x_axis)
+    x = (x - z * x.dot(z)).normalized()
+    obj.matrix_world = Matrix.Translation(light.location) @ Matrix((x, z.cross(x), z)).transposed().to_4x4()
 
 
 def apply(entry) -> None:

@@ -335,3 +335,49 @@ def test_export_sweeps_what_a_killed_export_left_and_keeps_a_live_writers_file(t
     assert sorted(path.name for path in tmp_path.iterdir()) == ["other.json", "scene.json"]
     line, kind = operators.result_line()
     assert "removed 1 temporary file(s) a killed export had left" in line and kind in {"INFO", "WARNING"}, line
+
+
+def test_a_scene_files_lights_of_every_kind_build_into_blender_lights_that_export_as_the_same_lights(
+    tmp_path: Path,
+) -> None:
+    import json
+
+    from tracer.scene.loader import default_scene_dict, scene_from_dict
+
+    document = default_scene_dict()
+    document["lights"] = [
+        {"type": "ambient", "intensity": 0.2},
+        {"type": "point", "location": [2.0, -3.0, 4.0], "intensity": 0.5},
+        {"type": "directional", "direction": [1.0, 4.0, 4.0], "intensity": 0.2},
+        {"type": "point", "location": [-2.0, 1.0, 3.0], "intensity": 0.7, "color": [1.0, 0.5, 0.25],
+         "falloff": "inverse_square", "radius": 0.3},
+        {"type": "point", "location": [0.0, 2.0, 5.0], "intensity": 0.3, "color": [0.2, 0.4, 1.0]},
+        {"type": "directional", "direction": [-1.0, 1.0, 2.0], "intensity": 0.4, "angle": 5.0},
+        {"type": "spot", "location": [3.0, 3.0, 4.0], "direction": [-0.5, -0.5, -1.0], "intensity": 2.0,
+         "falloff": "inverse_square", "spot_size": 40.0, "spot_blend": 0.3},
+        {"type": "area", "location": [0.0, -2.0, 4.0], "direction": [0.0, 0.3, -1.0], "x_axis": [1.0, 0.0, 0.0],
+         "shape": "rectangle", "size": [2.0, 0.5], "intensity": 3.0, "color": [1.0, 0.9, 0.8]},
+        {"type": "area", "location": [1.0, 1.0, 3.0], "direction": [0.0, 0.0, -1.0], "x_axis": [0.6, 0.8, 0.0],
+         "shape": "disk", "size": 1.5, "intensity": 1.0},
+    ]  # fmt: skip
+    path = tmp_path / "lights.json"
+    path.write_text(json.dumps(document))
+    assert bpy.ops.weathervane.build(filepath=str(path)) == {"FINISHED"}
+    built = bpy.data.collections["Weathervane"].objects
+    kinds = sorted(obj.data.type for obj in built if obj.type == "LIGHT")
+    assert kinds == ["AREA", "AREA", "POINT", "POINT", "POINT", "SPOT", "SUN", "SUN"]  # no spot or area as a sun
+    expected = scene_from_dict(document, "original").lights
+    exported = scene_from_dict(json.loads(json.dumps(export())), "export").lights
+    assert [type(light).__name__ for light in exported] == [type(light).__name__ for light in expected]
+    for ours, theirs in zip(exported, expected, strict=True):
+        for field in theirs.__dataclass_fields__:
+            want, got = getattr(theirs, field), getattr(ours, field)
+            if field == "spot_model":  # the spot as this Blender's Cycles shapes it
+                assert got == ("cycles3" if bpy.app.version < (4, 0, 0) else "cycles4")
+            elif isinstance(want, str):
+                assert got == want, (type(theirs).__name__, field)
+            elif field in ("direction", "x_axis"):  # a direction's length is not a Blender light's
+                assert np.allclose(np.divide(got, np.linalg.norm(got)), np.divide(want, np.linalg.norm(want)),
+                                   atol=1e-6), (type(theirs).__name__, field, got, want)  # fmt: skip
+            else:
+                assert np.allclose(got, want, rtol=1e-5, atol=1e-6), (type(theirs).__name__, field, got, want)
