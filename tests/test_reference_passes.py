@@ -167,7 +167,8 @@ def test_random_scenes_cover_what_the_passes_depend_on() -> None:
         held |= any(any(row) for row in expected.held)
         mixed |= any(len(set(samples)) > 1 for row in expected.objects for samples in row)
         partial |= bool(np.any((values["shadow"] > 0.0) & (values["shadow"] < 1.0)))
-    assert non_zero == set(rf.PASS_NAMES) and held and mixed and partial
+    # nothing here is glass or partly transparent: the Transmission pass is covered by test_see_through.py
+    assert non_zero == set(rf.PASS_NAMES) - {"transmission"} and held and mixed and partial
 
 
 def test_the_references_passes_of_a_plane_at_a_known_distance() -> None:

@@ -45,12 +45,14 @@ PASSES: dict[str, Pass] = {
         Pass("emission", "Emit", "RGB", "mean", "the first hit's emission"),
         Pass("reflection", "Reflection", "RGB", "mean", "what the mirror rays bring back (their surfaces' terms)"),
         Pass("environment", "Env", "RGB", "mean", "the background seen by camera rays and mirror rays"),
+        Pass("transmission", "Transmission", "RGB", "mean", "what refracted and straight-through rays bring back"),
         Pass("shadow", "Shadow", "X", "mean", "the share of the lights (not ambient) that reach the first hit"),
         Pass("cryptomatte_object", "CryptoObject", "RGBA" * (CRYPTOMATTE_RANKS // 2), "ranks", "Cryptomatte by object"),
         Pass("cryptomatte_material", "CryptoMaterial", "RGBA" * (CRYPTOMATTE_RANKS // 2), "ranks", "by material"),
     )
 }
-WHITTED = ("ambient", "diffuse", "specular", "emission", "reflection", "environment")  # these add up to the image
+# these add up to the image
+WHITTED = ("ambient", "diffuse", "specular", "emission", "reflection", "environment", "transmission")
 SHADING = (*WHITTED, "shadow")  # what the lights and mirrors give: traced with the image's terms
 
 

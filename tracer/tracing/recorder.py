@@ -114,6 +114,14 @@ class PassRecorder:
         if "environment" in self.rows:
             self._put("environment", pixel, value, add=True)
 
+    def add(self, name: str, pixel: np.ndarray, value: np.ndarray) -> None:
+        """value (channels, n) added into a pass at camera rays pixel (n,) that may repeat (a see-through
+        wavefront holds several rays of one camera ray: np.add.at); nothing where the pass is not asked for."""
+        if name not in self.rows:
+            return
+        for row, add in zip(self.values[self.rows[name]], value, strict=True):
+            np.add.at(row, pixel, add)
+
     def holdout(self, pixel: np.ndarray) -> None:
         """Camera rays that met a holdout first: nothing of them shows in any pass (depth and mist keep the
         background's values, as Cycles writes no data pass there)."""

@@ -40,10 +40,12 @@ PASS_NAMES = (
     "emission",
     "reflection",
     "environment",
+    "transmission",
     "shadow",
 )
 FIRST_SAMPLE = ("depth", "position", "object_index", "material_index")  # the first sample's; the others: the mean
-WHITTED = ("ambient", "diffuse", "specular", "emission", "reflection", "environment")  # they add up to the image
+# they add up to the image
+WHITTED = ("ambient", "diffuse", "specular", "emission", "reflection", "environment", "transmission")
 
 
 @dataclass
@@ -64,6 +66,7 @@ class SamplePasses:
     emission: sc.Color = (0.0, 0.0, 0.0)
     reflection: sc.Color = (0.0, 0.0, 0.0)
     environment: sc.Color = (0.0, 0.0, 0.0)
+    transmission: sc.Color = (0.0, 0.0, 0.0)
     shadow: float = 0.0
     object: str | None = None
     material: str | None = None
@@ -79,6 +82,36 @@ def reflect_ray(X: sc.Vec3, N: sc.Vec3) -> sc.Vec3:
     """Seed 2.9 for X pointing away from the surface: R = 2 N (N.X) - X."""
     k = 2.0 * dot(N, X)
     return (N[0] * k - X[0], N[1] * k - X[1], N[2] * k - X[2])
+
+
+def fresnel(cosine: float, eta: float) -> float:
+    """The unpolarized reflectance of a dielectric boundary (Cycles' fresnel_dielectric_cos): cosine = |D.N| of the
+    incoming ray, eta the index behind the boundary over the index in front; 1 beyond the critical angle."""
+    c = abs(cosine)
+    g = eta * eta - 1.0 + c * c
+    if not g > 0.0:
+        return 1.0
+    g = math.sqrt(g)
+    A = (g - c) / (g + c)
+    B = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+    return 0.5 * A * A * (1.0 + B * B)
+
+
+def refract(D: sc.Vec3, N: sc.Vec3, eta: float) -> tuple[float, sc.Vec3 | None]:
+    """A ray along D meeting a boundary with unit normal N facing it (N.D <= 0), eta = n behind / n in front ->
+    (F, the refracted unit direction), or (1, None) in total internal reflection. With d = D / |D|, c = -d.N and
+    g = sqrt(eta^2 - 1 + c^2): T = (d + (c - g) N) / eta, normalised (Snell's law: sin t = sin i / eta)."""
+    d = normalize(D)
+    c = -dot(d, N)
+    g = eta * eta - 1.0 + c * c
+    if not g > 0.0:
+        return 1.0, None
+    g = math.sqrt(g)
+    A = (g - c) / (g + c)
+    B = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+    k = c - g
+    T = ((d[0] + k * N[0]) / eta, (d[1] + k * N[1]) / eta, (d[2] + k * N[2]) / eta)
+    return 0.5 * A * A * (1.0 + B * B), normalize(T)
 
 
 # ---- intersections (seed 2.5): each returns [(t, part), ...] for t in (t_min, t_max) ------------------------------
@@ -331,6 +364,8 @@ class ReferenceTracer:
             for light in scene.lights
         )
         self.lights = self._light_samples()
+        # shadow rays pass partly transparent surfaces (shadow_through) where some material has alpha < 1
+        self.shadow_alpha = any(m.alpha < 1.0 for m in scene.materials.values())
 
     def _light_samples(self) -> list[tuple]:
         """Each light as find_intensities visits it: (light, where: a point light's location or a directional
@@ -456,10 +491,17 @@ class ReferenceTracer:
             else:
                 light_vector = where
                 t_max = INF
-            self.rays["shadow"] += 1
-            shadow_object, _, _ = self.closest_intersection(P, light_vector, SHADOW_T_MIN, t_max, "visible_shadow")
-            if shadow_object >= 0:
-                continue
+            through = 1.0  # the share of the light that passes partly transparent surfaces (alpha < 1)
+            if self.shadow_alpha:
+                through = self.shadow_through(P, light_vector, t_max)
+                if through <= 0.0:
+                    continue
+                intensity = intensity * through  # every term of this light
+            else:
+                self.rays["shadow"] += 1
+                shadow_object, _, _ = self.closest_intersection(P, light_vector, SHADOW_T_MIN, t_max, "visible_shadow")
+                if shadow_object >= 0:
+                    continue
             NL = dot(N, light_vector)
             if NL > 0.0:
                 term = intensity * NL / (length_n * length(light_vector))
@@ -484,7 +526,7 @@ class ReferenceTracer:
                 highlight = [highlight[c] + (term * factor) * color[c] for c in range(3)]
                 highlight_sum += term
             if (NL > 0.0 or term is not None) and factor > 0.0:
-                reached += weight
+                reached += weight * through
         if split is not None:
             split["shadow"] = reached / lights if lights else 1.0
             if self.colored:
@@ -494,6 +536,38 @@ class ReferenceTracer:
         if not self.colored:
             return [total, total, total], [0.0, 0.0, 0.0]
         return diffuse, highlight
+
+    def shadow_through(self, P: sc.Vec3, L: sc.Vec3, t_max: float) -> float:
+        """The share of a light that reaches P along L (t in (0.001, t_max)): the product of 1 - alpha over the
+        surfaces the shadow ray meets, each met by the nearest hit and passed by a new segment from it along the same
+        L (what is left of t_max); 0 at an opaque surface (alpha 1, glass included: Cycles' caustics off) or at the
+        (TRANSPARENT_BOUNCES + 1)-th partly transparent one. Each segment counts as a shadow ray."""
+        through, layers = 1.0, 0
+        while True:
+            self.rays["shadow"] += 1
+            index, part, t = self.closest_intersection(P, L, SHADOW_T_MIN, t_max, "visible_shadow")
+            if index < 0:
+                return through
+            alpha = self.material(index, part).alpha
+            if alpha >= 1.0 or layers >= sc.TRANSPARENT_BOUNCES:
+                return 0.0
+            through *= 1.0 - alpha
+            P, t_max, layers = add(P, scale(L, t)), t_max - t, layers + 1
+
+    def coverage(self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, layers: int = 0) -> float:
+        """A camera ray's share of the film's alpha: 0 for nothing met under a transparent film or a holdout, 1 for
+        nothing met otherwise or an opaque surface; alpha + (1 - alpha) * the straight continuation's for a partly
+        transparent one (1 beyond TRANSPARENT_BOUNCES: the path ends there, black and opaque)."""
+        first, part, t = self.closest_intersection(O, D, t_min, t_max, "visible_camera")
+        if first < 0:
+            return 0.0 if self.settings.film_transparent else 1.0
+        if self.scene.objects[first].holdout:
+            return 0.0
+        alpha = self.material(first, part).alpha
+        if alpha >= 1.0 or layers >= sc.TRANSPARENT_BOUNCES:
+            return 1.0
+        beyond = self.coverage(add(O, scale(D, t)), D, REFLECTION_T_MIN, t_max - t, layers + 1)
+        return alpha + (1.0 - alpha) * beyond
 
     def shading_normal(self, index: int, part: int, P: sc.Vec3, V: sc.Vec3, material: sc.Material) -> sc.Vec3:
         """The unit normal a hit at P on object index's part is shaded with: the surface's own, or the corner
@@ -542,10 +616,11 @@ class ReferenceTracer:
         return replace(material, **changes)
 
     def trace_ray(
-        self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, depth: int, camera: bool = False
+        self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, depth: int, camera: bool = False, layers: int = 0
     ) -> sc.Color:
         """Listing 3.1. camera: the camera ray (it sees the visible_camera objects, and nothing through a
-        transparent film); the others are mirror rays."""
+        transparent film), or its straight continuation through partly transparent surfaces; the others are mirror
+        (and refracted) rays. layers: the straight continuations on the path so far (sc.TRANSPARENT_BOUNCES)."""
         seen_by = "visible_camera" if camera else "visible_reflection"
         closest_object, part, closest_t = self.closest_intersection(O, D, t_min, t_max, seen_by)
         if closest_object < 0:
@@ -557,6 +632,73 @@ class ReferenceTracer:
         material = self.textured(material, closest_object, part, P)
         V = (-D[0], -D[1], -D[2])
         S = self.shading_normal(closest_object, part, P, V, material)
+        if material.transmission > 0.0 or material.alpha < 1.0:
+            return self.see_through(P, D, S, (closest_object, part), t_max - closest_t, depth, camera, layers, material)
+        return self.today(P, V, S, material, depth, layers)
+
+    def see_through(
+        self,
+        P: sc.Vec3,
+        D: sc.Vec3,
+        S: sc.Vec3,
+        hit: tuple[int, int],
+        t_max: float,
+        depth: int,
+        camera: bool,
+        layers: int,
+        material: sc.Material,
+    ) -> sc.Color:
+        """A hit on a surface with transmission t or alpha a (docs/algorithm.md, "Glass and transparency"):
+        (1 - a) straight on + a ((1 - t) today's colour + t (F mirror + (1 - F) colour refracted)), with F the
+        dielectric Fresnel reflectance (1 beyond the critical angle) and the mirror ray traced once for both shares.
+        t_max: what is left of a camera ray's range beyond P (its clip_end)."""
+        a = material.alpha
+        out = [0.0, 0.0, 0.0]
+        V = (-D[0], -D[1], -D[2])
+        if a < 1.0 and layers < sc.TRANSPARENT_BOUNCES:
+            beyond = self.trace_ray(P, D, REFLECTION_T_MIN, t_max, depth, camera, layers + 1)
+            out = [(1.0 - a) * beyond[c] for c in range(3)]
+        if a <= 0.0:
+            return tuple(out)
+        shaded, mirror, refracted, weight = self.glass_split(P, D, S, hit, material)
+        if shaded > 0.0:  # today's local colour (its own mirror ray below, shared with the glass's)
+            local = self.today(P, V, S, material, -1)
+            out = [out[c] + shaded * local[c] for c in range(3)]
+        if refracted is not None and depth > 0:
+            self.rays["reflection"] += 1
+            seen = self.trace_ray(P, refracted, REFLECTION_T_MIN, INF, depth - 1, False, layers)
+            out = [out[c] + weight[c] * seen[c] for c in range(3)]
+        if depth > 0 and mirror > 0.0:
+            self.rays["reflection"] += 1
+            seen = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers)
+            out = [out[c] + mirror * seen[c] for c in range(3)]
+        return tuple(out)
+
+    def glass_split(
+        self, P: sc.Vec3, D: sc.Vec3, S: sc.Vec3, hit: tuple[int, int], material: sc.Material
+    ) -> tuple[float, float, sc.Vec3 | None, sc.Color]:
+        """The alpha share a of a see-through hit split: (a (1 - t), the share shaded as today; a ((1 - t) r + t F),
+        the mirror ray's weight; the refracted direction, None in total internal reflection, where t = 0 or where
+        its weight is 0; its weight a t (1 - F) colour). Inside or outside by the geometric normal N against D: eta
+        = ior entering (N.D < 0), 1 / ior leaving; the shading normal S turned to face D bends the ray."""
+        a, t = material.alpha, material.transmission
+        shaded = a * (1.0 - t)
+        mirror = shaded * material.reflective
+        if not t > 0.0:
+            return shaded, mirror, None, (0.0, 0.0, 0.0)
+        N = normalize(find_normal(self.primitives[hit[0]], hit[1], P))
+        eta = material.ior if dot(N, D) < 0.0 else 1.0 / material.ior
+        facing = S if dot(S, D) < 0.0 else (-S[0], -S[1], -S[2])
+        F, refracted = refract(D, facing, eta)
+        mirror += a * t * F
+        share = a * t * (1.0 - F)
+        if refracted is None or not share > 0.0:
+            return shaded, mirror, None, (0.0, 0.0, 0.0)
+        return shaded, mirror, refracted, tuple(share * material.color[c] for c in range(3))
+
+    def today(self, P: sc.Vec3, V: sc.Vec3, S: sc.Vec3, material: sc.Material, depth: int, layers: int = 0) -> sc.Color:
+        """Listing 3.1's colour of an opaque hit at P: local = intensity * colour * (1 - r) (+ emission), plus r times
+        the mirror ray's while depth lasts (depth < 0: the local colour alone)."""
         diffuse, highlight = self.find_intensities(P, S, V, material.specular)
         color = material.color
         if self.colored:
@@ -572,7 +714,7 @@ class ReferenceTracer:
         if depth <= 0 or material.reflective <= 0.0:
             return local
         self.rays["reflection"] += 1
-        reflected = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1)
+        reflected = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers)
         r = material.reflective
         return (local[0] + reflected[0] * r, local[1] + reflected[1] * r, local[2] + reflected[2] * r)
 
@@ -584,11 +726,7 @@ class ReferenceTracer:
             O, D, t_max = cam.primary_ray(self.scene.camera, self.settings, x, y)
             self.rays["camera"] += 1
             color = self.trace_ray(O, D, CAMERA_T_MIN, t_max, self.settings.depth, camera=True)
-            first, _, _ = self.closest_intersection(O, D, CAMERA_T_MIN, t_max, "visible_camera")
-            if first >= 0:
-                covered = 0.0 if self.scene.objects[first].holdout else 1.0
-            else:
-                covered = 0.0 if self.settings.film_transparent else 1.0
+            covered = self.coverage(O, D, CAMERA_T_MIN, t_max)
             total = [total[0] + color[0], total[1] + color[1], total[2] + color[2], total[3] + covered]
         n = self.settings.samples
         if self.scene.has_alpha:
@@ -628,6 +766,10 @@ class ReferenceTracer:
         out.object_index = float(self.scene.objects[first].pass_index)
         out.material_index = float(material.pass_index)
         out.object, out.material = self.scene.objects[first].name, self.material_name(first, part)
+        if material.see_through:
+            self.see_through_passes(out, P, D, S, (first, part), t_max - t, material)
+            self.rays = counted
+            return out
         terms = self.local_terms(P, S, V, material)
         out.ambient, out.diffuse, out.specular = terms["ambient"], terms["diffuse"], terms["specular"]
         out.emission = material.emission
@@ -640,6 +782,44 @@ class ReferenceTracer:
             out.reflection, out.environment = tuple(reflection), tuple(environment)
         self.rays = counted
         return out
+
+    def see_through_passes(
+        self,
+        out: SamplePasses,
+        P: sc.Vec3,
+        D: sc.Vec3,
+        S: sc.Vec3,
+        hit: tuple[int, int],
+        t_max: float,
+        material: sc.Material,
+    ) -> None:
+        """A camera ray's first hit on a see-through surface (see_through): its local terms (and the Shadow pass)
+        times its shaded share a (1 - t) where that is above 0; its mirror ray's tree into reflection and
+        environment, weighted by the mirror share; what its straight continuation and refracted ray bring back
+        (trace_ray's colours, weighted) into transmission."""
+        depth = self.settings.depth
+        V = (-D[0], -D[1], -D[2])
+        a = material.alpha
+        transmission = [0.0, 0.0, 0.0]
+        if a < 1.0:
+            beyond = self.trace_ray(P, D, REFLECTION_T_MIN, t_max, depth, camera=True, layers=1)
+            transmission = [(1.0 - a) * beyond[c] for c in range(3)]
+        if a > 0.0:
+            shaded, mirror, refracted, weight = self.glass_split(P, D, S, hit, material)
+            if shaded > 0.0:
+                terms = self.local_terms(P, S, V, material)
+                for name in ("ambient", "diffuse", "specular"):
+                    setattr(out, name, tuple(shaded * value for value in terms[name]))
+                out.emission = tuple(shaded * value for value in material.emission)
+                out.shadow = terms["shadow"]
+            if refracted is not None and depth > 0:
+                seen = self.trace_ray(P, refracted, REFLECTION_T_MIN, INF, depth - 1, False, 0)
+                transmission = [transmission[c] + weight[c] * seen[c] for c in range(3)]
+            if depth > 0 and mirror > 0.0:
+                reflection, environment = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+                self.mirror_passes(P, reflect_ray(V, S), depth - 1, mirror, reflection, environment)
+                out.reflection, out.environment = tuple(reflection), tuple(environment)
+        out.transmission = tuple(transmission)
 
     def local_terms(self, P: sc.Vec3, S: sc.Vec3, V: sc.Vec3, material: sc.Material) -> dict:
         """A hit's local colour term by term: "ambient", "diffuse", "specular" (r, g, b) each times the material's
@@ -661,17 +841,26 @@ class ReferenceTracer:
         return terms
 
     def mirror_passes(
-        self, O: sc.Vec3, D: sc.Vec3, depth: int, weight: float, reflection: list, environment: list
+        self,
+        O: sc.Vec3,
+        D: sc.Vec3,
+        depth: int,
+        weight: float | sc.Color,
+        reflection: list,
+        environment: list,
+        layers: int = 0,
     ) -> None:
-        """A mirror ray from O along D, its reflectivities' product weight: what its surface adds (its local terms
-        and emission, weighted) into reflection, the sky it sees when it meets nothing into environment; then its
-        own mirror ray, while depth lasts (listing 3.1's recursion unrolled into sums)."""
+        """A mirror ray from O along D, its reflectivities' product weight (per channel where a refracted ray on its
+        way tinted it): what its surface adds (its local terms and emission, weighted) into reflection, the sky it
+        sees when it meets nothing into environment; then its own mirror ray, while depth lasts (listing 3.1's
+        recursion unrolled into sums), and on a see-through surface its straight and refracted rays the same way."""
+        w = (weight, weight, weight) if isinstance(weight, float | int) else weight
         self.rays["reflection"] += 1
         index, part, t = self.closest_intersection(O, D, REFLECTION_T_MIN, INF, "visible_reflection")
         if index < 0:
             sky = self.background(D)
             for c in range(3):
-                environment[c] += weight * sky[c]
+                environment[c] += w[c] * sky[c]
             return
         if self.scene.objects[index].holdout:
             return
@@ -680,12 +869,27 @@ class ReferenceTracer:
         material = self.textured(material, index, part, P)
         V = (-D[0], -D[1], -D[2])
         S = self.shading_normal(index, part, P, V, material)
-        terms = self.local_terms(P, S, V, material)
-        for c in range(3):
-            local = terms["ambient"][c] + terms["diffuse"][c] + terms["specular"][c] + material.emission[c]
-            reflection[c] += weight * local
-        if depth > 0 and material.reflective > 0.0:
-            self.mirror_passes(P, reflect_ray(V, S), depth - 1, weight * material.reflective, reflection, environment)
+        shaded, mirror, refracted, tint = 1.0, material.reflective, None, (0.0, 0.0, 0.0)
+        if material.see_through:
+            a = material.alpha
+            if a < 1.0 and layers < sc.TRANSPARENT_BOUNCES:
+                beyond = tuple((1.0 - a) * w[c] for c in range(3))
+                self.mirror_passes(P, D, depth, beyond, reflection, environment, layers + 1)
+            if a <= 0.0:
+                return
+            shaded, mirror, refracted, tint = self.glass_split(P, D, S, (index, part), material)
+        if shaded > 0.0:
+            terms = self.local_terms(P, S, V, material)
+            for c in range(3):
+                local = terms["ambient"][c] + terms["diffuse"][c] + terms["specular"][c] + material.emission[c]
+                reflection[c] += w[c] * (shaded * local if material.see_through else local)
+        if depth > 0 and refracted is not None:
+            bent = tuple(w[c] * tint[c] for c in range(3))
+            self.mirror_passes(P, refracted, depth - 1, bent, reflection, environment, layers)
+        if depth > 0 and mirror > 0.0:
+            self.mirror_passes(
+                P, reflect_ray(V, S), depth - 1, tuple(w[c] * mirror for c in range(3)), reflection, environment, layers
+            )
 
     def pixel_passes(self, i: int, j: int) -> tuple[dict[str, tuple[float, ...]], list[SamplePasses]]:
         """Pixel (i, j)'s passes (name -> its channels) from its samples: the mean of the samples', except depth,
