@@ -137,3 +137,20 @@ def extended_scene_document(seed: int, width: int = 16, height: int = 12) -> dic
         document["render"]["border"] = [x, y, x + rng.uniform(0.1, 0.5), y + rng.uniform(0.1, 0.5)]
         document["render"]["crop"] = rng.random() < 0.5
     return document
+
+
+def see_through_scene_document(seed: int, width: int = 16, height: int = 12) -> dict[str, Any]:
+    """extended_scene_document(seed) (random_scene_document(seed) for even seeds) with glass and transparency drawn
+    at random on its materials (docs/scene-format.md): transmission 0, 1 or between, ior below 1, 1, water's,
+    glass's or diamond's, alpha 1, 0 or between; at least one material see-through. A stream of its own, so the
+    other fields are those of the scene it extends."""
+    document = (extended_scene_document if seed % 2 else random_scene_document)(seed, width, height)
+    rng = random.Random(30_000 + seed)
+    materials = list(document["materials"].values())
+    for index, material in enumerate(materials):
+        if rng.random() < 0.6 or index == 0:
+            material["transmission"] = rng.choice([1.0, rng.uniform(0.1, 0.9)])
+            material["ior"] = rng.choice([0.7, 1.0, 1.33, 1.45, 2.4])
+        if rng.random() < 0.45:
+            material["alpha"] = rng.choice([0.0, rng.uniform(0.1, 0.9)])
+    return document

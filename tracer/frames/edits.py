@@ -5,8 +5,8 @@ The image keeps every segment of every pixel's ray tree (camera and mirror rays 
 hit; shadow rays over their whole range, with their light). A pixel can change only if its tree touches what the
 edit changes (footprint.py gives the reasoning):
 
-- a material: some camera or mirror segment of the tree hits an object of that material (shadow rays do not look at
-  materials);
+- a material: some camera, mirror or refracted segment of the tree hits an object of that material (shadow rays do
+  not look at materials, except for alpha: an edit of a material's alpha is not one of these edits);
 - a light's intensity: the tree has a shadow segment toward that light (a point is given one wherever the light
   could add to it, whatever the intensity); an ambient light's: the tree hits anything;
 - an object's location or rotation: some segment meets the object's box before or after the move.
@@ -66,6 +66,8 @@ def edits_between(old: sc.Scene, new: sc.Scene) -> list[Edit] | None:
     edits += [
         MaterialEdit(name, new.materials[name]) for name in old.materials if old.materials[name] != new.materials[name]
     ]
+    if any(old.materials[edit.name].alpha != edit.material.alpha for edit in edits):
+        return None  # what shadow rays pass changes, and shadow segments do not name what they pass
     for index, (before, after) in enumerate(zip(old.lights, new.lights, strict=True)):
         if before != after and hasattr(after, "intensity") and type(before) is type(after):
             edits.append(LightEdit(index, after.intensity))
