@@ -393,4 +393,10 @@ def approximated(scene) -> list[str]:
         notes.append("soft shadows (hard here)")
     if scene.background.type == "image":
         notes.append("an image background (black here)")
+    glass = sorted(name for name, material in scene.materials.items() if getattr(material, "transmission", 0.0) > 0.0)
+    if glass:
+        notes.append(f"glass ({', '.join(glass)}: transmission, opaque here)")
+    clear = sorted(name for name, material in scene.materials.items() if getattr(material, "alpha", 1.0) < 1.0)
+    if clear:
+        notes.append(f"partly transparent materials ({', '.join(clear)}: alpha, opaque here)")
     return notes

@@ -110,6 +110,10 @@ def test_the_shader_is_the_listing(tmp_path: Path) -> None:
         "shadowless['objects'][1]['visible_shadow'] = False\n"
         "print('APPROXIMATED', exact_twin.approximated(scene_from_dict(shadowless, 'test')))\n"
         "print('EXACT', exact_twin.approximated(scene_from_dict(flat_scene('phong'), 'test')))\n"
+        "glassy = flat_scene('phong')\n"
+        "first = sorted(glassy['materials'])[0]\n"
+        "glassy['materials'][first].update(transmission=1.0, alpha=0.5)\n"
+        "print('GLASS', exact_twin.approximated(scene_from_dict(glassy, 'test')), first)\n"
     )
     import subprocess
     import sys
@@ -128,3 +132,8 @@ def test_the_shader_is_the_listing(tmp_path: Path) -> None:
     assert "UNAVAILABLE None" in source
     # what the twin cannot say is named: trace() sees every object, so a shadowless one casts a shadow
     assert "APPROXIMATED ['1 object casting no shadow (they cast one here)']" in source and "EXACT []" in source
+    # glass and alpha: the twin's OSL is the documented (opaque) model, and says so
+    glass = next(line for line in source.splitlines() if line.startswith("GLASS"))
+    first = glass.rsplit(" ", 1)[1]
+    assert f"glass ({first}: transmission, opaque here)" in glass
+    assert f"partly transparent materials ({first}: alpha, opaque here)" in glass
