@@ -41,7 +41,8 @@ Alpha a mixes the whole BSDF with a Transparent BSDF: (1 - a) clear, the rest sc
 and glass weight g, the material's alpha is 1 - p, its transmission g / (1 - p), and the opaque lobes, divided by their
 share 1 - p - g, are the documented material the tracer weighs by alpha (1 - transmission). The format tints the
 refracted light by color: the glass's tint where no opaque diffuse shows, else the opaque colour (named where they
-differ). Rough glass is sharp (named). Subsurface, coat, sheen, thin film, normal and bump maps, and volumes are named
+differ). Rough glass is sharp (named). A Mix Shader switched by Light Path's Is Camera Ray or Is Shadow Ray takes the
+factor camera rays see, for every ray (named). Subsurface, coat, sheen, thin film, normal and bump maps, and volumes are named
 and rendered as the opaque base. With no node tree the Viewport Display colour is the colour.
 The add-on's own materials (materials.py) convert back to exactly the values the panel holds.
 """
@@ -530,7 +531,9 @@ def _shader(socket, material, notes: list[str], depth: int = 0) -> _Lobes:
             _shader(node.inputs[1], material, notes, depth + 1)
         )
     if kind == "ShaderNodeMixShader":
-        factor = min(1.0, max(0.0, value_input(node.inputs[0], f"{node.name} Fac", notes)))
+        factor = _ray_switch(node, notes)
+        if factor is None:
+            factor = min(1.0, max(0.0, value_input(node.inputs[0], f"{node.name} Fac", notes)))
         first = _shader(node.inputs[1], material, notes, depth + 1).scaled(1.0 - factor)
         return first.plus(_shader(node.inputs[2], material, notes, depth + 1).scaled(factor))
     lobes = _Lobes()
@@ -543,6 +546,16 @@ def _shader(socket, material, notes: list[str], depth: int = 0) -> _Lobes:
         notes.append(f"{node.bl_label}: grey diffuse")
     lobes.given = list(lobes.diffuse)
     return lobes
+
+
+def _ray_switch(mix, notes: list[str]) -> float | None:
+    """A Mix Shader's factor from Light Path's Is Camera Ray (1 for camera rays) or Is Shadow Ray (0 for them): the
+    factor camera rays see, for every ray (named: e.g. glass whose shadow Cycles lets through); None otherwise."""
+    node, output = _source(mix.inputs[0])
+    if node is None or node.bl_idname != "ShaderNodeLightPath" or output.name not in ("Is Camera Ray", "Is Shadow Ray"):
+        return None
+    notes.append(f"Light Path {output.name} on {mix.name}: the shader camera rays see, for every ray")
+    return 1.0 if output.name == "Is Camera Ray" else 0.0
 
 
 def material_output(tree):

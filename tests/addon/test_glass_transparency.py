@@ -171,6 +171,22 @@ def test_glass_mixed_with_diffuse_and_with_transparent() -> None:
     assert notes == [] and document["alpha"] == pytest.approx(0.5) and document["transmission"] == 1.0
 
 
+@pytest.mark.parametrize("switch", ["Is Shadow Ray", "Is Camera Ray"])
+def test_a_light_path_switch_on_a_mix_is_what_camera_rays_see_named(switch: str) -> None:
+    """Mix (glass, transparent) by Is Shadow Ray: glass whose shadow Cycles lets through; camera rays see glass (the
+    factor 0). By Is Camera Ray: camera rays see the second shader (the factor 1)."""
+    material, (glass, _, mix) = mixed("ShaderNodeBsdfGlass", "ShaderNodeBsdfTransparent", 0.5)
+    glass.inputs["IOR"].default_value = 1.5
+    path = material.node_tree.nodes.new("ShaderNodeLightPath")
+    material.node_tree.links.new(path.outputs[switch], mix.inputs[0])
+    document, notes = material_convert.convert_material(material)
+    if switch == "Is Shadow Ray":
+        assert document["transmission"] == 1.0 and "alpha" not in document
+    else:
+        assert document["alpha"] == 0.0
+    assert notes == [f"Light Path {switch} on {mix.name}: the shader camera rays see, for every ray"]
+
+
 def test_transparent_shadows_off_is_named() -> None:
     """Cycles' Transparent Shadows switch: 3.x in the material's Cycles settings, 4.2+ on the material."""
     material, _ = principled(Alpha=0.5)
