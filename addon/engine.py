@@ -7,6 +7,8 @@ pool band by band with progress and cancel, and hands the linear float image to 
 
 from __future__ import annotations
 
+import time
+
 import bpy
 import numpy as np
 
@@ -24,6 +26,10 @@ _turning: dict[
     int, object
 ] = {}  # per pool: the last scene's pixels that the vane can change (tracer/frames/incremental.py)
 
+
+# the least time between two writes of F12's bands into Blender's result (each makes Blender redraw its display
+# of the render; a full-HD frame's 36 bands finish about 30 ms apart with 2 workers)
+WRITE_SECONDS = 0.25
 
 _closing = [False]  # set while the add-on is disabled or Blender quits: no pool is started again
 
@@ -149,23 +155,38 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         shown = np.zeros((height, width, 4), dtype=np.float32)
         shown[..., 3] = 1.0
         render_result = self.begin_result(0, 0, width, height)
+        unwritten = np.zeros(height, dtype=bool)  # Blender's rows traced but not yet in the result
+        last_write = [-np.inf]
 
-        def band_done(image: np.ndarray, rows: np.ndarray) -> None:
-            shown[height - 1 - rows, :, :3] = image[rows]
+        def write_bands() -> None:
+            """The rows traced since the last write into Blender's result. Where a pass takes an array (Blender
+            4+), the frame in one call; in Blender 3.4 each run of those rows (a band deals blocks of rows over the
+            frame) as a result of its own, so every pixel goes in once (a whole frame for each band: 62 s at
+            1920x1080 with lists)."""
+            last_write[0] = time.perf_counter()
+            if not unwritten.any():
+                return
             if _fast_write(render_result):
                 _write(render_result, shown)
                 self.update_result(render_result)
+                unwritten[:] = False
                 return
-            # Blender 3.4 has no foreach_set on a pass: each run of the band's rows (a band deals blocks of rows
-            # over the frame) goes into a result of its own, so the work grows with the pixels, not with bands x
-            # pixels (the whole frame as a list each band: 62 s at 1920x1080); the whole frame once, at the end
-            lines = np.sort(height - 1 - rows)
+            lines = np.flatnonzero(unwritten)
+            unwritten[:] = False
             breaks = np.flatnonzero(np.diff(lines) != 1) + 1
             for run in np.split(lines, breaks):
                 bottom, count = int(run[0]), len(run)
                 band_result = self.begin_result(0, bottom, width, count)
                 _write(band_result, shown[bottom : bottom + count])
                 self.end_result(band_result)
+
+        def band_done(image: np.ndarray, rows: np.ndarray) -> None:
+            shown[height - 1 - rows, :, :3] = image[rows]
+            unwritten[height - 1 - rows] = True
+            # at most one write every WRITE_SECONDS: each write costs Blender a redraw of the render's display (a
+            # full-HD frame's 36 bands come 30 ms apart here); the first band at once, the rest at the end
+            if time.perf_counter() - last_write[0] >= WRITE_SECONDS:
+                write_bands()
 
         def stop_if_cancelled() -> None:  # while the workers prepare a large scene, before any band is done
             if cancelled(self):
@@ -180,6 +201,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             result = turning.render(renderer, scene, progress, band_done)
         except (RenderCancelledError, pool.PoolClosedError):  # Esc, or Blender quitting (its pools closed)
             # the bands finished before the cancel: in the frame's result, or (Blender 3.4) in results of their own
+            write_bands()
             self.end_result(render_result, cancel=not _fast_write(render_result))
             return
         except (resources.ResourceError, pool.WorkerLostError, pool.TaskFailedError) as error:
@@ -192,6 +214,8 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         final = np.flipud(result.image).astype(np.float32)  # Blender's rows go bottom-up
         alpha = getattr(result, "alpha", None)
         fast = _fast_write(render_result)
+        if not fast:
+            write_bands()  # the bands since the last write (Blender 4+ takes the whole frame below)
         if alpha is None and not fast and not result.passes and np.array_equal(shown[..., :3], final):
             # every pixel went in with its band already (Blender 3.4's lists): no second conversion of the frame
             self.end_result(render_result, cancel=True)
@@ -278,12 +302,72 @@ def _fast_write(render_result) -> bool:
 
 
 def _write(render_result, rgba: np.ndarray) -> None:
-    """A (height, width, 4) float32 image into the render result's Combined pass."""
+    """A (height, width, 4) float32 image, rows bottom-up, into the render result's Combined pass: in one
+    foreach_set where a pass takes it (Blender 4+); in Blender 3.4 through a file that Blender reads itself
+    (RenderLayer.load_from_file of an uncompressed float OpenEXR, the way external engines hand over their images),
+    since a list of its pixels costs Blender 3.4 about 0.7 us a pixel (1.5 s of a 1920x1080 F12's 2 s, headless or
+    in the window) and the file about 0.1 us; a list where the file cannot be read."""
     combined = render_result.layers[0].passes["Combined"]
     if _fast_write(render_result):
         combined.rect.foreach_set(rgba.ravel())
-    else:
-        combined.rect = rgba.reshape(-1, 4).tolist()
+        return
+    import contextlib
+    import os
+    import tempfile
+
+    handle, path = tempfile.mkstemp(suffix=".exr", prefix="weathervane-")
+    try:
+        with os.fdopen(handle, "wb") as file:
+            file.write(exr_bytes(np.flipud(rgba)))  # an EXR's lines go top-down, Blender's rows bottom-up
+        render_result.layers[0].load_from_file(path)
+    except (OSError, RuntimeError):  # no room for the file, or Blender could not read it
+        _write_list(combined, rgba)
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(path)
+
+
+def _write_list(combined, rgba: np.ndarray) -> None:
+    """The pixels as a list, which every Blender takes (3.4's slow path: about 0.7 us a pixel)."""
+    combined.rect = rgba.reshape(-1, 4).tolist()
+
+
+_EXR_CHANNELS = "ABGR"  # an EXR's channels go in alphabetical order, each line's values channel by channel
+
+
+def exr_bytes(rgba: np.ndarray) -> bytes:
+    """A (height, width, 4) float image, rows top-down, as a single-part scanline OpenEXR file: 32-bit float R, G,
+    B, A, no compression, one line per block, the data window (0, 0)-(width - 1, height - 1)."""
+    height, width = rgba.shape[:2]
+
+    def attribute(name: str, kind: str, value: bytes) -> bytes:
+        return name.encode() + b"\0" + kind.encode() + b"\0" + np.int32(len(value)).tobytes() + value
+
+    channel = np.array([2, 0, 1, 1], dtype="<i4").tobytes()  # FLOAT, pLinear 0 (and 3 reserved bytes), x/y sampling 1
+    channels = b"".join(name.encode() + b"\0" + channel for name in _EXR_CHANNELS) + b"\0"
+    window = np.array([0, 0, width - 1, height - 1], dtype="<i4").tobytes()
+    header = b"".join(
+        [
+            np.array([20000630, 2], dtype="<i4").tobytes(),  # magic number; version 2, single-part scanline
+            attribute("channels", "chlist", channels),
+            attribute("compression", "compression", b"\0"),
+            attribute("dataWindow", "box2i", window),
+            attribute("displayWindow", "box2i", window),
+            attribute("lineOrder", "lineOrder", b"\0"),  # increasing y
+            attribute("pixelAspectRatio", "float", np.float32(1).tobytes()),
+            attribute("screenWindowCenter", "v2f", np.zeros(2, dtype="<f4").tobytes()),
+            attribute("screenWindowWidth", "float", np.float32(1).tobytes()),
+            b"\0",
+        ]
+    )
+    line = np.dtype([("y", "<i4"), ("size", "<i4"), ("values", "<f4", (4, width))])
+    lines = np.empty(height, dtype=line)
+    lines["y"] = np.arange(height)
+    lines["size"] = 4 * 4 * width
+    lines["values"] = rgba[..., [3, 2, 1, 0]].transpose(0, 2, 1)  # each line: A, then B, G, R of every pixel
+    start = len(header) + 8 * height  # after the table of each line's offset in the file
+    offsets = (start + line.itemsize * np.arange(height, dtype="<u8")).astype("<u8")
+    return header + offsets.tobytes() + lines.tobytes()
 
 
 CLASSES = (WEATHERVANE_RE_tracer,)

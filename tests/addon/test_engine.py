@@ -223,10 +223,12 @@ def test_the_engines_workers_are_started_afresh_not_forked_from_blender(tmp_path
     assert np.abs(read_exr(tmp_path / "two.exr") - expected).max() < 1e-4
 
 
-def test_f12_writes_each_band_once_where_blender_takes_only_lists(tmp_path: Path, monkeypatch) -> None:
-    """Where a pass takes only lists (Blender 3.4), F12 converts each band's rows once, not the whole frame per
+@pytest.mark.parametrize("seconds", [0.0, 1e9], ids=["every-band", "first-and-last"])
+def test_f12_writes_each_band_once_where_blender_takes_only_lists(tmp_path: Path, monkeypatch, seconds: float) -> None:
+    """Where a pass takes only lists (Blender 3.4), F12 hands each band's rows over once, not the whole frame per
     band (62 s at 1920x1080 before), and the image is still the tracer's; where foreach_set works, the frame is
-    written as before. Counted in numbers handed to the render results, not timed."""
+    written whole. Bands go into the result at most every WRITE_SECONDS: with 0 after every band, with a long time
+    the first band at once and the rest at the end. Counted in numbers handed to the render results, not timed."""
     from addon import engine
     from tracer.workers.parallel import bands
 
@@ -235,15 +237,34 @@ def test_f12_writes_each_band_once_where_blender_takes_only_lists(tmp_path: Path
     written = []
     write = engine._write
     monkeypatch.setattr(engine, "_write", lambda result, rgba: written.append(rgba.size) or write(result, rgba))
+    monkeypatch.setattr(engine, "WRITE_SECONDS", seconds)
+    lists = []  # Blender 3.4 reads the bands' files: no pixel goes over as a list
+    monkeypatch.setattr(engine, "_write_list", lambda combined, rgba: lists.append(rgba.size))
     assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    assert not lists
     expected = render(default_scene().with_render(width=64, height=48), workers=1).image
     assert np.abs(read_exr(tmp_path / "engine.exr") - expected).max() < 1e-4
     count = len(bands(default_scene().with_render(width=64, height=48).render))
     assert count > 1
+    frame = 64 * 48 * 4
     if engine._FAST_WRITE == [False]:
-        assert sum(written) == 64 * 48 * 4  # every pixel once, in its band's results; no second frame
+        assert sum(written) == frame  # every pixel once, in its band's results; no second frame
     else:
-        assert sum(written) == (count + 1) * 64 * 48 * 4  # the frame after each band and at the end
+        assert written == [frame] * (count + 1 if seconds == 0 else 2)  # the frame after bands, and at the end
+
+
+def test_an_image_handed_over_as_an_openexr_file_is_read_by_blender_exactly(tmp_path: Path) -> None:
+    """Blender 3.4's F12 hands its bands over as float OpenEXR files (engine.exr_bytes): Blender's own reader gives
+    back every float, the top row first in the file and last in Blender's bottom-up pixels."""
+    from addon import engine
+
+    rgba = np.random.default_rng(5).normal(0.5, 2.0, (7, 11, 4)).astype(np.float32)  # negative and above 1 too
+    (tmp_path / "band.exr").write_bytes(engine.exr_bytes(rgba))
+    image = bpy.data.images.load(str(tmp_path / "band.exr"))
+    assert tuple(image.size) == (11, 7) and image.is_float
+    pixels = np.empty(7 * 11 * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    assert np.array_equal(np.flipud(pixels.reshape(7, 11, 4)), rgba)
 
 
 @pytest.mark.parametrize("evaluated", [True, False], ids=["evaluated", "script-edit-then-f12"])
