@@ -833,10 +833,13 @@ def scene_document(
     }
     if blender_scene.camera is not None:
         document["camera"] = camera_module.to_tracer(blender_scene.camera.evaluated_get(depsgraph))
+    glass = any(material.get("transmission", 0.0) > 0.0 for material in materials.values())
+    cycles = getattr(blender_scene, "cycles", None)
+    if glass and getattr(cycles, "caustics_refractive", False):  # Cycles' default; the format's rule is caustics off
+        notes.approximated.append("Refractive Caustics: glass's shadow opaque")
     if render.film_transparent:
         document["render"]["film_transparent"] = True
-        glass = any(material.get("transmission", 0.0) > 0.0 for material in materials.values())
-        if glass and getattr(getattr(blender_scene, "cycles", None), "film_transparent_glass", False):
+        if glass and getattr(cycles, "film_transparent_glass", False):
             notes.approximated.append("Film > Transparent Glass: glass opaque in the alpha")
     if int(settings.shadow_samples) > 1:  # lights of a size sampled over their surface (1: as before: not written)
         document["render"]["shadow_samples"] = int(settings.shadow_samples)

@@ -522,6 +522,10 @@ def test_the_scene_document_carries_the_fields_the_tracer_loads() -> None:
     notes = export.ExportNotes()
     export.scene_document(bpy.context, notes=notes)
     assert notes.line().startswith("Film > Transparent Glass: glass opaque in the alpha; approximated: 1 material")
+    bpy.context.scene.cycles.caustics_refractive = True  # Cycles' default: light through glass into its shadow
+    notes = export.ExportNotes()
+    export.scene_document(bpy.context, notes=notes)
+    assert notes.line().startswith("Refractive Caustics: glass's shadow opaque; Film > Transparent Glass")
     by_name = {name.split(":", 1)[-1]: material for name, material in scene.materials.items()}
     assert by_name["glassy"].transmission == 1.0 and by_name["glassy"].ior == 1.45 and by_name["glassy"].alpha == 1.0
     assert by_name["principled"].alpha == 0.25 and by_name["principled"].transmission == 0.0
