@@ -42,8 +42,8 @@ and glass weight g, the material's alpha is 1 - p, its transmission g / (1 - p),
 share 1 - p - g, are the documented material the tracer weighs by alpha (1 - transmission). The format tints the
 refracted light by color: the glass's tint where no opaque diffuse shows, else the opaque colour (named where they
 differ). Rough glass is sharp (named). A Mix Shader switched by Light Path's Is Camera Ray or Is Shadow Ray takes the
-factor camera rays see, for every ray (named). Subsurface, coat, sheen, thin film, normal and bump maps, and volumes are named
-and rendered as the opaque base. With no node tree the Viewport Display colour is the colour.
+factor camera rays see, for every ray (named). Subsurface, coat, sheen, thin film, normal and bump maps, and volumes
+are named and rendered as the opaque base. With no node tree the Viewport Display colour is the colour.
 The add-on's own materials (materials.py) convert back to exactly the values the panel holds.
 """
 
@@ -399,6 +399,8 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
         lobes.add_glass(glass, base, ior)
         if compat.principled_transmission_roughness(node, roughness) > 0.0:
             notes.append("rough transmission: sharp")
+        if "Specular IOR Level" in node.inputs and abs(level - 0.5) > 1e-6:  # 4.0+: it scales the glass's Fresnel too
+            notes.append("Specular IOR Level on transmission: the IOR's own reflection")
         if texture is not None:
             notes.append("image texture on transmission: its mean colour")
     emission = color_input(compat.principled_socket(node, "emission"), material, "Emission", notes)

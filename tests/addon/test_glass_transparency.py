@@ -115,6 +115,12 @@ def test_principled_transmission_is_the_glass_share_of_what_metallic_leaves(meta
         assert document["color"] == pytest.approx([0.2, 0.8, 0.4], rel=1e-6) and notes == []
     node.inputs["Roughness"].default_value = 0.5
     assert "rough transmission: sharp" in material_convert.convert_material(material)[1]
+    if "Specular IOR Level" in node.inputs:  # 4.0+: the level scales the glass's reflection too
+        node.inputs["Specular IOR Level"].default_value = 0.8
+        assert (
+            "Specular IOR Level on transmission: the IOR's own reflection"
+            in material_convert.convert_material(material)[1]
+        )
 
 
 def test_principled_alpha_is_the_coverage_and_leaves_the_rest_as_it_was() -> None:
