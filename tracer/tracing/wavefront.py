@@ -184,6 +184,23 @@ class PreparedScene:
         self.has_alpha = self.scene.has_alpha
         self.channels = self.scene.channels  # colour, alpha where the scene has one, then the passes'
         self._materials(objects)
+        # where shadow rays pass partly transparent surfaces: the objects that block them whole (every material of
+        # theirs has alpha 1), so that _shadow_through follows only the rays they leave open
+        self.opaque_shadows = None
+        if self.shadow_alpha:
+            opaque = self._opaque_objects(len(objects))
+            chosen = [
+                (owner, kernel)
+                for owner, kernel in leaves
+                if objects[owner].visible_shadow
+                and all(opaque[member] for member in getattr(kernel, "members", np.array([owner])).tolist())
+            ]
+            if chosen:
+                frames = None if frame_of is None else [frame_of[owner] for owner, _ in chosen]
+                kernels, seen = [kernel for _, kernel in chosen], [owner for owner, _ in chosen]
+                self.opaque_shadows = Hierarchy(kernels, self.dtype, seen, moving, frames)
+                if getattr(self, "_samples", None) is not None:
+                    self.opaque_shadows.choose_brute(*self._samples)
         if settings.passes:  # what the passes read of the placed objects and the material rows (recorder.py)
             self.object_names = [obj.name for obj in objects]
             self.object_pass_index = np.asarray([obj.pass_index for obj in objects], dtype=self.dtype)
@@ -469,6 +486,17 @@ class PreparedScene:
             self.alpha = np.asarray([m.alpha for m in table], dtype=self.dtype)
             self.transmission = np.asarray([m.transmission for m in table], dtype=self.dtype)
             self.ior = np.asarray([m.ior for m in table], dtype=self.dtype)
+
+    def _opaque_objects(self, count: int) -> list[bool]:
+        """Whether each placed object's materials (a mesh's every triangle's) all have alpha 1."""
+        opaque = []
+        for index in range(count):
+            if index in self.triangle_materials:
+                rows = self.triangle_materials[index]
+            else:
+                rows = np.array([index if self.object_material is None else self.object_material[index]])
+            opaque.append(bool(np.all(self.alpha.take(rows) >= 1.0)))
+        return opaque
 
     def _smooth_normals(self, objects: tuple[sc.SceneObject, ...], primitives: list, vanes: list) -> None:
         """For each mesh with corner normals: its triangles' v0, e1, e2 and corner normals n0, n1, n2 (3, T) each,
@@ -1437,6 +1465,12 @@ class PreparedScene:
             limit = np.full(rows.size, light.t_max, dtype=self.dtype)
             share = np.ones(rows.size, dtype=self.dtype)
             live = np.arange(rows.size)
+            if self.opaque_shadows is not None:  # an object that blocks whole on the way: 0, whatever else is there
+                query = None if frames is None else RayFrames.of(rows, frames)
+                _tally(counts, "shadow", rows.size, query)
+                whole = self.opaque_shadows.occluded(origin, vector, t_min, light.t_max, frames=query)
+                share[whole] = 0.0
+                live = indices(~whole)
             for layer in range(sc.TRANSPARENT_BOUNCES + 1):
                 if not live.size:
                     break
