@@ -1,6 +1,6 @@
 """View Layer > Passes -> the tracer's passes to trace, Blender's passes to register, and the traced passes written
 into a render result (Blender's names: Depth, Mist, Normal, Position, IndexOB, IndexMA, DiffDir, GlossDir, Emit,
-Env, Shadow, CryptoObject00..., CryptoMaterial00...; Ambient and Reflection as the engine's own)."""
+Env, Shadow, CryptoObject00..., CryptoMaterial00...; Ambient, Reflection and Transmission as the engine's own)."""
 
 from __future__ import annotations
 
@@ -37,6 +37,7 @@ PASSES = (
     BlenderPass("emission", "use_pass_emit", "Emit", "RGB", "COLOR"),
     BlenderPass("reflection", "use_pass_reflection", "Reflection", "RGB", "COLOR", own=True),
     BlenderPass("environment", "use_pass_environment", "Env", "RGB", "COLOR"),
+    BlenderPass("transmission", "use_pass_transmission", "Transmission", "RGB", "COLOR", own=True),
     BlenderPass("shadow", "use_pass_shadow", "Shadow", "RGB", "COLOR"),  # EEVEE's is RGB: the share, grey
     BlenderPass("cryptomatte_object", "use_pass_cryptomatte_object", "CryptoObject", "RGBA", "COLOR"),
     BlenderPass("cryptomatte_material", "use_pass_cryptomatte_material", "CryptoMaterial", "RGBA", "COLOR"),

@@ -355,13 +355,19 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         name="Ambient",
         default=False,
         description="Ambient pass: the ambient lights' share of the image (ambient times colour times 1 - "
-        "reflectivity); with Diffuse, Glossy, Emission, Reflection and Environment it adds up to Combined",
+        "reflectivity); with the other light passes (not Shadow) it adds up to Combined",
     )
     use_pass_reflection: BoolProperty(
         name="Reflection",
         default=False,
         description="Reflection pass: what the mirror rays bring back (the reflected surfaces' shading and their "
         "emission, weighted by reflectivity)",
+    )
+    use_pass_transmission: BoolProperty(
+        name="Transmission",
+        default=False,
+        description="Transmission pass: what the rays through glass (refracted) and through transparency (straight "
+        "on) bring back, weighted; with the other light passes it adds up to Combined",
     )
 
 

@@ -173,7 +173,7 @@ class WEATHERVANE_RENDER_PT_conversion(TracerPanel, bpy.types.Panel):
 
 class WEATHERVANE_VIEWLAYER_PT_passes(TracerPanel, bpy.types.Panel):
     """View Layer > Passes for the tracer: Blender's own boxes for what it makes (its data passes, the light passes
-    that are terms of the documented model, Cryptomatte), and its Ambient and Reflection passes."""
+    that are terms of the documented model, Cryptomatte), and its Ambient, Reflection and Transmission passes."""
 
     bl_label = "Passes"
     bl_context = "view_layer"
@@ -196,6 +196,7 @@ class WEATHERVANE_VIEWLAYER_PT_passes(TracerPanel, bpy.types.Panel):
         column.prop(view_layer, "use_pass_emit", text="Emission")
         column.prop(settings, "use_pass_reflection")
         column.prop(view_layer, "use_pass_environment")
+        column.prop(settings, "use_pass_transmission")
         column.prop(view_layer, "use_pass_shadow")
         column = layout.column(heading="Cryptomatte", align=True)
         column.prop(view_layer, "use_pass_cryptomatte_object", text="Object")

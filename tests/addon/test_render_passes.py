@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-WHITTED = ("Ambient", "DiffDir", "GlossDir", "Emit", "Reflection", "Env")
+WHITTED = ("Ambient", "DiffDir", "GlossDir", "Emit", "Reflection", "Env", "Transmission")
 # Reads a multilayer EXR (single- or multi-part) into {channel: (H, W) float32} plus the header's text fields.
 READER = """
 import json, sys
@@ -68,6 +68,18 @@ def plane_and_cube_scene() -> bpy.types.Scene:
     return scene
 
 
+def add_glass_ball(location: tuple[float, float, float]) -> None:
+    """A glass ball (Principled Transmission 1, IOR 1.45) of radius 0.5."""
+    from addon import compat
+
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=location)
+    material = bpy.data.materials.new("glass")
+    compat.enable_nodes(material)
+    principled = next(node for node in material.node_tree.nodes if node.bl_idname == "ShaderNodeBsdfPrincipled")
+    compat.principled_input(principled, "transmission").default_value = 1.0
+    bpy.context.object.data.materials.append(material)
+
+
 def tick(scene: bpy.types.Scene, *flags: str) -> None:
     view_layer = scene.view_layers[0]
     for flag in flags:
@@ -88,6 +100,8 @@ def test_ticked_passes_hold_the_scenes_distances_normals_indices_and_add_up_to_c
     tick(scene, "use_pass_z", "use_pass_normal", "use_pass_object_index", "use_pass_material_index", "use_pass_mist")
     tick(scene, "use_pass_diffuse_direct", "use_pass_glossy_direct", "use_pass_emit", "use_pass_environment")
     scene.weathervane.use_pass_ambient = scene.weathervane.use_pass_reflection = True
+    scene.weathervane.use_pass_transmission = True
+    add_glass_ball(location=(1.8, 1.2, 0.5))  # off the pixels checked below: the Transmission pass has a share
     scene.world.mist_settings.start, scene.world.mist_settings.depth = 1.0, 10.0
     scene.world.mist_settings.falloff = "LINEAR"
     bpy.ops.render.render()
@@ -109,6 +123,8 @@ def test_ticked_passes_hold_the_scenes_distances_normals_indices_and_add_up_to_c
     for letter in "RGB":
         total = sum(channels[f"ViewLayer.{name}.{letter}"].astype(np.float64) for name in WHITTED)
         assert np.allclose(total, channels[f"ViewLayer.Combined.{letter}"], atol=2e-6), letter
+    transmitted = channels["ViewLayer.Transmission.G"]
+    assert (transmitted > 0.01).sum() > 10 and transmitted[24, 32] == 0.0  # the ball's pixels, not the cube's
 
 
 def test_cryptomatte_picks_each_object_as_its_coverage(tmp_path: Path) -> None:
