@@ -323,3 +323,189 @@ def test_random_textured_scenes_match_the_reference(seed: int) -> None:
 @pytest.mark.parametrize("seed", range(6))
 def test_random_textured_scene_passes_match_the_reference(seed: int) -> None:
     check_against_reference(scene_from_dict(with_passes(textured_scene_document(seed), seed, samples=(1, 4)[seed % 2])))
+
+
+# ---- procedural textures: Checker and Gradient (with a colour ramp) ------------------------------------------------
+
+
+def checker_expected(u: np.ndarray, v: np.ndarray, scale: float, one, two) -> np.ndarray:
+    """Cycles' svm_checker written out on its own: p = (u, v, 0) scale nudged by (p + 1e-6) 0.999999, |floor| of
+    each, color1 where (xi % 2 == yi % 2) == (zi % 2)."""
+    xi, yi, zi = (np.abs(np.floor((c * scale + 1e-6) * 0.999999)).astype(np.int64) for c in (u, v, np.zeros_like(u)))
+    first = (xi % 2 == yi % 2) == (zi % 2 == 1)
+    return np.where(first[..., None], np.asarray(one, dtype=np.float64), np.asarray(two, dtype=np.float64))
+
+
+@pytest.mark.parametrize(("scale", "uv_scale", "uv_offset"), [(5.0, 1.0, 0.0), (3.7, 2.7, -0.8), (-2.5, 1.0, 0.1)])
+def test_a_checker_is_cycles_svm_checker_on_the_uv(scale: float, uv_scale: float, uv_offset: float) -> None:
+    one, two = [0.9, 0.2, 0.1], [0.1, 0.3, 0.8]
+    texture = {"checker": {"color1": one, "color2": two, "scale": scale}}
+    image = render(scene_from_dict(quad_document(texture, uv_scale, uv_offset)), workers=1).image
+    u, v = pixel_uvs(uv_scale, uv_offset)
+    expected = checker_expected(u, v, scale, one, two)
+    assert np.array_equal(image, expected)
+    share = np.mean(np.all(image == np.float64(one), axis=2))
+    assert 0.3 < share < 0.7  # both colours show
+
+
+def test_a_checker_of_scale_5_has_5_cells_a_side_and_color2_at_the_origin() -> None:
+    texture = {"checker": {"color1": [1, 1, 1], "color2": [0, 0, 0]}}  # Blender's default scale, 5
+    image = render(scene_from_dict(quad_document(texture)), workers=1).image[..., 0]
+    cell = SIZE // 6  # 48 pixels, 5 cells: the pixel centres at 4.8 k + 2.4 are well inside cell k
+    centres = (np.arange(5) * SIZE / 5 + SIZE / 10).astype(int)
+    assert cell > 0
+    rows = image[SIZE - 1 - centres][:, centres]  # rows from the bottom (v = 0) up, columns from u = 0
+    assert np.array_equal(rows, (np.add.outer(np.arange(5), np.arange(5)) % 2).astype(float))
+
+
+def gradient_expected(kind: str, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Cycles' svm_gradient of (x, y, 0), saturated, written out on its own."""
+    formulas = {
+        "linear": lambda: x,
+        "quadratic": lambda: np.clip(x, 0, None) ** 2,
+        "easing": lambda: 3 * np.clip(x, 0, 1) ** 2 - 2 * np.clip(x, 0, 1) ** 3,
+        "diagonal": lambda: (x + y) / 2,
+        "radial": lambda: np.arctan2(y, x) / (2 * np.pi) + 0.5,
+        "quadratic_sphere": lambda: np.clip(0.999999 - np.hypot(x, y), 0, None) ** 2,
+        "spherical": lambda: np.clip(0.999999 - np.hypot(x, y), 0, None),
+    }
+    return np.clip(formulas[kind](), 0.0, 1.0)
+
+
+@pytest.mark.parametrize(
+    "kind", ["linear", "quadratic", "easing", "diagonal", "radial", "quadratic_sphere", "spherical"]
+)
+def test_a_gradient_is_cycles_svm_gradient_on_the_uv_grey_by_default(kind: str) -> None:
+    image = render(scene_from_dict(quad_document({"gradient": {"type": kind}}, 2.4, -1.2)), workers=1).image
+    expected = gradient_expected(kind, *pixel_uvs(2.4, -1.2))
+    assert np.abs(image - expected[..., None]).max() <= 1e-12
+    assert expected.max() - expected.min() > 0.5  # the gradient shows
+
+
+def test_a_gradient_through_a_colour_ramp_linear_and_constant() -> None:
+    positions, colors = [0.2, 0.5, 0.5, 0.9], np.asarray([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], float)
+    stops = [[p, c] for p, c in zip(positions, colors.tolist(), strict=True)]
+    f = gradient_expected("diagonal", *pixel_uvs(1.2, -0.1))
+    for interpolation in ("linear", "constant"):
+        texture = {"gradient": {"type": "diagonal", "stops": stops, "interpolation": interpolation}}
+        image = render(scene_from_dict(quad_document(texture, 1.2, -0.1)), workers=1).image
+        if interpolation == "linear":  # piecewise linear between the stops, the end colours beyond them
+            below = f < 0.5
+            expected = np.stack(
+                [np.where(below, np.interp(f, positions[:2], colors[:2, k]), np.interp(f, positions[2:], colors[2:, k]))
+                 for k in range(3)], axis=-1)  # fmt: skip
+        else:  # the last stop at or below f; before the first, the first
+            expected = colors[np.maximum(np.searchsorted(positions, f, side="right") - 1, 0)]
+        away = np.min(np.abs(f[..., None] - np.asarray(positions)), axis=-1) > 1e-9  # the hit's UV is rounded
+        assert np.abs(image - expected)[away].max() <= 1e-12, interpolation
+        shown = len({tuple(c) for c in image.reshape(-1, 3).round(6).tolist()})
+        assert shown >= (3 if interpolation == "constant" else 50)  # constant: green (at 0.5 with blue) never shows
+
+
+PROCEDURAL = "materials.tex.texture"  # the path the messages below start with
+STOPS = "must be a non-empty list of colour ramp stops"
+
+
+@pytest.mark.parametrize(
+    ("texture", "message"),
+    [
+        ({"checker": {"color1": [2, 0, 0]}}, ".checker.color1[0]: must be <= 1, got 2"),
+        ({"checker": {"scale": "big"}}, ".checker.scale: must be a number"),
+        ({"checker": {"colour": [1, 0, 0]}}, ".checker.colour: is not a known field"),
+        ({"checker": 5}, ".checker: must be an object, got number 5"),
+        ({"checker": {}, "pixels": TEXELS}, ': must give "checker" alone: a procedural texture has no "pixels"'),
+        ({"gradient": {"type": "ease"}}, '.gradient.type: must be one of "linear"'),
+        ({"gradient": {"interpolation": "ease"}}, '.gradient.interpolation: must be one of "linear", "constant"'),
+        ({"gradient": {"stops": []}}, f".gradient.stops: {STOPS}"),
+        ({"gradient": {"stops": [[0.5, [1, 1, 1]], [0.2, [0, 0, 0]]]}}, f".gradient.stops[1]: {STOPS} [position, [r, "),
+        ({"gradient": {"stops": [[1.5, [1, 1, 1]]]}}, ".gradient.stops[0]: must be <= 1, got 1.5"),
+        (
+            {"gradient": {"stops": [[0.5, [1, 1]]]}},
+            ".gradient.stops[0][1]: must be a colour [r, g, b], got a list of 2",
+        ),
+        ({"gradient": {"stops": [0.5]}}, f".gradient.stops[0]: {STOPS}"),
+    ],
+)
+def test_the_loader_names_each_problem_of_a_procedural_texture(texture: dict, message: str) -> None:
+    with pytest.raises(SceneError) as raised:
+        scene_from_dict(quad_document(texture))
+    assert any(line.startswith(PROCEDURAL + message) for line in raised.value.problems), raised.value.problems
+
+
+def procedural_scene_document(seed: int, width: int = 16, height: int = 12) -> dict[str, Any]:
+    """textured_scene_document(seed) with some of its textures (and emission textures) replaced by checkers and
+    gradients of random colours, scales, types and ramps (their own random stream)."""
+    document = textured_scene_document(seed, width, height)
+    rng = random.Random(30_000 + seed)
+
+    def colour() -> list[float]:
+        return [rng.random() for _ in range(3)]
+
+    def procedural() -> dict[str, Any]:
+        if rng.random() < 0.5:
+            return {"checker": {"color1": colour(), "color2": colour(), "scale": rng.choice([5.0, rng.uniform(-9, 9)])}}
+        positions = sorted(rng.choice([0.0, 0.5, 1.0, rng.random()]) for _ in range(rng.randrange(1, 5)))
+        gradient: dict[str, Any] = {"type": rng.choice(["linear", "quadratic", "easing", "diagonal", "radial",
+                                                        "quadratic_sphere", "spherical"])}  # fmt: skip
+        if rng.random() < 0.8:
+            gradient["stops"] = [[p, colour()] for p in positions]
+            gradient["interpolation"] = rng.choice(["linear", "constant"])
+        return {"gradient": gradient}
+
+    for name, material in document["materials"].items():
+        for field in ("texture", "emission_texture"):
+            if field in material and (name == "m0" or rng.random() < 0.7):
+                material[field] = procedural()
+    return document
+
+
+@pytest.mark.parametrize("seed", range(16))
+def test_random_procedural_scenes_match_the_reference(seed: int) -> None:
+    """The vectorized tracer and the per-pixel reference agree to 1e-9 on checkers and gradients."""
+    document = procedural_scene_document(seed)
+    scene = scene_from_dict(document)
+    assert any(m.texture is not None and m.texture.kind != "image" for m in scene.materials.values())
+    expected = np.asarray(render_reference(scene))
+    image = _with_alpha(render(scene, workers=1))
+    assert image.shape == expected.shape and np.all(np.isfinite(image))
+    np.testing.assert_allclose(image, expected, rtol=0, atol=1e-9)
+    plain = dict(document, materials={k: {f: x for f, x in m.items() if "texture" not in f}
+                                      for k, m in document["materials"].items()})  # fmt: skip
+    plain["render"].pop("border", None)
+    document["render"].pop("border", None)
+    differs = not np.array_equal(render(scene_from_dict(document), workers=1).image,
+                                 render(scene_from_dict(plain), workers=1).image)  # fmt: skip
+    assert differs or seed not in range(4)  # the first scenes show their textures
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_random_procedural_scenes_in_workers_and_their_passes(seed: int) -> None:
+    document = procedural_scene_document(seed, width=24, height=18)
+    document["render"]["samples"] = [1, 4][seed % 2]
+    plain = scene_from_dict(document)
+    names = tuple(name for name in ps.PASSES if not name.startswith("cryptomatte"))
+    expected, result = render(plain, workers=1), render(plain.with_render(passes=names), workers=2)
+    assert np.array_equal(result.image, expected.image)
+    check_against_reference(
+        scene_from_dict(with_passes(procedural_scene_document(seed), seed, samples=(1, 4)[seed % 2]))
+    )
+
+
+def test_procedural_scenes_follow_the_schema_and_it_refuses_a_checker_beside_pixels() -> None:
+    import json
+    from pathlib import Path
+
+    import jsonschema
+
+    schema = json.loads((Path(__file__).resolve().parents[1] / "docs" / "scene.schema.json").read_text())
+    validator = jsonschema.Draft202012Validator(schema)
+    for seed in range(6):
+        validator.validate(procedural_scene_document(seed))
+    for texture in (
+        {"checker": {}, "pixels": TEXELS},
+        {"gradient": {"stops": [[2, [1, 1, 1]]]}},
+        {"checker": {"x": 1}},
+    ):
+        assert not validator.is_valid(quad_document(texture)), texture
+        with pytest.raises(SceneError):
+            scene_from_dict(quad_document(texture))

@@ -27,6 +27,8 @@ LENGTH_RANGE = (1e-6, 1e9)  # metres: radii, heights, sizes
 ANGLE_LIMIT = 1e6  # degrees: rotations and headings, |a| at most
 DIRECTION_MIN_LENGTH = 1e-9  # a direction or axis shorter than this has no usable direction
 INTENSITY_MAX = 1e6
+TEXTURE_SCALE_MAX = 1e6  # a checker's scale, |s| at most (Blender's socket allows +-1000)
+RAMP_STOPS_MAX = 32  # a colour ramp's stops, at most (Blender's colour band holds 32)
 PASS_INDEX_MAX = 2**15 - 1  # Blender's pass_index range (a short)
 IOR_MAX = 1000.0  # Blender's IOR sockets stop at 1000
 MIST_FALLOFFS = ("QUADRATIC", "LINEAR", "INVERSE_QUADRATIC")  # Blender's World > Mist Pass > Falloff
@@ -287,6 +289,8 @@ def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
     ("image", relative to the scene file's folder), its colour space, interpolation and extension."""
     if reader is None:
         return None
+    if "checker" in reader.data or "gradient" in reader.data:
+        return _procedural_texture(reader)
     colorspace = reader.choice("colorspace", tx.COLORSPACES, "sRGB")
     interpolation = reader.choice("interpolation", sc.INTERPOLATIONS, "linear")
     extension = reader.choice("extension", sc.EXTENSIONS, "repeat")
@@ -327,6 +331,53 @@ def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
         return None
     linear.flags.writeable = False  # the texture keeps it, without a copy
     return sc.Texture(pixels=linear, interpolation=interpolation, extension=extension, source=source)
+
+
+def _procedural_texture(reader: _Reader) -> sc.Texture | None:
+    """A texture given as {"checker": {...}} or {"gradient": {...}} (Blender's Checker and Gradient Texture nodes on
+    the UV map; a gradient's colour ramp), alone in its object."""
+    kind = "checker" if "checker" in reader.data else "gradient"
+    inner = reader.reader(kind)
+    if len(reader.data) > 1:
+        others = ", ".join(json.dumps(key) for key in reader.data if key != kind)
+        reader.fail("", f'must give "{kind}" alone: a procedural texture has no {others}')
+    reader.seen.update(reader.data)
+    if inner is None:
+        reader.fail(kind, "must be an object, got null")
+        return None
+    if kind == "checker":
+        colors = (inner.color("color1", (0.8, 0.8, 0.8)), inner.color("color2", (0.2, 0.2, 0.2)))
+        scale = inner.number("scale", 5.0, low=-TEXTURE_SCALE_MAX, high=TEXTURE_SCALE_MAX)
+        inner.finish()
+        return sc.Texture(kind="checker", colors=colors, scale=scale)
+    gradient = inner.choice("type", sc.GRADIENTS, "linear")
+    ramp = inner.choice("interpolation", sc.RAMP_INTERPOLATIONS, "linear")
+    stops = inner.raw("stops", [[0.0, [0.0, 0.0, 0.0]], [1.0, [1.0, 1.0, 1.0]]])
+    inner.finish()
+    expected = "must be a non-empty list of colour ramp stops [position, [r, g, b]], positions ascending in 0..1"
+    if not isinstance(stops, list) or not stops or len(stops) > RAMP_STOPS_MAX:
+        inner.fail("stops", f"{expected} (at most {RAMP_STOPS_MAX}), got {_show_shape(stops)}")
+        return None
+    positions, colors = [], []
+    for index, stop in enumerate(stops):
+        at = f"stops[{index}]"
+        if not isinstance(stop, list) or len(stop) != 2:
+            inner.fail(at, f"{expected}, got {_show_shape(stop)}")
+            return None
+        problems = len(inner.problems)
+        position = inner.check_number(at, stop[0], low=0.0, high=1.0)
+        if not isinstance(stop[1], list) or len(stop[1]) != 3:
+            inner.fail(f"{at}[1]", f"must be a colour [r, g, b], got {_show_shape(stop[1])}")
+            return None
+        color = tuple(inner.check_number(f"{at}[1][{i}]", c, low=0.0, high=1.0) for i, c in enumerate(stop[1]))
+        if len(inner.problems) > problems:
+            return None
+        if positions and position < positions[-1]:
+            inner.fail(at, f"{expected}, got {_show(position)} after {_show(positions[-1])}")
+            return None
+        positions.append(position)
+        colors.append(color)
+    return sc.Texture(kind="gradient", gradient=gradient, ramp=ramp, positions=tuple(positions), colors=tuple(colors))
 
 
 def _texture_pixels(reader: _Reader, raw: Any) -> np.ndarray | None:

@@ -220,6 +220,10 @@ class ArraysByBits:
 
 INTERPOLATIONS = ("linear", "closest")  # Blender's Image Texture interpolation Linear, Closest
 EXTENSIONS = ("repeat", "extend", "clip")  # Blender's REPEAT, EXTEND, CLIP
+TEXTURE_KINDS = ("image", "checker", "gradient")  # Image Texture, Checker Texture, Gradient Texture (+ Color Ramp)
+# Blender's Gradient Texture types (Cycles' svm_gradient), in the scene format's spelling
+GRADIENTS = ("linear", "quadratic", "easing", "diagonal", "radial", "quadratic_sphere", "spherical")
+RAMP_INTERPOLATIONS = ("linear", "constant")  # a Color Ramp's Linear and Constant (RGB mode)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -228,7 +232,12 @@ class Texture(ArraysByBits):
     the image's top (v = 1), column 0 its left (u = 0). interpolation: linear (bilinear between the four nearest
     texel centres, as Cycles) or closest; extension: repeat, extend (the edge texels continue) or clip (texels
     outside the image are black). source: where the pixels came from (a file's path, or "" for pixels given inline), for
-    messages and exports only. Equality compares the pixels' bits (ArraysByBits)."""
+    messages and exports only. Equality compares the pixels' bits (ArraysByBits).
+
+    kind "checker" and "gradient" are procedural (Blender's Checker and Gradient Texture nodes on the UV map) and have
+    no pixels: colors are the checker's (color1, color2) or the gradient's colour ramp stops' colours (at positions,
+    ascending in [0, 1], interpolated by ramp: linear or constant); scale multiplies the checker's UV; gradient is the
+    Gradient Texture's type (GRADIENTS)."""
 
     ARRAYS = ("pixels",)
 
@@ -236,6 +245,12 @@ class Texture(ArraysByBits):
     interpolation: Literal["linear", "closest"] = "linear"
     extension: Literal["repeat", "extend", "clip"] = "repeat"
     source: str = ""
+    kind: Literal["image", "checker", "gradient"] = "image"
+    colors: tuple[Vec3, ...] = ()
+    positions: tuple[float, ...] = ()
+    ramp: Literal["linear", "constant"] = "linear"
+    scale: float = 1.0
+    gradient: str = "linear"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "pixels", frozen_array(self.pixels, np.float32, (-1, -1, 3)))

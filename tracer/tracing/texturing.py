@@ -12,10 +12,22 @@ bottom (v = 0; the pixels' row H - 1 - j, as their row 0 is the top). As Cycles'
 A UV that is not finite is read as (0, 0). The vectorized sample() and the per-ray sample_one() do the same float64
 operations in the same order, so the tracer and the per-pixel reference agree to the last bits but for the
 rounding of the hit's UV itself.
+
+Procedural textures read the UV as Cycles' texture coordinate (u, v, 0):
+
+- checker (Cycles' svm_checker): p = (u, v, 0) scale, each component (p + 1e-6) 0.999999, xi, yi, zi = |floor|;
+  color1 where (xi mod 2 == yi mod 2) == (zi mod 2), else color2; with z = 0: color1 where xi and yi differ in
+  parity (the cell at the origin is color2);
+- gradient (Cycles' svm_gradient) of x = u, y = v, z = 0: linear x; quadratic max(x, 0)^2; easing r = clamp(x, 0, 1),
+  t = r^2, 3 t - 2 t r; diagonal (x + y) / 2; radial atan2(y, x) / (2 pi) + 1/2; quadratic_sphere and spherical
+  r = max(0.999999 - |p|, 0) squared and as it is; then f clamped to [0, 1] and looked up in the colour ramp:
+  Blender's colour band (before the first stop its colour, after the last the last's; constant: the colour of the
+  last stop at or below f; linear: the two stops around f mixed by where f lies between them).
 """
 
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
@@ -25,11 +37,15 @@ from ..scene import scene as sc
 
 def sample(texture: sc.Texture, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """The texture's colours (3, n) float64 at UVs u, v (n,)."""
+    u = np.where(np.isfinite(u), u, 0.0)
+    v = np.where(np.isfinite(v), v, 0.0)
+    if texture.kind == "checker":
+        return _checker(texture, u, v)
+    if texture.kind == "gradient":
+        return _ramp(texture, _gradient(texture.gradient, u, v))
     pixels = texture.pixels
     height, width = pixels.shape[0], pixels.shape[1]
     flat = pixels.reshape(-1, 3)
-    u = np.where(np.isfinite(u), u, 0.0)
-    v = np.where(np.isfinite(v), v, 0.0)
     if texture.interpolation == "closest":
         i, j = _cells(u * width), _cells(v * height)
         return _texels(texture, flat, width, height, i, j)
@@ -41,6 +57,51 @@ def sample(texture: sc.Texture, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     total = total + _texels(texture, flat, width, height, i1, j) * ((1.0 - b) * a)
     total = total + _texels(texture, flat, width, height, i, j1) * (b * (1.0 - a))
     return total + _texels(texture, flat, width, height, i1, j1) * (b * a)
+
+
+def _checker(texture: sc.Texture, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Cycles' svm_checker on (u, v, 0) scale: color1 where the cells' parities differ, else color2 (3, n)."""
+    x = _cells((u * texture.scale + 1e-6) * 0.999999)
+    y = _cells((v * texture.scale + 1e-6) * 0.999999)
+    first = np.mod(x, 2.0) != np.mod(y, 2.0)
+    one, two = (np.asarray(c, dtype=np.float64)[:, None] for c in texture.colors)
+    return np.where(first, one, two)
+
+
+def _gradient(kind: str, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Cycles' svm_gradient of (x, y, 0), clamped to [0, 1] (n,)."""
+    if kind == "linear":
+        f = x
+    elif kind == "quadratic":
+        r = np.maximum(x, 0.0)
+        f = r * r
+    elif kind == "easing":
+        r = np.minimum(np.maximum(x, 0.0), 1.0)
+        t = r * r
+        f = 3.0 * t - 2.0 * t * r
+    elif kind == "diagonal":
+        f = (x + y) * 0.5
+    elif kind == "radial":
+        f = np.arctan2(y, x) / (2.0 * math.pi) + 0.5
+    else:
+        r = np.maximum(0.999999 - np.sqrt(x * x + y * y), 0.0)
+        f = r * r if kind == "quadratic_sphere" else r
+    return np.minimum(np.maximum(f, 0.0), 1.0)
+
+
+def _ramp(texture: sc.Texture, f: np.ndarray) -> np.ndarray:
+    """The colour ramp's colours (3, n) at f (n,) in [0, 1] (Blender's colour band, RGB mode)."""
+    positions = np.asarray(texture.positions, dtype=np.float64)
+    colors = np.asarray(texture.colors, dtype=np.float64)  # (K, 3)
+    last = len(positions) - 1
+    above = np.searchsorted(positions, f, side="right")  # the first stop above f
+    left, right = np.clip(above - 1, 0, last), np.clip(above, 0, last)
+    if texture.ramp == "constant":
+        return colors.take(left, axis=0).T
+    low, high = positions.take(left), positions.take(right)
+    span = low - high
+    fac = np.where(span != 0.0, (f - high) / np.where(span != 0.0, span, 1.0), 0.0)  # the left stop's share
+    return colors.take(right, axis=0).T * (1.0 - fac) + colors.take(left, axis=0).T * fac
 
 
 def _cells(x: np.ndarray) -> np.ndarray:
@@ -65,10 +126,18 @@ def _texels(texture: sc.Texture, flat: np.ndarray, width: int, height: int, i: n
 
 def sample_one(texture: sc.Texture, u: float, v: float) -> tuple[float, float, float]:
     """The texture's colour at one UV: sample()'s operations in plain Python floats (the per-pixel reference)."""
-    pixels = texture.pixels
-    height, width = pixels.shape[0], pixels.shape[1]
     u = u if math.isfinite(u) else 0.0
     v = v if math.isfinite(v) else 0.0
+    if texture.kind == "checker":
+        x = _cell((u * texture.scale + 1e-6) * 0.999999)
+        y = _cell((v * texture.scale + 1e-6) * 0.999999)
+        one, two = texture.colors
+        color = one if x % 2.0 != y % 2.0 else two
+        return (float(color[0]), float(color[1]), float(color[2]))
+    if texture.kind == "gradient":
+        return _ramp_one(texture, _gradient_one(texture.gradient, u, v))
+    pixels = texture.pixels
+    height, width = pixels.shape[0], pixels.shape[1]
     if texture.interpolation == "closest":
         return _texel(texture, width, height, _cell(u * width), _cell(v * height))
     x, y = u * width - 0.5, v * height - 0.5
@@ -82,6 +151,41 @@ def sample_one(texture: sc.Texture, u: float, v: float) -> tuple[float, float, f
         texel = _texel(texture, width, height, ci, cj)
         total = [t + c * weight for t, c in zip(total, texel, strict=True)]
     return (total[0], total[1], total[2])
+
+
+def _gradient_one(kind: str, x: float, y: float) -> float:
+    """_gradient for one point."""
+    if kind == "linear":
+        f = x
+    elif kind == "quadratic":
+        r = max(x, 0.0)
+        f = r * r
+    elif kind == "easing":
+        r = min(max(x, 0.0), 1.0)
+        t = r * r
+        f = 3.0 * t - 2.0 * t * r
+    elif kind == "diagonal":
+        f = (x + y) * 0.5
+    elif kind == "radial":
+        f = math.atan2(y, x) / (2.0 * math.pi) + 0.5
+    else:
+        r = max(0.999999 - math.sqrt(x * x + y * y), 0.0)
+        f = r * r if kind == "quadratic_sphere" else r
+    return min(max(f, 0.0), 1.0)
+
+
+def _ramp_one(texture: sc.Texture, f: float) -> tuple[float, float, float]:
+    """_ramp for one f."""
+    positions, colors = texture.positions, texture.colors
+    last = len(positions) - 1
+    above = bisect.bisect_right(positions, f)
+    left, right = min(max(above - 1, 0), last), min(max(above, 0), last)
+    if texture.ramp == "constant":
+        return tuple(float(c) for c in colors[left])
+    span = positions[left] - positions[right]
+    fac = (f - positions[right]) / span if span != 0.0 else 0.0
+    one, two = colors[right], colors[left]
+    return tuple(float(a) * (1.0 - fac) + float(b) * fac for a, b in zip(one, two, strict=True))
 
 
 def _cell(x: float) -> float:
