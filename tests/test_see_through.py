@@ -347,3 +347,19 @@ def test_the_defaults_are_the_documented_model() -> None:
         for field in ("transmission", "ior", "alpha"):
             del material[field]
     assert np.array_equal(render(scene, workers=1).image, render(scene_from_dict(document), workers=1).image)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_textured_glass_tints_its_refraction_by_the_texture(seed: int) -> None:
+    # random textured scenes (tests/test_textures.py) with their textured materials made partly glass and partly
+    # transparent: the refracted rays take the texture's colour at the hit, in both tracers
+    from tests.test_textures import textured_scene_document
+
+    document = textured_scene_document(seed)
+    for material in document["materials"].values():
+        if "texture" in material:
+            material.update(transmission=0.6, ior=1.3, alpha=0.8)
+    scene = scene_from_dict(document)
+    assert any(m.texture is not None and m.see_through for m in scene.materials.values())
+    expected = np.asarray(rf.render_reference(scene))
+    np.testing.assert_allclose(_with_alpha(render(scene, workers=1)), expected, rtol=0, atol=ATOL)
