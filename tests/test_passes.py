@@ -41,6 +41,53 @@ def test_passes_leave_the_image_as_it_was_and_the_whitted_passes_add_up_to_it(se
     assert np.all(np.abs(total - result.image) <= tolerance)
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_with_glass_and_transparency_the_passes_with_transmission_add_up_to_the_image(seed: int) -> None:
+    from tests.random_scenes import see_through_scene_document
+
+    document = see_through_scene_document(seed, width=24, height=18)
+    document["render"]["samples"] = [1, 4][seed % 2]
+    document["render"]["dtype"] = ["float64", "float64", "float32"][seed % 3]
+    plain = scene_from_dict(document)
+    expected, result = render(plain, workers=1), render(plain.with_render(passes=SHADING_AND_DATA), workers=2)
+    assert np.array_equal(result.image, expected.image)
+    assert "transmission" in ps.WHITTED
+    total = sum(result.passes[name].astype(np.float64) for name in ps.WHITTED)
+    tolerance = 16 * np.finfo(result.image.dtype).eps * np.maximum(1.0, np.abs(result.image))
+    assert np.all(np.abs(total - result.image) <= tolerance)
+    if seed < 3:
+        assert np.any(result.passes["transmission"] != 0.0)
+
+
+def test_a_glass_pane_s_passes_are_its_fresnel_shares() -> None:
+    # a camera looking straight at a glass pane (n = 1.5, white) under the sky: its mirror ray sees the zenith
+    # (Environment: F zenith), its refracted ray the horizon (Transmission: (1 - F) horizon), nothing is shaded
+    glass = sc.Material(color=(1.0, 1.0, 1.0), transmission=1.0, ior=1.5)
+    pane = sc.Plane(name="pane", material="glass", location=(0.0, 0.0, -2.0))
+    camera = sc.Camera(location=(0.0, 0.0, 0.0), rotation=(0.0, 0.0, 0.0))
+    settings = sc.RenderSettings(width=1, height=1, passes=SHADING_AND_DATA)
+    scene = sc.Scene({"glass": glass}, (pane,), (sc.AmbientLight(0.3),), camera, render=settings)
+    passes = render(scene, workers=1).passes
+    F = (0.5 / 2.5) ** 2
+    sky = scene.background
+    np.testing.assert_allclose(passes["environment"][0, 0], F * np.asarray(sky.zenith), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(passes["transmission"][0, 0], (1 - F) * np.asarray(sky.horizon), rtol=0, atol=1e-12)
+    for name in ("ambient", "diffuse", "specular", "emission", "reflection"):
+        assert np.all(passes[name] == 0.0), name
+    assert passes["depth"][0, 0, 0] == pytest.approx(2.0)  # the data passes are the pane's
+
+
+def test_an_alpha_one_half_wall_s_passes_are_half_the_wall_s_and_half_the_sky() -> None:
+    opaque = plane_scene(4.0, passes=SHADING_AND_DATA)
+    half = replace(opaque, materials={"wall": replace(opaque.materials["wall"], alpha=0.5)})
+    wall, seen = render(opaque, workers=1).passes, render(half, workers=1).passes
+    for name in ("ambient", "diffuse", "specular"):
+        np.testing.assert_allclose(seen[name], 0.5 * wall[name], rtol=0, atol=1e-12)
+    behind = render(replace(opaque, objects=()), workers=1).passes["environment"]  # the sky beyond the wall
+    np.testing.assert_allclose(seen["transmission"], 0.5 * behind, rtol=0, atol=1e-12)
+    assert np.all(seen["environment"] == 0.0) and np.any(behind > 0.0)
+
+
 def plane_scene(distance: float, **render: object) -> sc.Scene:
     """A camera at the origin looking down -Z (rotation 0) at a plane z = -distance, facing it; pass indices set."""
     materials = {"wall": sc.Material(color=(0.5, 0.5, 0.5), pass_index=7)}
