@@ -363,3 +363,21 @@ def test_textured_glass_tints_its_refraction_by_the_texture(seed: int) -> None:
     assert any(m.texture is not None and m.see_through for m in scene.materials.values())
     expected = np.asarray(rf.render_reference(scene))
     np.testing.assert_allclose(_with_alpha(render(scene, workers=1)), expected, rtol=0, atol=ATOL)
+
+
+@pytest.mark.parametrize(
+    "camera",
+    [
+        {"type": "ORTHO", "ortho_scale": 7.0, "clip_start": 0.5},
+        {"shift_x": 0.2, "shift_y": -0.1, "clip_start": 2.0, "clip_end": 7.5},
+    ],
+)
+@pytest.mark.parametrize("seed", [1, 2, 9])
+def test_see_through_scenes_through_other_cameras_match_the_reference(seed: int, camera: dict) -> None:
+    # a camera ray's straight continuation keeps what is left of the clip_end; an orthographic camera's rays
+    # start on the sensor
+    document = see_through_scene_document(seed)
+    document["camera"].update(camera)
+    scene = scene_from_dict(document)
+    expected = np.asarray(rf.render_reference(scene))
+    np.testing.assert_allclose(_with_alpha(render(scene, workers=1)), expected, rtol=0, atol=ATOL)
