@@ -381,3 +381,24 @@ def test_see_through_scenes_through_other_cameras_match_the_reference(seed: int,
     scene = scene_from_dict(document)
     expected = np.asarray(rf.render_reference(scene))
     np.testing.assert_allclose(_with_alpha(render(scene, workers=1)), expected, rtol=0, atol=ATOL)
+
+
+@pytest.mark.parametrize(("alpha", "shows_card"), [(0.0, False), (0.3, False), (0.5, True), (0.8, True)])
+def test_data_passes_show_the_first_surface_of_alpha_at_least_one_half(alpha: float, shows_card: bool) -> None:
+    # Cycles' Alpha Threshold (0.5): a card of alpha below it leaves the depth, indices and Cryptomatte to the wall
+    # behind; at or above it they are the card's
+    from tests.test_passes import plane_scene
+
+    wall = plane_scene(4.0, passes=("depth", "object_index", "material_index", "cryptomatte_object"))
+    card = sc.Plane(name="card", material="card", location=(0.0, 0.0, -2.0), pass_index=9)
+    materials = {**wall.materials, "card": sc.Material(color=(0.9, 0.1, 0.1), alpha=alpha, pass_index=5)}
+    scene = replace(wall, objects=(*wall.objects, card), materials=materials)
+    passes = render(scene, workers=1).passes
+    np.testing.assert_allclose(passes["depth"], 2.0 if shows_card else 4.0, rtol=0, atol=1e-12)
+    assert np.all(passes["object_index"] == (9 if shows_card else 3))
+    assert np.all(passes["material_index"] == (5 if shows_card else 7))
+    expected = rf.render_reference_passes(scene)
+    assert {name for row in expected.objects for samples in row for name in samples} == {
+        "card" if shows_card else "wall"
+    }
+    np.testing.assert_allclose(np.asarray(expected.values["depth"])[..., 0], passes["depth"][..., 0], atol=1e-12)

@@ -33,6 +33,9 @@ BLACK = (0.0, 0.0, 0.0)
 # would pass a ninth partly transparent surface ends there (black, and opaque to the film's alpha); a shadow ray is
 # blocked by it (docs/algorithm.md, "Glass and transparency")
 TRANSPARENT_BOUNCES = 8
+# the data passes (depth, mist, normal, position, indices, Cryptomatte) show the first surface a camera ray meets
+# straight on with alpha at least this (Cycles' View Layer > Passes > Alpha Threshold, default 0.5)
+PASS_ALPHA_THRESHOLD = 0.5
 
 
 @dataclass(frozen=True)

@@ -756,16 +756,12 @@ class ReferenceTracer:
         material = self.textured(material, first, part, P)
         V = (-D[0], -D[1], -D[2])
         S = self.shading_normal(first, part, P, V, material)
-        offset = sub(P, camera.location)
-        r = tf.euler_xyz_matrix(camera.rotation)
-        out.depth = dot(offset, (-r[0][2], -r[1][2], -r[2][2]))  # along the view axis, the camera's local -Z
-        # Cycles' camera distance: the view axis's for an orthographic camera, the straight line's for a perspective
-        out.mist = mist(abs(out.depth) if camera.type == "ORTHO" else length(offset), self.settings)
-        out.normal = normalize(S)
-        out.position = P
-        out.object_index = float(self.scene.objects[first].pass_index)
-        out.material_index = float(material.pass_index)
-        out.object, out.material = self.scene.objects[first].name, self.material_name(first, part)
+        if material.alpha >= sc.PASS_ALPHA_THRESHOLD:
+            self.data_passes(out, first, part, P, S, material)
+        else:  # the data passes show what lies beyond (sc.PASS_ALPHA_THRESHOLD)
+            beyond = self.data_hit(P, D, t_max - t)
+            if beyond is not None:
+                self.data_passes(out, *beyond)
         if material.see_through:
             self.see_through_passes(out, P, D, S, (first, part), t_max - t, material)
             self.rays = counted
@@ -782,6 +778,38 @@ class ReferenceTracer:
             out.reflection, out.environment = tuple(reflection), tuple(environment)
         self.rays = counted
         return out
+
+    def data_passes(
+        self, out: SamplePasses, index: int, part: int, P: sc.Vec3, S: sc.Vec3, material: sc.Material
+    ) -> None:
+        """A camera sample's data passes and Cryptomatte names from the surface at P on object index's part."""
+        camera = self.scene.camera
+        offset = sub(P, camera.location)
+        r = tf.euler_xyz_matrix(camera.rotation)
+        out.depth = dot(offset, (-r[0][2], -r[1][2], -r[2][2]))  # along the view axis, the camera's local -Z
+        # Cycles' camera distance: the view axis's for an orthographic camera, the straight line's for a perspective
+        out.mist = mist(abs(out.depth) if camera.type == "ORTHO" else length(offset), self.settings)
+        out.normal = normalize(S)
+        out.position = P
+        out.object_index = float(self.scene.objects[index].pass_index)
+        out.material_index = float(material.pass_index)
+        out.object, out.material = self.scene.objects[index].name, self.material_name(index, part)
+
+    def data_hit(self, O: sc.Vec3, D: sc.Vec3, t_max: float) -> tuple | None:
+        """Beyond a surface of alpha below sc.PASS_ALPHA_THRESHOLD at O: the surface the camera ray's straight
+        continuations meet next with alpha at least that, as (index, part, P, S, material) for data_passes; None
+        where they meet nothing, a holdout, or only such surfaces up to sc.TRANSPARENT_BOUNCES."""
+        layers = 1
+        while layers <= sc.TRANSPARENT_BOUNCES:
+            index, part, t = self.closest_intersection(O, D, REFLECTION_T_MIN, t_max, "visible_camera")
+            if index < 0 or self.scene.objects[index].holdout:
+                return None
+            P = add(O, scale(D, t))
+            material = self.textured(self.material(index, part), index, part, P)
+            if material.alpha >= sc.PASS_ALPHA_THRESHOLD:
+                return index, part, P, self.shading_normal(index, part, P, (-D[0], -D[1], -D[2]), material), material
+            O, t_max, layers = P, t_max - t, layers + 1
+        return None
 
     def see_through_passes(
         self,

@@ -1176,6 +1176,7 @@ class PreparedScene:
         tag = np.zeros(total, dtype=np.int8)  # the passes: 0 the camera ray's hit, 1 under a mirror ray, 2 under a
         # refracted or straight one (the Transmission pass)
         clear = np.ones(total, dtype=self.dtype)  # camera rays' product of 1 - alpha so far (the film's alpha)
+        pending = np.ones(total, dtype=bool)  # camera rays whose data passes are not written yet
         first = True
         while pixel.size:
             t_min = CAMERA_T_MIN if first else 0.0 if self.robust else REFLECTION_T_MIN
@@ -1222,7 +1223,7 @@ class PreparedScene:
                 break
             O, D, t, obj, part = take(O, hit), take(D, hit), t.take(hit), obj.take(hit), part.take(hit)
             pixel, left, layers = pixel.take(hit), left.take(hit), layers.take(hit)
-            camera, tag, clear = camera.take(hit), tag.take(hit), clear.take(hit)
+            camera, tag, clear, pending = camera.take(hit), tag.take(hit), clear.take(hit), pending.take(hit)
             weight = None if weight is None else take(weight, hit)
             reach = None if reach is None else reach.take(hit)
             P = O + D * t
@@ -1232,9 +1233,16 @@ class PreparedScene:
             material = self.material_of(obj, part)
             S = self.shading_normals(N, V, P, obj, part, material)
             colors, specular_colors, emission = self.surface_colors(material, P, obj, part)
-            if recorder is not None and first:
-                recorder.first_hit(pixel, P, S, obj, material)
             a, transmission = self.alpha.take(material), self.transmission.take(material)
+            if recorder is not None:  # the data passes: the first surface of alpha >= the threshold met straight on
+                shown = pending & (a >= sc.PASS_ALPHA_THRESHOLD)
+                if shown.all():
+                    recorder.first_hit(pixel, P, S, obj, material)
+                elif shown.any():
+                    rows_ = indices(shown)
+                    recorder.first_hit(
+                        pixel.take(rows_), take(P, rows_), take(S, rows_), obj.take(rows_), material.take(rows_)
+                    )
             shaded = a * (1.0 - transmission)
             reflective = self.reflective.take(material)
             lit = indices(shaded > 0.0)
@@ -1286,17 +1294,21 @@ class PreparedScene:
                     layers_ = layers.take(rows_) + 1
                     clear_ = clear.take(rows_) * (1.0 - a.take(rows_))
                     reach_ = None if reach is None else np.where(camera_, reach.take(rows_) - t.take(rows_), np.inf)
+                    pending_ = pending.take(rows_) & (a.take(rows_) < sc.PASS_ALPHA_THRESHOLD)
                 else:
                     camera_ = np.zeros(rows_.size, dtype=bool)
                     layers_ = layers.take(rows_)
                     clear_ = np.zeros(rows_.size, dtype=self.dtype)
                     reach_ = None if reach is None else np.full(rows_.size, np.inf)
-                parts.append((pixel.take(rows_), O_, D_, weight_, left_, layers_, camera_, tag_, clear_, reach_))
+                    pending_ = np.zeros(rows_.size, dtype=bool)
+                parts.append(
+                    (pixel.take(rows_), O_, D_, weight_, left_, layers_, camera_, tag_, clear_, reach_, pending_)
+                )
             joined = [
-                None if parts[0][k_] is None else np.concatenate([p[k_] for p in parts], axis=-1) for k_ in range(10)
+                None if parts[0][k_] is None else np.concatenate([p[k_] for p in parts], axis=-1) for k_ in range(11)
             ]
             order = np.argsort(joined[0], kind="stable")
-            pixel, O, D, weight, left, layers, camera, tag, clear, reach = (
+            pixel, O, D, weight, left, layers, camera, tag, clear, reach, pending = (
                 None if value is None else value.take(order, axis=-1) for value in joined
             )
             first = False
