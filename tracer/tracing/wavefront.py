@@ -1205,7 +1205,7 @@ class PreparedScene:
                     sky = self.background(D, seen)
                     if weight is not None:
                         sky = take(weight, seen) * sky
-                    _add(color, pixel.take(seen), sky)
+                    _add(color, pixel.take(seen), sky, first)
                     if recorder is not None:
                         _record_tagged(recorder, "environment", tag.take(seen), pixel.take(seen), sky)
             hit = indices(obj >= 0)
@@ -1372,11 +1372,13 @@ class PreparedScene:
         """The shaded share a (1 - t) of the hits lit (k,) of a see-through wavefront: listing 3.2 there and the
         local colour as trace() makes it (emission included), times the share and the rays' weights, added to their
         camera samples; the passes: a camera ray's own hit term by term, the others' by their tag."""
-        P_, S_, V_ = take(P, lit), take(S, lit), take(V, lit)
-        geometric = None if S is N else take(N, lit)
-        surface_ = None if surface is None else tuple(part.take(lit) for part in surface)
-        material_ = material.take(lit)
-        pixel_ = pixel.take(lit)
+        every = lit.size == pixel.size  # every hit is shaded: no gathers
+        pick = (lambda array: array) if every else (lambda array: take(array, lit))
+        P_, S_, V_ = pick(P), pick(S), pick(V)
+        geometric = None if S is N else pick(N)
+        surface_ = None if surface is None else tuple(part if every else part.take(lit) for part in surface)
+        material_ = material if every else material.take(lit)
+        pixel_ = pixel if every else pixel.take(lit)
         points = None if frames is None else np.searchsorted(pixel_, frames)
         split = {} if recorder is not None and first and recorder.shading else None
         specular = self.specular.take(material_)
@@ -1384,8 +1386,8 @@ class PreparedScene:
             P_, S_, V_, specular, counts, surface_, footprint, pixel_, geometric, points, split
         )
         reflective = self.reflective.take(material_)
-        share = shaded.take(lit)
-        colors, specular_colors, emission = (None if paint is None else take(paint, lit) for paint in paints)
+        share = shaded if every else shaded.take(lit)
+        colors, specular_colors, emission = (None if paint is None else pick(paint) for paint in paints)
         if self.colored:
             diffuse, highlight = intensity
             local = (diffuse * colors + highlight * specular_colors) * (1.0 - reflective)
@@ -1394,8 +1396,8 @@ class PreparedScene:
         if self.emissive:
             local = local + emission
         local = local * share
-        value = local if weight is None else take(weight, lit) * local
-        _add(color, pixel_, value)
+        value = local if weight is None else pick(weight) * local
+        _add(color, pixel_, value, first)
         if recorder is None:
             return
         if first:
@@ -1857,9 +1859,13 @@ def _tally(counts: RayCounts | list[RayCounts], kind: str, rays: int, frames: Ra
         setattr(frame_counts, kind, getattr(frame_counts, kind) + size)
 
 
-def _add(color: np.ndarray, pixel: np.ndarray, value: np.ndarray) -> None:
+def _add(color: np.ndarray, pixel: np.ndarray, value: np.ndarray, unique: bool = False) -> None:
     """color[:, pixel] += value where pixels may repeat (a see-through wavefront holds several rays of a camera
-    sample): np.add.at, in the order of the rays."""
+    sample): np.add.at, in the order of the rays; unique: they do not (the camera rays' own wavefront), the faster
+    gather and scatter of _accumulate (the same sums)."""
+    if unique:
+        _accumulate(color, pixel, value, False)
+        return
     for row, add in zip(color, value, strict=True):
         np.add.at(row, pixel, add)
 
