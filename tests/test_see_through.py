@@ -402,3 +402,33 @@ def test_data_passes_show_the_first_surface_of_alpha_at_least_one_half(alpha: fl
         "card" if shows_card else "wall"
     }
     np.testing.assert_allclose(np.asarray(expected.values["depth"])[..., 0], passes["depth"][..., 0], atol=1e-12)
+
+
+def _forced(scene: sc.Scene) -> PreparedScene:
+    """The scene prepared as if some material were see-through (every alpha 1, transmission 0): trace() takes
+    trace_see_through's way."""
+    prepared = PreparedScene(scene)
+    count = len(prepared.reflective)
+    prepared.see_through = True
+    prepared.alpha, prepared.transmission = np.ones(count), np.zeros(count)
+    prepared.ior = np.full(count, 1.45)
+    return prepared
+
+
+@pytest.mark.parametrize("seed", [None, *range(8)])
+def test_the_see_through_way_with_nothing_see_through_is_the_documented_one(seed: int | None) -> None:
+    # trace_see_through with every alpha 1 and transmission 0 gives trace()'s bytes, passes and ray counts: the
+    # general wavefront reduces to the bounce loop (the default scene, and scenes with Blender's fields and passes)
+    from tests.random_scenes import extended_scene_document
+
+    if seed is None:
+        scene = default_scene().with_render(width=64, height=48)
+    else:
+        document = with_passes(extended_scene_document(seed, width=20, height=15), seed, samples=(1, 4)[seed % 2])
+        document["render"].pop("border", None)
+        scene = scene_from_dict(document)
+    rows = np.arange(scene.render.height)
+    plain, plain_counts = PreparedScene(scene).render_rows(rows)
+    forced, forced_counts = _forced(scene).render_rows(rows)
+    assert np.array_equal(forced, plain)
+    assert forced_counts == plain_counts
