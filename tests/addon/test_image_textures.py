@@ -149,3 +149,89 @@ def test_f12_shows_the_texture_as_cycles_does(tmp_path) -> None:
         inner[:, max(0, edge - 1) : edge + 1] = False
     close = (np.abs(tracer - cycles).max(axis=2) <= 0.01)[inner].mean()
     assert close >= 0.99, f"{message}; share of the cells' pixels within 0.01 of Cycles' {close:.4f}"
+
+
+def textured_cube_and_sphere(width: int, height: int) -> None:
+    """A cube and a smooth UV sphere (64 x 32), each with its default UV map and the packed 4 x 4 grid on a Diffuse
+    BSDF's Color (Lambert in every Blender: 3.4's Principled diffuse is Disney's, brighter at grazing angles), seen
+    in perspective, lit by a sun from the side: diffuse light only, no world."""
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
+    scene.render.film_transparent = True
+    scene.world = None
+    image = bpy.data.images.new("grid", 4, 4)
+    image.pixels[:] = [c for row in GRID for rgb in row for c in (*rgb, 1.0)]
+    image.pack()
+    material = bpy.data.materials.new("textured")
+    compat.enable_nodes(material)
+    tree = material.node_tree
+    output = next(node for node in tree.nodes if node.bl_idname == "ShaderNodeOutputMaterial")
+    shader = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    tree.links.new(shader.outputs["BSDF"], output.inputs["Surface"])
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image, texture.interpolation = image, "Closest"
+    tree.links.new(texture.outputs["Color"], shader.inputs["Color"])
+    bpy.ops.mesh.primitive_cube_add(size=1.6, location=(-1.2, 0.0, 0.0), rotation=(0.5, 0.3, 0.4))
+    bpy.context.object.data.materials.append(material)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, location=(1.2, 0.0, 0.0), segments=64, ring_count=32)
+    bpy.ops.object.shade_smooth()
+    bpy.context.object.data.materials.append(material)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location, camera.rotation_euler = (0.0, -7.0, 2.5), (1.2566, 0.0, 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.rotation_euler = 3.0, (0.6981, 0.0, 0.5236)
+    scene.collection.objects.link(sun)
+
+
+def rgba_f12(engine: str, samples: int, path: Path, seed: int = 0) -> np.ndarray:
+    """(H, W, 4) linear RGBA of an F12: Cycles with a box filter one pixel wide (as the tracer's), no denoising."""
+    scene = bpy.context.scene
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        scene.cycles.device, scene.cycles.samples, scene.cycles.seed = "CPU", samples, seed
+        scene.cycles.use_denoising = scene.cycles.use_adaptive_sampling = False
+        scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
+    else:
+        scene.weathervane.samples = str(samples)
+    settings = scene.render.image_settings
+    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGBA"
+    scene.render.filepath = str(path)
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    image = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        width, height = image.size
+        pixels = np.empty(width * height * 4, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        return pixels.reshape(height, width, 4).astype(np.float64)
+    finally:
+        bpy.data.images.remove(image)
+
+
+def test_a_textured_cube_and_sphere_are_as_close_to_cycles_as_cycles_at_64_samples(tmp_path) -> None:
+    """Issue 36's bar: the objects' pixels (those Cycles covers wholly) within 3 dB of Cycles' own at 64 samples,
+    both against Cycles at 1024 samples. Measured at 96 x 72, the engine at 64 samples against Cycles at 64: 53.20
+    against 56.10 dB (bpy 5.0.1), 53.31 / 55.89 (4.5.15, 4.2.23), 53.02 / 54.81 (Debian 3.4.1); the cube alone 58 dB,
+    the sphere 51 (the pixels along its terminator); the mean colour within 0.2% of Cycles'; 0.3% of the pixels more
+    than 0.02 apart (on the grid's lines: where Cycles has them)."""
+    width, height = 96, 72
+    textured_cube_and_sphere(width, height)
+    reference = rgba_f12("CYCLES", 1024, tmp_path / "reference.exr")
+    cycles = rgba_f12("CYCLES", 64, tmp_path / "cycles.exr", seed=7)
+    tracer = rgba_f12(ENGINE, 64, tmp_path / "tracer.exr")
+    covered = reference[..., 3] > 0.999
+    assert covered.sum() > 0.25 * width * height
+
+    def psnr(image: np.ndarray) -> float:
+        difference = np.clip(image[..., :3], 0.0, 1.0)[covered] - np.clip(reference[..., :3], 0.0, 1.0)[covered]
+        return float(10.0 * np.log10(1.0 / np.mean(difference * difference)))
+
+    ours, theirs = psnr(tracer), psnr(cycles)
+    message = f"PSNR over the objects: the engine {ours:.2f} dB, Cycles at 64 samples {theirs:.2f} dB"
+    print(message)
+    assert ours >= theirs - 3.0 and ours > 45.0, message
+    mean, expected = tracer[covered][:, :3].mean(axis=0), reference[covered][:, :3].mean(axis=0)
+    assert np.all(np.abs(mean / expected - 1.0) < 0.01), (mean, expected)
+    apart = np.abs(np.clip(tracer[..., :3], 0, 1) - np.clip(reference[..., :3], 0, 1)).max(axis=2)[covered] > 0.02
+    assert apart.mean() < 0.01, f"{message}; {apart.mean():.4f} of the pixels more than 0.02 from Cycles'"
