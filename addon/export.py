@@ -508,17 +508,20 @@ def _mesh_object(placed: mesh_export.Placed, source: _Source, export: _Export) -
 
 
 def _textured(names, materials: dict) -> bool:
-    """Whether any of these scene-file materials has an image texture (its meshes then carry their corner UVs)."""
-    return any("texture" in materials.get(name, {}) for name in names)
+    """Whether any of these scene-file materials has a texture or an emission texture (its meshes then carry their
+    corner UVs)."""
+    return any({"texture", "emission_texture"} & set(materials.get(name, {})) for name in names)
 
 
 def _texture_lists(materials: dict) -> None:
     """The materials' texture pixels as nested lists (a document for JSON: File > Export, the Rendered view's key);
     each texture dict replaced, never changed (the conversions' cache shares them)."""
     for name, material in materials.items():
-        texture = material.get("texture")
-        if texture is not None and isinstance(texture.get("pixels"), np.ndarray):
-            materials[name] = {**material, "texture": {**texture, "pixels": texture["pixels"].tolist()}}
+        for key in ("texture", "emission_texture"):
+            texture = material.get(key)
+            if texture is not None and isinstance(texture.get("pixels"), np.ndarray):
+                material = {**material, key: {**texture, "pixels": texture["pixels"].tolist()}}
+                materials[name] = material
 
 
 def _instance_groups(geometry: _Geometry, placements: list, export: _Export, collected: _Collected) -> list[_Item]:

@@ -30,9 +30,14 @@ unlinked, or from Texture Coordinate > UV or a UV Map node naming no map), flat 
 Mix (Mix or Multiply blend, a constant factor, a constant other colour), becomes the material's "texture": the
 image's linear pixels (sRGB byte images decoded; float, Non-Color and Linear images as they are) through that Mix,
 times the same factors as the colour (color = texture's mean), Closest or Linear (Cubic and Smart: Linear, named),
-Repeat, Extend or Clip. Anything else (other coordinates, Mirror, a Color Ramp, another image node in between)
-keeps the image's mean colour, named, as colour attributes do (the means computed once per image or attribute and
-kept in a cache).
+Repeat, Extend or Clip. A Checker or Gradient Texture read by the UV map (linked from Texture Coordinate UV or a UV
+Map node: unlinked, procedural textures read Generated coordinates) becomes the format's checker or gradient, a
+Gradient through a Color Ramp (Linear, Constant) the ramp's stops; a Color Ramp or Hue/Saturation/Value node
+between an image or a checker and the input is applied to its texels or colours (exact for Closest images and
+checkers; named on Linear images, where the node maps the interpolated colour). The same on Emission Color and the
+Emission shader's Color becomes "emission_texture", times the strength. Anything else (other coordinates, Mirror,
+other nodes in between) keeps the texture's mean colour, named, as colour attributes do (the means computed once per
+image or attribute and kept in a cache).
 
 Glass and transparency are shares of the same sum: Glass BSDF (Color, IOR) and Refraction BSDF (its Fresnel
 reflection added, named) are a clear dielectric of weight 1; Principled's Transmission t is one of weight (1 - m) t
@@ -55,6 +60,7 @@ import bpy
 import numpy as np
 
 from . import compat, materials
+from ._tracer import module
 
 ROUGH_MIRROR = 0.1  # at or below: a mirror
 ROUGH_HIGHLIGHT = 0.5  # at or above: a highlight of the lights only
@@ -94,11 +100,13 @@ def mirror_share(roughness: float) -> float:
 class _Lobes:
     """A surface as the documented model's parts: diffuse, mirror, highlights and emission (linear RGB).
 
-    texture: an image texture in the diffuse, (pixels (H, W, 3) linear, bottom row first, as Blender's; its mean
-    (3,); weight (3,); interpolation; extension): the diffuse at a point is diffuse + weight * (pixel - mean)."""
+    texture: a texture in the diffuse, (pixels (H, W, 3) linear, bottom row first, as Blender's; its mean (3,);
+    weight (3,); interpolation; extension; procedural (texture_input)): the diffuse at a point is
+    diffuse + weight * (pixel - mean). emission_texture: the same in the emission."""
 
     def __init__(self) -> None:
         self.texture: tuple | None = None
+        self.emission_texture: tuple | None = None
         self.textures_dropped = 0  # textures of shaders added to a textured one: only the first kept (named)
         self.diffuse = [0.0, 0.0, 0.0]
         # the diffuse as the colour inputs give it, before the conversion's own factors (Principled's diffuse share):
@@ -125,9 +133,11 @@ class _Lobes:
         out.glass, out.glass_ior, out.clear = self.glass * k, self.glass_ior * k, self.clear * k
         out.glass_tint = [c * k for c in self.glass_tint]
         out.iors = set(self.iors) if k > 0.0 else set()
-        if self.texture is not None:
-            pixels, mean, weight, interpolation, extension = self.texture
-            out.texture = (pixels, mean, [w * k for w in weight], interpolation, extension)
+        for name in ("texture", "emission_texture"):
+            texture = getattr(self, name)
+            if texture is not None:
+                pixels, mean, weight, *rest = texture
+                setattr(out, name, (pixels, mean, [w * k for w in weight], *rest))
         out.textures_dropped = self.textures_dropped
         return out
 
@@ -142,9 +152,11 @@ class _Lobes:
         out.glass_tint = [a + b for a, b in zip(self.glass_tint, other.glass_tint, strict=True)]
         out.iors = self.iors | other.iors
         out.clear = self.clear + other.clear
-        out.texture = self.texture if self.texture is not None else other.texture
-        both = self.texture is not None and other.texture is not None
-        out.textures_dropped = self.textures_dropped + other.textures_dropped + int(both)
+        out.textures_dropped = self.textures_dropped + other.textures_dropped
+        for name in ("texture", "emission_texture"):
+            mine, theirs = getattr(self, name), getattr(other, name)
+            setattr(out, name, mine if mine is not None else theirs)
+            out.textures_dropped += int(mine is not None and theirs is not None)
         return out
 
     def add_glass(self, weight: float, tint, ior: float) -> None:
@@ -262,6 +274,11 @@ def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, 
         if mean is not None:
             notes.append(f"image texture on {label}: mean colour")
             return mean
+    if node.bl_idname in TEXTURE_NODES:  # a procedural texture (or a ramp, HSV) on other coordinates than the UV map
+        found = texture_input(socket, label, [], uv_only=False)
+        if found is not None:
+            notes.append(f"{TEXTURE_NAMES[node.bl_idname]} on {label}: mean colour")
+            return texture_mean(found)
     if node.bl_idname in ("ShaderNodeVertexColor", "ShaderNodeAttribute"):
         name = getattr(node, "layer_name", "") or getattr(node, "attribute_name", "")
         mean = attribute_mean(material, name)
@@ -284,12 +301,35 @@ INTERPOLATIONS = {"Closest": "closest", "Linear": "linear", "Cubic": "linear", "
 EXTENSIONS = {"REPEAT": "repeat", "EXTEND": "extend", "CLIP": "clip"}
 
 
-def _uv_coordinates(texture_node) -> bool:
-    """Whether an Image Texture node reads the mesh's default UV map: its Vector unlinked, or from a Texture
-    Coordinate's UV output or a UV Map node that names no map."""
+GRADIENTS = {  # Blender's Gradient Texture types -> the scene format's
+    "LINEAR": "linear",
+    "QUADRATIC": "quadratic",
+    "EASING": "easing",
+    "DIAGONAL": "diagonal",
+    "RADIAL": "radial",
+    "QUADRATIC_SPHERE": "quadratic_sphere",
+    "SPHERICAL": "spherical",
+}
+# A colour fed to a factor input: Cycles takes its luminance with the scene-linear space's coefficients (Rec. 709, the
+# default OpenColorIO config's in 3.4 to 5.0)
+LUMINANCE = np.asarray([0.2126, 0.7152, 0.0722])
+TEXTURE_NAMES = {  # the nodes texture_input reads beside images and mixes, as the notes name them
+    "ShaderNodeTexChecker": "checker texture",
+    "ShaderNodeTexGradient": "gradient texture",
+    "ShaderNodeValToRGB": "colour ramp",
+    "ShaderNodeHueSaturation": "hue/saturation",
+}
+TEXTURE_NODES = tuple(TEXTURE_NAMES)
+GRID_MEAN = 64  # a gradient's mean colour: over GRID_MEAN^2 points of the unit UV square
+
+
+def _uv_coordinates(texture_node, unlinked_uv: bool = True) -> bool:
+    """Whether a texture node reads the mesh's default UV map: its Vector unlinked (an Image Texture; procedural
+    textures read Generated coordinates there: unlinked_uv False), or from a Texture Coordinate's UV output or a UV
+    Map node that names no map."""
     node, output = _source(texture_node.inputs["Vector"])
     if node is None:
-        return True
+        return unlinked_uv
     if node.bl_idname == "ShaderNodeTexCoord":
         return output.name == "UV" and getattr(node, "object", None) is None
     return node.bl_idname == "ShaderNodeUVMap" and not getattr(node, "uv_map", "")
@@ -305,25 +345,84 @@ def _mix_sockets(node):
     return None
 
 
-def texture_input(socket, label: str, notes: list[str], depth: int = 0) -> tuple | None:
-    """The image texture a colour input reads by the mesh's UVs, as (pixels (H, W, 3) linear, bottom row first;
-    interpolation; extension), through Mix nodes (Mix, Multiply) with a constant factor and a constant other colour;
-    None where it is not one (the caller then takes the mean, named)."""
+def _constant_color(socket) -> np.ndarray | None:
+    """A colour input's value where it is a constant (unlinked, or an RGB node's), else None."""
+    node, _ = _source(socket)
+    if node is None:
+        return np.asarray([float(c) for c in socket.default_value[:3]], dtype=np.float64)
+    if node.bl_idname == "ShaderNodeRGB":
+        return np.asarray([float(c) for c in node.outputs[0].default_value[:3]], dtype=np.float64)
+    return None
+
+
+def _constant_value(socket) -> float | None:
+    """A number input's value where it is a constant (unlinked, or a Value node's), else None."""
+    node, _ = _source(socket)
+    if node is None:
+        return float(socket.default_value)
+    if node.bl_idname == "ShaderNodeValue":
+        return float(node.outputs[0].default_value)
+    return None
+
+
+def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only: bool = True) -> tuple | None:
+    """The texture a colour input reads by the mesh's UVs, as (pixels, interpolation, extension, procedural), or None
+    where it is not one (the caller then takes the mean, named):
+
+    - an Image Texture: pixels (H, W, 3) linear, bottom row first; procedural None;
+    - a Checker Texture: pixels its two colours (2, 1, 3) (white and black for its Fac); procedural
+      {"checker": {"scale": s}};
+    - a Gradient Texture, through a Color Ramp (Linear or Constant, RGB): pixels the ramp's colours (K, 1, 3);
+      procedural {"gradient": {"type": t, "stops": positions, "interpolation": i}};
+
+    through Mix nodes (Mix, Multiply) with a constant factor and a constant other colour, and a Color Ramp (Linear or
+    Constant, RGB) or a Hue/Saturation/Value node of constant settings applied to an image's texels or a checker's
+    colours (exact; on a Linear image named: the node maps the interpolated colour, not the texels) or a gradient's
+    grey (a Color Ramp only). uv_only False: any coordinates (for a mean colour)."""
     node, output = _source(socket)
     if node is None or depth > 8:
         return None
-    if node.bl_idname == "ShaderNodeTexImage":
+    kind = node.bl_idname
+    if kind == "ShaderNodeTexImage":
         image = node.image
         if image is None or output.name != "Color" or getattr(node, "projection", "FLAT") != "FLAT":
             return None
-        if not _uv_coordinates(node) or node.extension not in EXTENSIONS:
+        if (uv_only and not _uv_coordinates(node)) or node.extension not in EXTENSIONS:
             return None
         pixels = _rgba_pixels(image)
         if pixels is None:
             return None
         if node.interpolation in ("Cubic", "Smart"):
             notes.append(f"{node.interpolation.lower()} interpolation on {label}: linear")
-        return pixels, INTERPOLATIONS.get(node.interpolation, "linear"), EXTENSIONS[node.extension]
+        return pixels, INTERPOLATIONS.get(node.interpolation, "linear"), EXTENSIONS[node.extension], None
+    if kind == "ShaderNodeTexChecker":
+        colors = [_constant_color(node.inputs[name]) for name in ("Color1", "Color2")]
+        scale = _constant_value(node.inputs["Scale"])
+        if (uv_only and not _uv_coordinates(node, False)) or scale is None or any(c is None for c in colors):
+            return None
+        if output.name == "Fac":
+            colors = [np.ones(3), np.zeros(3)]
+        return np.asarray(colors, dtype=np.float64)[:, None, :], "closest", "repeat", {"checker": {"scale": scale}}
+    if kind == "ShaderNodeTexGradient":
+        if (uv_only and not _uv_coordinates(node, False)) or node.gradient_type not in GRADIENTS:
+            return None
+        gradient = {"type": GRADIENTS[node.gradient_type], "stops": [0.0, 1.0], "interpolation": "linear"}
+        return np.asarray([[[0.0] * 3], [[1.0] * 3]]), "closest", "repeat", {"gradient": gradient}
+    if kind == "ShaderNodeValToRGB":
+        ramp = node.color_ramp
+        if output.name != "Color" or ramp.color_mode != "RGB" or ramp.interpolation not in ("LINEAR", "CONSTANT"):
+            return None
+        found = texture_input(node.inputs["Fac"], label, notes, depth + 1, uv_only)
+        return None if found is None else _ramped(found, ramp, label, notes)
+    if kind == "ShaderNodeHueSaturation":
+        settings = [_constant_value(node.inputs[name]) for name in ("Hue", "Saturation", "Value", "Fac")]
+        found = texture_input(node.inputs["Color"], label, notes, depth + 1, uv_only)
+        if found is None or any(value is None for value in settings) or "gradient" in (found[3] or {}):
+            return None
+        pixels, interpolation, extension, procedural = found
+        if procedural is None and interpolation == "linear":
+            notes.append(f"hue/saturation on a linear-interpolated image on {label}: on its texels")
+        return hue_saturation(pixels, *settings), interpolation, extension, procedural
     mix = _mix_sockets(node)
     if mix is None or any(part is None for part in mix[:3]) or mix[3] not in ("MIX", "MULTIPLY"):
         return None
@@ -331,7 +430,7 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0) -> tuple
     if factor.is_linked:
         return None
     f = min(1.0, max(0.0, float(factor.default_value)))
-    found = [texture_input(part, label, notes, depth + 1) for part in (first, second)]
+    found = [texture_input(part, label, notes, depth + 1, uv_only) for part in (first, second)]
     if (found[0] is None) == (found[1] is None):
         return None
     other = second if found[0] is not None else first
@@ -340,14 +439,113 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0) -> tuple
         return None
     source = other if other_node is None else other_node.outputs[0]
     constant = np.asarray([float(c) for c in source.default_value[:3]], dtype=np.float64)
-    pixels, interpolation, extension = found[0] if found[0] is not None else found[1]
+    pixels, interpolation, extension, procedural = found[0] if found[0] is not None else found[1]
     if blend == "MIX":
         mixed = pixels * (1.0 - f) + constant * f if found[0] is not None else constant * (1.0 - f) + pixels * f
     else:
         mixed = pixels * ((1.0 - f) + f * constant)
     if getattr(node, "clamp_result", False) or getattr(node, "use_clamp", False):
         mixed = np.clip(mixed, 0.0, 1.0)
-    return mixed, interpolation, extension
+    return mixed, interpolation, extension, procedural
+
+
+def _ramped(found: tuple, ramp, label: str, notes: list[str]) -> tuple | None:
+    """A texture (texture_input) through a Color Ramp: an image's texels and a checker's colours mapped as Cycles
+    maps a colour (its luminance looked up in the ramp: Blender's colour band in 4.x and 5.x, a table of 256 in 3.x,
+    compat.cycles_ramp_table), a plain gradient's grey replaced by the ramp's stops; None for a gradient already
+    through a ramp."""
+    pixels, interpolation, extension, procedural = found
+    if procedural is not None and "gradient" in procedural:
+        gradient = procedural["gradient"]
+        if gradient["stops"] != [0.0, 1.0] or gradient["interpolation"] != "linear" or pixels.shape[0] != 2:
+            return None
+        if not (np.all(pixels[0] == 0.0) and np.all(pixels[1] == 1.0)):
+            return None
+        elements = sorted(ramp.elements, key=lambda element: element.position)
+        stops = [min(1.0, max(0.0, float(element.position))) for element in elements]
+        colors = np.asarray([[float(c) for c in element.color[:3]] for element in elements])[:, None, :]
+        changed = {**gradient, "stops": stops, "interpolation": ramp.interpolation.lower()}
+        return colors, interpolation, extension, {"gradient": changed}
+    f = (pixels @ LUMINANCE).reshape(-1)
+    size = compat.cycles_ramp_table()
+    if size:  # 3.x: Cycles' table of the band at i / (size - 1)
+        table = np.asarray([[float(c) for c in ramp.evaluate(i / (size - 1))[:3]] for i in range(size)])
+        x = np.clip(f, 0.0, 1.0) * (size - 1)
+        i = np.clip(x.astype(np.int64), 0, size - 1)
+        mapped = table[i]
+        if ramp.interpolation == "LINEAR":
+            t = (x - i)[:, None]
+            mapped = np.where(t > 0.0, (1.0 - t) * mapped + t * table[np.minimum(i + 1, size - 1)], mapped)
+        return _noted(mapped.reshape(pixels.shape), found, label, notes)
+    elements = sorted(ramp.elements, key=lambda element: element.position)
+    scene = module("scene.scene")
+    band = scene.Texture(  # the band as the tracer evaluates a linear gradient's ramp: f = u
+        kind="gradient",
+        ramp=ramp.interpolation.lower(),
+        positions=tuple(min(1.0, max(0.0, float(element.position))) for element in elements),
+        colors=tuple(tuple(float(c) for c in element.color[:3]) for element in elements),
+    )
+    mapped = module("tracing.texturing").sample(band, f, np.zeros_like(f)).T.reshape(pixels.shape)
+    return _noted(mapped, found, label, notes)
+
+
+def _noted(mapped: np.ndarray, found: tuple, label: str, notes: list[str]) -> tuple:
+    """A ramp's colours in place of found's, named where they stand for an interpolated image's."""
+    _, interpolation, extension, procedural = found
+    if procedural is None and interpolation == "linear":
+        notes.append(f"colour ramp on a linear-interpolated image on {label}: on its texels")
+    return mapped, interpolation, extension, procedural
+
+
+def hue_saturation(pixels: np.ndarray, hue: float, saturation: float, value: float, fac: float) -> np.ndarray:
+    """Cycles' svm_node_hsv on linear colours (..., 3): to HSV, hue + shift + 0.5 wrapped, saturation scaled and
+    clamped to [0, 1], value scaled, back to RGB, mixed with the input by fac, clamped at 0."""
+    rgb = np.asarray(pixels, dtype=np.float64)
+    high, low = rgb.max(axis=-1), rgb.min(axis=-1)
+    delta = high - low
+    s = np.where(high != 0.0, delta / np.where(high != 0.0, high, 1.0), 0.0)
+    c = (high[..., None] - rgb) / np.where(delta != 0.0, delta, 1.0)[..., None]
+    h = np.where(
+        rgb[..., 0] == high, c[..., 2] - c[..., 1], np.where(rgb[..., 1] == high, 2.0 + c[..., 0] - c[..., 2],
+                                                              4.0 + c[..., 1] - c[..., 0])
+    )  # fmt: skip
+    h = h / 6.0
+    h = np.where(h < 0.0, h + 1.0, h)
+    h = np.where(s != 0.0, h, 0.0)
+    h = np.mod(h + hue + 0.5, 1.0)  # Cycles' fractf (x - floor(x))
+    s = np.clip(s * saturation, 0.0, 1.0)
+    v = high * value
+    h6 = np.where(h == 1.0, 0.0, h) * 6.0
+    sector = np.floor(h6)
+    f = h6 - sector
+    p, q, t = v * (1.0 - s), v * (1.0 - s * f), v * (1.0 - s * (1.0 - f))
+    choices = [(v, t, p), (q, v, p), (p, v, t), (p, q, v), (t, p, v), (v, p, q)]
+    out = np.zeros_like(rgb)
+    for k, (r, g, b) in enumerate(choices):
+        where = (sector == k) if k < 5 else (sector >= 5)
+        out = np.where(where[..., None], np.stack([r, g, b], axis=-1), out)
+    out = np.where((s != 0.0)[..., None], out, v[..., None] * np.ones(3))
+    return np.maximum(fac * out + (1.0 - fac) * rgb, 0.0)
+
+
+def texture_mean(found: tuple) -> tuple[float, float, float]:
+    """A texture's (texture_input) mean linear colour: an image's or a checker's colours' mean, a gradient's over
+    the unit UV square (GRID_MEAN^2 points, as the tracer evaluates it)."""
+    pixels, _, _, procedural = found
+    if procedural is None or "checker" in procedural:
+        return tuple(float(c) for c in pixels.reshape(-1, 3).mean(axis=0))
+    gradient = procedural["gradient"]
+    texture = module("scene.scene").Texture(
+        kind="gradient",
+        gradient=gradient["type"],
+        ramp=gradient["interpolation"],
+        positions=tuple(gradient["stops"]),
+        colors=tuple(tuple(float(c) for c in color) for color in pixels.reshape(-1, 3)),
+    )
+    centres = (np.arange(GRID_MEAN) + 0.5) / GRID_MEAN
+    u, v = np.meshgrid(centres, centres)
+    values = module("tracing.texturing").sample(texture, u.reshape(-1), v.reshape(-1))
+    return tuple(float(c) for c in values.mean(axis=1))
 
 
 def value_input(socket, label: str, notes: list[str]) -> float:
@@ -369,9 +567,7 @@ def _textured_color(socket, material, label: str, notes: list[str]) -> tuple[tup
     texture = texture_input(socket, label, notes)
     if texture is None:
         return color_input(socket, material, label, notes), None
-    pixels = texture[0]
-    mean = tuple(float(c) for c in pixels.reshape(-1, 3).mean(axis=0))
-    return mean, texture
+    return texture_mean(texture), texture
 
 
 def _principled(node, material, notes: list[str]) -> _Lobes:
@@ -390,9 +586,9 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
     lobes.given = [dielectric * c for c in base]
     if texture is not None:
         weight = dielectric * compat.principled_diffuse_factor(roughness, f0)
-        lobes.texture = (texture[0], base, [weight] * 3, texture[1], texture[2])
+        lobes.texture = (texture[0], base, [weight] * 3, *texture[1:])
         if metallic > 0.0:
-            notes.append("metallic image texture: its highlight of the texture's mean colour")
+            notes.append("metallic texture: its highlight of the texture's mean colour")
     lobes.add_specular([metallic * c + dielectric * f0 for c in base], roughness)
     if glass > 0.0:
         ior = value_input(node.inputs["IOR"], "IOR", notes)
@@ -403,9 +599,11 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
             notes.append("Specular IOR Level on transmission: the IOR's own reflection")
         if texture is not None:
             notes.append("image texture on transmission: its mean colour")
-    emission = color_input(compat.principled_socket(node, "emission"), material, "Emission", notes)
+    emission, glow = _textured_color(compat.principled_socket(node, "emission"), material, "Emission", notes)
     strength = value_input(node.inputs["Emission Strength"], "Emission Strength", notes)
     lobes.emission = [c * strength for c in emission]
+    if glow is not None and strength != 0.0:
+        lobes.emission_texture = (glow[0], emission, [strength] * 3, *glow[1:])
     for role, what in (("subsurface", "subsurface"), ("coat", "coat"), ("sheen", "sheen")):
         socket = compat.principled_input(node, role)
         if socket is not None and (socket.is_linked or float(socket.default_value) > 0.0):
@@ -495,7 +693,7 @@ def _diffuse(node, material, notes: list[str]) -> _Lobes:
     lobes.diffuse = list(color)
     lobes.given = list(lobes.diffuse)
     if texture is not None:
-        lobes.texture = (texture[0], color, [1.0, 1.0, 1.0], texture[1], texture[2])
+        lobes.texture = (texture[0], color, [1.0, 1.0, 1.0], *texture[1:])
     roughness = node.inputs.get("Roughness")
     if roughness is not None and (roughness.is_linked or float(roughness.default_value) > 0.0):
         notes.append("diffuse roughness (Oren-Nayar): Lambert")
@@ -504,9 +702,11 @@ def _diffuse(node, material, notes: list[str]) -> _Lobes:
 
 def _emission(node, material, notes: list[str]) -> _Lobes:
     lobes = _Lobes()
-    color = color_input(node.inputs["Color"], material, f"{node.name} Color", notes)
+    color, glow = _textured_color(node.inputs["Color"], material, f"{node.name} Color", notes)
     strength = value_input(node.inputs["Strength"], "Strength", notes)
     lobes.emission = [c * strength for c in color]
+    if glow is not None and strength != 0.0:
+        lobes.emission_texture = (glow[0], color, [strength] * 3, *glow[1:])
     return lobes
 
 
@@ -739,9 +939,9 @@ def _opaque_document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -
         notes.append("diffuse brighter than white (Principled's): white")
     document = {"color": [min(1.0, max(0.0, c)) for c in color], "specular": 0, "reflective": reflective}
     if lobes.texture is not None:
-        document["texture"] = _texture_document(lobes, local)
-        if lobes.textures_dropped:
-            notes.append("several image textures: the first's")
+        document["texture"] = _texture_document(lobes.texture, lobes.diffuse, local)
+    if lobes.textures_dropped:
+        notes.append("several textures: the first's")
     if lobes.highlights:
         weight, exponent = max(lobes.highlights, key=lambda item: sum(item[0]))
         if len(lobes.highlights) > 1:
@@ -758,15 +958,42 @@ def _opaque_document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -
         if max(lobes.emission) > MAX_COLOR:
             notes.append("emission above 1: clipped at 1")
         document["emission"] = [min(MAX_COLOR, c) for c in lobes.emission]
+    if lobes.emission_texture is not None and any(c > 0.0 for c in lobes.emission):
+        document["emission_texture"] = _texture_document(lobes.emission_texture, lobes.emission, 1.0, MAX_COLOR)
+        if "emission above 1: clipped at 1" not in notes and _texture_clipped(lobes.emission_texture, lobes.emission):
+            notes.append("emission above 1: clipped at 1")
     return document
 
 
-def _texture_document(lobes: _Lobes, local: float) -> dict:
-    """The scene file's "texture" of a textured diffuse: at each texel (diffuse + weight (pixel - mean)) / (1 - r),
-    clipped to [0, 1] as the colour is, rows top first, float32 linear."""
-    pixels, mean, weight, interpolation, extension = lobes.texture
-    offset = np.asarray(lobes.diffuse, dtype=np.float64) - np.asarray(weight) * np.asarray(mean)
-    values = (pixels * np.asarray(weight) + offset) * local
-    values = np.ascontiguousarray(np.clip(values, 0.0, 1.0)[::-1], dtype=np.float32)
+def _texture_values(texture: tuple, base, local: float) -> np.ndarray:
+    """A lobe's texture's colours as the lobe has them: (base + weight (pixel - mean)) / (1 - r)."""
+    pixels, mean, weight = texture[:3]
+    offset = np.asarray(base, dtype=np.float64) - np.asarray(weight) * np.asarray(mean)
+    return (pixels * np.asarray(weight) + offset) * local
+
+
+def _texture_clipped(texture: tuple, base) -> bool:
+    return bool(_texture_values(texture, base, 1.0).max() > MAX_COLOR + 1e-6)
+
+
+def _texture_document(texture: tuple, base, local: float, high: float = 1.0) -> dict:
+    """The scene file's "texture" (or "emission_texture") of a textured lobe: its colours (_texture_values) clipped
+    to [0, high] as the colour is; an image's pixels rows top first, float32 linear; a checker's two colours; a
+    gradient's ramp stops."""
+    interpolation, extension, procedural = texture[3:]
+    values = np.clip(_texture_values(texture, base, local), 0.0, high)
+    if procedural is not None and "checker" in procedural:
+        one, two = (compat_color(c) for c in values[:, 0])
+        return {"checker": {"color1": one, "color2": two, "scale": procedural["checker"]["scale"]}}
+    if procedural is not None:
+        gradient = procedural["gradient"]
+        stops = [[p, compat_color(c)] for p, c in zip(gradient["stops"], values[:, 0], strict=True)]
+        return {"gradient": {"type": gradient["type"], "interpolation": gradient["interpolation"], "stops": stops}}
+    values = np.ascontiguousarray(values[::-1], dtype=np.float32)
     values.flags.writeable = False
     return {"pixels": values, "colorspace": "linear", "interpolation": interpolation, "extension": extension}
+
+
+def compat_color(color) -> list[float]:
+    """A colour as the scene file's list of three floats."""
+    return [float(c) for c in color]

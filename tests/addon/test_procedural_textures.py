@@ -1,0 +1,331 @@
+"""Checker and Gradient textures, Color Ramp and Hue/Saturation on a texture, and Image Textures on Emission in
+Blender (issue 36, item 1): the conversion hands them to the tracer (docs/scene-format.md, Procedural textures), and
+F12 renders a UV-mapped plane as Cycles does: the mean colour over the plane, the mask of Color1's pixels (IoU with
+Cycles' >= 0.95), and an image through a Color Ramp (Constant) or Hue/Saturation within 3 dB (PSNR over the plane)
+of the plain image's PSNR. Lit by a sun straight down (diffuse only), orthographic, 96 x 96, Cycles 16 samples at the
+pixel centres."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import bpy
+import numpy as np
+import pytest
+
+from addon import compat, material_convert
+
+ENGINE = "WEATHERVANE_TRACER"
+SIZE = 96
+RED, BLUE = (0.8, 0.1, 0.1, 1.0), (0.1, 0.15, 0.7, 1.0)
+PSNR_CAP = 100.0
+
+
+def uv_plane() -> tuple[bpy.types.Material, bpy.types.Node]:
+    """A 2 m plane (its default UV map: [0, 1]^2 across it) filling an orthographic camera's view from above, lit by
+    a sun straight down; a Principled BSDF without specular, returned with its material. Again: a new material on
+    the plane made before."""
+    plane = bpy.data.objects.get("Plane")
+    if plane is not None:
+        return new_material(plane)
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = SIZE
+    scene.render.resolution_percentage = 100
+    scene.world = None
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    plane = bpy.context.active_object
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type, camera.data.ortho_scale = "ORTHO", 2.0
+    camera.location = (0.0, 0.0, 5.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 3.0, 0.0
+    scene.collection.objects.link(sun)
+    return new_material(plane)
+
+
+def new_material(plane) -> tuple[bpy.types.Material, bpy.types.Node]:
+    material = bpy.data.materials.new("procedural")
+    compat.enable_nodes(material)
+    shader = next(node for node in material.node_tree.nodes if node.bl_idname == "ShaderNodeBsdfPrincipled")
+    compat.principled_socket(shader, "specular").default_value = 0.0
+    plane.data.materials.clear()
+    plane.data.materials.append(material)
+    return material, shader
+
+
+def by_uv(material, node) -> None:
+    """node's Vector from a Texture Coordinate's UV (procedural textures read Generated coordinates unlinked)."""
+    coordinates = material.node_tree.nodes.new("ShaderNodeTexCoord")
+    material.node_tree.links.new(coordinates.outputs["UV"], node.inputs["Vector"])
+
+
+def checker(scale: float, output: str = "Color") -> tuple[bpy.types.Material, bpy.types.Node]:
+    material, shader = uv_plane()
+    node = material.node_tree.nodes.new("ShaderNodeTexChecker")
+    node.inputs["Color1"].default_value, node.inputs["Color2"].default_value = RED, BLUE
+    node.inputs["Scale"].default_value = scale
+    by_uv(material, node)
+    material.node_tree.links.new(node.outputs[output], shader.inputs["Base Color"])
+    return material, node
+
+
+def gradient(kind: str, ramp: str | None) -> bpy.types.Material:
+    """A Gradient Texture of this type by UV on Base Color, through a Color Ramp (red at 0.3 to blue at 0.7) of this
+    interpolation or straight (its grey)."""
+    material, shader = uv_plane()
+    tree = material.node_tree
+    node = tree.nodes.new("ShaderNodeTexGradient")
+    node.gradient_type = kind
+    by_uv(material, node)
+    if ramp is None:
+        tree.links.new(node.outputs["Color"], shader.inputs["Base Color"])
+        return material
+    colors = tree.nodes.new("ShaderNodeValToRGB")
+    colors.color_ramp.interpolation = ramp
+    first, last = colors.color_ramp.elements
+    first.position, first.color = 0.3, RED
+    last.position, last.color = 0.7, BLUE
+    tree.links.new(node.outputs["Fac"], colors.inputs["Fac"])
+    tree.links.new(colors.outputs["Color"], shader.inputs["Base Color"])
+    return material
+
+
+def image_plane(between: str | None) -> bpy.types.Material:
+    """A packed 8 x 8 image of random colours (Closest) by UV on Base Color, straight, through a Color Ramp
+    (Constant: three stops) or through a Hue/Saturation/Value node."""
+    material, shader = uv_plane()
+    tree = material.node_tree
+    rng = np.random.default_rng(5)
+    image = bpy.data.images.new("cells", 8, 8)
+    image.pixels[:] = np.concatenate((rng.random((64, 3)), np.ones((64, 1))), axis=1).reshape(-1).tolist()
+    image.pack()
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image, texture.interpolation = image, "Closest"
+    output = texture.outputs["Color"]
+    if between == "ramp":
+        ramp = tree.nodes.new("ShaderNodeValToRGB")
+        ramp.color_ramp.interpolation = "CONSTANT"
+        ramp.color_ramp.elements[0].color = (0.05, 0.3, 0.1, 1.0)
+        ramp.color_ramp.elements[1].position, ramp.color_ramp.elements[1].color = 0.6, (0.9, 0.8, 0.2, 1.0)
+        middle = ramp.color_ramp.elements.new(0.25)
+        middle.color = (0.7, 0.2, 0.5, 1.0)
+        tree.links.new(output, ramp.inputs["Fac"])
+        output = ramp.outputs["Color"]
+    elif between == "hsv":
+        hsv = tree.nodes.new("ShaderNodeHueSaturation")
+        hsv.inputs["Hue"].default_value, hsv.inputs["Saturation"].default_value = 0.3, 1.6
+        hsv.inputs["Value"].default_value = 0.8
+        tree.links.new(output, hsv.inputs["Color"])
+        output = hsv.outputs["Color"]
+    tree.links.new(output, shader.inputs["Base Color"])
+    return material
+
+
+def f12(engine: str, path: Path) -> np.ndarray:
+    scene = bpy.context.scene
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        scene.cycles.device, scene.cycles.samples = "CPU", 16
+        scene.cycles.use_denoising = scene.cycles.use_adaptive_sampling = False
+        scene.cycles.filter_width = 0.01  # each pixel sampled at its centre, as the tracer's one ray
+    settings = scene.render.image_settings
+    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGB"
+    scene.render.filepath = str(path)
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    image = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        pixels = np.empty(SIZE * SIZE * image.channels, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        return pixels.reshape(SIZE, SIZE, image.channels)[..., :3].astype(np.float64)
+    finally:
+        bpy.data.images.remove(image)
+
+
+def both(tmp_path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(tracer, Cycles) F12 images of the scene."""
+    return f12(ENGINE, tmp_path / "tracer.exr"), f12("CYCLES", tmp_path / "cycles.exr")
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> float:
+    return float((a & b).sum() / max(1, (a | b).sum()))
+
+
+def psnr(found: np.ndarray, expected: np.ndarray) -> float:
+    """PSNR in dB, at most PSNR_CAP: beyond it the two differ by float rounding alone (in bpy 5.0.1 the plain image
+    is 142 dB, Hue/Saturation 137 dB: errors of 1e-7), which says nothing about the conversion."""
+    error = float(np.mean((found - expected) ** 2))
+    return min(PSNR_CAP, 10.0 * np.log10(max(float(expected.max()), 1e-6) ** 2 / max(error, 1e-30)))
+
+
+def compare_means(tracer: np.ndarray, cycles: np.ndarray) -> str:
+    found, expected = tracer.reshape(-1, 3).mean(axis=0), cycles.reshape(-1, 3).mean(axis=0)
+    message = f"tracer mean {found.round(4).tolist()}, Cycles mean {expected.round(4).tolist()}"
+    assert np.all(np.abs(found - expected) <= 0.03 * expected + 0.005), message
+    return message
+
+
+# ---- the conversion -------------------------------------------------------------------------------------------------
+
+
+def test_a_checker_by_uv_becomes_the_formats_checker() -> None:
+    material, node = checker(3.7)
+    document, notes = material_convert.convert_material(material)
+    assert notes == []
+    found = document["texture"]["checker"]
+    k = compat.principled_diffuse_factor(0.5, 0.0)  # Principled's diffuse share, as for a plain colour
+    assert found["scale"] == pytest.approx(3.7)
+    assert found["color1"] == pytest.approx([min(1.0, c * k) for c in RED[:3]], abs=1e-6)
+    assert found["color2"] == pytest.approx([min(1.0, c * k) for c in BLUE[:3]], abs=1e-6)
+    assert document["color"] == pytest.approx(
+        [(a + b) / 2 * k for a, b in zip(RED[:3], BLUE[:3], strict=True)], abs=1e-6
+    )
+    material.node_tree.links.remove(node.inputs["Vector"].links[0])  # Generated coordinates: its mean, named
+    document, notes = material_convert.convert_material(material)
+    assert "texture" not in document and notes == ["checker texture on Base Color: mean colour"]
+    assert document["color"] == pytest.approx(
+        [(a + b) / 2 * k for a, b in zip(RED[:3], BLUE[:3], strict=True)], abs=1e-6
+    )
+
+
+def test_a_gradient_through_a_colour_ramp_becomes_the_ramps_stops() -> None:
+    document, notes = material_convert.convert_material(gradient("RADIAL", "CONSTANT"))
+    assert notes == []
+    found = document["texture"]["gradient"]
+    assert found["type"] == "radial" and found["interpolation"] == "constant"
+    assert [p for p, _ in found["stops"]] == pytest.approx([0.3, 0.7])
+    document, notes = material_convert.convert_material(gradient("EASING", None))
+    assert notes == [] and document["texture"]["gradient"]["type"] == "easing"
+    assert [p for p, _ in document["texture"]["gradient"]["stops"]] == [0.0, 1.0]
+
+
+def test_ramp_and_hue_saturation_are_applied_to_the_images_texels() -> None:
+    plain = material_convert.convert_material(image_plane(None))[0]["texture"]["pixels"]
+    material = image_plane("hsv")
+    document, notes = material_convert.convert_material(material)
+    assert notes == []
+    k = compat.principled_diffuse_factor(0.5, 0.0)
+    linear = material_convert.linear_rgb(bpy.data.images["cells"])[::-1]  # rows top first, as the format's
+    expected = material_convert.hue_saturation(linear, 0.3, 1.6, 0.8, 1.0) * k
+    assert document["texture"]["pixels"] == pytest.approx(np.clip(expected, 0, 1), abs=1e-5)
+    assert np.abs(document["texture"]["pixels"] - plain).max() > 0.1
+    texture = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeTexImage")
+    texture.interpolation = "Linear"  # the node maps the interpolated colour: on the texels it is near, named
+    assert material_convert.convert_material(material)[1] == [
+        "hue/saturation on a linear-interpolated image on Base Color: on its texels"
+    ]
+
+
+def test_hue_saturation_is_cycles_hsv_node() -> None:
+    """Against Python's colorsys (the same hexcone model Cycles' rgb_to_hsv/hsv_to_rgb write out)."""
+    import colorsys
+
+    rng = np.random.default_rng(2)
+    colors = rng.random((200, 3))
+    colors[:5] = [[0, 0, 0], [0.5, 0.5, 0.5], [1, 0, 0], [0, 1, 1], [0.2, 0.2, 0.9]]
+    for hue, saturation, value, fac in ((0.5, 1.0, 1.0, 1.0), (0.3, 1.6, 0.8, 1.0), (0.9, 0.4, 1.3, 0.7)):
+        found = material_convert.hue_saturation(colors, hue, saturation, value, fac)
+        for color, got in zip(colors, found, strict=True):
+            h, s, v = colorsys.rgb_to_hsv(*color)
+            rgb = colorsys.hsv_to_rgb((h + hue + 0.5) % 1.0, min(1.0, max(0.0, s * saturation)), v * value)
+            expected = np.maximum(fac * np.asarray(rgb) + (1 - fac) * color, 0.0)
+            assert got == pytest.approx(expected, abs=1e-12)
+
+
+def test_an_image_on_emission_becomes_the_emission_texture_times_its_strength() -> None:
+    material, shader = uv_plane()
+    tree = material.node_tree
+    image = bpy.data.images.new("glow", 2, 2, float_buffer=True)
+    image.pixels[:] = [0.2, 0.4, 0.1, 1, 0.0, 0.1, 0.3, 1, 0.5, 0.5, 0.5, 1, 0.05, 0.0, 0.2, 1]
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image, texture.interpolation = image, "Closest"
+    tree.links.new(texture.outputs["Color"], compat.principled_socket(shader, "emission"))
+    shader.inputs["Emission Strength"].default_value = 1.5
+    document, notes = material_convert.convert_material(material)
+    assert notes == []
+    expected = np.asarray(image.pixels[:]).reshape(2, 2, 4)[::-1, :, :3] * 1.5
+    assert document["emission_texture"]["pixels"] == pytest.approx(expected, abs=1e-6)
+    assert document["emission"] == pytest.approx(expected.reshape(-1, 3).mean(axis=0), abs=1e-6)
+    shader.inputs["Emission Strength"].default_value = 3.0  # 0.5 x 3 clips at 1, named
+    document, notes = material_convert.convert_material(material)
+    assert document["emission_texture"]["pixels"].max() == 1.0 and notes == ["emission above 1: clipped at 1"]
+
+
+def test_what_is_not_converted_stays_named() -> None:
+    material = gradient("LINEAR", "LINEAR")
+    ramp = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeValToRGB")
+    ramp.color_ramp.interpolation = "B_SPLINE"
+    document, notes = material_convert.convert_material(material)
+    assert "texture" not in document and notes and "Base Color" in notes[0]
+    material = gradient("LINEAR", None)
+    shader = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+    hsv = material.node_tree.nodes.new("ShaderNodeHueSaturation")  # HSV on a gradient: not a ramp
+    material.node_tree.links.new(shader.inputs["Base Color"].links[0].from_socket, hsv.inputs["Color"])
+    material.node_tree.links.new(hsv.outputs["Color"], shader.inputs["Base Color"])
+    document, notes = material_convert.convert_material(material)
+    assert "texture" not in document and notes == [f"{hsv.name} on Base Color: the input's own value"]
+
+
+# ---- beside Cycles --------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("scale", [5.0, 3.7])
+def test_f12_shows_the_checker_as_cycles_does(tmp_path, scale: float) -> None:
+    checker(scale)
+    tracer, cycles = both(tmp_path)
+    message = compare_means(tracer, cycles)
+    first, expected = tracer[..., 0] > tracer[..., 2], cycles[..., 0] > cycles[..., 2]  # Color1 is the red one
+    overlap = iou(first, expected)
+    print(f"checker {scale}: {message}; Color1 IoU {overlap:.4f}, share {expected.mean():.3f}")
+    assert 0.3 < expected.mean() < 0.7 and overlap >= 0.95, f"{message}; IoU {overlap:.4f}"
+
+
+@pytest.mark.parametrize(("kind", "ramp"), [("LINEAR", None), ("SPHERICAL", "LINEAR"), ("RADIAL", "CONSTANT")])
+def test_f12_shows_the_gradient_as_cycles_does(tmp_path, kind: str, ramp: str | None) -> None:
+    gradient(kind, ramp)
+    tracer, cycles = both(tmp_path)
+    message = compare_means(tracer, cycles)
+    if ramp is None:  # grey: the bright half
+        first, expected = tracer[..., 0] > cycles[..., 0].max() / 2, cycles[..., 0] > cycles[..., 0].max() / 2
+    else:
+        first, expected = tracer[..., 0] > tracer[..., 2], cycles[..., 0] > cycles[..., 2]
+    overlap = iou(first, expected)
+    print(f"gradient {kind} {ramp}: {message}; IoU {overlap:.4f}, share {expected.mean():.3f}")
+    assert 0.1 < expected.mean() < 0.9 and overlap >= 0.95, f"{message}; IoU {overlap:.4f}"
+
+
+def test_f12_shows_an_image_through_a_ramp_or_hue_saturation_as_cycles_does(tmp_path) -> None:
+    scores = {}
+    for between in (None, "ramp", "hsv"):
+        image_plane(between)
+        tracer, cycles = both(tmp_path)
+        compare_means(tracer, cycles)
+        scores[between] = psnr(tracer, cycles)
+    print(f"PSNR over the plane, tracer vs Cycles: plain {scores[None]:.2f} dB, colour ramp {scores['ramp']:.2f} dB, "
+          f"hue/saturation {scores['hsv']:.2f} dB")  # fmt: skip
+    assert scores["ramp"] >= scores[None] - 3.0 and scores["hsv"] >= scores[None] - 3.0, scores
+
+
+def test_f12_shows_an_emission_texture_as_cycles_does_and_the_export_carries_it(tmp_path) -> None:
+    """A packed 8 x 8 image (Closest) on Principled's Emission Color, strength 0.8, over a black base with the sun
+    off: the plane's pixels are the emission, as Cycles'; File > Export's document holds it as lists, with UVs."""
+    from addon import export
+
+    material = image_plane(None)
+    shader = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+    link = shader.inputs["Base Color"].links[0]
+    material.node_tree.links.new(link.from_socket, compat.principled_socket(shader, "emission"))
+    material.node_tree.links.remove(shader.inputs["Base Color"].links[0])
+    shader.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    shader.inputs["Emission Strength"].default_value = 0.8
+    bpy.data.objects["Sun"].hide_render = True
+    document = export.scene_document(bpy.context)
+    converted = document["materials"]["blender:procedural"]
+    assert isinstance(converted["emission_texture"]["pixels"], list) and "texture" not in converted
+    assert next(body for body in document["objects"] if body["type"] == "mesh").get("uvs")
+    tracer, cycles = both(tmp_path)
+    compare_means(tracer, cycles)
+    score = psnr(tracer, cycles)
+    print(f"emission texture: PSNR {score:.2f} dB over the plane, std {tracer.reshape(-1, 3).std(axis=0).round(3)}")
+    assert score >= 40.0 and tracer.reshape(-1, 3).std(axis=0).min() > 0.05
