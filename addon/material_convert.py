@@ -31,8 +31,9 @@ Mix (Mix or Multiply blend, a constant factor, a constant other colour), becomes
 image's linear pixels (sRGB byte images decoded; float, Non-Color and Linear images as they are) through that Mix,
 times the same factors as the colour (color = texture's mean), Closest or Linear (Cubic and Smart: Linear, named),
 Repeat, Extend or Clip. A Checker or Gradient Texture read by the UV map (linked from Texture Coordinate UV or a UV
-Map node: unlinked, procedural textures read Generated coordinates) becomes the format's checker or gradient, a
-Gradient through a Color Ramp (Linear, Constant) the ramp's stops; a Color Ramp or Hue/Saturation/Value node
+Map node; unlinked, procedural textures read Generated coordinates) becomes the format's checker or gradient, a
+Gradient through a Color Ramp (Linear, Constant) the ramp's stops. A Mapping node of no rotation between the UV
+source and any of these becomes the texture's uv_scale and uv_offset. A Color Ramp or Hue/Saturation/Value node
 between an image or a checker and the input is applied to its texels or colours (exact for Closest images and
 checkers; named on Linear images, where the node maps the interpolated colour). The same on Emission Color and the
 Emission shader's Color becomes "emission_texture", times the strength. Anything else (other coordinates, Mirror,
@@ -323,6 +324,44 @@ TEXTURE_NODES = tuple(TEXTURE_NAMES)
 GRID_MEAN = 64  # a gradient's mean colour: over GRID_MEAN^2 points of the unit UV square
 
 
+def _uv_mapping(texture_node, unlinked_uv: bool = True, procedural: bool = False) -> dict | None:
+    """How a texture node reads the mesh's default UV map (_uv_coordinates), straight ({}) or through a Mapping node
+    of constant settings and no rotation ({"uv_scale": [su, sv], "uv_offset": [ou, ov]}: Point u S + L, Texture
+    (u - L) / S, Vector u S); None where it does not (a procedural texture also where the Mapping moves z: it reads
+    (u, v, 0))."""
+    node, _ = _source(texture_node.inputs["Vector"])
+    if node is None or node.bl_idname != "ShaderNodeMapping":
+        return {} if _uv_coordinates(texture_node, unlinked_uv) else None
+    kind = node.vector_type
+    values = {name: _constant_vector(node.inputs.get(name)) for name in ("Location", "Rotation", "Scale")}
+    if kind not in ("POINT", "TEXTURE", "VECTOR") or values["Scale"] is None or values["Rotation"] is None:
+        return None
+    if any(value != 0.0 for value in values["Rotation"]) or not _uv_coordinates(node, False):
+        return None
+    scale, location = values["Scale"], values["Location"]
+    if kind == "VECTOR":  # no location
+        location = [0.0, 0.0, 0.0]
+    if location is None:
+        return None
+    if procedural and location[2] != 0.0:
+        return None
+    if kind != "TEXTURE":
+        return {"uv_scale": scale[:2], "uv_offset": location[:2]}
+    if scale[0] == 0.0 or scale[1] == 0.0:
+        return None
+    return {
+        "uv_scale": [1.0 / scale[0], 1.0 / scale[1]],
+        "uv_offset": [-location[0] / scale[0], -location[1] / scale[1]],
+    }
+
+
+def _constant_vector(socket) -> list[float] | None:
+    """A vector input's value where it is unlinked, else None (an absent socket: None)."""
+    if socket is None or _source(socket)[0] is not None:
+        return None
+    return [float(c) for c in socket.default_value[:3]]
+
+
 def _uv_coordinates(texture_node, unlinked_uv: bool = True) -> bool:
     """Whether a texture node reads the mesh's default UV map: its Vector unlinked (an Image Texture; procedural
     textures read Generated coordinates there: unlinked_uv False), or from a Texture Coordinate's UV output or a UV
@@ -366,8 +405,8 @@ def _constant_value(socket) -> float | None:
 
 
 def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only: bool = True) -> tuple | None:
-    """The texture a colour input reads by the mesh's UVs, as (pixels, interpolation, extension, procedural), or None
-    where it is not one (the caller then takes the mean, named):
+    """The texture a colour input reads by the mesh's UVs, as (pixels, interpolation, extension, procedural, mapping),
+    or None where it is not one (the caller then takes the mean, named); mapping: _uv_mapping's fields:
 
     - an Image Texture: pixels (H, W, 3) linear, bottom row first; procedural None;
     - a Checker Texture: pixels its two colours (2, 1, 3) (white and black for its Fac); procedural
@@ -387,27 +426,31 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
         image = node.image
         if image is None or output.name != "Color" or getattr(node, "projection", "FLAT") != "FLAT":
             return None
-        if (uv_only and not _uv_coordinates(node)) or node.extension not in EXTENSIONS:
+        mapping = _uv_mapping(node)
+        if (uv_only and mapping is None) or node.extension not in EXTENSIONS:
             return None
         pixels = _rgba_pixels(image)
         if pixels is None:
             return None
         if node.interpolation in ("Cubic", "Smart"):
             notes.append(f"{node.interpolation.lower()} interpolation on {label}: linear")
-        return pixels, INTERPOLATIONS.get(node.interpolation, "linear"), EXTENSIONS[node.extension], None
+        return pixels, INTERPOLATIONS.get(node.interpolation, "linear"), EXTENSIONS[node.extension], None, mapping or {}
     if kind == "ShaderNodeTexChecker":
         colors = [_constant_color(node.inputs[name]) for name in ("Color1", "Color2")]
         scale = _constant_value(node.inputs["Scale"])
-        if (uv_only and not _uv_coordinates(node, False)) or scale is None or any(c is None for c in colors):
+        mapping = _uv_mapping(node, False, True)
+        if (uv_only and mapping is None) or scale is None or any(c is None for c in colors):
             return None
         if output.name == "Fac":
             colors = [np.ones(3), np.zeros(3)]
-        return np.asarray(colors, dtype=np.float64)[:, None, :], "closest", "repeat", {"checker": {"scale": scale}}
+        pixels = np.asarray(colors, dtype=np.float64)[:, None, :]
+        return pixels, "closest", "repeat", {"checker": {"scale": scale}}, mapping or {}
     if kind == "ShaderNodeTexGradient":
-        if (uv_only and not _uv_coordinates(node, False)) or node.gradient_type not in GRADIENTS:
+        mapping = _uv_mapping(node, False, True)
+        if (uv_only and mapping is None) or node.gradient_type not in GRADIENTS:
             return None
         gradient = {"type": GRADIENTS[node.gradient_type], "stops": [0.0, 1.0], "interpolation": "linear"}
-        return np.asarray([[[0.0] * 3], [[1.0] * 3]]), "closest", "repeat", {"gradient": gradient}
+        return np.asarray([[[0.0] * 3], [[1.0] * 3]]), "closest", "repeat", {"gradient": gradient}, mapping or {}
     if kind == "ShaderNodeValToRGB":
         ramp = node.color_ramp
         if output.name != "Color" or ramp.color_mode != "RGB" or ramp.interpolation not in ("LINEAR", "CONSTANT"):
@@ -419,10 +462,10 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
         found = texture_input(node.inputs["Color"], label, notes, depth + 1, uv_only)
         if found is None or any(value is None for value in settings) or "gradient" in (found[3] or {}):
             return None
-        pixels, interpolation, extension, procedural = found
+        pixels, interpolation, extension, procedural, mapping = found
         if procedural is None and interpolation == "linear":
             notes.append(f"hue/saturation on a linear-interpolated image on {label}: on its texels")
-        return hue_saturation(pixels, *settings), interpolation, extension, procedural
+        return hue_saturation(pixels, *settings), interpolation, extension, procedural, mapping
     mix = _mix_sockets(node)
     if mix is None or any(part is None for part in mix[:3]) or mix[3] not in ("MIX", "MULTIPLY"):
         return None
@@ -439,14 +482,14 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
         return None
     source = other if other_node is None else other_node.outputs[0]
     constant = np.asarray([float(c) for c in source.default_value[:3]], dtype=np.float64)
-    pixels, interpolation, extension, procedural = found[0] if found[0] is not None else found[1]
+    pixels, interpolation, extension, procedural, mapping = found[0] if found[0] is not None else found[1]
     if blend == "MIX":
         mixed = pixels * (1.0 - f) + constant * f if found[0] is not None else constant * (1.0 - f) + pixels * f
     else:
         mixed = pixels * ((1.0 - f) + f * constant)
     if getattr(node, "clamp_result", False) or getattr(node, "use_clamp", False):
         mixed = np.clip(mixed, 0.0, 1.0)
-    return mixed, interpolation, extension, procedural
+    return mixed, interpolation, extension, procedural, mapping
 
 
 def _ramped(found: tuple, ramp, label: str, notes: list[str]) -> tuple | None:
@@ -454,7 +497,7 @@ def _ramped(found: tuple, ramp, label: str, notes: list[str]) -> tuple | None:
     maps a colour (its luminance looked up in the ramp: Blender's colour band in 4.x and 5.x, a table of 256 in 3.x,
     compat.cycles_ramp_table), a plain gradient's grey replaced by the ramp's stops; None for a gradient already
     through a ramp."""
-    pixels, interpolation, extension, procedural = found
+    pixels, interpolation, extension, procedural, mapping = found
     if procedural is not None and "gradient" in procedural:
         gradient = procedural["gradient"]
         if gradient["stops"] != [0.0, 1.0] or gradient["interpolation"] != "linear" or pixels.shape[0] != 2:
@@ -465,7 +508,7 @@ def _ramped(found: tuple, ramp, label: str, notes: list[str]) -> tuple | None:
         stops = [min(1.0, max(0.0, float(element.position))) for element in elements]
         colors = np.asarray([[float(c) for c in element.color[:3]] for element in elements])[:, None, :]
         changed = {**gradient, "stops": stops, "interpolation": ramp.interpolation.lower()}
-        return colors, interpolation, extension, {"gradient": changed}
+        return colors, interpolation, extension, {"gradient": changed}, mapping
     f = (pixels @ LUMINANCE).reshape(-1)
     size = compat.cycles_ramp_table()
     if size:  # 3.x: Cycles' table of the band at i / (size - 1)
@@ -491,10 +534,10 @@ def _ramped(found: tuple, ramp, label: str, notes: list[str]) -> tuple | None:
 
 def _noted(mapped: np.ndarray, found: tuple, label: str, notes: list[str]) -> tuple:
     """A ramp's colours in place of found's, named where they stand for an interpolated image's."""
-    _, interpolation, extension, procedural = found
+    _, interpolation, extension, procedural, mapping = found
     if procedural is None and interpolation == "linear":
         notes.append(f"colour ramp on a linear-interpolated image on {label}: on its texels")
-    return mapped, interpolation, extension, procedural
+    return mapped, interpolation, extension, procedural, mapping
 
 
 def hue_saturation(pixels: np.ndarray, hue: float, saturation: float, value: float, fac: float) -> np.ndarray:
@@ -531,7 +574,7 @@ def hue_saturation(pixels: np.ndarray, hue: float, saturation: float, value: flo
 def texture_mean(found: tuple) -> tuple[float, float, float]:
     """A texture's (texture_input) mean linear colour: an image's or a checker's colours' mean, a gradient's over
     the unit UV square (GRID_MEAN^2 points, as the tracer evaluates it)."""
-    pixels, _, _, procedural = found
+    pixels, _, _, procedural, mapping = found
     if procedural is None or "checker" in procedural:
         return tuple(float(c) for c in pixels.reshape(-1, 3).mean(axis=0))
     gradient = procedural["gradient"]
@@ -541,6 +584,8 @@ def texture_mean(found: tuple) -> tuple[float, float, float]:
         ramp=gradient["interpolation"],
         positions=tuple(gradient["stops"]),
         colors=tuple(tuple(float(c) for c in color) for color in pixels.reshape(-1, 3)),
+        uv_scale=tuple(mapping.get("uv_scale", (1.0, 1.0))),
+        uv_offset=tuple(mapping.get("uv_offset", (0.0, 0.0))),
     )
     centres = (np.arange(GRID_MEAN) + 0.5) / GRID_MEAN
     u, v = np.meshgrid(centres, centres)
@@ -980,18 +1025,21 @@ def _texture_document(texture: tuple, base, local: float, high: float = 1.0) -> 
     """The scene file's "texture" (or "emission_texture") of a textured lobe: its colours (_texture_values) clipped
     to [0, high] as the colour is; an image's pixels rows top first, float32 linear; a checker's two colours; a
     gradient's ramp stops."""
-    interpolation, extension, procedural = texture[3:]
+    interpolation, extension, procedural, mapping = texture[3:]
+    mapping = {key: [float(c) for c in value] for key, value in mapping.items()}
     values = np.clip(_texture_values(texture, base, local), 0.0, high)
     if procedural is not None and "checker" in procedural:
         one, two = (compat_color(c) for c in values[:, 0])
-        return {"checker": {"color1": one, "color2": two, "scale": procedural["checker"]["scale"]}}
+        return {"checker": {"color1": one, "color2": two, "scale": procedural["checker"]["scale"]}, **mapping}
     if procedural is not None:
         gradient = procedural["gradient"]
         stops = [[p, compat_color(c)] for p, c in zip(gradient["stops"], values[:, 0], strict=True)]
-        return {"gradient": {"type": gradient["type"], "interpolation": gradient["interpolation"], "stops": stops}}
+        fields = {"type": gradient["type"], "interpolation": gradient["interpolation"], "stops": stops}
+        return {"gradient": fields, **mapping}
     values = np.ascontiguousarray(values[::-1], dtype=np.float32)
     values.flags.writeable = False
-    return {"pixels": values, "colorspace": "linear", "interpolation": interpolation, "extension": extension}
+    document = {"pixels": values, "colorspace": "linear", "interpolation": interpolation, "extension": extension}
+    return {**document, **mapping}
 
 
 def compat_color(color) -> list[float]:

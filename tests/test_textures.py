@@ -424,6 +424,8 @@ STOPS = "must be a non-empty list of colour ramp stops"
             ".gradient.stops[0][1]: must be a colour [r, g, b], got a list of 2",
         ),
         ({"gradient": {"stops": [0.5]}}, f".gradient.stops[0]: {STOPS}"),
+        ({"checker": {}, "uv_scale": [1, 2, 3]}, ".uv_scale: must be a list of 2 numbers, got a list of 3"),
+        ({"pixels": TEXELS, "uv_offset": [0, "a"]}, ".uv_offset[1]: must be a number"),
     ],
 )
 def test_the_loader_names_each_problem_of_a_procedural_texture(texture: dict, message: str) -> None:
@@ -456,7 +458,32 @@ def procedural_scene_document(seed: int, width: int = 16, height: int = 12) -> d
         for field in ("texture", "emission_texture"):
             if field in material and (name == "m0" or rng.random() < 0.7):
                 material[field] = procedural()
+            if field in material and rng.random() < 0.4:  # a Mapping node before it
+                material[field]["uv_scale"] = [rng.uniform(-3, 3), rng.uniform(-3, 3)]
+                material[field]["uv_offset"] = [rng.uniform(-2, 2), rng.uniform(-2, 2)]
     return document
+
+
+@pytest.mark.parametrize("interpolation", ["closest", "linear"])
+def test_a_mapping_reads_the_uv_scaled_and_offset(interpolation: str) -> None:
+    """uv_scale and uv_offset on the texture equal the same scale and offset on the quad's UVs (Cycles' lookup
+    written out in expected_texels), for an image, and for a checker and a gradient (their formulas above)."""
+    image = {"pixels": TEXELS, "colorspace": "linear", "interpolation": interpolation}
+    mapping = {"uv_scale": [2.7, 2.7], "uv_offset": [-0.8, -0.8]}
+    found = render(scene_from_dict(quad_document({**image, **mapping})), workers=1).image
+    u, v = pixel_uvs(2.7, -0.8)
+    expected = expected_texels(np.asarray(TEXELS, dtype=np.float32), u, v, interpolation, "repeat")
+    assert np.abs(found - expected).max() <= 1e-9
+    mapping = {"uv_scale": [1.5, -2.0], "uv_offset": [0.25, 1.5]}
+    u, v = pixel_uvs()
+    u, v = u * 1.5 + 0.25, v * -2.0 + 1.5
+    checker = {"checker": {"color1": [1, 0, 0], "color2": [0, 0, 1], "scale": 3.0}, **mapping}
+    found = render(scene_from_dict(quad_document(checker)), workers=1).image
+    edges = np.minimum(np.abs(u * 3 - np.round(u * 3)), np.abs(v * 3 - np.round(v * 3))) > 1e-6
+    assert np.array_equal(found[edges], checker_expected(u, v, 3.0, [1, 0, 0], [0, 0, 1])[edges])
+    gradient = {"gradient": {"type": "diagonal"}, **mapping}
+    found = render(scene_from_dict(quad_document(gradient)), workers=1).image
+    assert np.abs(found - gradient_expected("diagonal", u, v)[..., None]).max() <= 1e-9
 
 
 @pytest.mark.parametrize("seed", range(16))

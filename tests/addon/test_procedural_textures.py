@@ -61,12 +61,24 @@ def by_uv(material, node) -> None:
     material.node_tree.links.new(coordinates.outputs["UV"], node.inputs["Vector"])
 
 
-def checker(scale: float, output: str = "Color") -> tuple[bpy.types.Material, bpy.types.Node]:
+def checker(
+    scale: float, output: str = "Color", mapping: str | None = None
+) -> tuple[bpy.types.Material, bpy.types.Node]:
+    """A Checker Texture of this scale by UV on Base Color (through a Mapping node of this type: scale (1.6, 0.7),
+    location (0.13, -0.2))."""
     material, shader = uv_plane()
     node = material.node_tree.nodes.new("ShaderNodeTexChecker")
     node.inputs["Color1"].default_value, node.inputs["Color2"].default_value = RED, BLUE
     node.inputs["Scale"].default_value = scale
-    by_uv(material, node)
+    if mapping is None:
+        by_uv(material, node)
+    else:
+        moved = material.node_tree.nodes.new("ShaderNodeMapping")
+        moved.vector_type = mapping
+        moved.inputs["Scale"].default_value = (1.6, 0.7, 1.0)
+        moved.inputs["Location"].default_value = (0.13, -0.2, 0.0)
+        by_uv(material, moved)
+        material.node_tree.links.new(moved.outputs["Vector"], node.inputs["Vector"])
     material.node_tree.links.new(node.outputs[output], shader.inputs["Base Color"])
     return material, node
 
@@ -252,6 +264,24 @@ def test_an_image_on_emission_becomes_the_emission_texture_times_its_strength() 
     assert document["emission_texture"]["pixels"].max() == 1.0 and notes == ["emission above 1: clipped at 1"]
 
 
+def test_a_mapping_node_becomes_the_textures_uv_scale_and_offset() -> None:
+    material, _ = checker(3.0, mapping="POINT")
+    document, notes = material_convert.convert_material(material)
+    assert notes == []
+    assert document["texture"]["uv_scale"] == pytest.approx([1.6, 0.7])
+    assert document["texture"]["uv_offset"] == pytest.approx([0.13, -0.2])
+    moved = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeMapping")
+    moved.vector_type = "TEXTURE"  # (u - L) / S
+    texture = material_convert.convert_material(material)[0]["texture"]
+    assert texture["uv_scale"] == pytest.approx([1 / 1.6, 1 / 0.7])
+    assert texture["uv_offset"] == pytest.approx([-0.13 / 1.6, 0.2 / 0.7])
+    for change in ("rotation", "z"):  # a rotation; a z offset (the checker reads z): the mean colour, named
+        moved.inputs["Rotation"].default_value = (0.0, 0.0, 0.3 if change == "rotation" else 0.0)
+        moved.inputs["Location"].default_value = (0.13, -0.2, 0.5 if change == "z" else 0.0)
+        document, notes = material_convert.convert_material(material)
+        assert "texture" not in document and notes == ["checker texture on Base Color: mean colour"], change
+
+
 def test_what_is_not_converted_stays_named() -> None:
     material = gradient("LINEAR", "LINEAR")
     ramp = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeValToRGB")
@@ -270,14 +300,16 @@ def test_what_is_not_converted_stays_named() -> None:
 # ---- beside Cycles --------------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("scale", [5.0, 3.7])
-def test_f12_shows_the_checker_as_cycles_does(tmp_path, scale: float) -> None:
-    checker(scale)
+@pytest.mark.parametrize(("scale", "mapping"), [(5.0, None), (3.7, None), (3.7, "POINT"), (2.5, "TEXTURE")])
+def test_f12_shows_the_checker_as_cycles_does(tmp_path, scale: float, mapping: str | None) -> None:
+    material, _ = checker(scale, mapping=mapping)
+    if mapping is not None:
+        assert set(material_convert.convert_material(material)[0]["texture"]) == {"checker", "uv_scale", "uv_offset"}
     tracer, cycles = both(tmp_path)
     message = compare_means(tracer, cycles)
     first, expected = tracer[..., 0] > tracer[..., 2], cycles[..., 0] > cycles[..., 2]  # Color1 is the red one
     overlap = iou(first, expected)
-    print(f"checker {scale}: {message}; Color1 IoU {overlap:.4f}, share {expected.mean():.3f}")
+    print(f"checker {scale} {mapping}: {message}; Color1 IoU {overlap:.4f}, share {expected.mean():.3f}")
     assert 0.3 < expected.mean() < 0.7 and overlap >= 0.95, f"{message}; IoU {overlap:.4f}"
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import stat
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -289,8 +290,13 @@ def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
     ("image", relative to the scene file's folder), its colour space, interpolation and extension."""
     if reader is None:
         return None
+    mapping = {
+        "uv_scale": reader.vector("uv_scale", (1.0, 1.0), length=2, low=-TEXTURE_SCALE_MAX, high=TEXTURE_SCALE_MAX),
+        "uv_offset": reader.vector("uv_offset", (0.0, 0.0), length=2, low=-COORDINATE_LIMIT, high=COORDINATE_LIMIT),
+    }
     if "checker" in reader.data or "gradient" in reader.data:
-        return _procedural_texture(reader)
+        texture = _procedural_texture(reader)
+        return None if texture is None else replace(texture, **mapping)
     colorspace = reader.choice("colorspace", tx.COLORSPACES, "sRGB")
     interpolation = reader.choice("interpolation", sc.INTERPOLATIONS, "linear")
     extension = reader.choice("extension", sc.EXTENSIONS, "repeat")
@@ -330,7 +336,7 @@ def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
         reader.fail("image" if image is not None else "pixels", f"must hold finite values in 0..{_show(INTENSITY_MAX)}")
         return None
     linear.flags.writeable = False  # the texture keeps it, without a copy
-    return sc.Texture(pixels=linear, interpolation=interpolation, extension=extension, source=source)
+    return sc.Texture(pixels=linear, interpolation=interpolation, extension=extension, source=source, **mapping)
 
 
 def _procedural_texture(reader: _Reader) -> sc.Texture | None:
@@ -338,8 +344,9 @@ def _procedural_texture(reader: _Reader) -> sc.Texture | None:
     the UV map; a gradient's colour ramp), alone in its object."""
     kind = "checker" if "checker" in reader.data else "gradient"
     inner = reader.reader(kind)
-    if len(reader.data) > 1:
-        others = ", ".join(json.dumps(key) for key in reader.data if key != kind)
+    beside = [key for key in reader.data if key not in (kind, "uv_scale", "uv_offset")]
+    if beside:
+        others = ", ".join(json.dumps(key) for key in beside)
         reader.fail("", f'must give "{kind}" alone: a procedural texture has no {others}')
     reader.seen.update(reader.data)
     if inner is None:

@@ -240,7 +240,8 @@ class Texture(ArraysByBits):
     kind "checker" and "gradient" are procedural (Blender's Checker and Gradient Texture nodes on the UV map) and have
     no pixels: colors are the checker's (color1, color2) or the gradient's colour ramp stops' colours (at positions,
     ascending in [0, 1], interpolated by ramp: linear or constant); scale multiplies the checker's UV; gradient is the
-    Gradient Texture's type (GRADIENTS)."""
+    Gradient Texture's type (GRADIENTS). uv_scale, uv_offset: the UV the texture reads is (u su + ou, v sv + ov)
+    (Blender's Mapping node of no rotation)."""
 
     ARRAYS = ("pixels",)
 
@@ -254,6 +255,9 @@ class Texture(ArraysByBits):
     ramp: Literal["linear", "constant"] = "linear"
     scale: float = 1.0
     gradient: str = "linear"
+    # a Mapping node before the texture (every kind): the UV read as (u su + ou, v sv + ov)
+    uv_scale: tuple[float, float] = (1.0, 1.0)
+    uv_offset: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "pixels", frozen_array(self.pixels, np.float32, (-1, -1, 3)))

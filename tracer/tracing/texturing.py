@@ -9,7 +9,8 @@ bottom (v = 0; the pixels' row H - 1 - j, as their row 0 is the top). As Cycles'
   (i, j + 1), (i + 1, j + 1) weighted (1 - a)(1 - b), a (1 - b), (1 - a) b, a b, added in that order;
 - repeat: i modulo W; extend: i clamped to 0..W - 1; clip: a texel outside the image is black (0).
 
-A UV that is not finite is read as (0, 0). The vectorized sample() and the per-ray sample_one() do the same float64
+A UV that is not finite is read as (0, 0); a texture's uv_scale and uv_offset (a Mapping node) then make it
+(u su + ou, v sv + ov). The vectorized sample() and the per-ray sample_one() do the same float64
 operations in the same order, so the tracer and the per-pixel reference agree to the last bits but for the
 rounding of the hit's UV itself.
 
@@ -39,6 +40,9 @@ def sample(texture: sc.Texture, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """The texture's colours (3, n) float64 at UVs u, v (n,)."""
     u = np.where(np.isfinite(u), u, 0.0)
     v = np.where(np.isfinite(v), v, 0.0)
+    if texture.uv_scale != (1.0, 1.0) or texture.uv_offset != (0.0, 0.0):
+        u = u * texture.uv_scale[0] + texture.uv_offset[0]
+        v = v * texture.uv_scale[1] + texture.uv_offset[1]
     if texture.kind == "checker":
         return _checker(texture, u, v)
     if texture.kind == "gradient":
@@ -128,6 +132,9 @@ def sample_one(texture: sc.Texture, u: float, v: float) -> tuple[float, float, f
     """The texture's colour at one UV: sample()'s operations in plain Python floats (the per-pixel reference)."""
     u = u if math.isfinite(u) else 0.0
     v = v if math.isfinite(v) else 0.0
+    if texture.uv_scale != (1.0, 1.0) or texture.uv_offset != (0.0, 0.0):
+        u = u * texture.uv_scale[0] + texture.uv_offset[0]
+        v = v * texture.uv_scale[1] + texture.uv_offset[1]
     if texture.kind == "checker":
         x = _cell((u * texture.scale + 1e-6) * 0.999999)
         y = _cell((v * texture.scale + 1e-6) * 0.999999)
