@@ -216,8 +216,9 @@ def float32_decimal(value: float) -> float:
 
 
 def cycles_ramp_table() -> int:
-    """The entries of the table Cycles looks a Color Ramp up in (table[int(f (n - 1))], mixed with the next entry
-    for Linear), or 0 where it evaluates the ramp's colour band itself. Measured with a grey image swept across a
-    Constant ramp's stop at 0.25 in steps of 1e-4: 3.4.1 steps at 64/255 (a table of 256), 4.2.23, 4.4.0, 4.5.15 and
-    5.0.1 at 0.25 (taken here for every 4.x; 3.5-4.1 unmeasured)."""
-    return 256 if VERSION < (4, 0, 0) else 0
+    """The entries n of the table Cycles looks a Color Ramp up in: table[i] = the band at i / (n - 1), the lookup
+    table[int(f (n - 1))] (mixed with the next entry for Linear), so a Constant ramp steps at the first i / (n - 1)
+    at or past a stop. Measured with a grey float image swept across a Constant stop: 3.4.1 steps at 64/255 for a
+    stop at 0.25 (n = 256); 4.2.23, 4.4.0, 4.5.15 and 5.0.1 at 0.25 for 0.25 and at 180/256 for 0.7 (n = 257), taken
+    here for every 4.x (3.5-4.1 unmeasured)."""
+    return 256 if VERSION < (4, 0, 0) else 257

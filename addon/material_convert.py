@@ -493,11 +493,13 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
 
 
 def _ramped(found: tuple, ramp, label: str, notes: list[str]) -> tuple | None:
-    """A texture (texture_input) through a Color Ramp: an image's texels and a checker's colours mapped as Cycles
-    maps a colour (its luminance looked up in the ramp: Blender's colour band in 4.x and 5.x, a table of 256 in 3.x,
-    compat.cycles_ramp_table), a plain gradient's grey replaced by the ramp's stops; None for a gradient already
-    through a ramp."""
+    """A texture (texture_input) through a Color Ramp, as Cycles looks a ramp up (compat.cycles_ramp_table: the
+    band's table of n entries at i / (n - 1), entry int(f (n - 1))): an image's texels and a checker's colours by
+    their luminance; a plain gradient's grey replaced by the ramp's stops, a Constant ramp's each moved to the first
+    table point at or past it (then the format's band steps where Cycles' table does; a Linear ramp's mix differs
+    from the table's within 1 / (n - 1) of a stop); None for a gradient already through a ramp."""
     pixels, interpolation, extension, procedural, mapping = found
+    size = compat.cycles_ramp_table()
     if procedural is not None and "gradient" in procedural:
         gradient = procedural["gradient"]
         if gradient["stops"] != [0.0, 1.0] or gradient["interpolation"] != "linear" or pixels.shape[0] != 2:
@@ -506,35 +508,18 @@ def _ramped(found: tuple, ramp, label: str, notes: list[str]) -> tuple | None:
             return None
         elements = sorted(ramp.elements, key=lambda element: element.position)
         stops = [min(1.0, max(0.0, float(element.position))) for element in elements]
+        if ramp.interpolation == "CONSTANT":
+            stops = [min(1.0, math.ceil(p * (size - 1)) / (size - 1)) for p in stops]
         colors = np.asarray([[float(c) for c in element.color[:3]] for element in elements])[:, None, :]
         changed = {**gradient, "stops": stops, "interpolation": ramp.interpolation.lower()}
         return colors, interpolation, extension, {"gradient": changed}, mapping
-    f = (pixels @ LUMINANCE).reshape(-1)
-    size = compat.cycles_ramp_table()
-    if size:  # 3.x: Cycles' table of the band at i / (size - 1)
-        table = np.asarray([[float(c) for c in ramp.evaluate(i / (size - 1))[:3]] for i in range(size)])
-        x = np.clip(f, 0.0, 1.0) * (size - 1)
-        i = np.clip(x.astype(np.int64), 0, size - 1)
-        mapped = table[i]
-        if ramp.interpolation == "LINEAR":
-            t = (x - i)[:, None]
-            mapped = np.where(t > 0.0, (1.0 - t) * mapped + t * table[np.minimum(i + 1, size - 1)], mapped)
-        return _noted(mapped.reshape(pixels.shape), found, label, notes)
-    elements = sorted(ramp.elements, key=lambda element: element.position)
-    scene = module("scene.scene")
-    band = scene.Texture(  # the band as the tracer evaluates a linear gradient's ramp: f = u
-        kind="gradient",
-        ramp=ramp.interpolation.lower(),
-        positions=tuple(min(1.0, max(0.0, float(element.position))) for element in elements),
-        colors=tuple(tuple(float(c) for c in element.color[:3]) for element in elements),
-    )
-    mapped = module("tracing.texturing").sample(band, f, np.zeros_like(f)).T.reshape(pixels.shape)
-    return _noted(mapped, found, label, notes)
-
-
-def _noted(mapped: np.ndarray, found: tuple, label: str, notes: list[str]) -> tuple:
-    """A ramp's colours in place of found's, named where they stand for an interpolated image's."""
-    _, interpolation, extension, procedural, mapping = found
+    table = np.asarray([[float(c) for c in ramp.evaluate(i / (size - 1))[:3]] for i in range(size)])
+    x = np.clip(pixels @ LUMINANCE, 0.0, 1.0) * (size - 1)
+    i = np.clip(x.astype(np.int64), 0, size - 1)
+    mapped = table[i]
+    if ramp.interpolation == "LINEAR":
+        t = (x - i)[..., None]
+        mapped = np.where(t > 0.0, (1.0 - t) * mapped + t * table[np.minimum(i + 1, size - 1)], mapped)
     if procedural is None and interpolation == "linear":
         notes.append(f"colour ramp on a linear-interpolated image on {label}: on its texels")
     return mapped, interpolation, extension, procedural, mapping

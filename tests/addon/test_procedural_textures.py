@@ -206,7 +206,13 @@ def test_a_gradient_through_a_colour_ramp_becomes_the_ramps_stops() -> None:
     assert notes == []
     found = document["texture"]["gradient"]
     assert found["type"] == "radial" and found["interpolation"] == "constant"
-    assert [p for p, _ in found["stops"]] == pytest.approx([0.3, 0.7])
+    n = compat.cycles_ramp_table()  # Cycles' table: a Constant ramp steps at the first i / (n - 1) past a stop
+    assert [p for p, _ in found["stops"]] == pytest.approx(
+        [np.ceil(0.3 * (n - 1)) / (n - 1), 180 / 256 if n == 257 else 179 / 255]
+    )
+    assert found["stops"][0][1] == pytest.approx([c * compat.principled_diffuse_factor(0.5, 0.0) for c in RED[:3]])
+    found = material_convert.convert_material(gradient("SPHERICAL", "LINEAR"))[0]["texture"]["gradient"]
+    assert [p for p, _ in found["stops"]] == pytest.approx([0.3, 0.7]) and found["interpolation"] == "linear"
     document, notes = material_convert.convert_material(gradient("EASING", None))
     assert notes == [] and document["texture"]["gradient"]["type"] == "easing"
     assert [p for p, _ in document["texture"]["gradient"]["stops"]] == [0.0, 1.0]
