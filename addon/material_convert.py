@@ -417,7 +417,7 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
     through Mix nodes (Mix, Multiply) with a constant factor and a constant other colour, and a Color Ramp (Linear or
     Constant, RGB) or a Hue/Saturation/Value node of constant settings applied to an image's texels or a checker's
     colours (exact; on a Linear image named: the node maps the interpolated colour, not the texels) or a gradient's
-    grey (a Color Ramp only). uv_only False: any coordinates (for a mean colour)."""
+    own grey (exact: HSV scales a grey by fac Value + 1 - fac). uv_only False: any coordinates (for a mean colour)."""
     node, output = _source(socket)
     if node is None or depth > 8:
         return None
@@ -460,7 +460,9 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
     if kind == "ShaderNodeHueSaturation":
         settings = [_constant_value(node.inputs[name]) for name in ("Hue", "Saturation", "Value", "Fac")]
         found = texture_input(node.inputs["Color"], label, notes, depth + 1, uv_only)
-        if found is None or any(value is None for value in settings) or "gradient" in (found[3] or {}):
+        if found is None or any(value is None for value in settings):
+            return None
+        if "gradient" in (found[3] or {}) and not _plain_gradient(found):  # HSV is linear on greys only
             return None
         pixels, interpolation, extension, procedural, mapping = found
         if procedural is None and interpolation == "linear":
@@ -492,6 +494,19 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
     return mixed, interpolation, extension, procedural, mapping
 
 
+def _plain_gradient(found: tuple) -> bool:
+    """Whether a texture (texture_input) is a gradient's own grey: black at 0 to white at 1, linear."""
+    pixels, _, _, procedural, _ = found
+    gradient = (procedural or {}).get("gradient")
+    return (
+        gradient is not None
+        and gradient["stops"] == [0.0, 1.0]
+        and gradient["interpolation"] == "linear"
+        and pixels.shape[0] == 2
+        and bool(np.all(pixels[0] == 0.0) and np.all(pixels[1] == 1.0))
+    )
+
+
 def _ramped(found: tuple, ramp, label: str, notes: list[str]) -> tuple | None:
     """A texture (texture_input) through a Color Ramp, as Cycles looks a ramp up (compat.cycles_ramp_table: the
     band's table of n entries at i / (n - 1), entry int(f (n - 1))): an image's texels and a checker's colours by
@@ -502,9 +517,7 @@ def _ramped(found: tuple, ramp, label: str, notes: list[str]) -> tuple | None:
     size = compat.cycles_ramp_table()
     if procedural is not None and "gradient" in procedural:
         gradient = procedural["gradient"]
-        if gradient["stops"] != [0.0, 1.0] or gradient["interpolation"] != "linear" or pixels.shape[0] != 2:
-            return None
-        if not (np.all(pixels[0] == 0.0) and np.all(pixels[1] == 1.0)):
+        if not _plain_gradient(found):
             return None
         elements = sorted(ramp.elements, key=lambda element: element.position)
         stops = [min(1.0, max(0.0, float(element.position))) for element in elements]

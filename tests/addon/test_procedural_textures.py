@@ -294,13 +294,35 @@ def test_what_is_not_converted_stays_named() -> None:
     ramp.color_ramp.interpolation = "B_SPLINE"
     document, notes = material_convert.convert_material(material)
     assert "texture" not in document and notes and "Base Color" in notes[0]
-    material = gradient("LINEAR", None)
+    material = gradient("LINEAR", "LINEAR")
     shader = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
-    hsv = material.node_tree.nodes.new("ShaderNodeHueSaturation")  # HSV on a gradient: not a ramp
+    hsv = material.node_tree.nodes.new("ShaderNodeHueSaturation")  # HSV on a ramp's colours: not a ramp
     material.node_tree.links.new(shader.inputs["Base Color"].links[0].from_socket, hsv.inputs["Color"])
     material.node_tree.links.new(hsv.outputs["Color"], shader.inputs["Base Color"])
     document, notes = material_convert.convert_material(material)
     assert "texture" not in document and notes == [f"{hsv.name} on Base Color: the input's own value"]
+
+
+def test_hue_saturation_on_a_gradients_grey_scales_it(tmp_path) -> None:
+    """HSV of a grey keeps it grey and scales it by fac Value + 1 - fac: the gradient's white stop becomes that."""
+    material = gradient("DIAGONAL", None)
+    shader = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+    hsv = material.node_tree.nodes.new("ShaderNodeHueSaturation")
+    hsv.inputs["Hue"].default_value, hsv.inputs["Saturation"].default_value = 0.2, 1.7
+    hsv.inputs["Value"].default_value, hsv.inputs["Fac"].default_value = 0.6, 0.75
+    material.node_tree.links.new(shader.inputs["Base Color"].links[0].from_socket, hsv.inputs["Color"])
+    material.node_tree.links.new(hsv.outputs["Color"], shader.inputs["Base Color"])
+    document, notes = material_convert.convert_material(material)
+    assert notes == []
+    stops = document["texture"]["gradient"]["stops"]
+    k = compat.principled_diffuse_factor(0.5, 0.0)
+    assert stops[0] == [0.0, [0.0, 0.0, 0.0]]
+    assert stops[1][0] == 1.0 and stops[1][1] == pytest.approx([(0.75 * 0.6 + 0.25) * k] * 3, abs=1e-6)
+    tracer, cycles = both(tmp_path)
+    compare_means(tracer, cycles)
+    score = psnr(tracer, cycles)
+    print(f"HSV on a diagonal gradient: PSNR {score:.2f} dB over the plane")
+    assert score >= 40.0
 
 
 # ---- beside Cycles --------------------------------------------------------------------------------------------------
