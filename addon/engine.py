@@ -28,7 +28,7 @@ _turning: dict[
 
 
 # the least time between two writes of F12's bands into Blender's result (each makes Blender redraw its display
-# of the render; a full-HD frame's 36 bands finish about 30 ms apart with 2 workers)
+# of the render; a full-HD frame's 36 bands finish 15-30 ms apart with 2 workers here)
 WRITE_SECONDS = 0.25
 
 _closing = [False]  # set while the add-on is disabled or Blender quits: no pool is started again
@@ -184,7 +184,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             shown[height - 1 - rows, :, :3] = image[rows]
             unwritten[height - 1 - rows] = True
             # at most one write every WRITE_SECONDS: each write costs Blender a redraw of the render's display (a
-            # full-HD frame's 36 bands come 30 ms apart here); the first band at once, the rest at the end
+            # full-HD frame's 36 bands come 15-30 ms apart); the first band at once, the others with the next write
             if time.perf_counter() - last_write[0] >= WRITE_SECONDS:
                 write_bands()
 
