@@ -223,9 +223,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             shown[..., :3] = final
             if alpha is not None:
                 shown[..., 3] = np.flipud(alpha)
-            _write(render_result, shown)
-            if result.passes:
-                pass_map.write_passes(render_result, result.passes, fast)
+            _write(render_result, shown, result.passes)
             self.end_result(render_result)
         if result.passes:  # the manifests go into the frame's own result, whose metadata Blender's files carry
             whole = self.get_result()
@@ -301,27 +299,43 @@ def _fast_write(render_result) -> bool:
     return _FAST_WRITE[0]
 
 
-def _write(render_result, rgba: np.ndarray) -> None:
-    """A (height, width, 4) float32 image, rows bottom-up, into the render result's Combined pass: in one
-    foreach_set where a pass takes it (Blender 4+); in Blender 3.4 through a file that Blender reads itself
-    (RenderLayer.load_from_file of an uncompressed float OpenEXR, the way external engines hand over their images),
-    since a list of its pixels costs Blender 3.4 about 0.7 us a pixel (1.5 s of a 1920x1080 F12's 2 s, headless or
-    in the window) and the file about 0.1 us; a list where the file cannot be read."""
+def _write(render_result, rgba: np.ndarray, passes: dict[str, np.ndarray] | None = None) -> None:
+    """A (height, width, 4) float32 image, rows bottom-up, into the render result's Combined pass, and the traced
+    passes ((H, W, C), rows top-down) into theirs: in one foreach_set a pass where a pass takes it (Blender 4+); in
+    Blender 3.4 through a file that Blender reads itself (an uncompressed float OpenEXR: RenderLayer.load_from_file
+    for the image alone, RenderResult.load_from_file for a multilayer file with the passes, the way external engines
+    hand over their images), since a list costs Blender 3.4 about 0.7 us a value (1.5 s of a 1920x1080 F12's 2 s,
+    headless or in the window; 0.5 s for each channel of a pass) and the file about 0.1 us; lists where the file
+    cannot be read."""
     combined = render_result.layers[0].passes["Combined"]
     if _fast_write(render_result):
         combined.rect.foreach_set(rgba.ravel())
+        if passes:
+            pass_map.write_passes(render_result, passes, fast=True)
         return
     import contextlib
     import os
     import tempfile
 
+    top_down = np.flipud(rgba)  # an EXR's lines go top-down, Blender's rows bottom-up
+    if passes:
+        layer = render_result.layers[0].name
+        channels = {f"{layer}.Combined.{letter}": top_down[..., k] for k, letter in enumerate("RGBA")}
+        channels.update(pass_map.exr_channels(passes, layer))
+    else:
+        channels = {letter: top_down[..., k] for k, letter in enumerate("RGBA")}
     handle, path = tempfile.mkstemp(suffix=".exr", prefix="weathervane-")
     try:
         with os.fdopen(handle, "wb") as file:
-            file.write(exr_bytes(np.flipud(rgba)))  # an EXR's lines go top-down, Blender's rows bottom-up
-        render_result.layers[0].load_from_file(path)
+            write_exr(file, channels)
+        if passes:
+            render_result.load_from_file(path)
+        else:
+            render_result.layers[0].load_from_file(path)
     except (OSError, RuntimeError):  # no room for the file, or Blender could not read it
         _write_list(combined, rgba)
+        if passes:
+            pass_map.write_passes(render_result, passes, fast=False)
     finally:
         with contextlib.suppress(OSError):
             os.unlink(path)
@@ -332,24 +346,33 @@ def _write_list(combined, rgba: np.ndarray) -> None:
     combined.rect = rgba.reshape(-1, 4).tolist()
 
 
-_EXR_CHANNELS = "ABGR"  # an EXR's channels go in alphabetical order, each line's values channel by channel
+def exr_bytes(channels: dict[str, np.ndarray] | np.ndarray) -> bytes:
+    """The bytes write_exr writes for channels (a (height, width, 4) array: the channels R, G, B, A)."""
+    import io
+
+    stream = io.BytesIO()
+    write_exr(stream, channels if isinstance(channels, dict) else {c: channels[..., k] for k, c in enumerate("RGBA")})
+    return stream.getvalue()
 
 
-def exr_bytes(rgba: np.ndarray) -> bytes:
-    """A (height, width, 4) float image, rows top-down, as a single-part scanline OpenEXR file: 32-bit float R, G,
-    B, A, no compression, one line per block, the data window (0, 0)-(width - 1, height - 1)."""
-    height, width = rgba.shape[:2]
+def write_exr(file, channels: dict[str, np.ndarray]) -> None:
+    """Named (height, width) float images, rows top-down, into file as a single-part scanline OpenEXR file: 32-bit
+    float channels in the format's (alphabetical) order, no compression, one line per block, the data window (0,
+    0)-(width - 1, height - 1). Dotted names ("ViewLayer.Depth.Z") make it a multilayer file as Blender writes them.
+    The lines are made in one array and written as they are (a full-HD frame with every pass is 450 MB)."""
+    names = sorted(channels, key=lambda name: name.encode())
+    height, width = next(iter(channels.values())).shape[:2]
 
     def attribute(name: str, kind: str, value: bytes) -> bytes:
         return name.encode() + b"\0" + kind.encode() + b"\0" + np.int32(len(value)).tobytes() + value
 
     channel = np.array([2, 0, 1, 1], dtype="<i4").tobytes()  # FLOAT, pLinear 0 (and 3 reserved bytes), x/y sampling 1
-    channels = b"".join(name.encode() + b"\0" + channel for name in _EXR_CHANNELS) + b"\0"
+    channel_list = b"".join(name.encode() + b"\0" + channel for name in names) + b"\0"
     window = np.array([0, 0, width - 1, height - 1], dtype="<i4").tobytes()
     header = b"".join(
         [
             np.array([20000630, 2], dtype="<i4").tobytes(),  # magic number; version 2, single-part scanline
-            attribute("channels", "chlist", channels),
+            attribute("channels", "chlist", channel_list),
             attribute("compression", "compression", b"\0"),
             attribute("dataWindow", "box2i", window),
             attribute("displayWindow", "box2i", window),
@@ -360,14 +383,18 @@ def exr_bytes(rgba: np.ndarray) -> bytes:
             b"\0",
         ]
     )
-    line = np.dtype([("y", "<i4"), ("size", "<i4"), ("values", "<f4", (4, width))])
-    lines = np.empty(height, dtype=line)
-    lines["y"] = np.arange(height)
-    lines["size"] = 4 * 4 * width
-    lines["values"] = rgba[..., [3, 2, 1, 0]].transpose(0, 2, 1)  # each line: A, then B, G, R of every pixel
+    # each line: its y and its size in bytes (int32), then every pixel of the first channel, of the next, ...
+    lines = np.empty((height, 2 + len(names) * width), dtype="<f4")
+    lines.view("<i4")[:, 0] = np.arange(height)
+    lines.view("<i4")[:, 1] = 4 * len(names) * width
+    values = lines[:, 2:].reshape(height, len(names), width)
+    for k, name in enumerate(names):
+        values[:, k, :] = channels[name]
     start = len(header) + 8 * height  # after the table of each line's offset in the file
-    offsets = (start + line.itemsize * np.arange(height, dtype="<u8")).astype("<u8")
-    return header + offsets.tobytes() + lines.tobytes()
+    offsets = (start + lines.shape[1] * 4 * np.arange(height, dtype="<u8")).astype("<u8")
+    file.write(header)
+    file.write(offsets.tobytes())
+    file.write(memoryview(lines).cast("B"))
 
 
 CLASSES = (WEATHERVANE_RE_tracer,)

@@ -129,6 +129,25 @@ def write_passes(render_result, passes: dict[str, np.ndarray], fast: bool) -> No
                 layer.passes[target].rect = rect
 
 
+def exr_channels(passes: dict[str, np.ndarray], layer: str) -> dict[str, np.ndarray]:
+    """The traced passes ((H, W, C), rows top-down) as a multilayer EXR's channels as Blender names them,
+    "<layer>.<pass>.<channel>" -> (H, W) float32, rows top-down (Blender 3.4 reads them with
+    RenderResult.load_from_file)."""
+    channels: dict[str, np.ndarray] = {}
+    for entry in PASSES:
+        values = passes.get(entry.tracer)
+        if values is None:
+            continue
+        values = values.astype(np.float32, copy=False)
+        if entry.tracer == "shadow":
+            values = np.repeat(values, 3, axis=2)
+        for index, name in enumerate(layer_names(entry)):
+            part = values[..., 4 * index : 4 * index + 4] if entry.name.startswith("Crypto") else values
+            for k, letter in enumerate(entry.letters):
+                channels[f"{layer}.{name}.{letter}"] = part[..., k]
+    return channels
+
+
 def cryptomatte_metadata(scene, view_layer_name: str) -> dict[str, str]:
     """The Cryptomatte layers' header fields (name, hash, conversion, manifest) for the render result's metadata,
     where Blender's Cryptomatte node and its EXR writer find them."""

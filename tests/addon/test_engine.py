@@ -236,7 +236,9 @@ def test_f12_writes_each_band_once_where_blender_takes_only_lists(tmp_path: Path
     scene.render.filepath = str(tmp_path / "engine.exr")
     written = []
     write = engine._write
-    monkeypatch.setattr(engine, "_write", lambda result, rgba: written.append(rgba.size) or write(result, rgba))
+    monkeypatch.setattr(
+        engine, "_write", lambda result, rgba, passes=None: written.append(rgba.size) or write(result, rgba, passes)
+    )
     monkeypatch.setattr(engine, "WRITE_SECONDS", seconds)
     lists = []  # Blender 3.4 reads the bands' files: no pixel goes over as a list
     monkeypatch.setattr(engine, "_write_list", lambda combined, rgba: lists.append(rgba.size))

@@ -160,3 +160,23 @@ def test_a_ticked_pass_the_tracer_cannot_make_is_named_in_the_warning(capfd: pyt
     bpy.ops.render.render()
     printed = capfd.readouterr()
     assert "does not render: Vector pass, UV pass" in printed.out + printed.err
+
+
+def test_passes_go_over_without_lists_where_blender_takes_only_lists(tmp_path: Path, monkeypatch) -> None:
+    """Blender 3.4's passes take only Python lists (0.5 s a channel at 1920x1080): there the image and the passes
+    go in through one multilayer OpenEXR file Blender reads itself, and no pass is written as a list; Blender 4+
+    takes an array a pass."""
+    from addon import engine, pass_map
+
+    calls, write_passes = [], pass_map.write_passes
+    monkeypatch.setattr(pass_map, "write_passes", lambda *args, fast: calls.append(fast) or write_passes(*args, fast))
+    scene = plane_and_cube_scene()
+    tick(scene, "use_pass_z", "use_pass_normal", "use_pass_cryptomatte_object")
+    bpy.ops.render.render()
+    save_multilayer(scene, tmp_path / "passes.exr")
+    channels, _ = read_exr(tmp_path / "passes.exr", tmp_path)
+    assert (
+        abs(channels["ViewLayer.Depth.Z"][24, 32] - 3.0) < 1e-4 and abs(channels["ViewLayer.Normal.Z"][0, 0] - 1) < 1e-5
+    )
+    assert channels["ViewLayer.CryptoObject00.G"][24, 32] == 1.0  # the cube's whole coverage, rank 0
+    assert calls == ([] if engine._FAST_WRITE == [False] else [True])
