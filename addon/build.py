@@ -280,7 +280,8 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
     for index, light in enumerate(scene.lights):
         entry = settings.lights.add()
         kind = type(light).__name__
-        made = lights.create_from_scene(light, lights.object_name(_entry_kind(kind), index), collection)
+        blender_kind = {"SpotLight": "SPOT", "AreaLight": "AREA"}.get(kind, _entry_kind(kind))
+        made = lights.create_from_scene(light, lights.object_name(blender_kind, index), collection)
         if kind == "AmbientLight":
             entry.kind, entry.intensity = "AMBIENT", light.intensity
         elif made is not None:  # converted back as Blender's light of its type (entry_kind: the light's type)
@@ -302,6 +303,11 @@ def _entry_kind(kind: str) -> str:
     """The Lights panel entry's kind for a scene file light's class: a sun is DIRECTIONAL, the rest POINT (an entry
     of a spot or area light shows and converts as its Blender light's type)."""
     return "DIRECTIONAL" if kind == "DirectionalLight" else "POINT"
+
+
+def _nearest_count(samples: int) -> str:
+    """A scene file's sample count (a perfect square up to 1024) as the nearest the panel offers (1, 4, 9, 16, 64)."""
+    return str(min((1, 4, 9, 16, 64), key=lambda offered: (abs(offered - samples), offered)))
 
 
 def _with_kept_materials(scene, kept: dict):
@@ -327,7 +333,8 @@ def _fill_settings(context, scene) -> None:
     settings.numerics, settings.precision = scene.render.numerics, scene.render.dtype
     settings.background_color = scene.background.color
     settings.horizon, settings.zenith = scene.background.horizon, scene.background.zenith
-    settings.samples = str(scene.render.samples) if str(scene.render.samples) in {"1", "4", "9", "16", "64"} else "1"
+    settings.samples = _nearest_count(scene.render.samples)
+    settings.shadow_samples = _nearest_count(scene.render.shadow_samples)
     settings.materials.clear()
     for name, material in scene.materials.items():
         entry = settings.materials.add()

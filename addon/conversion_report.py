@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import light_convert, material_convert, world_convert
+from . import build, light_convert, material_convert, world_convert
 
 _updates = [0]  # depsgraph updates seen
 _converted: dict[tuple[str, str], list[str]] = {}  # (kind, name) -> notes, until that data-block changes
@@ -68,15 +68,28 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
     for name in sorted(materials):
         material = materials[name]
         rows.append(("MATERIAL", name, _notes("material", name, lambda m=material: _material_notes(m, blender_scene))))
+    # beside the add-on's vane the Lights panel's lights and the vane's Background render, not the scene's own
+    settings = getattr(blender_scene, "weathervane", None)
+    vane = build.has_vane()
+    driven = {entry.object_name for entry in settings.lights} if vane and settings is not None else set()
     for name in sorted(lights):
         obj = lights[name]
+        if vane and name not in driven and not settings.other_lights:
+            rows.append(("LIGHT", name, ["not rendered beside the vane (Lights > Other Lights renders it)"]))
+            continue
         notes = _notes("light", name, lambda o=obj: light_convert.convert_light(o, blender_scene=blender_scene)[1])
         rows.append(("LIGHT", name, notes))
     world = blender_scene.world
-    notes = _notes(
-        "world", world.name if world else "", lambda: world_convert.convert_world(world, blender_scene=blender_scene)[2]
-    )
-    rows.append(("WORLD", world.name if world else "no world (black)", notes))
+    if vane:
+        if world is not None:
+            rows.append(("WORLD", world.name, ["not rendered: the vane's Background renders"]))
+    else:
+        notes = _notes(
+            "world",
+            world.name if world else "",
+            lambda: world_convert.convert_world(world, blender_scene=blender_scene)[2],
+        )
+        rows.append(("WORLD", world.name if world else "no world (black)", notes))
     _listing.update(update=_updates[0], scene=blender_scene.name, rows=rows)
     return rows
 

@@ -138,7 +138,9 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         left_out = camera.unsupported(blender_scene, exporting=False) + pass_map.not_made(view_layer)
         if left_out or notes.line():
             said = [f"does not render: {', '.join(left_out)}"] if left_out else []
-            self.report({"WARNING"}, f"Weathervane Tracer {'; '.join([*said, notes.line()] if notes.line() else said)}")
+            self.report(
+                {"WARNING"}, f"Weathervane Tracer: {'; '.join([*said, notes.line()] if notes.line() else said)}"
+            )
         region = border_region(blender_scene.render, width, height)
         if region is not None:
             self._render_region(scene, region)

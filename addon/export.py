@@ -78,6 +78,7 @@ class ExportNotes:
     materials: dict[str, list[str]] = field(default_factory=dict)  # Blender material -> what its mapping approximates
     lights: dict[str, list[str]] = field(default_factory=dict)  # Blender light -> the same
     world: list[str] = field(default_factory=list)
+    lights_left_out: list[str] = field(default_factory=list)  # the scene's lights beside the vane's own, not rendered
 
     def not_rendered(self, kind: str, name: str) -> None:
         names = self.not_traced.setdefault(kind, [])
@@ -94,6 +95,13 @@ class ExportNotes:
             total = sum(self.dropped_triangles.values())
             names = ", ".join(list(self.dropped_triangles)[:3])
             parts.append(f"{total} zero-area triangle{'s' if total > 1 else ''} left out ({names})")
+        if self.lights_left_out:
+            count, names = len(self.lights_left_out), ", ".join(self.lights_left_out[:3])
+            more = f" and {count - 3} more" if count > 3 else ""
+            parts.append(
+                f"{count} light{'s' if count > 1 else ''} beside the vane's not rendered ({names}{more}; "
+                "Lights > Other Lights renders them)"
+            )
         parts += self.approximated
         counted = [
             f"{len(names)} {kind}{'s' if len(names) > 1 else ''}"
@@ -742,10 +750,13 @@ def _light_documents(settings, collected: _Collected, own_vane: bool, notes: Exp
         if any(c != 1.0 for c in color):
             light["color"] = [float(c) for c in color]
         documents.append(light)
-    if settings.other_lights or not own_vane:
-        for original, evaluated, _ in collected.lights:
-            if original.name not in driven:
-                documents.append(_blender_light(evaluated, notes))
+    for original, evaluated, _ in collected.lights:
+        if original.name in driven:
+            continue
+        if settings.other_lights or not own_vane:
+            documents.append(_blender_light(evaluated, notes))
+        else:
+            notes.lights_left_out.append(original.name)
     return documents
 
 

@@ -43,8 +43,9 @@ def _constant_falloff(light_data) -> None:
 
 
 def object_name(kind: str, index: int) -> str:
-    """The Blender name of the panel's light number index of a kind (POINT or DIRECTIONAL), however it was made."""
-    return f"WV {'Point' if kind == 'POINT' else 'Sun'} {index}"
+    """The Blender name of the panel's light number index of a kind (POINT, DIRECTIONAL, SPOT or AREA), however it
+    was made."""
+    return f"WV {({'POINT': 'Point', 'SPOT': 'Spot', 'AREA': 'Area'}).get(kind, 'Sun')} {index}"
 
 
 def create(kind: str, intensity: float, name: str, collection, vector=(0.0, 0.0, 1.0)):

@@ -461,6 +461,12 @@ def test_other_lights_are_left_out_until_asked_for_and_build_says_so(tmp_path: P
     assert "the wind follows the file's 3 keys" in report[0]  # Build says it set the wind, not silently
     document = _exported(tmp_path)
     assert len(document["lights"]) == len(default_scene().lights)  # only the listed ones
+    # and every render says so, as the Scene Conversion panel does (it does not call the light or the world exact)
+    assert "1 light beside the vane's not rendered (Light; Lights > Other Lights renders them)" in document["comment"]
+    from addon import conversion_report
+
+    rows = {(kind, name): notes for kind, name, notes in conversion_report.scene_conversion(bpy.context.scene)}
+    assert rows[("LIGHT", "Light")] == ["not rendered beside the vane (Lights > Other Lights renders it)"]
     small = {"width": 64, "height": 48}
     document["render"].update(small)
     mean = render(scene_from_dict(document), workers=1).image.mean()

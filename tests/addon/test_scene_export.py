@@ -360,12 +360,15 @@ def test_a_scene_files_lights_of_every_kind_build_into_blender_lights_that_expor
         {"type": "area", "location": [1.0, 1.0, 3.0], "direction": [0.0, 0.0, -1.0], "x_axis": [0.6, 0.8, 0.0],
          "shape": "disk", "size": 1.5, "intensity": 1.0},
     ]  # fmt: skip
+    document["render"]["shadow_samples"] = 16  # soft shadows of the area lights: the panel's Shadows
     path = tmp_path / "lights.json"
     path.write_text(json.dumps(document))
     assert bpy.ops.weathervane.build(filepath=str(path)) == {"FINISHED"}
     built = bpy.data.collections["Weathervane"].objects
     kinds = sorted(obj.data.type for obj in built if obj.type == "LIGHT")
     assert kinds == ["AREA", "AREA", "POINT", "POINT", "POINT", "SPOT", "SUN", "SUN"]  # no spot or area as a sun
+    assert {"WV Spot 6", "WV Area 7", "WV Area 8"} <= {obj.name for obj in built}
+    assert bpy.context.scene.weathervane.shadow_samples == "16"
     expected = scene_from_dict(document, "original").lights
     exported = scene_from_dict(json.loads(json.dumps(export())), "export").lights
     assert [type(light).__name__ for light in exported] == [type(light).__name__ for light in expected]
