@@ -1,11 +1,13 @@
 """View Layer > Passes -> the tracer's passes to trace, Blender's passes to register, and the traced passes written
 into a render result (Blender's names: Depth, Mist, Normal, Position, IndexOB, IndexMA, DiffDir, GlossDir, Emit,
-Env, Shadow, CryptoObject00..., CryptoMaterial00...; Ambient, Reflection and Transmission as the engine's own)."""
+Env, Shadow, CryptoObject00..., CryptoMaterial00...; from Blender 5.0 its new ones: Object Index, Material Index,
+Diffuse Direct, Glossy Direct, Emission, Environment; Ambient, Reflection and Transmission as the engine's own)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import bpy
 import numpy as np
 
 from ._tracer import module
@@ -42,6 +44,16 @@ PASSES = (
     BlenderPass("cryptomatte_object", "use_pass_cryptomatte_object", "CryptoObject", "RGBA", "COLOR"),
     BlenderPass("cryptomatte_material", "use_pass_cryptomatte_material", "CryptoMaterial", "RGBA", "COLOR"),
 )
+# Blender 5.0 renamed its passes (Cycles' and EEVEE's results, the compositor's Render Layers sockets, multilayer
+# files): the engine's take the same names there, so a compositor made with Cycles reads them
+BLENDER_5_NAMES = {
+    "IndexOB": "Object Index",
+    "IndexMA": "Material Index",
+    "DiffDir": "Diffuse Direct",
+    "GlossDir": "Glossy Direct",
+    "Emit": "Emission",
+    "Env": "Environment",
+}
 # View Layer passes the tracer has nothing for: named in the render's one warning line when ticked.
 NOT_MADE = {
     "use_pass_vector": "Vector",
@@ -79,11 +91,17 @@ def not_made(view_layer) -> list[str]:
 
 
 def layer_names(entry: BlenderPass) -> list[str]:
-    """Blender's pass names for an entry: a Cryptomatte pass is one RGBA pass per two ranks."""
+    """This Blender's pass names for an entry (Blender 5's where it renamed them): a Cryptomatte pass is one RGBA
+    pass per two ranks."""
     if entry.name.startswith("Crypto"):
         layers = module("scene.passes").CRYPTOMATTE_RANKS // 2
         return [f"{entry.name}{index:02d}" for index in range(layers)]
-    return [entry.name]
+    return [blender_name(entry.name)]
+
+
+def blender_name(name: str) -> str:
+    """A pass's name as this Blender calls it ("IndexOB" before 5.0, "Object Index" from 5.0)."""
+    return BLENDER_5_NAMES.get(name, name) if bpy.app.version >= (5, 0, 0) else name
 
 
 def register_passes(engine, scene, view_layer) -> None:

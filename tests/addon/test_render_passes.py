@@ -14,8 +14,11 @@ import bpy
 import numpy as np
 import pytest
 
+from addon.pass_map import blender_name  # Blender 5 renamed its passes: the names this Blender uses
+
 ROOT = Path(__file__).resolve().parents[2]
-WHITTED = ("Ambient", "DiffDir", "GlossDir", "Emit", "Reflection", "Env", "Transmission")
+WHITTED = tuple(blender_name(name) for name in ("Ambient", "DiffDir", "GlossDir", "Emit", "Reflection", "Env"))
+WHITTED += ("Transmission",)
 # Reads a multilayer EXR (single- or multi-part) into {channel: (H, W) float32} plus the header's text fields.
 READER = """
 import json, sys
@@ -114,9 +117,12 @@ def test_ticked_passes_hold_the_scenes_distances_normals_indices_and_add_up_to_c
     for axis, value in zip("XYZ", (0.0, 0.0, 1.0), strict=True):
         normal = channels[f"ViewLayer.Normal.{axis}"]
         assert abs(normal[24, 32] - value) < 1e-5 and abs(normal[0, 0] - value) < 1e-5
-    index = channels["ViewLayer.IndexOB.X"]
+    index = channels[f"ViewLayer.{blender_name('IndexOB')}.X"]
     assert index[24, 32] == 9.0 and index[0, 0] == 4.0
-    assert channels["ViewLayer.IndexMA.X"][24, 32] == 6.0 and channels["ViewLayer.IndexMA.X"][0, 0] == 0.0
+    assert (
+        channels[f"ViewLayer.{blender_name('IndexMA')}.X"][24, 32] == 6.0
+        and channels[f"ViewLayer.{blender_name('IndexMA')}.X"][0, 0] == 0.0
+    )
     mist = channels["ViewLayer.Mist.Z"]
     distance = 3.0  # straight down to the cube's top at the centre
     assert abs(mist[24, 32] - (distance - 1.0) / 10.0) < 1e-4
@@ -148,7 +154,7 @@ def test_cryptomatte_picks_each_object_as_its_coverage(tmp_path: Path) -> None:
                 ids = channels[f"ViewLayer.CryptoObject{layer}.{id_letter}"].astype(np.float32)
                 matte += np.where(ids == target, channels[f"ViewLayer.CryptoObject{layer}.{coverage_letter}"], 0.0)
         # the first sample's object (the Object Index pass) has some coverage, and full coverage inside the object
-        first = channels["ViewLayer.IndexOB.X"] == index
+        first = channels[f"ViewLayer.{blender_name('IndexOB')}.X"] == index
         assert np.all(matte[first] > 0.0)
         inner = first & (matte == 1.0)
         assert inner.sum() > 0.9 * first.sum() - 2 * (64 + 48)  # all but a silhouette's width of pixels
@@ -180,3 +186,23 @@ def test_passes_go_over_without_lists_where_blender_takes_only_lists(tmp_path: P
     )
     assert channels["ViewLayer.CryptoObject00.G"][24, 32] == 1.0  # the cube's whole coverage, rank 0
     assert calls == ([] if engine._FAST_WRITE == [False] else [True])
+
+
+def test_the_passes_take_the_names_cycles_gives_them_in_this_blender(tmp_path: Path) -> None:
+    """A compositor set up with Cycles reads the engine's passes by the same names: Blender 5 renamed them (Object
+    Index, Diffuse Direct, ...), 3.4-4.5 keep IndexOB, DiffDir, ... The truth is Cycles' own multilayer file."""
+    scene = plane_and_cube_scene()
+    tick(scene, "use_pass_z", "use_pass_mist", "use_pass_normal", "use_pass_position", "use_pass_object_index")
+    tick(scene, "use_pass_material_index", "use_pass_diffuse_direct", "use_pass_glossy_direct", "use_pass_emit")
+    tick(scene, "use_pass_environment", "use_pass_cryptomatte_object", "use_pass_cryptomatte_material")
+    names = {}
+    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
+        scene.render.engine = engine
+        scene.cycles.samples, scene.cycles.use_denoising = 1, False
+        bpy.ops.render.render()
+        save_multilayer(scene, tmp_path / f"{engine}.exr")
+        channels, _ = read_exr(tmp_path / f"{engine}.exr", tmp_path)
+        names[engine] = {name.rsplit(".", 1)[0] for name in channels} - {"ViewLayer.Noisy Image"}
+    # Cycles' Cryptomatte has 6 ranks (3 layers) by default, the engine 4 (2): the layers both have
+    assert names["WEATHERVANE_TRACER"] <= names["CYCLES"], names["WEATHERVANE_TRACER"] - names["CYCLES"]
+    assert len(names["CYCLES"] - names["WEATHERVANE_TRACER"]) == 2  # CryptoObject02 and CryptoMaterial02
