@@ -23,7 +23,7 @@ class BlenderPass:
     name: str
     letters: str
     kind: str  # VALUE, VECTOR or COLOR
-    own: bool = False  # the flag is the add-on's (scene.weathervane), not the view layer's
+    own: bool = False  # the flag is the add-on's (view_layer.weathervane), not Blender's own on the view layer
 
 
 PASSES = (
@@ -75,7 +75,7 @@ NOT_MADE = {
 
 
 def _ticked(entry: BlenderPass, scene, view_layer) -> bool:
-    owner = getattr(scene, "weathervane", None) if entry.own else view_layer
+    owner = getattr(view_layer, "weathervane", None) if entry.own else view_layer
     return bool(getattr(owner, entry.flag, False))
 
 

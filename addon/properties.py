@@ -350,7 +350,12 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         items=_square_counts("The light's centre alone: hard shadows", " over the light"),
         default="1",
     )
-    # the Whitted tree's passes Blender has no box for (View Layer > Passes draws them beside Blender's own)
+
+
+class WEATHERVANE_PG_view_layer(bpy.types.PropertyGroup):
+    """A view layer's boxes for the tracer's passes Blender has none for (View Layer > Passes draws them beside
+    Blender's own, which are the view layer's too: each view layer asks for its own passes)."""
+
     use_pass_ambient: BoolProperty(
         name="Ambient",
         default=False,
@@ -371,16 +376,18 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     )
 
 
-CLASSES = (WEATHERVANE_PG_material, WEATHERVANE_PG_light, WEATHERVANE_PG_settings)
+CLASSES = (WEATHERVANE_PG_material, WEATHERVANE_PG_light, WEATHERVANE_PG_settings, WEATHERVANE_PG_view_layer)
 
 
 def register() -> None:
     for cls in CLASSES:
         bpy.utils.register_class(cls)
     bpy.types.Scene.weathervane = PointerProperty(type=WEATHERVANE_PG_settings)
+    bpy.types.ViewLayer.weathervane = PointerProperty(type=WEATHERVANE_PG_view_layer)
 
 
 def unregister() -> None:
+    del bpy.types.ViewLayer.weathervane
     del bpy.types.Scene.weathervane
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

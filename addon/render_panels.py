@@ -180,7 +180,8 @@ class WEATHERVANE_VIEWLAYER_PT_passes(TracerPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.split_layout()
-        view_layer, settings = context.view_layer, context.scene.weathervane
+        view_layer = context.view_layer
+        settings = view_layer.weathervane
         column = layout.column(heading="Data", align=True)
         column.prop(view_layer, "use_pass_combined")
         column.prop(view_layer, "use_pass_z")

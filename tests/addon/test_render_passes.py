@@ -102,8 +102,8 @@ def test_ticked_passes_hold_the_scenes_distances_normals_indices_and_add_up_to_c
     scene = plane_and_cube_scene()
     tick(scene, "use_pass_z", "use_pass_normal", "use_pass_object_index", "use_pass_material_index", "use_pass_mist")
     tick(scene, "use_pass_diffuse_direct", "use_pass_glossy_direct", "use_pass_emit", "use_pass_environment")
-    scene.weathervane.use_pass_ambient = scene.weathervane.use_pass_reflection = True
-    scene.weathervane.use_pass_transmission = True
+    own = scene.view_layers[0].weathervane  # the engine's own boxes, on the view layer as Blender's
+    own.use_pass_ambient = own.use_pass_reflection = own.use_pass_transmission = True
     add_glass_ball(location=(1.8, 1.2, 0.5))  # off the pixels checked below: the Transmission pass has a share
     scene.world.mist_settings.start, scene.world.mist_settings.depth = 1.0, 10.0
     scene.world.mist_settings.falloff = "LINEAR"
@@ -206,3 +206,15 @@ def test_the_passes_take_the_names_cycles_gives_them_in_this_blender(tmp_path: P
     # Cycles' Cryptomatte has 6 ranks (3 layers) by default, the engine 4 (2): the layers both have
     assert names["WEATHERVANE_TRACER"] <= names["CYCLES"], names["WEATHERVANE_TRACER"] - names["CYCLES"]
     assert len(names["CYCLES"] - names["WEATHERVANE_TRACER"]) == 2  # CryptoObject02 and CryptoMaterial02
+
+
+def test_the_engines_own_pass_boxes_belong_to_each_view_layer() -> None:
+    from addon import pass_map
+
+    scene = plane_and_cube_scene()
+    first = scene.view_layers[0]
+    second = scene.view_layers.new("Second")
+    first.weathervane.use_pass_transmission = True
+    second.weathervane.use_pass_ambient = True
+    assert pass_map.wanted(scene, first) == ("transmission",)
+    assert pass_map.wanted(scene, second) == ("ambient",)
