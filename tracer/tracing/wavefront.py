@@ -187,7 +187,7 @@ class PreparedScene:
         self.holdout = np.asarray([obj.holdout for obj in objects], dtype=bool)
         self.any_holdout = bool(self.holdout.any())
         self.has_alpha = self.scene.has_alpha
-        self.channels = self.scene.channels  # colour, alpha where the scene has one, then the passes'
+        self.channels = 4 if self.has_alpha else 3  # a traced pixel's: colour, and alpha where the scene has one
         self._materials(objects)
         # where shadow rays pass partly transparent surfaces: the objects that block them whole (every material of
         # theirs has alpha 1), so that _shadow_through follows only the rays they leave open
@@ -1060,7 +1060,7 @@ class PreparedScene:
                     alpha[obj < 0] = 0.0  # the film shows nothing there
                 if recorder is not None:
                     missed = indices(obj < 0)
-                    recorder.environment(missed, color[:, missed])
+                    recorder.environment(missed, take(color, missed))
             else:
                 miss = indices(obj < 0)
                 if miss.size:
@@ -1115,9 +1115,11 @@ class PreparedScene:
                 local = (intensity * (1.0 - reflective)) * colors
             if self.emissive:
                 local = local + emission
-            _accumulate(color, pixel, weight * local if bounce else local, bounce == 0)
+            if bounce:
+                local = weight * local
+            _accumulate(color, pixel, local, bounce == 0)
             if recorder is not None and bounce:
-                recorder.reflection(pixel, weight * local)
+                recorder.reflection(pixel, local)
             go_on = indices(reflective > 0.0)
             if bounce == depth or go_on.size == 0:
                 break
@@ -1532,21 +1534,27 @@ class PreparedScene:
         max_samples: int | None = None,
         volume: Volume | None = None,
         touched: np.ndarray | None = None,
+        passes: dict[str, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, RayCounts]:
-        """Image rows (R,) -> (R, width, 3) linear image in the scene's dtype, and the ray counts.
+        """Image rows (R,) -> (R, width, 3) linear image in the scene's dtype (4 channels with alpha), and the ray
+        counts.
 
         max_samples: trace at most this many camera samples at once (memory); a larger band goes in pieces of whole
         rows, or of a row's columns where one row is too many. Every ray is traced by the same elementwise
         operations whatever else is in its piece, so the pixels are the same bytes either way. volume, touched
-        (R, width) bool: marks each pixel some of whose rays' trees meet the volume (footprint.py)."""
+        (R, width) bool: marks each pixel some of whose rays' trees meet the volume (footprint.py). passes: the
+        scene's render passes' planar arrays of the whole image (recorder.plane_shape, plane_dtype), whose rows go
+        in; None: no pass is traced."""
         settings = self.scene.render
         per_row = settings.width * settings.samples
         rows = np.asarray(rows)
         max_samples = self._piece_samples(max_samples)
+        if not settings.passes:
+            passes = None
         if settings.border is not None:
-            return self._render_border_rows(rows, max_samples, volume, touched)
+            return self._render_border_rows(rows, max_samples, volume, touched, passes)
         if max_samples is None or len(rows) * per_row <= max_samples:
-            return self._render_piece(rows, None, volume, touched)
+            return self._render_piece(rows, None, volume, touched, passes)
         counts = RayCounts()
         image = np.empty((len(rows), settings.width, self.channels), dtype=self.dtype)
         rows_at_once = max_samples // per_row
@@ -1554,7 +1562,7 @@ class PreparedScene:
             for first in range(0, len(rows), rows_at_once):
                 part = slice(first, first + rows_at_once)
                 piece_touched = None if touched is None else touched[part]
-                image[part], piece_counts = self._render_piece(rows[part], None, volume, piece_touched)
+                image[part], piece_counts = self._render_piece(rows[part], None, volume, piece_touched, passes)
                 counts.add(piece_counts)
             return image, counts
         columns_at_once = max(1, max_samples // settings.samples)
@@ -1562,19 +1570,26 @@ class PreparedScene:
             for first in range(0, settings.width, columns_at_once):
                 columns = np.arange(first, min(first + columns_at_once, settings.width))
                 piece_touched = None if touched is None else touched[index : index + 1, first : first + len(columns)]
-                piece, piece_counts = self._render_piece(np.asarray([row]), columns, volume, piece_touched)
+                piece, piece_counts = self._render_piece(np.asarray([row]), columns, volume, piece_touched, passes)
                 image[index, columns] = piece[0]
                 counts.add(piece_counts)
         return image, counts
 
     def _render_border_rows(
-        self, rows: np.ndarray, max_samples: int | None, volume: Volume | None, touched: np.ndarray | None
+        self,
+        rows: np.ndarray,
+        max_samples: int | None,
+        volume: Volume | None,
+        touched: np.ndarray | None,
+        passes: dict[str, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, RayCounts]:
         """render_rows() with a render border: only the pixels inside it are traced (in pieces of whole rows of the
-        border), the others are 0 (alpha 0)."""
+        border), the others are 0 (alpha 0, and every pass)."""
         settings = self.scene.render
         x0, x1, y0, y1 = cam.border_window(settings)
         image = np.zeros((len(rows), settings.width, self.channels), dtype=self.dtype)
+        for plane in (passes or {}).values():
+            plane[:, rows] = 0.0
         counts = RayCounts()
         inside = indices((rows >= y0) & (rows < y1))
         columns = np.arange(x0, x1)
@@ -1582,7 +1597,7 @@ class PreparedScene:
         for first in range(0, inside.size, max(1, at_once)):
             part = inside[first : first + at_once]
             piece_touched = None if touched is None else np.zeros((len(part), len(columns)), dtype=bool)
-            piece, piece_counts = self._render_piece(rows.take(part), columns, volume, piece_touched)
+            piece, piece_counts = self._render_piece(rows.take(part), columns, volume, piece_touched, passes)
             image[part, x0:x1] = piece
             if touched is not None:
                 touched[part, x0:x1] = piece_touched
@@ -1590,10 +1605,16 @@ class PreparedScene:
         return image, counts
 
     def _render_piece(
-        self, rows: np.ndarray, columns: np.ndarray | None, volume: Volume | None, touched: np.ndarray | None
+        self,
+        rows: np.ndarray,
+        columns: np.ndarray | None,
+        volume: Volume | None,
+        touched: np.ndarray | None,
+        passes: dict[str, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, RayCounts]:
-        """Rows (R,) and columns (C,) of the image (every column when None) -> (R, C, 3) and the ray counts;
-        touched (R, C) is filled where a volume is given."""
+        """Rows (R,) and columns (C,) of the image (every column when None; else consecutive) -> (R, C, 3) and the
+        ray counts; touched (R, C) is filled where a volume is given, and the passes' planes (render_rows) at those
+        rows and columns."""
         settings = self.scene.render
         camera = self.scene.camera
         with quiet():  # the directions are not kept here: trace() lets them go after the first bounce
@@ -1603,7 +1624,14 @@ class PreparedScene:
                 directions = cam.band_directions(camera, settings, rows, columns).astype(self.dtype)
         pixels = None if cam.shares_origin(camera) else cam.band_pixels(settings, rows, columns)
         # whole rows: the screen rectangles cull them
-        colors, counts, hit = self._trace_pixels(directions, pixels, rows if columns is None else None, volume)
+        at = (
+            None
+            if passes is None
+            else (passes, rows, slice(None) if columns is None else slice(columns[0], columns[-1] + 1))
+        )
+        colors, counts, hit = self._trace_pixels(
+            directions, pixels, rows if columns is None else None, volume, passes=at
+        )
         width = settings.width if columns is None else len(columns)
         if touched is not None:
             touched[...] = hit.reshape(len(rows), width)
@@ -1671,12 +1699,14 @@ class PreparedScene:
         store: RayStore | None = None,
         frames: np.ndarray | None = None,
         frame_counts: list[RayCounts] | None = None,
+        passes: tuple[dict[str, np.ndarray], np.ndarray, slice] | None = None,
     ) -> tuple[np.ndarray, RayCounts, np.ndarray | None]:
         """Camera rays (3, P * samples) of the flat pixels (P,; needed only for a camera whose rays do not all
         start at its location) -> colours (P, 3) box-filtered over each pixel's samples (P, 4 with the alpha, the
         share of samples that met a visible object, where the scene has one), the ray counts, and where a volume is
         given which pixels' trees met it (P,). frames, frame_counts: as trace() takes them (the counts returned are
-        then empty)."""
+        then empty). passes: (planes, rows, columns) where the pixels' render passes go (PassRecorder); None: none is
+        traced."""
         settings = self.scene.render
         camera = self.scene.camera
         counts = RayCounts()
@@ -1687,7 +1717,7 @@ class PreparedScene:
                 origins, far = cam.pixel_starts(camera, settings, pixels, directions)
                 origins = origins.astype(self.dtype)
             alpha = np.ones(directions.shape[1], dtype=self.dtype) if self.has_alpha else None
-            recorder = PassRecorder(self, directions.shape[1]) if settings.passes else None
+            recorder = None if passes is None else PassRecorder(self, directions.shape[1], *passes)
             color = self.trace(
                 directions,
                 counts if frames is None else frame_counts,
@@ -1705,7 +1735,7 @@ class PreparedScene:
         samples = color.reshape(color.shape[0], -1, settings.samples)
         image = samples.sum(axis=2) / settings.samples if settings.samples > 1 else samples[..., 0]
         if recorder is not None:
-            image = np.concatenate((image, recorder.combine(settings.samples)))
+            recorder.combine(settings.samples)
         hit = None if volume is None else footprint.touched.reshape(-1, settings.samples).any(axis=1)
         return np.ascontiguousarray(image.T), counts, hit
 

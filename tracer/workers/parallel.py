@@ -28,7 +28,7 @@ from ..geometry.camera import border_window
 from ..geometry.cull import GRID_BOXES
 from ..geometry.footprint import Volume
 from ..scene import scene as sc
-from ..scene.passes import layout as pass_layout
+from ..tracing.recorder import plane_dtype, plane_shape
 from ..tracing.wavefront import PreparedScene, RayCounts
 from .pool import PoolClosedError, Task, WorkerPool
 from .resources import band_samples, check_resources
@@ -88,7 +88,8 @@ class RenderResult:
     # (base, flat pixels (P,)): the image is base (the array given to render_pixels) with those pixels traced again
     # and every other pixel base's; None for a whole frame. A writer can then convert only those pixels to 8 bits.
     retraced: tuple[np.ndarray, np.ndarray] | None = None
-    # pass name -> (height, width, channels) in the scene's dtype, for the settings' passes (tracer/scene/passes.py)
+    # pass name -> (height, width, channels) for the settings' passes (tracer/scene/passes.py), in the scene's dtype
+    # (Cryptomatte's in float32): views of planar arrays, each channel a contiguous (height, width) plane
     passes: dict[str, np.ndarray] | None = None
 
     @property
@@ -131,21 +132,19 @@ def _result(
     seconds: float,
     touched: np.ndarray | None = None,
     settings: sc.RenderSettings | None = None,
+    planes: dict[str, np.ndarray] | None = None,
 ) -> RenderResult:
-    """A RenderResult from an image of 3 channels, or of 4 (colour and alpha) where the scene has an alpha, then
-    the settings' passes' channels; cut to the render border where the settings crop to it."""
+    """A RenderResult from an image of 3 channels, or of 4 (colour and alpha) where the scene has an alpha, and the
+    passes' planar (channels, height, width) arrays; cut to the render border where the settings crop to it."""
     if settings is not None and settings.crop and settings.border is not None:
         x0, x1, y0, y1 = border_window(settings)
         image = image[y0:y1, x0:x1]
         touched = None if touched is None else touched[y0:y1, x0:x1]
         if image.shape[-1] == 3:
             image = np.ascontiguousarray(image)
-    found = None
-    if settings is not None and settings.passes:
-        slots = pass_layout(settings.passes)
-        colour = image.shape[-1] - sum(slot.stop - slot.start for slot in slots.values())
-        found = {name: image[..., colour + slot.start : colour + slot.stop].copy() for name, slot in slots.items()}
-        image = image[..., :colour]
+        if planes is not None:
+            planes = {name: plane[:, y0:y1, x0:x1] for name, plane in planes.items()}
+    found = None if planes is None else {name: np.moveaxis(plane, 0, -1) for name, plane in planes.items()}
     if image.shape[-1] == 4:
         result = RenderResult(np.ascontiguousarray(image[..., :3]), counts, seconds, touched, image[..., 3].copy())
     else:
@@ -212,17 +211,28 @@ def _render_band(
 ) -> tuple[np.ndarray | None, RayCounts, np.ndarray | None]:
     """Trace rows (R,) of the scene; the band (R, W, 3) goes into the shared image (the descriptor after the
     scene's, if any) or comes back, with (R, W) touched where a volume is given (footprint.py). keep: the image's
-    file is one the parent reuses."""
+    file is one the parent reuses. The scene's passes go straight into their planes in the shared file (_planes), or
+    come back as the band's rows of them (each (channels, R, W)) after the band."""
     prepared, descriptors = _prepared_for(scene, descriptors)
     image = descriptors[0] if descriptors else None
+    settings = prepared.scene.render
     touched = None if volume is None else np.zeros((len(rows), shape[1]), dtype=bool)
-    band, counts = prepared.render_rows(rows, band_samples(prepared.scene.render), volume, touched)
     if image is None:
-        return band, counts, touched
+        planes = None
+        if settings.passes:
+            planes = {
+                name: np.empty(plane_shape(name, *shape[:2]), plane_dtype(name, dtype)) for name in settings.passes
+            }
+        band, counts = prepared.render_rows(rows, band_samples(settings), volume, touched, planes)
+        if planes is None:
+            return band, counts, touched
+        return (band, {name: plane[:, rows] for name, plane in planes.items()}), counts, touched
     mapping = _mapped(image, keep)
+    planes = {name: np.ndarray(size, where, mapping, offset) for name, offset, size, where in _planes(settings, shape)}
+    band, counts = prepared.render_rows(rows, band_samples(settings), volume, touched, planes or None)
     shared = np.ndarray(shape, dtype=dtype, buffer=mapping)
     shared[rows] = band
-    del shared  # the mapping closes only when no array uses it
+    del shared, planes  # the mapping closes only when no array uses it
     if not keep:
         mapping.close()
     return None, counts, touched
@@ -245,6 +255,19 @@ def _mapped(descriptor: int, keep: bool) -> mmap.mmap:
             kept[1].close()
         _worker_cache["mapping"] = (key, mapping)
     return mapping
+
+
+def _planes(settings: sc.RenderSettings, shape: tuple[int, int, int]) -> list[tuple[str, int, tuple, np.dtype]]:
+    """Where the passes' planar arrays lie in a frame's shared file, after its image (shape, in the settings' dtype):
+    (pass name, offset in bytes, plane shape, dtype) each, aligned as NumPy's own allocations."""
+    end = math.prod(shape) * np.dtype(settings.dtype).itemsize
+    out = []
+    for name in settings.passes:
+        end = -(-end // BUFFER_ALIGNMENT) * BUFFER_ALIGNMENT
+        size, dtype = plane_shape(name, *shape[:2]), plane_dtype(name, settings.dtype)
+        out.append((name, end, size, dtype))
+        end += math.prod(size) * dtype.itemsize
+    return out
 
 
 def _render_pixels(scene: _SceneMessage, pixels: np.ndarray, *descriptors: int) -> tuple[np.ndarray, RayCounts]:
@@ -345,12 +368,18 @@ class Renderer:
         started = time.perf_counter()
         prepared = self._prepared_here(scene)
         image = np.empty((settings.height, settings.width, prepared.channels), dtype=settings.dtype)
+        planes = None
+        if settings.passes:
+            planes = {
+                name: np.empty(plane_shape(name, settings.height, settings.width), plane_dtype(name, settings.dtype))
+                for name in settings.passes
+            }
         touched = None if volume is None else np.zeros((settings.height, settings.width), dtype=bool)
         counts = RayCounts()
         every = bands(settings)
         for done, rows in enumerate(every, 1):
             band_touched = None if touched is None else np.zeros((len(rows), settings.width), dtype=bool)
-            image[rows], band_counts = prepared.render_rows(rows, band_samples(settings), volume, band_touched)
+            image[rows], band_counts = prepared.render_rows(rows, band_samples(settings), volume, band_touched, planes)
             if touched is not None:
                 touched[rows] = band_touched
             counts.add(band_counts)
@@ -358,7 +387,7 @@ class Renderer:
                 band_done(_colour(image), rows)
             if progress is not None:
                 progress(done, len(every))
-        return _result(image, counts, time.perf_counter() - started, touched, settings)
+        return _result(image, counts, time.perf_counter() - started, touched, settings, planes)
 
     def _prepared_here(self, scene: sc.Scene, headings: tuple[float, ...] | None = None) -> PreparedScene:
         """The scene prepared in this process (one worker), with the vane at headings where given, kept while both
@@ -466,11 +495,20 @@ class Renderer:
     def _submit(self, scene: sc.Scene, volume: Volume | None = None) -> _Frame:
         pool = self._start_pool()
         settings = scene.render
-        shape = (settings.height, settings.width, scene.channels)
+        shape = (settings.height, settings.width, 4 if scene.has_alpha else 3)
         dtype = np.dtype(settings.dtype)
         started = time.perf_counter()
-        shared = self._images.take(shape, dtype) if self._images is not None else None
+        layout = _planes(settings, shape)
+        image_size = math.prod(shape) * dtype.itemsize
+        size = image_size if not layout else layout[-1][1] + math.prod(layout[-1][2]) * layout[-1][3].itemsize
+        shared = self._images.take(size, image_size) if self._images is not None else None
         image = np.empty(shape, dtype) if shared is None else shared.array(shape, dtype)
+        planes = None
+        if layout:
+            if shared is None:
+                planes = {name: np.empty(size, where) for name, _, size, where in layout}
+            else:
+                planes = {name: shared.array(size, where, offset) for name, offset, size, where in layout}
         descriptor = None if shared is None else shared.descriptor
         keep = shared is not None and shared.kept
         message, scene_file = self._scenes.message(scene)
@@ -482,7 +520,9 @@ class Renderer:
             for rows in bands(settings)
         ]
         touched = None if volume is None else np.zeros(shape[:2], dtype=bool)
-        return _Frame(pool, image, tasks, shared, started, touched, settings=settings, scene_file=scene_file)
+        frame = _Frame(pool, image, tasks, shared, started, touched, settings=settings, scene_file=scene_file)
+        frame.planes = planes
+        return frame
 
     def _submit_pixels(self, scene: sc.Scene, pixels: np.ndarray, base: np.ndarray) -> _Frame:
         """A frame of base with pixels traced again, in a task per worker (none for no pixels)."""
@@ -572,6 +612,7 @@ class _Frame:
     settings: sc.RenderSettings | None = None  # a whole frame's: its render border may crop the image
     base: tuple[np.ndarray, np.ndarray] | None = None  # a pixel frame's base and pixels (RenderResult.retraced)
     scene_file: _SceneFile | None = None  # the shared file of the scene's arrays that the tasks carry
+    planes: dict[str, np.ndarray] | None = None  # the passes' planar arrays (where the workers write them)
 
     def finish(self, progress: Progress | None = None, band_done: BandDone | None = None) -> RenderResult:
         counts = RayCounts()
@@ -584,6 +625,10 @@ class _Frame:
                     self.image.reshape(-1, channels)[where[id(task)]] = colors[:, :channels]
                 else:
                     band, piece_counts, band_touched = task.result
+                    if isinstance(band, tuple):  # no shared file: the band's rows of the passes came back too
+                        band, band_planes = band
+                        for name, values in band_planes.items():
+                            self.planes[name][:, where[id(task)]] = values
                     if band is not None:
                         self.image[where[id(task)]] = band
                     if self.touched is not None:
@@ -595,7 +640,8 @@ class _Frame:
                     progress(done, len(self.tasks))
         finally:
             self.abandon()
-        result = _result(self.image, counts, time.perf_counter() - self.started, self.touched, self.settings)
+        seconds = time.perf_counter() - self.started
+        result = _result(self.image, counts, seconds, self.touched, self.settings, self.planes)
         result.retraced = self.base
         return result
 
@@ -616,7 +662,9 @@ class _Frame:
 # last frame's image (two kept: a caller holds one frame's result while the next is traced). A new file costs its
 # allocation and zeroing (2.8 ms for the 640x480 float64 frame here), page faults in every process that maps it
 # (workers 2.5 ms per band, the parent's read 0.6 ms) and its release (1.4 ms); a kept one none of these. Larger
-# images get a file each, as before, so that memory at 1920x1080 stays at one image.
+# images get a file each, as before, so that memory at 1920x1080 stays at one image. The size is the image's: a
+# file with render passes beside the image is kept by its image's size (at 640x480 in float64, 7.4 MB of image and
+# 91 MB of passes with all of them on: a new file would cost about 15 ms to zero and release)
 KEEP_IMAGE_BYTES = 16 << 20
 KEEP_IMAGES = 2
 
@@ -634,16 +682,19 @@ class _SharedImage:
         except BaseException:
             os.close(self.descriptor)
             raise
-        self.user: weakref.ref | None = None  # the array of the frame that uses it last
+        self.users: list[weakref.ref] = []  # the arrays of the frame that uses it last (its image and passes)
         self.busy = False  # a frame's bands may still write into it
 
     def free(self) -> bool:
-        return not self.busy and (self.user is None or self.user() is None)
+        return not self.busy and all(user() is None for user in self.users)
 
-    def array(self, shape: tuple[int, int, int], dtype: np.dtype) -> np.ndarray:
-        image = np.ndarray(shape, dtype, buffer=self.mapping)
-        self.user, self.busy = weakref.ref(image), True
-        return image
+    def array(self, shape: tuple[int, ...], dtype: np.dtype, offset: int = 0) -> np.ndarray:
+        """An array on the file at offset; the file is in use (busy) until every such array of the frame is gone."""
+        array = np.ndarray(shape, dtype, buffer=self.mapping, offset=offset)
+        if offset == 0:
+            self.users, self.busy = [], True
+        self.users.append(weakref.ref(array))
+        return array
 
     def release(self, finished: bool) -> None:
         """The frame is done with the file (finished: every band written, none still running)."""
@@ -666,13 +717,13 @@ class _SharedImages:
     def __init__(self) -> None:
         self.kept: list[_SharedImage] = []
 
-    def take(self, shape: tuple[int, int, int], dtype: np.dtype) -> _SharedImage:
-        size = math.prod(shape) * dtype.itemsize
+    def take(self, size: int, image_size: int | None = None) -> _SharedImage:
+        """A file of size bytes, one kept where the frame's image (image_size bytes; None: size) is small."""
         self.kept = [image for image in self.kept if image.kept]  # those released unfinished are gone
         for image in self.kept:
             if image.size == size and image.free():
                 return image
-        keep = size <= KEEP_IMAGE_BYTES
+        keep = (size if image_size is None else image_size) <= KEEP_IMAGE_BYTES
         if keep and len(self.kept) >= KEEP_IMAGES:  # the other size now: the oldest free one makes room
             free = [image for image in self.kept if image.free()]
             if free:
