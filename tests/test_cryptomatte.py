@@ -218,6 +218,23 @@ def test_ranks_match_a_per_pixel_reference(samples: int, levels: int) -> None:
     assert np.array_equal(result, reference_ranks(sample_ids, hashes, levels))
 
 
+@pytest.mark.parametrize("samples", [2, 9])
+def test_pixels_whose_samples_saw_one_id_and_pixels_that_saw_several_are_ranked_alike(samples: int) -> None:
+    """As inside and on the edges of objects: most pixels' samples saw one ID (or that ID and background), some saw
+    several; both kinds, interleaved and chunked, match the per-pixel reference."""
+    generator = np.random.default_rng(samples)
+    hashes = np.array([name_hash(f"part{index}")[1] for index in range(6)], dtype=np.float32)
+    sample_ids = np.repeat(generator.integers(-1, 6, size=(800, 1)), samples, axis=1)
+    sample_ids[generator.random((800, samples)) < 0.2] = -1  # background in some samples of one-ID pixels
+    edges = generator.random(800) < 0.3
+    sample_ids[edges] = generator.integers(-1, 6, size=(int(edges.sum()), samples))
+    expected = reference_ranks(sample_ids, hashes, 4)
+    assert np.array_equal(ranks(sample_ids, hashes, 4), expected)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(cryptomatte, "_CHUNK_VALUES", 13 * samples)
+        assert np.array_equal(ranks(sample_ids, hashes, 4), expected)
+
+
 def test_coverages_add_up_to_the_share_of_samples_that_hit_something() -> None:
     generator = np.random.default_rng(3)
     hashes = np.array([name_hash(f"n{index}")[1] for index in range(5)], dtype=np.float32)

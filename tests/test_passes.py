@@ -88,6 +88,73 @@ def test_an_alpha_one_half_wall_s_passes_are_half_the_wall_s_and_half_the_sky() 
     assert np.all(seen["environment"] == 0.0) and np.any(behind > 0.0)
 
 
+def whole_image_passes(scene: sc.Scene, max_samples: int | None) -> dict[str, np.ndarray]:
+    """Every row of the scene traced in one process through render_rows in pieces of at most max_samples camera
+    samples (None: all at once): the passes' planes."""
+    from tracer.tracing.recorder import plane_dtype, plane_shape
+    from tracer.tracing.wavefront import PreparedScene
+
+    settings = scene.render
+    planes = {
+        name: np.full(plane_shape(name, settings.height, settings.width), np.nan, plane_dtype(name, settings.dtype))
+        for name in settings.passes
+    }
+    prepared = PreparedScene(scene)
+    for rows in (np.arange(0, settings.height, 2), np.arange(1, settings.height, 2)):  # two bands of every 2nd row
+        prepared.render_rows(rows, max_samples, passes=planes)
+    return planes
+
+
+@pytest.mark.parametrize(
+    ("samples", "border"), [(1, None), (4, None), (1, [0.2, 0.1, 0.9, 0.7]), (4, [0.1, 0.3, 0.6, 1.0])]
+)
+def test_passes_are_the_same_bytes_in_pieces_of_rows_or_of_a_rows_columns(samples: int, border) -> None:
+    """A band traced whole, in pieces of whole rows, or in pieces of one row's columns gives every pass the same
+    bytes, and every pixel of every pass is written (the planes start as NaN)."""
+    document = extended_scene_document(5, width=23, height=14)
+    document["render"].update(samples=samples, passes=list(ps.PASSES))
+    if border is not None:
+        document["render"]["border"] = border
+    scene = scene_from_dict(document)
+    whole = whole_image_passes(scene, None)
+    for max_samples in (3 * 23 * samples, 5 * samples):  # 3 rows at a time; 5 columns of a row at a time
+        pieces = whole_image_passes(scene, max_samples)
+        for name, plane in whole.items():
+            assert not np.isnan(plane).any(), name
+            assert np.array_equal(pieces[name], plane), (name, max_samples)
+
+
+def test_a_held_results_passes_keep_their_bytes_while_later_frames_use_the_image_file() -> None:
+    """The passes lie in the frame's shared file beside the image: a file is used again only once no array of its
+    frame is held, the passes' included."""
+    from tracer.workers.parallel import Renderer
+
+    scene = default_scene().with_render(width=48, height=36, passes=("depth", "normal", "cryptomatte_object"))
+    turned = scene.with_heading(90.0)
+    with Renderer(2) as renderer:
+        held = renderer.render(scene).passes  # the image goes; its file's passes stay held
+        copies = {name: values.copy() for name, values in held.items()}
+        for _ in range(3):
+            later = renderer.render(turned)
+        assert not np.array_equal(later.passes["normal"], copies["normal"])
+    for name, values in held.items():
+        assert np.array_equal(values, copies[name]), name
+        assert np.array_equal(values, render(scene, workers=1).passes[name]), name
+
+
+def test_passes_come_back_from_the_workers_where_there_is_no_shared_memory() -> None:
+    from tracer.workers.parallel import Renderer
+
+    scene = default_scene().with_render(width=40, height=30, samples=4, passes=tuple(ps.PASSES))
+    expected = render(scene, workers=1)
+    with Renderer(2) as renderer:
+        renderer._images = None  # as where the system has no memfd: bands (and their passes) come back pickled
+        result = renderer.render(scene)
+    assert np.array_equal(result.image, expected.image)
+    for name, values in expected.passes.items():
+        assert np.array_equal(result.passes[name], values), name
+
+
 def plane_scene(distance: float, **render: object) -> sc.Scene:
     """A camera at the origin looking down -Z (rotation 0) at a plane z = -distance, facing it; pass indices set."""
     materials = {"wall": sc.Material(color=(0.5, 0.5, 0.5), pass_index=7)}

@@ -173,7 +173,25 @@ def ranks(sample_ids: np.ndarray, hashes: np.ndarray, levels: int = 6) -> np.nda
 
 
 def _rank_rows(sample_ids: np.ndarray, table: np.ndarray, count: int, out: np.ndarray) -> None:
-    """ranks() for a chunk of rows, written into out (rows, 2 * count)."""
+    """ranks() for a chunk of rows, written into out (rows, 2 * count; zeros). A pixel whose samples saw one ID (or
+    nothing) has that one rank, its share of the samples, without ranking (every pixel at 1 sample, and at more
+    every pixel inside an object's silhouette); the others are ranked (_rank_mixed)."""
+    samples = sample_ids.shape[1]
+    top = sample_ids.max(axis=1)
+    low = np.where(sample_ids >= 0, sample_ids, top[:, None]).min(axis=1)  # top where a row saw nothing
+    one = np.flatnonzero(low == top)
+    seen = top.take(one)
+    out[one, 0] = table.take(np.where(seen >= 0, seen, table.size - 1))
+    out[one, 1] = (sample_ids.take(one, axis=0) >= 0).sum(axis=1).astype(np.float32) / np.float32(samples)
+    mixed = np.flatnonzero(low != top)
+    if mixed.size:
+        ranked = np.zeros((mixed.size, out.shape[1]), dtype=np.float32)
+        _rank_mixed(sample_ids.take(mixed, axis=0), table, count, ranked)
+        out[mixed] = ranked
+
+
+def _rank_mixed(sample_ids: np.ndarray, table: np.ndarray, count: int, out: np.ndarray) -> None:
+    """The ranking of rows whose samples saw several IDs, written into out (rows, 2 * count)."""
     rows, samples = sample_ids.shape
     ids = np.sort(sample_ids.astype(np.int64), axis=1)  # equal IDs side by side, ascending
     position = np.arange(samples, dtype=np.int32)
