@@ -94,7 +94,7 @@ class PassRecorder:
         else:
             for name in self.names:
                 if ps.PASSES[name].combine == "ranks":
-                    self.rows[name] = np.full(count, -1, dtype=np.int64)
+                    self.rows[name] = np.full((1, count), -1, dtype=np.int64)
                 else:
                     self.rows[name] = np.full((ps.width(name), count), _EMPTY.get(name, 0.0), dtype=prepared.dtype)
         self.shading = any(name in self.rows for name in ps.SHADING)
@@ -127,8 +127,7 @@ class PassRecorder:
         if self._rest.runs is None:  # scattered: every pixel at memory speed, then the values over them
             self._fill(name, channels)
             return False
-        for row in self.rows[name][channels]:
-            self._rest.put(row, _EMPTY.get(name, 0.0))
+        self._rest.put(self.rows[name][channels], _EMPTY.get(name, 0.0))
         self._places = places
         return True
 
@@ -145,23 +144,7 @@ class PassRecorder:
             return
         if self._written(name, pixel) and add:  # added to _EMPTY, as to a filled pixel
             add, value = False, _EMPTY.get(name, 0.0) + np.asarray(value)
-        places = self._place(pixel)
-        value = np.asarray(value)
-        if value.ndim < 2:
-            value = [value] * rows.shape[0]
-        for row, values in zip(rows, value, strict=True):
-            places.put(row, values, add)
-
-    def _set(self, name: str, pixel: np.ndarray, channel) -> None:
-        """The camera rays pixel (n,) get channel(k) (n,) in each channel k of the pass, if it is asked for: one
-        channel computed at a time, written where it goes (no (channels, n) array in between)."""
-        rows = self.rows.get(name)
-        if rows is None:
-            return
-        self._written(name, pixel)
-        places = self._place(pixel)
-        for k, row in enumerate(rows):
-            places.put(row, channel(k))
+        self._place(pixel).put(rows, value, add)
 
     def first_hit(self, pixel: np.ndarray, P: np.ndarray, S: np.ndarray, obj: np.ndarray, material: np.ndarray) -> None:
         """The camera rays pixel (n,) met obj (n,) at P (3, n) with shading normals S (3, n) and material rows."""
@@ -174,19 +157,20 @@ class PassRecorder:
             along = None
             if "depth" in rows or prepared.scene.camera.type == "ORTHO":
                 along = offset[0] * axis[0] + offset[1] * axis[1] + offset[2] * axis[2]
-                self._set("depth", pixel, lambda _: along)
+                self._put("depth", pixel, along)
             if "mist" in rows:  # Cycles' camera distance: along the view axis for an orthographic camera
                 if prepared.scene.camera.type == "ORTHO":
                     distance = np.abs(along)
                 else:
                     distance = np.sqrt(offset[0] * offset[0] + offset[1] * offset[1] + offset[2] * offset[2])
-                self._set("mist", pixel, lambda _: _mist(distance, prepared.scene.render))
+                self._put("mist", pixel, _mist(distance, prepared.scene.render))
         if "normal" in rows:
-            length = np.sqrt(S[0] * S[0] + S[1] * S[1] + S[2] * S[2])
-            self._set("normal", pixel, lambda k: S[k] / length)
-        self._set("position", pixel, lambda k: P[k])
-        self._set("object_index", pixel, lambda _: prepared.object_pass_index.take(obj))
-        self._set("material_index", pixel, lambda _: prepared.material_pass_index.take(material))
+            self._put("normal", pixel, S / np.sqrt(S[0] * S[0] + S[1] * S[1] + S[2] * S[2]))
+        self._put("position", pixel, P)
+        if "object_index" in rows:
+            self._put("object_index", pixel, prepared.object_pass_index.take(obj))
+        if "material_index" in rows:
+            self._put("material_index", pixel, prepared.material_pass_index.take(material))
         for name, of in (("cryptomatte_object", obj), ("cryptomatte_material", material)):
             if name not in rows:
                 continue
@@ -195,8 +179,8 @@ class PassRecorder:
             if self.where is None:  # the rows, ranked in combine()
                 places.put(rows[name], of)
             else:  # one sample: the one rank of the pixel's ID, all of its coverage
-                places.put(rows[name][0], _ids(prepared, name).take(of))
-                places.put(rows[name][1], 1.0)
+                places.put(rows[name][0:1], _ids(prepared, name).take(of))
+                places.put(rows[name][1:2], 1.0)
 
     def terms(
         self,
@@ -220,20 +204,16 @@ class PassRecorder:
             emission = prepared.emission.take(material, axis=1) if prepared.emissive else None
         else:
             colors, specular_colors, emission = surface
-        # channel by channel, each product in the order of the image's local term
-        for name in ("ambient", "diffuse", "specular"):
+        for name in ("ambient", "diffuse", "specular"):  # each product in the order of the image's local term
             if name not in self.rows:
                 continue
-            term = split[name]
             if prepared.colored:  # term (3, n) x colour x (1 - r)
-                by = specular_colors if name == "specular" else colors
-                self._set(name, pixel, lambda k, term=term, by=by: term[k] * by[k] * keep)
+                self._put(name, pixel, split[name] * (specular_colors if name == "specular" else colors) * keep)
             else:  # (term x (1 - r)) x colour
-                kept = term * keep
-                self._set(name, pixel, lambda k, kept=kept: kept * colors[k])
+                self._put(name, pixel, (split[name] * keep) * colors)
         if prepared.emissive:
-            self._set("emission", pixel, lambda k: emission[k])
-        self._set("shadow", pixel, lambda _: split["shadow"])
+            self._put("emission", pixel, emission)
+        self._put("shadow", pixel, split["shadow"])
 
     def reflection(self, pixel: np.ndarray, value: np.ndarray) -> None:
         """What a mirror ray's surface adds to its camera ray's pixel (already weighted)."""
@@ -263,10 +243,8 @@ class PassRecorder:
             return
         places = self._place(pixel)
         for name, rows in self.rows.items():
-            if ps.PASSES[name].combine == "ranks" or name in ("depth", "mist"):
-                continue
-            for row in rows:
-                places.put(row, 0.0)
+            if ps.PASSES[name].combine != "ranks" and name not in ("depth", "mist"):
+                places.put(rows, 0.0)
 
     def combine(self, samples: int) -> dict[str, np.ndarray]:
         """Each pixel's samples combined as its pass says (mean, the first sample's, or Cryptomatte's ranked ids and
@@ -322,22 +300,27 @@ class _Places:
                     zip(firsts.tolist(), (firsts + ends - starts).tolist(), starts.tolist(), ends.tolist(), strict=True)
                 )
 
-    def put(self, row: np.ndarray, values: np.ndarray | float, add: bool = False) -> None:
-        """row[places] = values (n,) or one number; add: row[places] + values."""
-        if self.runs is None:
-            row[self.target] = row.take(self.target) + values if add else values
-        elif np.ndim(values) == 0:
+    def put(self, rows: np.ndarray, values: np.ndarray | float, add: bool = False) -> None:
+        """rows (channels, places)[:, places] = values ((channels, n); (n,) or one number for every channel); add:
+        rows[:, places] + values."""
+        dimensions = np.ndim(values)
+        if self.runs is None:  # a row at a time: NumPy assigns to one dimension's indices fastest
+            target = self.target
+            for k, row in enumerate(rows):
+                value = values[k] if dimensions == 2 else values
+                row[target] = row.take(target) + value if add else value
+        elif dimensions == 0:
             for first, end, _, _ in self.runs:
                 if add:
-                    row[first:end] += values
+                    rows[:, first:end] += values
                 else:
-                    row[first:end] = values
+                    rows[:, first:end] = values
         else:
             for first, end, start, stop in self.runs:
                 if add:
-                    row[first:end] += values[start:stop]
+                    rows[:, first:end] += values[..., start:stop]
                 else:
-                    row[first:end] = values[start:stop]
+                    rows[:, first:end] = values[..., start:stop]
 
 
 def _hashes(prepared, name: str) -> tuple[np.ndarray, np.ndarray]:
