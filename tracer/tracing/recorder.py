@@ -309,6 +309,8 @@ class _Places:
             for k, row in enumerate(rows):
                 value = values[k] if dimensions == 2 else values
                 row[target] = row.take(target) + value if add else value
+        elif rows.shape[0] == 1:  # one channel: a one-dimensional slice costs half a two-dimensional one's
+            self.put_row(rows[0], values[0] if dimensions == 2 else values, add)
         elif dimensions == 0:
             for first, end, _, _ in self.runs:
                 if add:
@@ -321,6 +323,21 @@ class _Places:
                     rows[:, first:end] += values[..., start:stop]
                 else:
                     rows[:, first:end] = values[..., start:stop]
+
+    def put_row(self, row: np.ndarray, values: np.ndarray | float, add: bool) -> None:
+        """put() of one channel by stretches: row (places,)[places] = values ((n,) or one number)."""
+        if np.ndim(values) == 0:
+            for first, end, _, _ in self.runs:
+                if add:
+                    row[first:end] += values
+                else:
+                    row[first:end] = values
+        else:
+            for first, end, start, stop in self.runs:
+                if add:
+                    row[first:end] += values[start:stop]
+                else:
+                    row[first:end] = values[start:stop]
 
 
 def _hashes(prepared, name: str) -> tuple[np.ndarray, np.ndarray]:
