@@ -155,6 +155,23 @@ def test_passes_come_back_from_the_workers_where_there_is_no_shared_memory() -> 
         assert np.array_equal(result.passes[name], values), name
 
 
+def test_the_memory_estimate_holds_the_passes_arrays() -> None:
+    """The resource check counts the passes' arrays a render returns (beside the image), and the values a recorder
+    keeps per camera sample while a band is traced at more than 1 sample."""
+    from tracer.tracing.recorder import PassRecorder
+    from tracer.tracing.wavefront import PreparedScene
+    from tracer.workers.resources import band_samples, memory_needed
+
+    for samples, dtype in ((1, "float64"), (4, "float32")):
+        plain = default_scene().with_render(width=40, height=30, samples=samples, dtype=dtype)
+        every = plain.with_render(passes=tuple(ps.PASSES))
+        planes = sum(values.nbytes for values in render(every, workers=1).passes.values())
+        kept = PassRecorder(PreparedScene(every), 1000 * samples)
+        per_sample = 0 if samples == 1 else sum(rows.nbytes for rows in kept.rows.values()) / (1000 * samples)
+        at_once = min(band_samples(every.render), 40 * 30 * samples)
+        assert memory_needed(every.render, 2) - memory_needed(plain.render, 2) == planes + 2 * at_once * per_sample
+
+
 def plane_scene(distance: float, **render: object) -> sc.Scene:
     """A camera at the origin looking down -Z (rotation 0) at a plane z = -distance, facing it; pass indices set."""
     materials = {"wall": sc.Material(color=(0.5, 0.5, 0.5), pass_index=7)}

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..scene import passes as ps
 from ..scene import scene as sc
 
 # A band's arrays peak at about 35 coordinates per camera sample (measured: docs/performance.md); the worker's
@@ -49,7 +50,11 @@ class ResourceError(RuntimeError):
 
 
 def image_bytes(settings: sc.RenderSettings) -> int:
-    return settings.width * settings.height * 3 * np.dtype(settings.dtype).itemsize
+    """A frame's image and its render passes' planes (each pass its channels in the image's dtype, Cryptomatte's in
+    float32: tracer/tracing/recorder.py)."""
+    itemsize = np.dtype(settings.dtype).itemsize
+    passes = sum(ps.width(name) * (4 if ps.PASSES[name].combine == "ranks" else itemsize) for name in settings.passes)
+    return settings.width * settings.height * (3 * itemsize + passes)
 
 
 def memory_needed(settings: sc.RenderSettings, workers: int, frames: int = 1, output: str | None = None) -> int:
@@ -59,6 +64,10 @@ def memory_needed(settings: sc.RenderSettings, workers: int, frames: int = 1, ou
     pixels = settings.width * settings.height
     at_once = min(band_samples(settings), pixels * settings.samples)
     per_worker = WORKER_BASE_BYTES + at_once * BAND_PEAK_COORDINATES * itemsize
+    if settings.samples > 1:  # the passes' values of every camera sample until its pixel's are combined
+        per_worker += at_once * sum(
+            8 if ps.PASSES[name].combine == "ranks" else ps.width(name) * itemsize for name in settings.passes
+        )
     writing = {".png": 2 * pixels * 3, ".npy": 0, None: 0}.get(output, 0)  # 8-bit copy and the encoded PNG
     return frames * image_bytes(settings) + max(1, workers) * per_worker + writing
 
