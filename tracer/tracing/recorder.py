@@ -98,17 +98,22 @@ class PassRecorder:
                 else:
                     self.rows[name] = np.full((ps.width(name), count), _EMPTY.get(name, 0.0), dtype=prepared.dtype)
         self.shading = any(name in self.rows for name in ps.SHADING)
-        self._pixel: np.ndarray | None = None  # the rays of the last call and where they go (first_hit, terms)
-        self._places: _Places | None = None
-        self._rest: _Places | None = None  # and where the piece's other pixels are
+        # the last few sets of camera rays written and where they go: the camera rays that miss, those that meet
+        # something, and the rest of either (first_hit and terms write at the same rays, a miss's rest is the hits)
+        self._known: list[tuple[np.ndarray, _Places]] = []
+        self._rest: tuple[np.ndarray, _Places] | None = None  # the last rays' rest and where it goes
 
     def _place(self, pixel: np.ndarray) -> _Places:
         """Camera rays (n,) -> where they go in self.rows' arrays."""
-        if pixel is not self._pixel:
-            target = pixel if self.where is None else self.where.take(pixel, mode="wrap")
-            self._pixel, self._places = pixel, _Places(target)
-            self._rest = None
-        return self._places
+        for known, places in self._known:
+            if known is pixel:
+                return places
+        for known, places in self._known:
+            if known.size == pixel.size and np.array_equal(known, pixel):
+                return places
+        places = _Places(pixel if self.where is None else self.where.take(pixel, mode="wrap"))
+        self._known = [(pixel, places), *self._known[:3]]
+        return places
 
     def _written(self, name: str, pixel: np.ndarray) -> bool:
         """Before the pass's values at pixel (n,): if it is still to be filled, its other pixels get _EMPTY and True
@@ -120,15 +125,15 @@ class PassRecorder:
         if places.runs is None:  # scattered values, and so their other pixels: all at memory speed first
             self._fill(name, channels)
             return False
-        if self._rest is None:
+        if self._rest is None or self._rest[0] is not pixel:
             others = np.ones(self.where.size, dtype=bool)
             others[pixel] = False
-            self._rest = _Places(self.where.take(np.flatnonzero(others), mode="wrap"))
-        if self._rest.runs is None:  # scattered: every pixel at memory speed, then the values over them
+            self._rest = (pixel, self._place(np.flatnonzero(others)))
+        rest = self._rest[1]
+        if rest.runs is None:  # scattered: every pixel at memory speed, then the values over them
             self._fill(name, channels)
             return False
-        self._rest.put(self.rows[name][channels], _EMPTY.get(name, 0.0))
-        self._places = places
+        rest.put(self.rows[name][channels], _EMPTY.get(name, 0.0))
         return True
 
     def _fill(self, name: str, channels: slice) -> None:
