@@ -18,20 +18,6 @@ from ..scene import scene as sc
 # What a pixel holds where nothing writes: a camera ray that meets nothing (Cycles' far depth, full mist; every other
 # pass 0, and a Cryptomatte pass no rank)
 _EMPTY = {"depth": ps.FAR, "mist": 1.0}
-_AT_HITS = (
-    "depth",
-    "mist",
-    "normal",
-    "position",
-    "object_index",
-    "material_index",
-    "ambient",
-    "diffuse",
-    "specular",
-    "shadow",
-    "cryptomatte_object",
-    "cryptomatte_material",
-)
 
 
 def plane_dtype(name: str, dtype: np.dtype | str) -> np.dtype:
@@ -73,7 +59,7 @@ class PassRecorder:
         self.planes, self.at = planes, (np.asarray(rows), columns)
         # pass name -> where trace()'s values go: at 1 sample the planes themselves, flattened to (channels, pixels of
         # the image), each ray at its pixel's place (self.where); with more samples (channels, rays) of its own, a
-        # Cryptomatte pass (rays,) of object or material rows (-1: nothing) until combine() ranks them
+        # Cryptomatte pass (1, rays) of object or material rows (-1: nothing) until combine() ranks them
         self.rows: dict[str, np.ndarray] = {}
         self.where: np.ndarray | None = None
         # at 1 sample, the passes (their channels) still to be filled with _EMPTY: around the rays of their first
