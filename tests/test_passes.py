@@ -155,6 +155,18 @@ def test_passes_come_back_from_the_workers_where_there_is_no_shared_memory() -> 
         assert np.array_equal(result.passes[name], values), name
 
 
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_a_pixels_samples_add_up_to_the_same_bits_as_numpys_sum(dtype: str) -> None:
+    from tracer.tracing.recorder import _sample_sum
+
+    generator = np.random.default_rng(7)
+    for samples in (2, 3, 4, 5, 7, 8, 9, 16):
+        values = generator.standard_normal((3, 500 * samples)) * 10.0 ** generator.uniform(-6, 6, 500 * samples)
+        values = values.astype(dtype)
+        expected = values.reshape(3, 500, samples).sum(axis=2)
+        assert _sample_sum(values, samples).tobytes() == expected.tobytes(), samples
+
+
 def test_the_memory_estimate_holds_the_passes_arrays() -> None:
     """The resource check counts the passes' arrays a render returns (beside the image), and the values a recorder
     keeps per camera sample while a band is traced at more than 1 sample."""

@@ -177,12 +177,22 @@ def _rank_rows(sample_ids: np.ndarray, table: np.ndarray, count: int, out: np.nd
     nothing) has that one rank, its share of the samples, without ranking (every pixel at 1 sample, and at more
     every pixel inside an object's silhouette); the others are ranked (_rank_mixed)."""
     samples = sample_ids.shape[1]
-    top = sample_ids.max(axis=1)
-    low = np.where(sample_ids >= 0, sample_ids, top[:, None]).min(axis=1)  # top where a row saw nothing
+    # each row's largest ID, its smallest ID that is not background (the largest where it saw nothing) and how many
+    # samples saw something: column by column (a reduction over a few columns is slow in NumPy)
+    columns = [sample_ids[:, sample] for sample in range(samples)]
+    top = columns[0].copy()
+    for column in columns[1:]:
+        np.maximum(top, column, out=top)
+    low = top.copy()
+    hits = np.zeros(len(top), dtype=np.int64)
+    for column in columns:
+        seen = column >= 0
+        np.minimum(low, np.where(seen, column, top), out=low)
+        hits += seen
     one = np.flatnonzero(low == top)
     seen = top.take(one)
     out[one, 0] = table.take(np.where(seen >= 0, seen, table.size - 1))
-    out[one, 1] = (sample_ids.take(one, axis=0) >= 0).sum(axis=1).astype(np.float32) / np.float32(samples)
+    out[one, 1] = hits.take(one).astype(np.float32) / np.float32(samples)
     mixed = np.flatnonzero(low != top)
     if mixed.size:
         ranked = np.zeros((mixed.size, out.shape[1]), dtype=np.float32)

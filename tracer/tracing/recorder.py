@@ -255,7 +255,7 @@ class PassRecorder:
                 elif combine == "first":
                     out = values[:, ::samples]
                 else:
-                    out = values.reshape(values.shape[0], -1, samples).sum(axis=2) / samples
+                    out = _sample_sum(values, samples) / samples
                 plane[:, rows, columns] = out.reshape(plane.shape[0], len(rows), -1)
         return self.planes
 
@@ -329,6 +329,19 @@ class _Places:
                     row[first:end] += values[start:stop]
                 else:
                     row[first:end] = values[start:stop]
+
+
+def _sample_sum(values: np.ndarray, samples: int) -> np.ndarray:
+    """(channels, pixels * samples) -> each pixel's samples summed (channels, pixels), the same bits as NumPy's sum
+    over them: below 8 samples NumPy adds them in order (its pairwise sum starts at 8), which the column by column
+    adds here do without its slow reduction over a short axis (at 4 samples a band's 31 ms -> a few); from 8 on,
+    NumPy's own sum."""
+    if samples >= 8:
+        return values.reshape(values.shape[0], -1, samples).sum(axis=2)
+    total = values[:, 0::samples] + values[:, 1::samples]
+    for sample in range(2, samples):
+        total += values[:, sample::samples]
+    return total
 
 
 def _hashes(prepared, name: str) -> tuple[np.ndarray, np.ndarray]:
