@@ -663,9 +663,11 @@ class _Frame:
 # allocation and zeroing (2.8 ms for the 640x480 float64 frame here), page faults in every process that maps it
 # (workers 2.5 ms per band, the parent's read 0.6 ms) and its release (1.4 ms); a kept one none of these. Larger
 # images get a file each, as before, so that memory at 1920x1080 stays at one image. The size is the image's: a
-# file with render passes beside the image is kept by its image's size (at 640x480 in float64, 7.4 MB of image and
-# 91 MB of passes with all of them on: a new file would cost about 15 ms to zero and release)
+# file with render passes beside the image is kept by its image's size, up to KEEP_FILE_BYTES in all (at 640x480 in
+# float64, 7.4 MB of image and 98 MB of passes with all sixteen on: a new file of 106 MB took 52 ms to allocate and
+# release here, before any page fault)
 KEEP_IMAGE_BYTES = 16 << 20
+KEEP_FILE_BYTES = 128 << 20
 KEEP_IMAGES = 2
 
 
@@ -723,7 +725,7 @@ class _SharedImages:
         for image in self.kept:
             if image.size == size and image.free():
                 return image
-        keep = (size if image_size is None else image_size) <= KEEP_IMAGE_BYTES
+        keep = (size if image_size is None else image_size) <= KEEP_IMAGE_BYTES and size <= KEEP_FILE_BYTES
         if keep and len(self.kept) >= KEEP_IMAGES:  # the other size now: the oldest free one makes room
             free = [image for image in self.kept if image.free()]
             if free:
