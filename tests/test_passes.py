@@ -142,6 +142,21 @@ def test_a_held_results_passes_keep_their_bytes_while_later_frames_use_the_image
         assert np.array_equal(values, render(scene, workers=1).passes[name]), name
 
 
+def test_passes_of_frames_whose_image_file_is_not_kept_are_whole(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A large frame's file goes with the frame: each band's mapping of it closes once the band is written (no pass
+    array may still use it), and the frames' passes are whole."""
+    from tracer.workers import parallel
+
+    monkeypatch.setattr(parallel, "KEEP_IMAGE_BYTES", 0)
+    scene = default_scene().with_render(width=40, height=30, passes=tuple(ps.PASSES))
+    expected = render(scene, workers=1)
+    with parallel.Renderer(2) as renderer:
+        results = [renderer.render(scene) for _ in range(2)]
+    for result in results:
+        for name, values in expected.passes.items():
+            assert np.array_equal(result.passes[name], values), name
+
+
 def test_passes_come_back_from_the_workers_where_there_is_no_shared_memory() -> None:
     from tracer.workers.parallel import Renderer
 
