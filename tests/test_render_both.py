@@ -84,6 +84,16 @@ def test_data_passes_agree_with_cycles_where_both_engines_see_a_surface(tmp_path
     assert "pass depth:" in result.stdout and "Data passes" in (out / "report.html").read_text()
 
 
+def test_with_supersampling_depth_comes_from_the_sample_nearest_the_pixel_centre_as_cycles_does(tmp_path: Path) -> None:
+    pytest.importorskip("OpenEXR", reason="the exr extra reads Cycles' multilayer file")
+    result = run_python("--out", str(tmp_path), *SMALL, "--twin", "physical", "--passes", "depth,position")
+    assert result.returncode == 0, result.stdout + result.stderr
+    passes = json.loads((tmp_path / "metrics.json").read_text())["passes"]["cycles_vs_tracer"]
+    # 4 x 4 samples, measured: depth 0.37% (median) off Cycles' on the sloping ground, position 4 cm; the grid's
+    # first (corner) sample instead: 1.1% and 13 cm
+    assert passes["depth"]["median_relative_error"] < 0.006 and passes["position"]["median_distance"] < 0.08
+
+
 def test_passes_other_than_the_data_passes_are_refused(tmp_path: Path) -> None:
     result = run_python("--out", str(tmp_path), "--passes", "depth,diffuse")
     assert result.returncode == 2 and "--passes: must be 'all' or name passes from depth" in result.stderr

@@ -7,6 +7,7 @@ image (docs/passes.md)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -14,15 +15,23 @@ from typing import Literal
 @dataclass(frozen=True)
 class Pass:
     """name: the tracer's; blender: Blender's pass name (a custom pass where Blender has none); channels: Blender's
-    channel letters; combine: how a pixel's samples give its value ("mean"; "first": the first sample's, as
-    Cycles overwrites depth, position and the indices with sample 0's; "ranks": Cryptomatte's (id, coverage)
-    pairs from every sample's id); what: one line for the docs and the tooltips."""
+    channel letters; combine: how a pixel's samples give its value ("mean"; "centre": the sample nearest the
+    pixel's centre (centre_sample), as Cycles writes depth, position and the indices from its first sample, which
+    lands on the centre; "ranks": Cryptomatte's (id, coverage) pairs from every sample's id); what: one line for the
+    docs and the tooltips."""
 
     name: str
     blender: str
     channels: str
-    combine: Literal["mean", "first", "ranks"]
+    combine: Literal["mean", "centre", "ranks"]
     what: str
+
+
+def centre_sample(samples: int) -> int:
+    """The sample of a pixel's n x n stratified grid (row by row) that a "centre" pass takes: the middle stratum's,
+    (n // 2, n // 2), the one over the pixel's centre (odd n) or next to it (even n: a quarter of a stratum off)."""
+    n = math.isqrt(samples)
+    return (n // 2) * n + n // 2
 
 
 # Cryptomatte ranks kept per pixel: 4 (two RGBA layers), as Blender's default "Levels 6" rounds to whole layers.
@@ -33,12 +42,12 @@ FAR = 1.0e10
 PASSES: dict[str, Pass] = {
     p.name: p
     for p in (
-        Pass("depth", "Depth", "Z", "first", "distance along the camera's view axis to the first hit; 1e10 for none"),
+        Pass("depth", "Depth", "Z", "centre", "distance along the camera's view axis to the first hit; 1e10 for none"),
         Pass("mist", "Mist", "Z", "mean", "0 at the mist start to 1 at start + depth, by the World's mist falloff"),
         Pass("normal", "Normal", "XYZ", "mean", "the first hit's shading normal, world space, unit length"),
-        Pass("position", "Position", "XYZ", "first", "the first hit's point, world space"),
-        Pass("object_index", "IndexOB", "X", "first", "the first hit object's pass index"),
-        Pass("material_index", "IndexMA", "X", "first", "the first hit material's pass index"),
+        Pass("position", "Position", "XYZ", "centre", "the first hit's point, world space"),
+        Pass("object_index", "IndexOB", "X", "centre", "the first hit object's pass index"),
+        Pass("material_index", "IndexMA", "X", "centre", "the first hit material's pass index"),
         Pass("ambient", "Ambient", "RGB", "mean", "ambient lights times colour times (1 - reflectivity)"),
         Pass("diffuse", "DiffDir", "RGB", "mean", "the lights' diffuse terms times colour times (1 - reflectivity)"),
         Pass("specular", "GlossDir", "RGB", "mean", "the lights' highlight terms of the model in use"),

@@ -238,7 +238,7 @@ class PassRecorder:
                 places.put(rows, 0.0)
 
     def combine(self, samples: int) -> dict[str, np.ndarray]:
-        """Each pixel's samples combined as its pass says (mean, the first sample's, or Cryptomatte's ranked ids and
+        """Each pixel's samples combined as its pass says (mean, the centre sample's, or Cryptomatte's ranked ids and
         coverages) into the planes; at 1 sample they are there already (a pass nothing wrote: _EMPTY). Returns the
         planes."""
         for name, channels in self.pending.items():
@@ -252,8 +252,8 @@ class PassRecorder:
                 combine = ps.PASSES[name].combine
                 if combine == "ranks":
                     out = self._ranks(name, values.reshape(-1, samples)).T
-                elif combine == "first":
-                    out = values[:, ::samples]
+                elif combine == "centre":
+                    out = values[:, ps.centre_sample(samples) :: samples]
                 else:
                     out = _sample_sum(values, samples) / samples
                 plane[:, rows, columns] = out.reshape(plane.shape[0], len(rows), -1)

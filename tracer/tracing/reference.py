@@ -19,6 +19,7 @@ from ..geometry import lightsamples
 from ..geometry import transforms as tf
 from ..geometry.transforms import add, cross, dot, length, scale, sub
 from ..scene import scene as sc
+from ..scene.passes import centre_sample
 
 INF = math.inf
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0, hits behind the camera are dropped
@@ -43,7 +44,7 @@ PASS_NAMES = (
     "transmission",
     "shadow",
 )
-FIRST_SAMPLE = ("depth", "position", "object_index", "material_index")  # the first sample's; the others: the mean
+CENTRE_SAMPLE = ("depth", "position", "object_index", "material_index")  # the centre sample's; the others: the mean
 # they add up to the image
 WHITTED = ("ambient", "diffuse", "specular", "emission", "reflection", "environment", "transmission")
 
@@ -921,15 +922,16 @@ class ReferenceTracer:
 
     def pixel_passes(self, i: int, j: int) -> tuple[dict[str, tuple[float, ...]], list[SamplePasses]]:
         """Pixel (i, j)'s passes (name -> its channels) from its samples: the mean of the samples', except depth,
-        position and the indices, which are the first sample's (Cycles writes them at sample 0); and the samples'
-        own SamplePasses (their Cryptomatte names)."""
+        position and the indices, which are the sample's nearest the pixel's centre (passes.centre_sample: Cycles
+        writes them from its first sample, on the centre); and the samples' own SamplePasses (their Cryptomatte
+        names)."""
         samples = [
             self.sample_passes(*cam.sample_position(self.settings, i, j, s)) for s in range(self.settings.samples)
         ]
         values = {}
         for name in PASS_NAMES:
-            if name in FIRST_SAMPLE:
-                values[name] = _channels(getattr(samples[0], name))
+            if name in CENTRE_SAMPLE:
+                values[name] = _channels(getattr(samples[centre_sample(len(samples))], name))
                 continue
             per_sample = [_channels(getattr(sample, name)) for sample in samples]
             values[name] = tuple(sum(column) / len(samples) for column in zip(*per_sample, strict=True))
