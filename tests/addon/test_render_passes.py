@@ -153,7 +153,7 @@ def test_cryptomatte_picks_each_object_as_its_coverage(tmp_path: Path) -> None:
             for id_letter, coverage_letter in (("R", "G"), ("B", "A")):
                 ids = channels[f"ViewLayer.CryptoObject{layer}.{id_letter}"].astype(np.float32)
                 matte += np.where(ids == target, channels[f"ViewLayer.CryptoObject{layer}.{coverage_letter}"], 0.0)
-        # the first sample's object (the Object Index pass) has some coverage, and full coverage inside the object
+        # the centre sample's object (the Object Index pass) has some coverage, and full coverage inside the object
         first = channels[f"ViewLayer.{blender_name('IndexOB')}.X"] == index
         assert np.all(matte[first] > 0.0)
         inner = first & (matte == 1.0)
