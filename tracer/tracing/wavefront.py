@@ -495,8 +495,6 @@ class PreparedScene(Shading, SeeThrough):
             parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, uvs[:, 0], uvs[:, 1], uvs[:, 2])
             self.uv_meshes[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
 
-    # ---- intersection ------------------------------------------------------------------------------------------
-
     # ---- TraceRay as a wavefront -------------------------------------------------------------------------------
 
     def trace(
@@ -645,7 +643,7 @@ class PreparedScene(Shading, SeeThrough):
             t_min = 0.0 if self.robust else REFLECTION_T_MIN
         return color
 
-    # ---- glass and transparency: TraceRay with refracted and straight-through rays --------------------------------
+    # ---- the bands' scheduling: pieces of camera samples, rows, pixels ------------------------------------------
 
     def _piece_samples(self, max_samples: int | None) -> int | None:
         """The camera samples a piece may hold: max_samples, or 1 / SEE_THROUGH_PIECE of it where the scene has
