@@ -10,6 +10,7 @@ thread asks the Rendered views to redraw as levels finish.
 from __future__ import annotations
 
 import json
+import threading
 import time
 import weakref
 
@@ -105,8 +106,7 @@ class ViewportSession:
         self.error: str | None = None  # why the scene cannot be traced (a bad scene), shown in the view
         self._scene_key = ""  # the document as JSON, made once per update: view_draw runs on every redraw
         self._shown_key: str | None = None
-        self._texture = None
-        self._texture_level = None
+        self._texture_level = None  # the level whose texture _textures holds for this session
         self._drawn_at = 0.0  # when a level was last drawn (time.perf_counter)
         self.status = ""  # the status line last drawn
         self._view_size: tuple[int, int] | None = None  # the region's (width, height) when last shown
@@ -119,8 +119,10 @@ class ViewportSession:
         # first (keeping a view's ray trees runs in Blender's own process; 2 of 8 real-window runs in Blender 3.4.1
         # crashed when the view was switched to Solid while that ran: a suspected cause, not a proven one)
         self.progressive.close(wait=CLOSE_WAIT)
-        self._texture = self._texture_level = None  # the GPU texture freed now, not when Python ends
+        self._texture_level = None
         _sessions.discard(self)
+        if threading.current_thread() is threading.main_thread():
+            _textures.pop(id(self), None)  # the GPU texture freed now; elsewhere by the main thread's next look
 
     def update_scene(self, context, depsgraph) -> None:
         from .export import MemoryBudget, scene_document
@@ -185,13 +187,15 @@ class ViewportSession:
         if level is None:
             self.status = self.error or self.progressive.error or "Weathervane Tracer: starting"
             return self.status
-        if self._texture_level is not level:
-            self._texture = _texture(texture_rgba(level.image))
+        texture = _textures.get(id(self))
+        if texture is None or self._texture_level is not level:
+            _free_textures()
+            texture = _textures[id(self)] = _texture(texture_rgba(level.image))
             self._texture_level = level
             self._drawn_at = time.perf_counter()
         from gpu_extras.presets import draw_texture_2d
 
-        draw_texture_2d(self._texture, (0, 0), region.width, region.height)
+        draw_texture_2d(texture, (0, 0), region.width, region.height)
         self.status = self._status(level)
         return self.status
 
@@ -235,6 +239,18 @@ def _texture(rgba: np.ndarray):
 
 _sessions: weakref.WeakSet[ViewportSession] = weakref.WeakSet()
 _redrawing = False
+# Each session's GPU texture (by id(session)), held here rather than by the session, so that it is freed on Blender's
+# main thread only, where the GPU context is: a session (or its engine) that Python's cycle collector frees on the
+# tracing thread would otherwise free its texture there, and Blender 3.4.1 crashed in that thread, at a line of plain
+# Python that allocates (a collection may start there)
+_textures: dict[int, object] = {}
+
+
+def _free_textures() -> None:
+    """On the main thread: free the textures of sessions that are closed or gone."""
+    live = {id(session) for session in list(_sessions)}
+    for key in [key for key in _textures if key not in live]:
+        del _textures[key]
 
 
 def _keep_redrawing() -> None:
@@ -250,6 +266,7 @@ def _redraw_rendered_views() -> float | None:
     again: each redraw of a view costs the software OpenGL of a virtual display 0.1-0.3 s of the CPU the tracer
     needs (drawn ten times a second while tracing, a 1586x926 view's edit took 1.5 s instead of 0.8 s)."""
     global _redrawing
+    _free_textures()
     sessions = list(_sessions)
     # until every image is done (the ray trees kept afterwards change nothing on screen); looked at before the news,
     # so that this tick's redraw shows the last level and its "done"
@@ -268,6 +285,7 @@ def _redraw_rendered_views() -> float | None:
 def close_sessions() -> None:
     for session in list(_sessions):
         session.close()
+    _textures.clear()
     if bpy.app.timers.is_registered(_redraw_rendered_views):
         bpy.app.timers.unregister(_redraw_rendered_views)
     global _redrawing

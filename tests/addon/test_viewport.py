@@ -204,3 +204,40 @@ def test_selecting_hovering_or_redrawing_starts_no_trace_and_leaves_the_image_an
         assert session.progressive.wait(120) and session.progressive.latest().divisor == 1
     finally:
         session.close()
+
+
+def test_a_views_gpu_texture_is_freed_on_the_main_thread_only_wherever_its_session_goes() -> None:
+    """A session closed, or dropped, on another thread (its engine collected there by Python's cycle collector) lets
+    go of its texture only when the main thread next looks; closed on the main thread, at once."""
+    import gc
+    import threading
+
+    freed_on: list[str] = []
+
+    class Texture:  # stands for a gpu.types.GPUTexture: records the thread that frees it
+        def __del__(self) -> None:
+            freed_on.append(threading.current_thread().name)
+
+    for ending in ("closed elsewhere", "dropped elsewhere", "closed here"):
+        session = viewport.ViewportSession(workers=1)
+        viewport._textures[id(session)] = Texture()
+        if ending == "closed here":
+            session.close()
+        else:
+            holder = [session]
+            del session
+
+            def end(holder: list = holder, ending: str = ending) -> None:
+                if ending == "closed elsewhere":
+                    holder[0].close()
+                holder.clear()  # the last reference goes on this thread
+                gc.collect()
+
+            other = threading.Thread(target=end, name="tracing")
+            other.start()
+            other.join()
+            assert freed_on == [], ending  # not on the other thread
+            viewport._free_textures()  # the main thread's next draw or timer
+        assert freed_on == ["MainThread"], ending
+        freed_on.clear()
+    assert not viewport._textures
