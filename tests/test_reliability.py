@@ -409,3 +409,14 @@ def test_a_frame_of_two_bands_goes_to_both_of_two_workers() -> None:
         assert pids == set(pool.pids())
     finally:
         pool.close()
+
+
+def test_a_pools_workers_run_at_the_niceness_asked_for() -> None:
+    """A Renderer made for a program that draws its images (the 3D View's ProgressiveRender) starts its workers that
+    much nicer than itself; the default leaves them at the parent's priority."""
+    from tracer.workers.parallel import Renderer
+
+    base = os.nice(0)
+    for niceness in (0, 5):
+        with Renderer(2, niceness=niceness) as renderer:
+            assert renderer.map(os.nice, [(0,), (0,)]) == [min(19, base + niceness)] * 2

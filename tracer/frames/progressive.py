@@ -42,6 +42,9 @@ EDITABLE_SECONDS = 1.5
 # would come later than the pool's first coarse level (the ground's material: 57% of the default scene's pixels).
 EDIT_SHARE = 0.2
 KEEP_AFTER = 0.3  # seconds between the full image and the start of keeping its ray trees (a change meanwhile: none)
+# The workers run this much nicer than the program that shows their levels: drawing a level (Blender's view in
+# software OpenGL, whose rasterizer threads the workers of the next levels otherwise share the cores with) comes first
+WORKER_NICENESS = 10
 
 
 class _SupersededError(Exception):
@@ -171,7 +174,7 @@ class ProgressiveRender:
             self._thread.join(wait)
 
     def _run(self) -> None:
-        renderer = Renderer(self._workers, start_method=self._start_method)
+        renderer = Renderer(self._workers, start_method=self._start_method, niceness=WORKER_NICENESS)
         editable: EditableImage | None = None  # the newest full-size scene with its ray trees, for edits
         try:
             while True:

@@ -298,11 +298,12 @@ class Renderer:
     A worker that dies (killed, out of memory) has its bands traced again by a fresh one (tracer/workers/pool.py).
     """
 
-    def __init__(self, workers: int = 0, start_method: str | None = None) -> None:
+    def __init__(self, workers: int = 0, start_method: str | None = None, niceness: int = 0) -> None:
         """start_method: how worker processes start ("fork", "spawn"); None: fork where the system has it (fast,
         and safe in a single-threaded program like the command line; a program with threads of its own, such as
-        Blender, asks for "spawn")."""
+        Blender, asks for "spawn"). niceness: the workers' priority below this process's (pool.WorkerPool)."""
         self.workers = worker_count(workers)
+        self._niceness = niceness
         self._pool: WorkerPool | None = None
         self._prepared: tuple[bytes, tuple[float, ...] | None, PreparedScene] | None = None
         default = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
@@ -335,7 +336,7 @@ class Renderer:
         if self._final:
             raise PoolClosedError("the renderer is closed")
         if self._pool is None:
-            self._pool = WorkerPool(self.workers, self._start_method, self._private_descriptors)
+            self._pool = WorkerPool(self.workers, self._start_method, self._private_descriptors, self._niceness)
             self._pool.heartbeat = self._beat
         return self._pool
 

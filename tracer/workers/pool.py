@@ -77,7 +77,10 @@ class _Worker:
     tasks: deque[Task] = field(default_factory=deque)  # sent, in the order they will come back
 
 
-def _worker_main(conn: connection.Connection, inherited: list[int]) -> None:
+def _worker_main(conn: connection.Connection, inherited: list[int], niceness: int = 0) -> None:
+    if niceness and hasattr(os, "nice"):
+        with contextlib.suppress(OSError):  # a lower priority is a courtesy: without it the work is the same
+            os.nice(niceness)
     for descriptor in inherited:  # a forked worker's copies of the parent's other pipes and images: let them go,
         with contextlib.suppress(OSError):  # or a pipe would stay open after the parent dies
             os.close(descriptor)
@@ -145,10 +148,17 @@ class WorkerPool:
     """workers processes that run Tasks; results are collected by the parent calling wait()."""
 
     def __init__(
-        self, workers: int, start_method: str = "fork", private: Callable[[], list[int]] | None = None
+        self,
+        workers: int,
+        start_method: str = "fork",
+        private: Callable[[], list[int]] | None = None,
+        niceness: int = 0,
     ) -> None:
-        """private: the parent's other descriptors that a forked worker must not keep (files the parent reuses)."""
+        """private: the parent's other descriptors that a forked worker must not keep (files the parent reuses).
+        niceness: added to each worker's (Unix nice): a pool whose images a program draws as they come leaves the
+        CPU to that drawing first."""
         self.size = workers
+        self._niceness = niceness
         self._private = private
         self._context = multiprocessing.get_context(start_method)
         self._workers: list[_Worker] = []
@@ -205,7 +215,10 @@ class WorkerPool:
             inherited += [d for w in self._workers for t in w.tasks for d in t.descriptors]
             inherited += self._private() if self._private is not None else []
         process = self._context.Process(
-            target=_worker_main, args=(child_end, sorted(set(inherited))), daemon=True, name="weathervane-worker"
+            target=_worker_main,
+            args=(child_end, sorted(set(inherited)), self._niceness),
+            daemon=True,
+            name="weathervane-worker",
         )
         # Ctrl-C in a terminal goes to the whole process group: held back until the worker has set it to be ignored
         blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
