@@ -63,7 +63,8 @@ def test_the_passes_files_come_back_from_the_workers_as_the_local_run_writes_the
     names = sorted(path.name for path in local.iterdir())
     assert names == [f"frame_{frame:04d}.{kind}" for frame in range(1, 7) for kind in ("exr", "png")]
     assert sorted(path.name for path in remote.iterdir()) == names  # nothing else, no temporary left
-    assert all((remote / name).read_bytes() == (local / name).read_bytes() for name in names)
+    differing = [name for name in names if (remote / name).read_bytes() != (local / name).read_bytes()]
+    assert not differing, differing
     assert animate(scene, remote, 1, 6).skipped == list(range(1, 7))  # the files resume as a local run's do
 
 
