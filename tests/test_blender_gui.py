@@ -120,6 +120,8 @@ LATENCIES = (
     "f12-factory-cube-1920x1080",  # F12 of the factory scene at Blender's default size, key to the job's end
     "material-colour",  # the tail fin's colour set as the sidebar sets it, to its finished pixels on screen
     "object-moved",  # the ball moved, likewise
+    "ground-colour-first-image",  # the ground's colour (most pixels: coarse to fine), to its first image on screen
+    "ground-colour",  # ... and to its finished image
     "orbit-first-image",  # numpad 4 over the view, to its first image on screen
     "orbit",  # ... and to its finished image
     "playback",  # Space over 10 keyed frames: seconds a frame, new images on screen

@@ -905,10 +905,10 @@ def run_steps(steps: list, then) -> float | None:
     return guarded(run)
 
 
-def recolour(colour):
+def recolour(colour, material: str = "verdigris"):
     def change() -> None:
         materials = {entry.name: entry for entry in bpy.context.scene.weathervane.materials}
-        materials["verdigris"].color = colour  # as the sidebar's Materials panel sets it
+        materials[material].color = colour  # as the sidebar's Materials panel sets it
 
     return change
 
@@ -937,7 +937,8 @@ def keys(*names: str):
 def measure_latencies() -> float | None:
     """In the Rendered view as the artist sees it (headers and overlays on): from the change or the input event to
     the changed pixels on screen (read from the X server), medians of LATENCY_REPEATS: the tail fin's colour set as
-    the sidebar sets it, the ball moved, a numpad orbit (its first image and its finished one); then playback (Space)
+    the sidebar sets it, the ball moved, the ground's colour and a numpad orbit (each its first, coarse image and its
+    finished one); then playback (Space)
     of the vane's turn keyed over 10 frames. Printed, not asserted: the machine is shared."""
     _, area, _ = view3d()
     view = area.spaces.active.region_3d
@@ -963,7 +964,11 @@ def measure_latencies() -> float | None:
         recolour(colour)()
         move_ball(back)()
 
-    steps += [as_built, idle_view()]
+    # the ground's colour: most of the view's pixels, answered coarse to fine (its first image is the 1/8 one)
+    ground = tuple({entry.name: entry for entry in bpy.context.scene.weathervane.materials}["tiles"].color)
+    for new in ((0.3, 0.5, 0.8), (0.8, 0.6, 0.3), (0.4, 0.8, 0.4))[:LATENCY_REPEATS]:
+        steps += [watched("ground-colour", view_box, recolour(new, "tiles")), idle_view()]
+    steps += [as_built, recolour(ground, "tiles"), idle_view()]
 
     def leave_the_camera_view() -> None:  # numpad 4 in the camera view turns nothing there in 3.4.1
         view.view_perspective = "PERSP"
@@ -1055,8 +1060,8 @@ def report_latencies() -> float | None:
         shares = ", ".join(f"{100 * run[2]:.0f}%" for run in runs)
         runs_text = ", ".join(f"{a:.2f}/{b:.2f}" for a, b in zip(firsts, finished, strict=True))
         _, _, region = view3d()
-        if what == "orbit":
-            print(f"WEATHERVANE-GUI latency orbit-first-image {statistics.median(firsts):.3f}")
+        if what in ("orbit", "ground-colour"):
+            print(f"WEATHERVANE-GUI latency {what}-first-image {statistics.median(firsts):.3f}")
         print(
             f"WEATHERVANE-GUI latency {what} {statistics.median(finished):.3f} s to the finished pixels on screen "
             f"(first change {statistics.median(firsts):.3f} s; {len(runs)} runs first/finished: {runs_text}; pixels "

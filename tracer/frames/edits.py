@@ -152,11 +152,16 @@ class EditableImage:
             if any(box is None for box in boxes):  # an unbounded plane moved: anything may change
                 return np.arange(self.pixels)
             volume = Volume.around(boxes, np.dtype(np.float64), float(np.abs(np.concatenate(boxes)).max()))
-        touched = []
+        # a mask of the pixels rather than np.unique of their segments' pixels: a sort of a million pixels took most
+        # of the 0.03 s that an edit of the ground's colour spent finding it is not a small edit (1586x926)
+        touched = np.zeros(self.pixels, dtype=bool)
+        # uses[hit]: whether the object hit shows the material (the last entry, False, for a miss's -1)
+        uses = np.zeros(len(self.scene.objects) + 1, dtype=bool)
+        if isinstance(edit, MaterialEdit):
+            uses[[k for k, obj in enumerate(self.scene.objects) if _uses(obj, edit.name)]] = True
         for segments, generation in self.chunks:  # stale segments are tested too, and left out after
             if isinstance(edit, MaterialEdit):
-                objects = [k for k, obj in enumerate(self.scene.objects) if _uses(obj, edit.name)]
-                hits = np.isin(segments.hit, objects)
+                hits = uses[segments.hit]
             elif isinstance(edit, LightEdit):
                 if isinstance(self.scene.lights[edit.index], sc.AmbientLight):
                     hits = segments.hit >= 0
@@ -164,8 +169,8 @@ class EditableImage:
                     hits = segments.light == edit.index
             else:
                 hits = volume.meets(segments.O, segments.D, segments.start, segments.end)
-            touched.append(segments.pixel[hits & (generation == self.generation.take(segments.pixel))])
-        return np.unique(np.concatenate(touched))
+            touched[segments.pixel[hits & (generation == self.generation.take(segments.pixel))]] = True
+        return np.flatnonzero(touched)
 
 
 def _uses(obj: sc.SceneObject, material: str) -> bool:
