@@ -36,10 +36,25 @@ def view3d():
     return window, area, region
 
 
+def tracing_quiet(timeout: float = 60.0) -> None:
+    """Block until no Rendered view's tracing thread runs (each waits for its next scene). Before an operator called
+    under a context override: Blender (3.4-5.0, Python 3.11) looks the override's members up without taking the GIL
+    when another thread holds it (PyC_IsInterpreterActive reads the interpreter's current thread state, which is the
+    other thread's), and crashed so twice in 5 window benchmarks while a view traced."""
+    import time
+
+    viewport = sys.modules.get("weathervane.viewport")
+    started = time.perf_counter()
+    while viewport is not None and any(session.progressive.busy for session in list(viewport._sessions)):
+        assert time.perf_counter() - started < timeout, "the Rendered view kept tracing"
+        time.sleep(0.02)
+
+
 def screenshot(suffix: str = "") -> str:
     """The whole window as SCREENSHOT with suffix before its extension; returns the path."""
     window, area, region = view3d()
     target = SCREENSHOT.replace(".png", f"{suffix}.png")
+    tracing_quiet()
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.screen.screenshot(filepath=target)
     return target
@@ -195,6 +210,7 @@ def reset_in_camera_view() -> float | None:
     assert area.spaces.active.region_3d.view_perspective == "CAMERA"
     print("WEATHERVANE-GUI result line after Build:", result_line())
     assert result_line().startswith(("INFO: Built", "WARNING: Built")), result_line()
+    tracing_quiet()
     with bpy.context.temp_override(window=window, area=area, region=region):
         assert bpy.ops.weathervane.reset("EXEC_DEFAULT", True) == {"FINISHED"}
     return guarded(check_reset_kept_camera_view)
@@ -469,6 +485,7 @@ def rendered_view_stopped() -> float | None:
 def open_export_menu() -> float | None:
     window, area, region = view3d()
     # File > Export, opened as a click on the menu would: the add-on's entry is in it (last: the menu stays open)
+    tracing_quiet()
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.wm.call_menu(name="TOPBAR_MT_file_export")
     bpy.app.timers.register(capture_menu, first_interval=1.0)
@@ -497,6 +514,7 @@ def f12_then_quit() -> float | None:
     scene.render.resolution_x, scene.render.resolution_y = QUIT_DURING_F12
     scene.weathervane.samples = QUIT_DURING_F12_SAMPLES
     scene.render.use_lock_interface = False
+    tracing_quiet()
     with bpy.context.temp_override(window=window, area=area, region=region):
         assert bpy.ops.render.render("INVOKE_DEFAULT") == {"RUNNING_MODAL"}
     started = time.perf_counter()
