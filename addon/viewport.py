@@ -116,8 +116,8 @@ class ViewportSession:
 
     def close(self) -> None:
         # Blender frees the view's engine as the shading leaves Rendered: the tracing thread is let finish its piece
-        # first (keeping a view's ray trees runs in Blender's own process; 2 of 8 real-window runs in Blender 3.4.1
-        # crashed when the view was switched to Solid while that ran: a suspected cause, not a proven one)
+        # first (keeping a view's ray trees runs in Blender's own process), so that nothing of the view's runs on
+        # once Blender has let it go
         self.progressive.close(wait=CLOSE_WAIT)
         self._texture_level = None
         _sessions.discard(self)
@@ -241,8 +241,7 @@ _sessions: weakref.WeakSet[ViewportSession] = weakref.WeakSet()
 _redrawing = False
 # Each session's GPU texture (by id(session)), held here rather than by the session, so that it is freed on Blender's
 # main thread only, where the GPU context is: a session (or its engine) that Python's cycle collector frees on the
-# tracing thread would otherwise free its texture there, and Blender 3.4.1 crashed in that thread, at a line of plain
-# Python that allocates (a collection may start there)
+# tracing thread (a collection may start at any allocation there) would otherwise free its texture there
 _textures: dict[int, object] = {}
 
 
