@@ -321,3 +321,32 @@ def test_the_command_line_writes_every_pass_into_a_multilayer_exr(tmp_path) -> N
     )
     assert with_png.returncode == 0, with_png.stderr
     assert (tmp_path / "beauty.png").exists() and "ViewLayer.Depth.Z" in read_exr_channels(tmp_path / "beauty.exr")[0]
+
+
+def test_a_scenes_bytes_do_not_depend_on_what_the_process_traced_before(monkeypatch) -> None:
+    """Two scenes that differ only in the sign of a zero (a ground turned by -0.0 about Z, whose normal is then
+    (0, -0.0, 1)) compare equal under ==; a process that traced the one first must still give the other's own bytes
+    (its kernels are kept between scenes), as a fresh process (a Dask worker) does: the normals pass held -0.0 on the
+    ground where a fresh process writes 0.0 (a local animation's EXR files then differed from a cluster's)."""
+    from collections import OrderedDict
+
+    from tracer.geometry import camera as cam
+    from tracer.tracing import wavefront
+
+    base = default_scene().with_render(width=80, height=60, passes=("normal", "depth", "position"), workers=1)
+
+    def turned(zero: float) -> sc.Scene:
+        ground = [replace(o, rotation=(0.0, 0.0, zero)) if isinstance(o, sc.Plane) else o for o in base.objects]
+        return replace(base, objects=tuple(ground))
+
+    def traced(*scenes: sc.Scene) -> bytes:
+        monkeypatch.setattr(wavefront, "_KERNELS", OrderedDict())  # a fresh process's caches
+        monkeypatch.setattr(cam, "_BAND_CACHE", OrderedDict())
+        for scene in scenes:
+            result = render(scene, workers=1)
+        return result.image.tobytes() + b"".join(result.passes[name].tobytes() for name in sorted(result.passes))
+
+    negative, positive = turned(-0.0), turned(0.0)
+    assert negative == positive  # what the kernels' cache once compared them by
+    assert traced(negative, positive) == traced(positive)
+    assert traced(positive, negative) == traced(negative)

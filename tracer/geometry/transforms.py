@@ -246,7 +246,13 @@ def object_frame(obj: sc.SceneObject, vane: sc.Vane | None) -> tuple[Matrix3, sc
         turn = axis_angle_matrix(vane.axis, vane.heading)
         rotation = matmul(turn, rotation)
         location = add(vane.pivot, apply(turn, sub(location, vane.pivot)))
-    return rotation, location
+    # each -0.0 made 0.0: objects equal under == (one turned by -0.0 about Z, whose normal is then (0, -0.0, 1)) get
+    # the same world primitive, bit for bit, so that a kernel kept between scenes under an equal primitive
+    # (tracing/wavefront.py) is the one each would make, and a scene's bytes do not depend on what came before it
+    (a, b, c), (d, e, f), (g, h, i) = rotation
+    x, y, z = location
+    rotation = ((a + 0.0, b + 0.0, c + 0.0), (d + 0.0, e + 0.0, f + 0.0), (g + 0.0, h + 0.0, i + 0.0))
+    return rotation, (x + 0.0, y + 0.0, z + 0.0)
 
 
 def _triangles(
