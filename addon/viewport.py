@@ -113,6 +113,9 @@ class ViewportSession:
         progressive = module("frames.progressive")
         self._editable_samples, self._kept_bytes = progressive.EDITABLE_SAMPLES, progressive.KEPT_BYTES_PER_SAMPLE
         _sessions.add(self)
+        # a session let go without close() still ends its thread and its workers (the thread holds the tracer, not
+        # the session)
+        weakref.finalize(self, self.progressive.close)
 
     def close(self) -> None:
         # Blender frees the view's engine as the shading leaves Rendered: the tracing thread is let finish its piece

@@ -220,6 +220,7 @@ def test_a_views_gpu_texture_is_freed_on_the_main_thread_only_wherever_its_sessi
 
     for ending in ("closed elsewhere", "dropped elsewhere", "closed here"):
         session = viewport.ViewportSession(workers=1)
+        progressive = session.progressive
         viewport._textures[id(session)] = Texture()
         if ending == "closed here":
             session.close()
@@ -238,6 +239,7 @@ def test_a_views_gpu_texture_is_freed_on_the_main_thread_only_wherever_its_sessi
             other.join()
             assert freed_on == [], ending  # not on the other thread
             viewport._free_textures()  # the main thread's next draw or timer
+            assert progressive.closed, ending  # a session dropped without close() ends its thread all the same
         assert freed_on == ["MainThread"], ending
         freed_on.clear()
     assert not viewport._textures
