@@ -377,8 +377,10 @@ def test_a_renderer_closed_for_good_from_another_thread_stops_its_render_and_sta
     from tracer.workers.pool import PoolClosedError
 
     renderer = Renderer(2, start_method="spawn")
-    scene = default_scene().with_render(width=320, height=240)
-    renderer.render(scene.with_render(width=8, height=8))  # the pool is up
+    # 30 bands: when the first is done, most are still queued (320x240 made 2, and on a quiet machine the second
+    # was back before the close, so the render ended whole)
+    scene = default_scene().with_render(width=640, height=480, samples=16)
+    renderer.render(scene.with_render(width=8, height=8, samples=1))  # the pool is up
     pool = renderer._pool
     failures: list = []
 
