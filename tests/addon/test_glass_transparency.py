@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from addon import compat, conversion_report, export, material_convert
+from tests.addon.f12_images import f12_exr
 
 ENGINE = "WEATHERVANE_TRACER"
 
@@ -307,19 +308,8 @@ def glass_sphere(ior: float = 1.45, radius: float = 1.0, shader: str = "glass", 
 
 def f12(engine: str, path: Path) -> np.ndarray:
     """The scene rendered by engine -> (HEIGHT, WIDTH, 3) linear RGB, rows from the top."""
-    scene = bpy.context.scene
-    scene.render.engine = engine
-    settings = scene.render.image_settings
-    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGB"
-    scene.render.filepath = str(path)
-    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
-    image = bpy.data.images.load(str(path), check_existing=False)
-    try:
-        pixels = np.empty(WIDTH * HEIGHT * image.channels, dtype=np.float32)
-        image.pixels.foreach_get(pixels)
-        return np.flipud(pixels.reshape(HEIGHT, WIDTH, image.channels)[..., :3]).astype(np.float64)
-    finally:
-        bpy.data.images.remove(image)
+    bpy.context.scene.render.engine = engine
+    return np.flipud(f12_exr(path))
 
 
 def silhouette(radius: float, distance: float, inset: float) -> np.ndarray:

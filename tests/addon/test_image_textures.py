@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from addon import compat, export, material_convert
+from tests.addon.f12_images import f12_exr
 
 ENGINE = "WEATHERVANE_TRACER"
 SIZE = 64
@@ -62,17 +63,7 @@ def f12(engine: str, path: Path) -> np.ndarray:
         scene.cycles.device, scene.cycles.samples = "CPU", 16
         scene.cycles.use_denoising = scene.cycles.use_adaptive_sampling = False
         scene.cycles.filter_width = 0.01  # each pixel sampled at its centre, as the tracer's one ray
-    settings = scene.render.image_settings
-    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGB"
-    scene.render.filepath = str(path)
-    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
-    image = bpy.data.images.load(str(path), check_existing=False)
-    try:
-        pixels = np.empty(SIZE * SIZE * image.channels, dtype=np.float32)
-        image.pixels.foreach_get(pixels)
-        return pixels.reshape(SIZE, SIZE, image.channels)[..., :3].astype(np.float64)
-    finally:
-        bpy.data.images.remove(image)
+    return f12_exr(path)
 
 
 def test_the_conversion_hands_the_texture_and_the_planes_uvs_over() -> None:
@@ -195,18 +186,7 @@ def rgba_f12(engine: str, samples: int, path: Path, seed: int = 0) -> np.ndarray
         scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
     else:
         scene.weathervane.samples = str(samples)
-    settings = scene.render.image_settings
-    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGBA"
-    scene.render.filepath = str(path)
-    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
-    image = bpy.data.images.load(str(path), check_existing=False)
-    try:
-        width, height = image.size
-        pixels = np.empty(width * height * 4, dtype=np.float32)
-        image.pixels.foreach_get(pixels)
-        return pixels.reshape(height, width, 4).astype(np.float64)
-    finally:
-        bpy.data.images.remove(image)
+    return f12_exr(path, "RGBA")
 
 
 def test_a_textured_cube_and_sphere_are_as_close_to_cycles_as_cycles_at_64_samples(tmp_path) -> None:

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from addon import compat, material_convert
+from tests.addon.f12_images import f12_exr
 
 ENGINE = "WEATHERVANE_TRACER"
 SIZE = 96
@@ -142,17 +143,7 @@ def f12(engine: str, path: Path) -> np.ndarray:
         scene.cycles.device, scene.cycles.samples = "CPU", 16
         scene.cycles.use_denoising = scene.cycles.use_adaptive_sampling = False
         scene.cycles.filter_width = 0.01  # each pixel sampled at its centre, as the tracer's one ray
-    settings = scene.render.image_settings
-    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGB"
-    scene.render.filepath = str(path)
-    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
-    image = bpy.data.images.load(str(path), check_existing=False)
-    try:
-        pixels = np.empty(SIZE * SIZE * image.channels, dtype=np.float32)
-        image.pixels.foreach_get(pixels)
-        return pixels.reshape(SIZE, SIZE, image.channels)[..., :3].astype(np.float64)
-    finally:
-        bpy.data.images.remove(image)
+    return f12_exr(path)
 
 
 def both(tmp_path: Path) -> tuple[np.ndarray, np.ndarray]:

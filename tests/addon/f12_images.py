@@ -1,0 +1,27 @@
+"""F12 of the open scene -> its pixels, through a 32-bit OpenEXR file that Blender writes and reads back (the
+engine's result as F12 saves it, for the tests that compare it with Cycles')."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+
+def f12_exr(path: Path, color_mode: str = "RGB") -> np.ndarray:
+    """Render the scene with its engine and settings into a 32-bit EXR at path (color_mode "RGB" or "RGBA") ->
+    (height, width, channels) linear float64, rows from the bottom as Blender keeps them."""
+    scene = bpy.context.scene
+    settings = scene.render.image_settings
+    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", color_mode
+    scene.render.filepath = str(path)
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    image = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        width, height = image.size
+        pixels = np.empty(width * height * image.channels, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        return pixels.reshape(height, width, image.channels)[..., : len(color_mode)].astype(np.float64)
+    finally:
+        bpy.data.images.remove(image)
