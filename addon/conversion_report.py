@@ -75,14 +75,14 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
     for name in sorted(lights):
         obj = lights[name]
         if vane and name not in driven and not settings.other_lights:
-            rows.append(("LIGHT", name, ["not rendered (see Other Lights)"]))
+            rows.append(("LIGHT", name, ["off (see Other Lights)"]))
             continue
         notes = _notes("light", name, lambda o=obj: light_convert.convert_light(o, blender_scene=blender_scene)[1])
         rows.append(("LIGHT", name, notes))
     world = blender_scene.world
     if vane:
         if world is not None:
-            rows.append(("WORLD", world.name, ["not rendered (vane's Background)"]))
+            rows.append(("WORLD", world.name, ["vane's Background used"]))
     else:
         notes = _notes(
             "world",

@@ -24,18 +24,23 @@ ICON = 20.0  # an icon or a menu's arrow
 LIST_MARGIN = 30.0  # a UI list's box, scroll bar and row padding
 MARGIN = 14.0  # a panel's margin on each side
 SPLIT = 0.4  # property split's label column (Blender's UI_ITEM_PROP_SEP_DIVIDE)
+SEPARATOR = 6.0  # a separator in a row, per unit of its factor (Blender: 0.3 of a UI unit)
 DESCRIPTION_MAX = 239  # Blender 3.4's RNA_DYN_DESCR_MAX less its terminating byte: longer operator tips are cut
 
 
+class Gap(float):
+    """A separator's width in a row (pixels at scale 1): room that no text gets."""
+
+
 class Node:
-    """A layout in the tree: a row (children side by side) or a column; a leaf is (text, pixels beside it)."""
+    """A layout in the tree: a row (children side by side) or a column; a leaf is (text, pixels beside it) or a Gap."""
 
     def __init__(self, horizontal: bool, factor: float | None = None) -> None:
         self.horizontal, self.factor = horizontal, factor
         self.children: list = []
 
     def icon_only(self) -> bool:
-        leaves = [child for child in self.children if not isinstance(child, Node)]
+        leaves = [child for child in self.children if isinstance(child, tuple)]
         nodes = [child for child in self.children if isinstance(child, Node)]
         return bool(self.children) and all(text == "" for text, _ in leaves) and all(n.icon_only() for n in nodes)
 
@@ -75,7 +80,11 @@ class Recorder:
         return self._child(False)
 
     def __getattr__(self, name: str):
-        return lambda *args, **kwargs: None  # separators, menus, decorators: no text of their own
+        return lambda *args, **kwargs: None  # menus, decorators: no text of their own
+
+    def separator(self, factor: float = 1.0, **kwargs) -> None:
+        if self.node.horizontal:  # in a column it takes height, not width
+            self.node.children.append(Gap(SEPARATOR * factor))
 
     def _add(self, text: str, beside: float) -> None:
         self.node.children.append((text, beside))
@@ -195,11 +204,18 @@ def needs(node: Node, width: float, scale: float, found: dict, where: str) -> No
         return
     if node.horizontal:
         fixed = ICON * scale + PADDING * scale
-        free = [c for c in node.children if not (c.icon_only() if isinstance(c, Node) else c == ("", ICON))]
-        rest = width - fixed * (len(node.children) - len(free))
+        gaps = [c for c in node.children if isinstance(c, Gap)]
+        free = [
+            c
+            for c in node.children
+            if not isinstance(c, Gap) and not (c.icon_only() if isinstance(c, Node) else c == ("", ICON))
+        ]
+        rest = width - sum(gaps) * scale - fixed * (len(node.children) - len(free) - len(gaps))
         shares = []
         for child in node.children:
-            if child not in free:
+            if isinstance(child, Gap):
+                shares.append(child * scale)
+            elif not any(child is c for c in free):
                 shares.append(fixed)
             elif node.factor is not None:
                 first = child is node.children[0]
@@ -211,6 +227,8 @@ def needs(node: Node, width: float, scale: float, found: dict, where: str) -> No
     for child, share in zip(node.children, shares, strict=True):
         if isinstance(child, Node):
             needs(child, share, scale, found, where)
+            continue
+        if isinstance(child, Gap):
             continue
         text, beside = child
         if not text:

@@ -466,7 +466,7 @@ def test_other_lights_are_left_out_until_asked_for_and_build_says_so(tmp_path: P
     from addon import conversion_report
 
     rows = {(kind, name): notes for kind, name, notes in conversion_report.scene_conversion(bpy.context.scene)}
-    assert rows[("LIGHT", "Light")] == ["not rendered (see Other Lights)"]
+    assert rows[("LIGHT", "Light")] == ["off (see Other Lights)"]
     small = {"width": 64, "height": 48}
     document["render"].update(small)
     mean = render(scene_from_dict(document), workers=1).image.mean()
