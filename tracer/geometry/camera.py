@@ -285,7 +285,7 @@ def cached_band_directions(
     only churn the cache); least recently used bands go first."""
     rows = np.asarray(rows, dtype=np.int64)
     key = (
-        sc.exact(camera),  # by its bits: a location of -0.0 and one of 0.0 make rays that differ in their zeros' signs
+        camera,
         settings.width,
         settings.height,
         settings.samples,

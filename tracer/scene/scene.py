@@ -166,20 +166,6 @@ def same_arrays(a: np.ndarray | None, b: np.ndarray | None) -> bool:
 ARRAY_COMPARISONS = [0]
 
 
-def exact(value: object) -> object:
-    """value with each float as its bits (float.hex), through tuples and the fields of frozen dataclasses (their
-    type first): a key equal only where every float has the same bits. == calls -0.0 and 0.0 equal, and what is
-    kept under a key equal to a new scene's must be what that scene would make. Other values stay as they are."""
-    if isinstance(value, float):
-        return value.hex()
-    if isinstance(value, tuple):
-        return tuple(exact(item) for item in value)
-    params = getattr(type(value), "__dataclass_params__", None)
-    if params is not None and params.frozen and params.eq:
-        return (type(value), *(exact(getattr(value, f.name)) for f in fields(value)))
-    return value
-
-
 def array_digest(array: np.ndarray | None) -> bytes:
     """A 16-byte digest of an array's shape, dtype and bits (b"" for None): equal arrays, equal digests."""
     if array is None:
