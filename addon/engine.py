@@ -123,7 +123,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             document = scene_document(bpy.context, depsgraph, blender_scene, notes, budget, arrays=True)
             scene = loader.scene_from_dict(export.as_json_types(document), "scene")
         except loader.SceneError as error:
-            self.report({"ERROR"}, "; ".join(named_problems(error.problems, document)[:4]))
+            self.report({"ERROR"}, "; ".join(named_problems(error.problems, document, blender_scene.world)[:4]))
             return
         except resources.ResourceError as error:  # refused before its arrays were read: nothing started
             self.report({"ERROR"}, f"Weathervane Tracer: not started: {error}")

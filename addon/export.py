@@ -117,16 +117,22 @@ class ExportNotes:
         return [name for name, said in mapping.items() if said]
 
 
-def named_problems(problems: list[str], document: dict) -> list[str]:
-    """The loader's problems with `objects[3]` replaced by the Blender object's name (`object "Suzanne"`), which is
-    what the user can find in the Outliner."""
+def named_problems(problems: list[str], document: dict, world=None) -> list[str]:
+    """The loader's problems with `objects[3]` replaced by the Blender object's name (`object "Suzanne"`) and
+    `background` by the World's and its picture's (`World "Sky", image "forest.exr"`), which is what the user can
+    find in the Outliner and the Image editor."""
     names = [obj.get("name", "?") for obj in document.get("objects", [])]
 
     def name(match: re.Match) -> str:
         index = int(match.group(1))
         return f'object "{names[index]}"' if index < len(names) else match.group(0)
 
-    return [re.sub(r"objects\[(\d+)\]", name, problem) for problem in problems]
+    named = [re.sub(r"objects\[(\d+)\]", name, problem) for problem in problems]
+    if world is not None:
+        image = world_convert.picture_name(world)
+        where = f'World "{world.name}"' + (f', image "{image}"' if image else "")
+        named = [re.sub(r"^background(\.(image|pixels))?(?=[.:])", where, problem) for problem in named]
+    return named
 
 
 def _render_hidden_objects() -> set[int]:

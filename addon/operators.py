@@ -275,7 +275,7 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
         try:
             module("scene.loader").scene_from_dict(json.loads(json.dumps(document)), "export")
         except module("scene.loader").SceneError as error:
-            for problem in named_problems(error.problems, document)[:8]:
+            for problem in named_problems(error.problems, document, context.scene.world)[:8]:
                 report(self, {"ERROR"}, f"cannot export: {problem}")
             return {"CANCELLED"}
         target = Path(bpy.path.abspath(self.filepath))

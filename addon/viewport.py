@@ -173,7 +173,7 @@ class ViewportSession:
         except loader.SceneError as error:
             from .export import named_problems
 
-            self.error = "; ".join(named_problems(error.problems, document)[:2])
+            self.error = "; ".join(named_problems(error.problems, document, bpy.context.scene.world)[:2])
             return
         self._shown_key, self.error = key, None
         self.progressive.show(scene, (PLAYBACK_DIVISOR,) if playing else None)

@@ -155,6 +155,20 @@ def _environment_background(node, strength: float, notes: list[str]) -> dict | N
     }
 
 
+def picture_name(world) -> str:
+    """The name of the image an Environment Texture gives the world's Background Color ("" where none does)."""
+    if world is None or not compat.uses_nodes(world):
+        return ""
+    for node in world.node_tree.nodes:
+        if (
+            node.bl_idname == "ShaderNodeTexEnvironment"
+            and node.image is not None
+            and any(link.to_node.bl_idname == "ShaderNodeBackground" for link in node.outputs["Color"].links)
+        ):
+            return node.image.name
+    return ""
+
+
 def _own_background(blender_scene) -> dict:
     settings = blender_scene.weathervane
     return {
@@ -227,6 +241,8 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
     visibility = getattr(world, "cycles_visibility", None)
     if visibility is not None and not visibility.camera:
         background = dict(BLACK)  # Cycles' camera rays do not see it
+    if not all(math.isfinite(c) for c in color):  # a picture with NaN or infinite texels: the loader names it
+        return background, None, notes
     if not any(c > 0.0 for c in color) or (visibility is not None and not visibility.diffuse):
         return background, None, notes
     notes.append("world light: unshadowed ambient" + (" of the picture's mean colour" if picture is not None else ""))

@@ -99,9 +99,13 @@ def test_an_image_background_is_checked_with_clear_messages(tmp_path) -> None:
     assert problems({"type": "image", "pixels": [[[0, 0, 0]], [[0, 0, 0], [1, 1, 1]]]}) == [
         "background.pixels: must be rows of texels, each [r, g, b] numbers, every row as long (top row first)"
     ]
-    assert problems({"type": "image", "pixels": [[[0, 0, 0], [0, -2, 0]]], "colorspace": "linear"}) == [
-        "background.pixels: texel (row 0, column 1) must lie in 0..1000000, got -2"
+    assert problems({"type": "image", "pixels": [[[0, 0, 0], [0, float("inf"), 0]]], "colorspace": "linear"}) == [
+        "background.pixels: texel (row 0, column 1) must be a finite number within +-1000000, got inf"
     ]
+    # float pictures keep their slightly negative texels, as Blender holds them (its own HDRIs have a few)
+    document = default_scene_dict()
+    document["background"] = {"type": "image", "pixels": [[[0, 0, 0], [0, -4.47e-06, 0]]], "colorspace": "linear"}
+    assert scene_from_dict(document).background.image[0, 1, 1] == np.float32(-4.47e-06)
     assert problems({"type": "image", "pixels": [[[0, 0, 0]]], "interpolation": "cubic"}) == [
         'background.interpolation: must be one of "linear", "closest", got "cubic"'
     ]

@@ -192,7 +192,15 @@ def test_hits_without_uvs_keep_the_materials_colour() -> None:
         ({"pixels": [[[1, 0, 0]], [[1, 0, 0], [0, 1, 0]]]}, "materials.tex.texture.pixels: must be a non-empty list"),
         ({"pixels": [[[1, 0, "red"]]]}, "materials.tex.texture.pixels[0]: must hold numbers only"),
         ({"pixels": [[[1, 0]]]}, "materials.tex.texture.pixels: must be an image of (height, width[, 1, 3 or 4])"),
-        ({"pixels": [[[-1, 0, 0]]]}, "materials.tex.texture.pixels: must hold finite values in 0..1000000"),
+        (
+            {"pixels": [[[0.5, 0, 0], [0, float("nan"), 0]]], "colorspace": "linear"},
+            "materials.tex.texture.pixels: texel (row 0, column 1) must be a finite number within +-1000000, got nan",
+        ),
+        (
+            {"pixels": [[[0, 0, 2e6]]], "colorspace": "linear"},
+            "materials.tex.texture.pixels: texel (row 0, column 0) must be a finite number within +-1000000, got "
+            "2000000",
+        ),
         ({"pixels": TEXELS, "extension": "MIRROR"}, 'materials.tex.texture.extension: must be one of "repeat"'),
         ({"pixels": TEXELS, "interpolation": "cubic"}, 'materials.tex.texture.interpolation: must be one of "linear"'),
         ({"pixels": TEXELS, "colorspace": "Non-Color"}, 'materials.tex.texture.colorspace: must be one of "sRGB"'),

@@ -332,8 +332,9 @@ def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
             "pixels", f"must have at most {tx.MAX_TEXTURE_PIXELS} pixels, got {linear.shape[0] * linear.shape[1]}"
         )
         return None
-    if not np.all(np.isfinite(linear)) or linear.min() < 0.0 or linear.max() > INTENSITY_MAX:
-        reader.fail("image" if image is not None else "pixels", f"must hold finite values in 0..{_show(INTENSITY_MAX)}")
+    problem = _unpicturable_texel(linear, values)
+    if problem:
+        reader.fail("image" if image is not None else "pixels", problem)
         return None
     linear.flags.writeable = False  # the texture keeps it, without a copy
     return sc.Texture(pixels=linear, interpolation=interpolation, extension=extension, source=source, **mapping)
@@ -974,6 +975,24 @@ def _background(reader: _Reader | None, folder: str | Path | None = None) -> sc.
     return background
 
 
+def _unpicturable_texel(texels: np.ndarray, raw: np.ndarray) -> str:
+    """What makes a picture's linear texels (H, W, 3) no picture: the first texel that is not finite or lies beyond
+    +-INTENSITY_MAX ("" where none does). Slightly negative values are kept as they are: float images hold them (every
+    HDRI shipped with Blender has a few, from its encoder's filtering) and Blender and Cycles use them unchanged."""
+    bad = ~np.isfinite(texels) | (np.abs(texels) > INTENSITY_MAX)
+    if not bad.any():
+        return ""
+    row, column, _ = np.argwhere(bad)[0].tolist()
+    channel = int(np.argmax(bad[row, column]))
+    given = np.asarray(raw)
+    exact = given.ndim == 3 and given.dtype.kind == "f" and given.shape[:2] == texels.shape[:2]
+    value = float(given[row, column, channel]) if exact else float(texels[row, column, channel])
+    return (
+        f"texel (row {row}, column {column}) must be a finite number within +-{_show(INTENSITY_MAX)}, got "
+        f"{_show(value)}"
+    )
+
+
 def _background_image(reader: _Reader, folder: str | Path | None) -> np.ndarray:
     """The "image" background's equirectangular picture: "image", a PNG or .npy file's path (relative to the scene
     file's folder), or "pixels", the texels themselves (rows of [r, g, b], top row first; from the add-on in the
@@ -1021,14 +1040,9 @@ def _background_image(reader: _Reader, folder: str | Path | None) -> np.ndarray:
             f"{width} x {height}",
         )
         return fallback
-    bad = ~np.isfinite(texels) | (texels < 0.0) | (texels > INTENSITY_MAX)
-    if bad.any():
-        row, column, _ = np.argwhere(bad)[0].tolist()
-        channel = int(np.argmax(bad[row, column]))
-        value = float(raw[row, column, channel]) if raw.dtype.kind == "f" else float(texels[row, column, channel])
-        reader.fail(
-            key, f"texel (row {row}, column {column}) must lie in 0..{_show(INTENSITY_MAX)}, got {_show(value)}"
-        )
+    problem = _unpicturable_texel(texels, raw)
+    if problem:
+        reader.fail(key, problem)
         return fallback
     texels.flags.writeable = False  # the background keeps it without a copy
     return texels
