@@ -60,8 +60,9 @@ import math
 import bpy
 import numpy as np
 
-from . import compat, materials
+from . import compat, materials, node_tree
 from ._tracer import module
+from .node_tree import hue_saturation
 
 ROUGH_MIRROR = 0.1  # at or below: a mirror
 ROUGH_HIGHLIGHT = 0.5  # at or above: a highlight of the lights only
@@ -188,20 +189,9 @@ class _Lobes:
 
 
 def _source(socket):
-    """The node and output feeding socket (through reroutes and muted nodes), or (None, None)."""
-    while socket.is_linked:
-        link = socket.links[0]
-        if not link.is_valid or link.is_muted:
-            return None, None
-        node = link.from_node
-        if node.bl_idname == "NodeReroute" or node.mute:
-            inputs = [s for s in node.inputs if s.is_linked]
-            if not inputs:
-                return None, None
-            socket = inputs[0]
-            continue
-        return node, link.from_socket
-    return None, None
+    """The node and output feeding socket in the flattened graph (through groups, reroutes and muted nodes), or
+    (None, None)."""
+    return node_tree.source(socket)
 
 
 def _srgb_to_linear(c: float) -> float:
@@ -263,13 +253,15 @@ def attribute_mean(material, attribute_name: str) -> tuple[float, float, float] 
 
 
 def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, float, float]:
-    """A colour input's value: its own, an RGB node's, or the mean of an image or colour attribute (named)."""
+    """A colour input's value: a constant (node_tree.constant: its own, an RGB node's, arithmetic on constants), or
+    the mean of an image or colour attribute (named)."""
+    folded = node_tree.constant_color(socket)
+    if folded is not None:
+        return folded
     node, _ = _source(socket)
-    own = tuple(float(c) for c in socket.default_value[:3])
+    own = tuple(float(c) for c in node_tree.wrap(socket).default_value[:3])
     if node is None:
         return own
-    if node.bl_idname == "ShaderNodeRGB":
-        return tuple(float(c) for c in node.outputs[0].default_value[:3])
     if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment") and node.image is not None:
         mean = image_mean(node.image)
         if mean is not None:
@@ -356,10 +348,11 @@ def _uv_mapping(texture_node, unlinked_uv: bool = True, procedural: bool = False
 
 
 def _constant_vector(socket) -> list[float] | None:
-    """A vector input's value where it is unlinked, else None (an absent socket: None)."""
-    if socket is None or _source(socket)[0] is not None:
+    """A vector input's value where it is a constant (node_tree.constant), else None (an absent socket: None)."""
+    if socket is None:
         return None
-    return [float(c) for c in socket.default_value[:3]]
+    value = node_tree.constant_color(socket)
+    return None if value is None else list(value)
 
 
 def _uv_coordinates(texture_node, unlinked_uv: bool = True) -> bool:
@@ -385,23 +378,14 @@ def _mix_sockets(node):
 
 
 def _constant_color(socket) -> np.ndarray | None:
-    """A colour input's value where it is a constant (unlinked, or an RGB node's), else None."""
-    node, _ = _source(socket)
-    if node is None:
-        return np.asarray([float(c) for c in socket.default_value[:3]], dtype=np.float64)
-    if node.bl_idname == "ShaderNodeRGB":
-        return np.asarray([float(c) for c in node.outputs[0].default_value[:3]], dtype=np.float64)
-    return None
+    """A colour input's value where it is a constant (node_tree.constant), else None."""
+    value = node_tree.constant_color(socket)
+    return None if value is None else np.asarray(value, dtype=np.float64)
 
 
 def _constant_value(socket) -> float | None:
-    """A number input's value where it is a constant (unlinked, or a Value node's), else None."""
-    node, _ = _source(socket)
-    if node is None:
-        return float(socket.default_value)
-    if node.bl_idname == "ShaderNodeValue":
-        return float(node.outputs[0].default_value)
-    return None
+    """A number input's value where it is a constant (node_tree.constant), else None."""
+    return node_tree.constant_number(socket)
 
 
 def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only: bool = True) -> tuple | None:
@@ -472,18 +456,16 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
     if mix is None or any(part is None for part in mix[:3]) or mix[3] not in ("MIX", "MULTIPLY"):
         return None
     factor, first, second, blend = mix
-    if factor.is_linked:
+    f = _constant_value(factor)
+    if f is None:
         return None
-    f = min(1.0, max(0.0, float(factor.default_value)))
+    f = min(1.0, max(0.0, f))
     found = [texture_input(part, label, notes, depth + 1, uv_only) for part in (first, second)]
     if (found[0] is None) == (found[1] is None):
         return None
-    other = second if found[0] is not None else first
-    other_node, _ = _source(other)
-    if other_node is not None and other_node.bl_idname != "ShaderNodeRGB":
+    constant = _constant_color(second if found[0] is not None else first)
+    if constant is None:
         return None
-    source = other if other_node is None else other_node.outputs[0]
-    constant = np.asarray([float(c) for c in source.default_value[:3]], dtype=np.float64)
     pixels, interpolation, extension, procedural, mapping = found[0] if found[0] is not None else found[1]
     if blend == "MIX":
         mixed = pixels * (1.0 - f) + constant * f if found[0] is not None else constant * (1.0 - f) + pixels * f
@@ -538,37 +520,6 @@ def _ramped(found: tuple, ramp, label: str, notes: list[str]) -> tuple | None:
     return mapped, interpolation, extension, procedural, mapping
 
 
-def hue_saturation(pixels: np.ndarray, hue: float, saturation: float, value: float, fac: float) -> np.ndarray:
-    """Cycles' svm_node_hsv on linear colours (..., 3): to HSV, hue + shift + 0.5 wrapped, saturation scaled and
-    clamped to [0, 1], value scaled, back to RGB, mixed with the input by fac, clamped at 0."""
-    rgb = np.asarray(pixels, dtype=np.float64)
-    high, low = rgb.max(axis=-1), rgb.min(axis=-1)
-    delta = high - low
-    s = np.where(high != 0.0, delta / np.where(high != 0.0, high, 1.0), 0.0)
-    c = (high[..., None] - rgb) / np.where(delta != 0.0, delta, 1.0)[..., None]
-    h = np.where(
-        rgb[..., 0] == high, c[..., 2] - c[..., 1], np.where(rgb[..., 1] == high, 2.0 + c[..., 0] - c[..., 2],
-                                                              4.0 + c[..., 1] - c[..., 0])
-    )  # fmt: skip
-    h = h / 6.0
-    h = np.where(h < 0.0, h + 1.0, h)
-    h = np.where(s != 0.0, h, 0.0)
-    h = np.mod(h + hue + 0.5, 1.0)  # Cycles' fractf (x - floor(x))
-    s = np.clip(s * saturation, 0.0, 1.0)
-    v = high * value
-    h6 = np.where(h == 1.0, 0.0, h) * 6.0
-    sector = np.floor(h6)
-    f = h6 - sector
-    p, q, t = v * (1.0 - s), v * (1.0 - s * f), v * (1.0 - s * (1.0 - f))
-    choices = [(v, t, p), (q, v, p), (p, v, t), (p, q, v), (t, p, v), (v, p, q)]
-    out = np.zeros_like(rgb)
-    for k, (r, g, b) in enumerate(choices):
-        where = (sector == k) if k < 5 else (sector >= 5)
-        out = np.where(where[..., None], np.stack([r, g, b], axis=-1), out)
-    out = np.where((s != 0.0)[..., None], out, v[..., None] * np.ones(3))
-    return np.maximum(fac * out + (1.0 - fac) * rgb, 0.0)
-
-
 def texture_mean(found: tuple) -> tuple[float, float, float]:
     """A texture's (texture_input) mean linear colour: an image's or a checker's colours' mean, a gradient's over
     the unit UV square (GRID_MEAN^2 points, as the tracer evaluates it)."""
@@ -592,13 +543,14 @@ def texture_mean(found: tuple) -> tuple[float, float, float]:
 
 
 def value_input(socket, label: str, notes: list[str]) -> float:
-    """A factor input's own value; a linked one is named and read unlinked."""
+    """A factor input's value where it is a constant (node_tree.constant); one that varies over the surface is named
+    and read as the input's own value."""
+    folded = node_tree.constant_number(socket)
+    if folded is not None:
+        return folded
     node, _ = _source(socket)
-    if node is not None:
-        if node.bl_idname == "ShaderNodeValue":
-            return float(node.outputs[0].default_value)
-        notes.append(f"{node.name} on {label}: the input's own value")
-    return float(socket.default_value)
+    notes.append(f"{node.name if node is not None else 'a node'} on {label}: the input's own value")
+    return float(node_tree.wrap(socket).default_value)
 
 
 # --- shaders ---------------------------------------------------------------------------------------------------------
@@ -804,10 +756,12 @@ def _ray_switch(mix, notes: list[str]) -> float | None:
 
 
 def material_output(tree):
-    """The Material Output that Cycles uses: the active one of target All or Cycles, else the first such."""
+    """The Material Output that Cycles uses: the active one of target All or Cycles, else the first such (a
+    node_tree.Node), or None."""
     outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in ("ALL", "CYCLES")]
     active = [n for n in outputs if n.is_active_output]
-    return (active or outputs or [None])[0]
+    found = (active or outputs or [None])[0]
+    return None if found is None else node_tree.wrap(found)
 
 
 # --- the add-on's own materials --------------------------------------------------------------------------------------
@@ -910,7 +864,7 @@ def convert_material(
 
 
 def _name_normal_maps(tree, notes: list[str]) -> None:
-    for node in tree.nodes:
+    for node in node_tree.nodes(tree):
         normal = node.inputs.get("Normal") if node.bl_idname.startswith("ShaderNodeBsdf") else None
         if normal is not None and normal.is_linked:
             notes.append("normal or bump map: the surface's own normal")

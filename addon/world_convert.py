@@ -26,7 +26,7 @@ import os
 
 import bpy
 
-from . import compat, material_convert
+from . import compat, material_convert, node_tree
 
 OWN_WORLD = "WV World"  # twin.WORLD
 SKY_MEAN = (0.2, 0.35, 0.6)  # a clear day's sky, mean radiance at strength 1 (an estimate, named where used)
@@ -111,20 +111,20 @@ def _mapping_rotation(node, notes: list[str]) -> float | None:
     """The Z rotation (degrees) of what feeds an Environment Texture's Vector: 0 unlinked (the ray's direction) or
     from a Texture Coordinate's Generated/Object output, a Mapping (Point or Vector) of a Z rotation alone over
     that; None (named) for anything else."""
-    socket = node.inputs["Vector"]
-    if not socket.is_linked:
+    source, _ = node_tree.source(node.inputs["Vector"])
+    if source is None:
         return 0.0
-    source = socket.links[0].from_node
     if source.bl_idname == "ShaderNodeTexCoord":
         return 0.0
     if source.bl_idname == "ShaderNodeMapping" and source.vector_type in ("POINT", "VECTOR"):
         inputs = source.inputs
-        plain = all(not inputs[name].is_linked for name in ("Location", "Rotation", "Scale") if name in inputs) and (
-            not inputs["Vector"].is_linked or inputs["Vector"].links[0].from_node.bl_idname == "ShaderNodeTexCoord"
+        names = ("Rotation", "Location", "Scale")
+        rotation, location, scale = (node_tree.constant_color(inputs[name]) for name in names)
+        location = location if source.vector_type == "POINT" else (0.0, 0.0, 0.0)
+        coordinates, _ = node_tree.source(inputs["Vector"])
+        plain = None not in (rotation, location, scale) and (
+            coordinates is None or coordinates.bl_idname == "ShaderNodeTexCoord"
         )
-        rotation = tuple(inputs["Rotation"].default_value)
-        location = tuple(inputs["Location"].default_value) if source.vector_type == "POINT" else (0.0, 0.0, 0.0)
-        scale = tuple(inputs["Scale"].default_value)
         if plain and rotation[0] == rotation[1] == 0.0 and not any(location) and all(k == 1.0 for k in scale):
             return math.degrees(rotation[2])
     notes.append(f"{source.name} on the environment texture's Vector: its mean colour")
@@ -159,13 +159,11 @@ def picture_name(world) -> str:
     """The name of the image an Environment Texture gives the world's Background Color ("" where none does)."""
     if world is None or not compat.uses_nodes(world):
         return ""
-    for node in world.node_tree.nodes:
-        if (
-            node.bl_idname == "ShaderNodeTexEnvironment"
-            and node.image is not None
-            and any(link.to_node.bl_idname == "ShaderNodeBackground" for link in node.outputs["Color"].links)
-        ):
-            return node.image.name
+    for background in node_tree.nodes(world.node_tree):
+        if background.bl_idname == "ShaderNodeBackground":
+            node, _ = node_tree.source(background.inputs["Color"])
+            if node is not None and node.bl_idname == "ShaderNodeTexEnvironment" and node.image is not None:
+                return node.image.name
     return ""
 
 
@@ -181,12 +179,11 @@ def _own_background(blender_scene) -> dict:
 
 def _color_of(socket, notes: list[str]) -> tuple[float, float, float]:
     """The Background node's Color: its own, an RGB node's, an environment image's mean or a sky's estimate."""
+    folded = node_tree.constant_color(socket)
+    if folded is not None:
+        return folded
     own = tuple(float(c) for c in socket.default_value[:3])
-    if not socket.is_linked:
-        return own
-    node = socket.links[0].from_node
-    if node.bl_idname == "ShaderNodeRGB":
-        return tuple(float(c) for c in node.outputs[0].default_value[:3])
+    node, _ = node_tree.source(socket)
     if node.bl_idname == "ShaderNodeTexEnvironment" and node.image is not None:
         mean = environment_mean(node.image)
         if mean is not None:
@@ -213,23 +210,25 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
         tree = world.node_tree
         outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.target in ("ALL", "CYCLES")]
         output = ([n for n in outputs if n.is_active_output] or outputs or [None])[0]
-        if output is None or not output.inputs["Surface"].is_linked:
+        shader, _ = node_tree.source(output.inputs["Surface"]) if output is not None else (None, None)
+        if shader is None:
             return dict(BLACK), None, notes
-        if output.inputs["Volume"].is_linked:
+        if node_tree.wrap(output).inputs["Volume"].is_linked:
             notes.append("world volume: ignored")
-        shader = output.inputs["Surface"].links[0].from_node
         if shader.bl_idname != "ShaderNodeBackground":
             notes.append(f"{shader.bl_label} as the world: black")
             return dict(BLACK), None, notes
         color = _color_of(shader.inputs["Color"], notes)
-        strength = shader.inputs["Strength"]
-        if strength.is_linked:
-            notes.append(f"{strength.links[0].from_node.name} on the world's Strength: the input's own value")
-        color = [c * float(strength.default_value) for c in color]
+        strength = node_tree.constant_number(shader.inputs["Strength"])
+        if strength is None:
+            feeding, _ = node_tree.source(shader.inputs["Strength"])
+            notes.append(f"{feeding.name} on the world's Strength: the input's own value")
+            strength = float(shader.inputs["Strength"].default_value)
+        color = [c * strength for c in color]
         picture = None
-        if shader.inputs["Color"].is_linked:
-            source = shader.inputs["Color"].links[0].from_node
-            picture = _environment_background(source, float(strength.default_value), notes)
+        source, _ = node_tree.source(shader.inputs["Color"])
+        if source is not None:
+            picture = _environment_background(source, strength, notes)
             if source.bl_idname == "ShaderNodeTexEnvironment" and picture is None and source.image is not None:
                 notes.append("environment texture: its mean colour")
     if not compat.uses_nodes(world) or picture is None:

@@ -26,6 +26,7 @@ ADDON_LAYERS: tuple[tuple[str, ...], ...] = (
         "lights",
         "materials",
         "mesh_export",
+        "node_tree",
         "material_convert",
         "light_convert",
         "world_convert",
