@@ -38,7 +38,7 @@ import math
 import bpy
 from mathutils import Vector
 
-from . import compat
+from . import compat, node_tree
 
 POINT_WATTS_PER_UNIT = 4.0 * math.pi**2  # P = 4 pi^2 i (measured: see above)
 SUN_STRENGTH_PER_UNIT = math.pi  # S = pi i
@@ -80,25 +80,39 @@ def _world_axis(obj, z: float) -> Vector:
     return (obj.matrix_world.to_3x3() @ Vector((0.0, 0.0, z))).normalized()
 
 
-def _falloff_node(light) -> tuple[str | None, float, tuple[float, float, float]]:
-    """A Cycles light node tree: (Light Falloff output driving the emission or None, strength, colour)."""
+def _falloff_node(light, notes: list[str] | None = None) -> tuple[str | None, float, tuple[float, float, float]]:
+    """A Cycles light node tree, read through groups, reroutes and constant arithmetic (node_tree): (the Light
+    Falloff output driving the Emission's Strength or None, strength, colour). An output with no shader is no light
+    (strength 0), as in Cycles; what else varies is named in notes and read as the input's own value."""
+    notes = [] if notes is None else notes
     if not compat.uses_nodes(light):
         return None, 1.0, (1.0, 1.0, 1.0)
-    output = next(
-        (n for n in light.node_tree.nodes if n.bl_idname == "ShaderNodeOutputLight" and n.is_active_output), None
-    )
-    output = output or next((n for n in light.node_tree.nodes if n.bl_idname == "ShaderNodeOutputLight"), None)
-    if output is None or not output.inputs["Surface"].is_linked:
-        return None, 1.0, (1.0, 1.0, 1.0)
-    emission = output.inputs["Surface"].links[0].from_node
+    outputs = [n for n in light.node_tree.nodes if n.bl_idname == "ShaderNodeOutputLight"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    emission, _ = node_tree.source(output.inputs["Surface"]) if output is not None else (None, None)
+    if emission is None:
+        notes.append("light's node tree: no shader on its output, no light")
+        return None, 0.0, (1.0, 1.0, 1.0)
     if emission.bl_idname != "ShaderNodeEmission":
+        notes.append(f"{emission.bl_label} as the light's shader: the light's own colour and power")
         return None, 1.0, (1.0, 1.0, 1.0)
-    color = tuple(float(c) for c in emission.inputs["Color"].default_value[:3])
-    strength = emission.inputs["Strength"]
-    if strength.is_linked and strength.links[0].from_node.bl_idname == "ShaderNodeLightFalloff":
-        node = strength.links[0].from_node
-        return strength.links[0].from_socket.name, float(node.inputs["Strength"].default_value), color
-    return None, float(strength.default_value), color
+    color = node_tree.constant_color(emission.inputs["Color"])
+    if color is None:
+        feeding, _ = node_tree.source(emission.inputs["Color"])
+        notes.append(f"{feeding.bl_label} on the light's Emission Color: white")
+        color = (1.0, 1.0, 1.0)
+    feeding, output_socket = node_tree.source(emission.inputs["Strength"])
+    if feeding is not None and feeding.bl_idname == "ShaderNodeLightFalloff":
+        strength = node_tree.constant_number(feeding.inputs["Strength"])
+        if strength is None:
+            notes.append("Light Falloff's Strength varies: its own value")
+            strength = float(feeding.inputs["Strength"].default_value)
+        return output_socket.name, strength, color
+    strength = node_tree.constant_number(emission.inputs["Strength"])
+    if strength is None:
+        notes.append(f"{feeding.bl_label} on the light's Emission Strength: its own value")
+        strength = float(emission.inputs["Strength"].default_value)
+    return None, strength, color
 
 
 def documented(light) -> bool:
@@ -155,7 +169,7 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
     if own is not None:
         return own, []
     notes: list[str] = []
-    falloff, strength, node_color = _falloff_node(light)
+    falloff, strength, node_color = _falloff_node(light, notes)
     color = [c * n for c, n in zip(compat.light_color(light), node_color, strict=True)]
     power = compat.light_power(light) * strength
     location = list(obj.matrix_world.translation)
