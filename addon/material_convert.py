@@ -198,11 +198,30 @@ def _srgb_to_linear(c: float) -> float:
     return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
 
 
+MISSING_COLOR = (1.0, 0.0, 1.0)  # Cycles' colour for an image it cannot load (TEX_IMAGE_MISSING_R, _G, _B)
+
+
+def missing_file(image) -> str | None:
+    """The absolute path of an image's file where Blender could not load it (None where it has pixels)."""
+    if image.source not in ("FILE", "SEQUENCE", "TILED") or image.packed_file is not None:
+        return None
+    width, height = image.size  # asking for the size loads the file
+    if width * height > 0 and image.has_data:
+        return None
+    return bpy.path.abspath(image.filepath, library=image.library)
+
+
+def missing_note(image, label: str) -> str:
+    return f'image "{image.name}" on {label} not found ({missing_file(image)}): magenta, as Cycles shows it'
+
+
 def linear_rgb(image):
     """An image's pixels as (height, width, 3) linear float64 (grey images repeated to three channels; 8-bit sRGB
-    decoded); None where it has no pixels."""
+    decoded); Cycles' magenta (one texel) where its file is missing; None where it has no pixels."""
     import numpy as np
 
+    if missing_file(image) is not None:
+        return np.asarray([[MISSING_COLOR]], dtype=np.float64)
     width, height = image.size
     if width * height == 0:
         return None
@@ -226,8 +245,17 @@ def image_mean(image) -> tuple[float, float, float] | None:
     return _means[key]
 
 
+def _render_color(attributes):
+    """The colour attribute a Color Attribute node of no name reads in Cycles: the mesh's default for renders."""
+    index = getattr(attributes, "render_color_index", -1)
+    if 0 <= index < len(attributes):
+        return attributes[index]
+    return getattr(attributes, "active_color", None) or (attributes[0] if len(attributes) else None)
+
+
 def attribute_mean(material, attribute_name: str) -> tuple[float, float, float] | None:
-    """The mean of a colour attribute over the meshes that use material (cached); None where none has it."""
+    """The mean of a colour attribute (no name: the render default) over the meshes that use material (cached); None
+    where none has it."""
     key = ("attribute", material.name, attribute_name)
     if key in _means:
         return _means[key]
@@ -238,9 +266,7 @@ def attribute_mean(material, attribute_name: str) -> tuple[float, float, float] 
         attributes = getattr(mesh, "color_attributes", None) or getattr(mesh, "vertex_colors", None)
         if not attributes:
             continue
-        layer = attributes.get(attribute_name) if attribute_name else attributes.active_color
-        if layer is None and not attribute_name:
-            layer = attributes[0]
+        layer = attributes.get(attribute_name) if attribute_name else _render_color(attributes)
         if layer is None:
             continue
         for item in layer.data:
@@ -250,6 +276,24 @@ def attribute_mean(material, attribute_name: str) -> tuple[float, float, float] 
     mean = tuple(t / count for t in total) if count else None
     _means[key] = mean
     return mean
+
+
+def _unknown_attribute(material, node) -> bool:
+    """Whether an Attribute node of type Geometry names nothing that the meshes using material have (no colour or
+    other attribute, no UV map): an empty name, a typo, an attribute another object carries."""
+    if getattr(node, "attribute_type", "GEOMETRY") != "GEOMETRY":
+        return False
+    name = node.attribute_name
+    if not name:
+        return True
+    for mesh in bpy.data.meshes:
+        if material is not None and material.name in mesh.materials:
+            if mesh.attributes.get(name) is not None or mesh.uv_layers.get(name) is not None:
+                return False
+            colors = getattr(mesh, "vertex_colors", None)
+            if colors is not None and colors.get(name) is not None:
+                return False
+    return True
 
 
 def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, float, float]:
@@ -263,6 +307,9 @@ def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, 
     if node is None:
         return own
     if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment") and node.image is not None:
+        if missing_file(node.image) is not None:
+            notes.append(missing_note(node.image, label))
+            return MISSING_COLOR
         mean = image_mean(node.image)
         if mean is not None:
             notes.append(f"image texture on {label}: mean colour")
@@ -272,6 +319,8 @@ def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, 
         if found is not None:
             notes.append(f"{TEXTURE_NAMES[node.bl_idname]} on {label}: mean colour")
             return texture_mean(found)
+    if node.bl_idname == "ShaderNodeAttribute" and _unknown_attribute(material, node):
+        return (0.0, 0.0, 0.0)  # Cycles reads an attribute that no mesh has (an empty name too) as 0
     if node.bl_idname in ("ShaderNodeVertexColor", "ShaderNodeAttribute"):
         name = getattr(node, "layer_name", "") or getattr(node, "attribute_name", "")
         mean = attribute_mean(material, name)
@@ -416,6 +465,8 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
         pixels = _rgba_pixels(image)
         if pixels is None:
             return None
+        if missing_file(image) is not None:
+            notes.append(missing_note(image, label))
         if node.interpolation in ("Cubic", "Smart"):
             notes.append(f"{node.interpolation.lower()} interpolation on {label}: linear")
         return pixels, INTERPOLATIONS.get(node.interpolation, "linear"), EXTENSIONS[node.extension], None, mapping or {}
@@ -549,6 +600,14 @@ def value_input(socket, label: str, notes: list[str]) -> float:
     if folded is not None:
         return folded
     node, _ = _source(socket)
+    texture = texture_input(socket, label, [], uv_only=False)
+    if texture is not None:
+        what = "image texture" if texture[3] is None else TEXTURE_NAMES.get(node.bl_idname, node.bl_label.lower())
+        if node.bl_idname == "ShaderNodeTexImage" and missing_file(node.image) is not None:
+            notes.append(missing_note(node.image, label))
+        else:
+            notes.append(f"{what} on {label}: its mean")
+        return float(np.asarray(texture_mean(texture)) @ LUMINANCE)
     notes.append(f"{node.name if node is not None else 'a node'} on {label}: the input's own value")
     return float(node_tree.wrap(socket).default_value)
 

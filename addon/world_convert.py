@@ -138,6 +138,8 @@ def _environment_background(node, strength: float, notes: list[str]) -> dict | N
     if node.projection != "EQUIRECTANGULAR":
         notes.append(f"environment texture's {node.projection.lower().replace('_', ' ')} projection: its mean colour")
         return None
+    if material_convert.missing_file(node.image) is not None:
+        notes.append(material_convert.missing_note(node.image, "the world"))
     rotation = _mapping_rotation(node, notes)
     pixels = environment_pixels(node.image) if rotation is not None else None
     if pixels is None:

@@ -1,0 +1,132 @@
+"""Inputs artists' scenes hold, beside Cycles: an Attribute node of an empty or unknown name (Cycles reads 0), an image
+whose file is missing (Cycles' magenta, and the file named), a missing world picture, a texture on a factor input
+(its mean, named). Each is a plane under a sun seen straight on; the plane's mean colour is compared per channel.
+Runs in every Blender the add-on suite runs in."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import bpy
+import numpy as np
+import pytest
+
+from addon import compat, material_convert
+from tests.addon.f12_images import f12_exr
+
+
+def _plane_scene() -> tuple[bpy.types.Material, bpy.types.NodeTree, bpy.types.Node]:
+    """A 2 m plane (with a UV map) of a Diffuse BSDF material under a 3 W/m^2 sun, an orthographic camera filling
+    the view with it, no world. -> the material, its tree and the Diffuse node."""
+    scene = bpy.context.scene
+    material = bpy.data.materials.new("surface")
+    compat.enable_nodes(material)
+    tree = material.node_tree
+    tree.nodes.clear()
+    output, diffuse = tree.nodes.new("ShaderNodeOutputMaterial"), tree.nodes.new("ShaderNodeBsdfDiffuse")
+    tree.links.new(diffuse.outputs[0], output.inputs["Surface"])
+    mesh = bpy.data.meshes.new("plane")
+    mesh.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
+    mesh.uv_layers.new(name="UVMap")
+    mesh.materials.append(material)
+    scene.collection.objects.link(bpy.data.objects.new("plane", mesh))
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+    sun.data.energy, sun.data.angle = 3.0, 0.0
+    scene.collection.objects.link(sun)
+    camera = bpy.data.cameras.new("camera")
+    camera.type, camera.ortho_scale = "ORTHO", 1.5
+    scene.camera = bpy.data.objects.new("camera", camera)
+    scene.camera.location = (0.0, 0.0, 2.0)
+    scene.collection.objects.link(scene.camera)
+    scene.render.resolution_x = scene.render.resolution_y = 8
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.world = None
+    scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 16, False
+    scene.cycles.max_bounces = 0
+    return material, tree, diffuse
+
+
+def _missing_image(path: Path) -> bpy.types.Image:
+    """An image as a .blend file holds one whose file was moved away: loaded from path, then the file gone."""
+    image = bpy.data.images.new(path.name, 4, 2, float_buffer=path.suffix == ".exr")
+    image.filepath_raw = str(path)
+    image.file_format = "OPEN_EXR" if path.suffix == ".exr" else "PNG"
+    image.save()
+    loaded = bpy.data.images.load(str(path), check_existing=False)
+    bpy.data.images.remove(image)
+    path.unlink()
+    loaded.reload()
+    return loaded
+
+
+def _both(tmp_path: Path) -> tuple[np.ndarray, np.ndarray]:
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    cycles = f12_exr(tmp_path / "cycles.exr").reshape(-1, 3).mean(axis=0)
+    scene.render.engine = "WEATHERVANE_TRACER"
+    tracer = f12_exr(tmp_path / "tracer.exr").reshape(-1, 3).mean(axis=0)
+    return cycles, tracer
+
+
+@pytest.mark.parametrize("name", ["", "no_such_attribute"])
+def test_an_attribute_no_mesh_has_is_black_as_in_cycles(tmp_path: Path, name: str) -> None:
+    material, tree, diffuse = _plane_scene()
+    mesh = bpy.data.meshes["plane"]
+    colors = mesh.color_attributes.new("Col", "FLOAT_COLOR", "CORNER")  # one the node does not name
+    colors.data.foreach_set("color", [0.9, 0.5, 0.1, 1.0] * 4)
+    attribute = tree.nodes.new("ShaderNodeAttribute")
+    attribute.attribute_name = name
+    tree.links.new(attribute.outputs["Color"], diffuse.inputs["Color"])
+    document, notes = material_convert.convert_material(material)
+    assert document["color"] == [0.0, 0.0, 0.0] and notes == []
+    cycles, tracer = _both(tmp_path)
+    print(f"attribute {name!r}: Cycles {np.round(cycles, 4)}, tracer {np.round(tracer, 4)}")
+    assert cycles.max() < 1e-6 and tracer.max() < 1e-6
+
+
+def test_a_missing_image_is_magenta_and_its_file_named(tmp_path: Path) -> None:
+    material, tree, diffuse = _plane_scene()
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image = _missing_image(tmp_path / "gone.png")
+    tree.links.new(texture.outputs["Color"], diffuse.inputs["Color"])
+    _document, notes = material_convert.convert_material(material)
+    assert any("gone.png" in note and str(tmp_path) in note and "magenta" in note for note in notes), notes
+    cycles, tracer = _both(tmp_path)
+    print(f"missing image: Cycles {np.round(cycles, 4)}, tracer {np.round(tracer, 4)}")
+    assert cycles[0] > 0.1 and cycles[1] < 1e-6  # magenta in Cycles
+    np.testing.assert_allclose(tracer, cycles, rtol=0.02, atol=1e-6)
+
+
+def test_a_missing_world_picture_is_magenta_as_in_cycles(tmp_path: Path) -> None:
+    _plane_scene()
+    scene = bpy.context.scene
+    scene.world = bpy.data.worlds.new("sky")
+    compat.enable_nodes(scene.world)
+    tree = scene.world.node_tree
+    environment = tree.nodes.new("ShaderNodeTexEnvironment")
+    environment.image = _missing_image(tmp_path / "sky.exr")
+    tree.links.new(environment.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    bpy.data.objects.remove(bpy.data.objects["plane"])
+    from addon import world_convert
+
+    _background, _, notes = world_convert.convert_world(scene.world, blender_scene=scene)
+    assert any("sky.exr" in note and "magenta" in note for note in notes), notes
+    cycles, tracer = _both(tmp_path)
+    print(f"missing world picture: Cycles {np.round(cycles, 4)}, tracer {np.round(tracer, 4)}")
+    np.testing.assert_allclose(tracer, cycles, atol=1e-3)
+    np.testing.assert_allclose(cycles, [1.0, 0.0, 1.0], atol=1e-3)
+
+
+def test_a_texture_on_a_factor_input_is_its_mean_named() -> None:
+    _material, tree, _diffuse = _plane_scene()
+    principled = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    tree.links.new(principled.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    image = bpy.data.images.new("rough", 2, 1, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    image.pixels.foreach_set([0.2, 0.2, 0.2, 1.0, 0.6, 0.6, 0.6, 1.0])
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    tree.links.new(texture.outputs["Color"], principled.inputs["Roughness"])
+    roughness = material_convert.value_input(principled.inputs["Roughness"], "Roughness", notes := [])
+    assert roughness == pytest.approx(0.4) and notes == ["image texture on Roughness: its mean"]
