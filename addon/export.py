@@ -79,6 +79,14 @@ class ExportNotes:
     lights: dict[str, list[str]] = field(default_factory=dict)  # Blender light -> the same
     world: list[str] = field(default_factory=list)
     lights_left_out: list[str] = field(default_factory=list)  # the scene's lights beside the vane's own, not rendered
+    # Blender's controls of what an object is in the render that the tracer does not express -> the objects' names
+    # (shadow catcher, holdout, indirect only, an emissive object's light linking)
+    controls: dict[str, list[str]] = field(default_factory=dict)
+
+    def not_expressed(self, control: str, name: str) -> None:
+        names = self.controls.setdefault(control, [])
+        if name not in names:
+            names.append(name)
 
     def not_rendered(self, kind: str, name: str) -> None:
         names = self.not_traced.setdefault(kind, [])
@@ -102,6 +110,9 @@ class ExportNotes:
                 f"{count} light{'s' if count > 1 else ''} beside the vane's not rendered ({names}{more}; "
                 "Lights > Other Lights renders them)"
             )
+        for control, names in self.controls.items():
+            shown = ", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+            parts.append(f"{control} ({shown})")
         parts += self.approximated
         counted = [
             f"{len(names)} {kind}{'s' if len(names) > 1 else ''}"
@@ -399,6 +410,7 @@ def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: Export
         return _Source(SKIP)
     if owner is None and "weathervane_object" in original:
         return _Source(VANE, original)
+    _name_controls(original, owner, notes)
     return _Source(
         GEOMETRY,
         original,
@@ -408,6 +420,38 @@ def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: Export
         turned=_turned_by(original, turn) or (owner is not None and _turned_by(owner, turn)),
         generated=owner is not None and owner == original,
     )
+
+
+CONTROLS = {  # an object's setting -> what the tracer renders instead, as the F12 line says it
+    "is_shadow_catcher": "shadow catcher rendered as an ordinary object",
+    "is_holdout": "holdout rendered as an ordinary object",
+}
+COLLECTION_CONTROLS = {  # a view layer's collection setting (Outliner) -> the same
+    "holdout": "holdout collection rendered as ordinary objects",
+    "indirect_only": "indirect-only collection seen by the camera",
+}
+
+
+def _name_controls(original, owner, notes: ExportNotes) -> None:
+    """Name the render controls the object (or the instancer placing it) has that the tracer does not express."""
+    for placed in filter(None, (original, owner)):
+        for setting, what in CONTROLS.items():
+            if getattr(placed, setting, False):
+                notes.not_expressed(what, placed.name)
+        linking = getattr(placed, "light_linking", None)  # 4.0+: an emissive object's own light linking
+        if linking is not None and (linking.receiver_collection or linking.blocker_collection):
+            notes.not_expressed("light linking of an emissive object ignored", placed.name)
+
+
+def _collection_controls(view_layer, notes: ExportNotes) -> None:
+    """Name the view layer's collections set to holdout or indirect only that hold something rendered."""
+    stack = [view_layer.layer_collection]
+    while stack:
+        layer = stack.pop()
+        stack.extend(layer.children)
+        for setting, what in COLLECTION_CONTROLS.items():
+            if getattr(layer, setting, False) and not layer.exclude and layer.collection.all_objects:
+                notes.not_expressed(what, layer.collection.name)
 
 
 def _collect(
@@ -814,6 +858,7 @@ def scene_document(
     if budget is True:
         budget = MemoryBudget(blender_scene)
     collected = _collect(depsgraph, turn, materials, notes, budget or None, arrays)
+    _collection_controls(depsgraph.view_layer, notes)
     objects, parts = collected.objects, collected.parts
     own_vane = any("weathervane_object" in obj for obj in bpy.data.objects)
     light_list = _light_documents(settings, collected, own_vane, notes)

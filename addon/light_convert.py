@@ -217,6 +217,11 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
     document["color"] = color
     if not compat.light_casts_shadow(light):
         notes.append("casts no shadow in Blender: shadowed here")
+    linking = getattr(getattr(obj, "original", None) or obj, "light_linking", None)  # 4.0+
+    if linking is not None and linking.receiver_collection is not None:
+        notes.append(f'light linking ("{linking.receiver_collection.name}"): lights every object')
+    if linking is not None and linking.blocker_collection is not None:
+        notes.append(f'shadow linking ("{linking.blocker_collection.name}"): every object casts its shadow')
     for factor, what in (("diffuse_factor", "diffuse"), ("specular_factor", "specular")):
         if float(getattr(light, factor, 1.0)) != 1.0:
             notes.append(f"{what} factor {getattr(light, factor):.3g}: 1")

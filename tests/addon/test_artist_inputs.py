@@ -130,3 +130,32 @@ def test_a_texture_on_a_factor_input_is_its_mean_named() -> None:
     tree.links.new(texture.outputs["Color"], principled.inputs["Roughness"])
     roughness = material_convert.value_input(principled.inputs["Roughness"], "Roughness", notes := [])
     assert roughness == pytest.approx(0.4) and notes == ["image texture on Roughness: its mean"]
+
+
+def test_render_controls_the_tracer_does_not_express_are_named() -> None:
+    """Shadow catcher, holdout (object and collection), indirect-only collection and (4.0+) light and shadow
+    linking: F12's line and Scene Conversion name each with the objects, collections or light it concerns."""
+    from addon import export, light_convert
+
+    _plane_scene()
+    scene = bpy.context.scene
+    plane = bpy.data.objects["plane"]
+    plane.is_shadow_catcher = True
+    props = bpy.data.collections.new("Props")
+    scene.collection.children.link(props)
+    props.objects.link(bpy.data.objects.new("prop", bpy.data.meshes["plane"]))
+    layer = bpy.context.view_layer.layer_collection.children["Props"]
+    layer.holdout = layer.indirect_only = True
+    notes = export.ExportNotes()
+    export.scene_document(bpy.context, notes=notes)
+    line = notes.line()
+    assert "shadow catcher rendered as an ordinary object (plane)" in line, line
+    assert "holdout collection rendered as ordinary objects (Props)" in line, line
+    assert "indirect-only collection seen by the camera (Props)" in line, line
+    sun = bpy.data.objects["sun"]
+    if hasattr(sun, "light_linking"):
+        sun.light_linking.receiver_collection = props
+        sun.light_linking.blocker_collection = props
+        _, light_notes = light_convert.convert_light(sun)
+        assert 'light linking ("Props"): lights every object' in light_notes
+        assert 'shadow linking ("Props"): every object casts its shadow' in light_notes
