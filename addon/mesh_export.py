@@ -138,19 +138,26 @@ class Placed:
         return size * 8 if len(self.triangles) <= SMALL_MESH else size
 
     def fields(self, arrays: bool = False, uvs: bool = False) -> dict:
-        """fields_without_uvs(arrays), with the corner "uvs" where asked (a textured material) and the mesh has a UV
-        map: an array where arrays are asked (a render in this process), else lists made once."""
+        """fields_without_uvs(arrays), with the corner "uvs" where asked (a textured material): an array where arrays
+        are asked (a render in this process), else lists made once. A mesh with no UV map gets (0, 0) at every
+        corner: Cycles reads a missing UV map as zero, so its textures show the texel found at (0, 0)."""
         found = self.fields_without_uvs(arrays)
-        if uvs and self.uvs is not None:
-            if arrays:
-                view = self.uvs.view()
-                view.flags.writeable = False
-                found["uvs"] = view
-            else:
-                listed = self.memo.get("uv lists")
-                if listed is None:
-                    listed = self.memo["uv lists"] = self.uvs.tolist()
-                found["uvs"] = list(listed)
+        if not uvs:
+            return found
+        corners = self.uvs
+        if corners is None:
+            corners = self.memo.get("zero uvs")
+            if corners is None:
+                corners = self.memo["zero uvs"] = np.zeros((len(self.triangles), 3, 2))
+        if arrays:
+            view = corners.view()
+            view.flags.writeable = False
+            found["uvs"] = view
+        else:
+            listed = self.memo.get("uv lists")
+            if listed is None:
+                listed = self.memo["uv lists"] = corners.tolist()
+            found["uvs"] = list(listed)
         return found
 
     def fields_without_uvs(self, arrays: bool = False) -> dict:

@@ -159,3 +159,21 @@ def test_render_controls_the_tracer_does_not_express_are_named() -> None:
         _, light_notes = light_convert.convert_light(sun)
         assert 'light linking ("Props"): lights every object' in light_notes
         assert 'shadow linking ("Props"): every object casts its shadow' in light_notes
+
+
+@pytest.mark.parametrize("interpolation", ["Closest", "Linear"])
+def test_an_image_on_a_mesh_without_uvs_shows_the_texel_cycles_shows(tmp_path: Path, interpolation: str) -> None:
+    """Cycles reads a missing UV map as (0, 0): the texel there (Closest: the bottom-left one; Linear: the four
+    corners' mean, the lookup wrapping around)."""
+    material, tree, diffuse = _plane_scene()
+    mesh = bpy.data.meshes["plane"]
+    mesh.uv_layers.remove(mesh.uv_layers[0])
+    image = bpy.data.images.new("corners", 2, 2, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    image.pixels.foreach_set([0.9, 0.1, 0.1, 1, 0.1, 0.9, 0.1, 1, 0.1, 0.1, 0.9, 1, 0.9, 0.9, 0.1, 1])
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image, texture.interpolation = image, interpolation
+    tree.links.new(texture.outputs["Color"], diffuse.inputs["Color"])
+    cycles, tracer = _both(tmp_path)
+    print(f"no UV map, {interpolation}: Cycles {np.round(cycles, 4)}, tracer {np.round(tracer, 4)}")
+    np.testing.assert_allclose(tracer, cycles, rtol=0.02)
