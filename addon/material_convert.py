@@ -72,6 +72,9 @@ DEFAULT_GREY = (0.8, 0.8, 0.8)  # Cycles' surface for an object without a materi
 MAX_COLOR = 1.0
 # A glass lobe's index of refraction: Cycles clamps it to at least 1e-5; Blender's IOR sockets stop at 1000
 IOR_MIN, IOR_MAX = 1e-5, 1000.0
+# a rough specular lobe's mean weight above which the blurred reflection it leaves out is named (a metal's base
+# colour; a dielectric's 4% Fresnel reflectance is not)
+ROUGH_NAMED = 0.1
 SHARE_EPSILON = 1e-6  # a share of glass, transparency or the opaque rest below this is none
 
 _means: dict[tuple, tuple[float, float, float]] = {}  # image or attribute -> its mean linear colour
@@ -124,6 +127,9 @@ class _Lobes:
         self.glass_ior = 0.0
         self.iors: set[float] = set()  # the IORs of the glass lobes (several: one, their weighted mean, named)
         self.clear = 0.0
+        # the mean weight of specular lobes too rough for a mirror: what reflects the scene and world blurred in
+        # Cycles, here only the lights' highlight (named where it is large: a rough metal, not a dielectric's 4%)
+        self.rough = 0.0
 
     def scaled(self, k: float) -> _Lobes:
         out = _Lobes()
@@ -134,6 +140,7 @@ class _Lobes:
         out.emission = [c * k for c in self.emission]
         out.glass, out.glass_ior, out.clear = self.glass * k, self.glass_ior * k, self.clear * k
         out.glass_tint = [c * k for c in self.glass_tint]
+        out.rough = self.rough * k
         out.iors = set(self.iors) if k > 0.0 else set()
         for name in ("texture", "emission_texture"):
             texture = getattr(self, name)
@@ -154,6 +161,7 @@ class _Lobes:
         out.glass_tint = [a + b for a, b in zip(self.glass_tint, other.glass_tint, strict=True)]
         out.iors = self.iors | other.iors
         out.clear = self.clear + other.clear
+        out.rough = self.rough + other.rough
         out.textures_dropped = self.textures_dropped + other.textures_dropped
         for name in ("texture", "emission_texture"):
             mine, theirs = getattr(self, name), getattr(other, name)
@@ -177,6 +185,7 @@ class _Lobes:
         rest = [(1.0 - share) * c for c in weight]
         if share >= 1.0 or not any(rest):
             return
+        self.rough += sum(rest) / 3.0
         exponent = exponent_from_roughness(roughness)
         if exponent < 1.0:
             self.diffuse = [d + c for d, c in zip(self.diffuse, rest, strict=True)]
@@ -993,6 +1002,8 @@ def _opaque_document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -
         notes.append("diffuse colour above 1: clamped")
     elif any(c > 1.01 for c in color):  # inputs of at most 1 that 3.x Principled's Disney diffuse makes brighter
         notes.append("diffuse brighter than white (Principled's): white")
+    if lobes.rough > ROUGH_NAMED:
+        notes.append("rough reflection: sharp mirror share, lights' highlight; no blurred scene or world")
     document = {"color": [min(1.0, max(0.0, c)) for c in color], "specular": 0, "reflective": reflective}
     if lobes.texture is not None:
         document["texture"] = _texture_document(lobes.texture, lobes.diffuse, local)

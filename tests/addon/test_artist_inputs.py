@@ -165,7 +165,7 @@ def test_render_controls_the_tracer_does_not_express_are_named() -> None:
 def test_an_image_on_a_mesh_without_uvs_shows_the_texel_cycles_shows(tmp_path: Path, interpolation: str) -> None:
     """Cycles reads a missing UV map as (0, 0): the texel there (Closest: the bottom-left one; Linear: the four
     corners' mean, the lookup wrapping around)."""
-    material, tree, diffuse = _plane_scene()
+    _material, tree, diffuse = _plane_scene()
     mesh = bpy.data.meshes["plane"]
     mesh.uv_layers.remove(mesh.uv_layers[0])
     image = bpy.data.images.new("corners", 2, 2, float_buffer=True)

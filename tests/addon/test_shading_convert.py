@@ -91,6 +91,7 @@ def test_roughness_splits_a_metal_between_mirror_and_highlight_in_the_base_colou
     assert document["specular_color"] == pytest.approx([min(1, 0.5 * c * gain) for c in (0.9, 0.6, 0.2)], rel=1e-4)
     assert notes == [
         "tinted mirror: white at its mean reflectance",
+        "rough reflection: sharp mirror share, lights' highlight; no blurred scene or world",
         "highlight brighter than a colour holds: clipped at 1",
     ]
 
