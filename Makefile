@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
 SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
-.PHONY: demo test test-slow lint bench bench-compare bench-peers bench-animation bench-stages bench-meshes bench-reliability bench-viewport bench-scenes bench-cluster docs study addon system-deps blender-wheels clean
+.PHONY: demo test test-slow lint bench bench-compare bench-peers bench-animation bench-stages bench-meshes bench-reliability bench-viewport bench-scenes bench-cluster corpus docs study addon system-deps blender-wheels clean
 
 # Blender versions as bpy wheels besides 5.0.1 (tests/addon/wheels.txt): one virtual environment each
 BPY_WHEELS := $(shell sed -e 's/\#.*//' tests/addon/wheels.txt)
@@ -94,6 +94,15 @@ bench-viewport: $(STAMP)
 bench-scenes: $(STAMP)
 	$(BIN)/python scripts/bench_scenes.py --sizes 320x240 --repeats 3 --out docs/scenes-benchmark-320x240
 	$(BIN)/python scripts/bench_scenes.py --sizes 1280x720 --repeats 1 --out docs/scenes-benchmark-1280x720
+
+# .blend files nobody on the team wrote, beside Cycles (scripts/corpus.py): Blender's own templates and samples and
+# every .blend file under the folders in CORPUS (e.g. CORPUS=path/to/glTF-Blender-IO/tests), in bpy 5.0.1 and, where
+# installed, Debian's Blender 3.4.1; writes docs/corpus.md and docs/corpus-blender-3.4.md (and .json)
+CORPUS ?=
+corpus: $(STAMP)
+	$(BIN)/python scripts/corpus.py $(foreach folder,$(CORPUS),--folder $(folder)) --out docs/corpus
+	command -v blender >/dev/null && $(BIN)/python scripts/corpus.py --blender "$$(command -v blender)" \
+		$(foreach folder,$(CORPUS),--folder $(folder)) --out docs/corpus-blender-3.4
 
 bench-cluster: $(STAMP)
 	$(BIN)/python scripts/bench_cluster.py --repeats 3
