@@ -371,6 +371,7 @@ TEXTURE_NAMES = {  # the nodes texture_input reads beside images and mixes, as t
     "ShaderNodeHueSaturation": "hue/saturation",
 }
 TEXTURE_NODES = tuple(TEXTURE_NAMES)
+SEPARATE_NODES = ("ShaderNodeSeparateRGB", "ShaderNodeSeparateXYZ", "ShaderNodeSeparateColor")
 GRID_MEAN = 64  # a gradient's mean colour: over GRID_MEAN^2 points of the unit UV square
 
 
@@ -476,6 +477,8 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
             return None
         if missing_file(image) is not None:
             notes.append(missing_note(image, label))
+        if image.source == "TILED" and len(image.tiles) > 1:
+            notes.append(f"UDIM image on {label}: tile {image.tiles[0].number} over the whole surface")
         if node.interpolation in ("Cubic", "Smart"):
             notes.append(f"{node.interpolation.lower()} interpolation on {label}: linear")
         return pixels, INTERPOLATIONS.get(node.interpolation, "linear"), EXTENSIONS[node.extension], None, mapping or {}
@@ -608,7 +611,13 @@ def value_input(socket, label: str, notes: list[str]) -> float:
     folded = node_tree.constant_number(socket)
     if folded is not None:
         return folded
-    node, _ = _source(socket)
+    node, output = _source(socket)
+    if node is not None and node.bl_idname in SEPARATE_NODES and getattr(node, "mode", "RGB") == "RGB":
+        channel = [o.identifier for o in node.outputs].index(output.identifier)
+        texture = texture_input(node.inputs[0], label, [], uv_only=False)
+        if texture is not None and channel < 3:  # e.g. glTF's packed metallic (blue) and roughness (green)
+            notes.append(f"a texture's channel on {label}: its mean")
+            return float(texture_mean(texture)[channel])
     texture = texture_input(socket, label, [], uv_only=False)
     if texture is not None:
         what = "image texture" if texture[3] is None else TEXTURE_NAMES.get(node.bl_idname, node.bl_label.lower())

@@ -177,3 +177,33 @@ def test_an_image_on_a_mesh_without_uvs_shows_the_texel_cycles_shows(tmp_path: P
     cycles, tracer = _both(tmp_path)
     print(f"no UV map, {interpolation}: Cycles {np.round(cycles, 4)}, tracer {np.round(tracer, 4)}")
     np.testing.assert_allclose(tracer, cycles, rtol=0.02)
+
+
+def test_a_packed_channel_of_a_texture_on_a_factor_input_is_its_mean_named() -> None:
+    """glTF's metallic-roughness image: Separate Color's Green on Roughness, Blue on Metallic."""
+    _material, tree, _diffuse = _plane_scene()
+    principled = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    image = bpy.data.images.new("orm", 2, 1, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    image.pixels.foreach_set([0.0, 0.2, 0.9, 1.0, 0.0, 0.6, 0.5, 1.0])
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    separate = tree.nodes.new("ShaderNodeSeparateColor")
+    tree.links.new(texture.outputs["Color"], separate.inputs[0])
+    tree.links.new(separate.outputs[1], principled.inputs["Roughness"])
+    tree.links.new(separate.outputs[2], principled.inputs["Metallic"])
+    notes: list[str] = []
+    assert material_convert.value_input(principled.inputs["Roughness"], "Roughness", notes) == pytest.approx(0.4)
+    assert material_convert.value_input(principled.inputs["Metallic"], "Metallic", notes) == pytest.approx(0.7)
+    assert notes == ["a texture's channel on Roughness: its mean", "a texture's channel on Metallic: its mean"]
+
+
+def test_a_udim_image_is_named() -> None:
+    material, tree, diffuse = _plane_scene()
+    image = bpy.data.images.new("tiles", 4, 4, tiled=True)
+    image.tiles.new(tile_number=1002)
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    tree.links.new(texture.outputs["Color"], diffuse.inputs["Color"])
+    _, notes = material_convert.convert_material(material)
+    assert "UDIM image on Diffuse BSDF Color: tile 1001 over the whole surface" in notes, notes
