@@ -56,15 +56,12 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
     if _listing["update"] == _updates[0] and _listing["scene"] == blender_scene.name:
         return _listing["rows"]
     rows, materials, lights = [], {}, {}
-    for obj in blender_scene.objects:
-        if obj.hide_render:
-            continue
+    for obj in _rendered_objects(blender_scene):
         if obj.type == "LIGHT":
             lights[obj.name] = obj
         elif obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
-            for slot in obj.material_slots or ():
-                if slot.material is not None:
-                    materials.setdefault(slot.material.name, slot.material)
+            for material in _materials_of(obj):
+                materials.setdefault(material.name, material)
     for name in sorted(materials):
         material = materials[name]
         rows.append(("MATERIAL", name, _notes("material", name, lambda m=material: _material_notes(m, blender_scene))))
@@ -92,6 +89,32 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
         rows.append(("WORLD", world.name if world else "no world (black)", notes))
     _listing.update(update=_updates[0], scene=blender_scene.name, rows=rows)
     return rows
+
+
+def _rendered_objects(blender_scene):
+    """The scene's objects that render, and those its collection instances place (nested, linked libraries' too),
+    each once."""
+    seen: set[int] = set()
+    stack = [obj for obj in blender_scene.objects if not obj.hide_render]
+    while stack:
+        obj = stack.pop()
+        if obj.as_pointer() in seen:
+            continue
+        seen.add(obj.as_pointer())
+        yield obj
+        collection = obj.instance_collection if obj.instance_type == "COLLECTION" else None
+        if collection is not None:
+            stack.extend(inner for inner in collection.all_objects if not inner.hide_render)
+
+
+def _materials_of(obj):
+    """An object's materials: its slots', and where Geometry Nodes may set others, its evaluated geometry's."""
+    found = [slot.material for slot in obj.material_slots or () if slot.material is not None]
+    if any(modifier.type == "NODES" for modifier in obj.modifiers):
+        evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        data = getattr(evaluated, "data", None)
+        found += [material for material in getattr(data, "materials", ()) if material is not None]
+    return found
 
 
 def _material_notes(material, blender_scene) -> list[str]:

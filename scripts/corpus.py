@@ -9,11 +9,14 @@ scripts/corpus_scene.py in a process of its own (a crash or a hang is recorded, 
 
     right            coverage IoU >= 0.95, the covered pixels' mean colour within 10% per channel (of at least
                      0.02), and PSNR over them >= 25 dB (the texture's content, not only its mean)
-    named            not right, and F12 says why: its line names what it approximates or leaves out, or it refuses
-                     the scene with a message
+    named            not right, and F12 says why: it refuses the scene with a message, or Scene Conversion names
+                     an approximation of a material or light, or the scene leaves something out; the world's
+                     unshadowed ambient light counts only where the world is the scene's only light (with lamps,
+                     it alone does not explain a difference)
     silently wrong   not right, and F12 says nothing
     crash            the engine raised, or the process died or hung
-    skipped          the file does not open in this Blender, or Cycles shows nothing at its camera
+    skipped          the file does not open in this Blender (or Blender crashes reading it), Cycles crashes on it, or
+                     Cycles shows nothing at its camera
 
 Writes OUT.json (every record) and OUT.md (the counts, the silently wrong and crashes listed, then every file).
 """
@@ -61,7 +64,13 @@ def classify(record: dict) -> str:
     )
     if right:
         return "right"
-    return "named" if record.get("notes") or error else "silently wrong"
+    said = record.get("said")
+    if error or said is None:  # a refusal; or an export that raised, recorded in its notes
+        return "named" if error or record.get("notes") else "silently wrong"
+    world = [note for note in said["world"] if not note.startswith("world light: unshadowed ambient")]
+    explained = said["materials"] or said["lights"] or said["scene"] or world
+    explained = explained or (said["world"] and record.get("lamps", 0) == 0)
+    return "named" if explained else "silently wrong"
 
 
 def run_one(path: Path, python: str, blender: str | None) -> dict:
@@ -95,19 +104,32 @@ def run_one(path: Path, python: str, blender: str | None) -> dict:
         return record
 
 
-def _row(record: dict, root: Path | None) -> str:
-    name = record["file"]
-    for base in filter(None, [root]):
-        name = name.replace(str(base) + "/", "")
+def _display(path: str) -> str:
+    """A corpus file's name as the table shows it: Blender's own under "blender:", the others from the folder's
+    own name on."""
+    if "/scripts/" in path and ("bl_app_templates_system" in path or "materials_library" in path):
+        return "blender:" + path.split("/scripts/", 1)[1]
+    return "/".join(Path(path).parts[-3:])
+
+
+def _row(record: dict) -> str:
+    name = _display(record["file"])
     measured = ""
     if "iou" in record:
         measured = (
             f"IoU {record['iou']:.3f}, mean {record.get('mean_error', 0):.0%}, PSNR {record.get('psnr', 0):.1f} dB"
         )
-    said = record.get("skipped") or record.get("crash") or record.get("engine_error") or record.get("notes") or ""
-    said = said.replace("|", "/").replace("\n", " ")
-    if len(said) > 160:
-        said = said[:157] + "..."
+    said = record.get("skipped") or record.get("crash") or record.get("engine_error") or ""
+    if not said and "said" in record:  # what Scene Conversion says, a few notes of each kind
+        detail = record["said"]
+        parts = [*detail["scene"]]
+        parts += [f"{name}: {', '.join(found[:2])}" for kind in ("materials", "lights") for name, found in
+                  list(detail[kind].items())[:2]]  # fmt: skip
+        parts += [f"world: {', '.join(detail['world'][:2])}"] if detail["world"] else []
+        said = "; ".join(parts)
+    said = (said or record.get("notes") or "").replace("|", "/").replace("\n", " ")
+    if len(said) > 240:
+        said = said[:237] + "..."
     return f"| {name} | {record['class']} | {measured} | {said} |"
 
 
@@ -133,10 +155,10 @@ def write(records: list[dict], out: Path, sources: list[str], blender_version: s
     ]
     for kind in ("silently wrong", "crash"):
         lines += [f"## {kind.capitalize()}", ""]
-        lines += [_row(r, None) for r in counted[kind]] or ["None."]
+        lines += [_row(r) for r in counted[kind]] or ["None."]
         lines.append("")
     lines += ["## Every file", "", "| file | class | measured | what F12 says |", "| --- | --- | --- | --- |"]
-    lines += [_row(r, None) for r in records]
+    lines += [_row(r) for r in records]
     out.with_suffix(".md").write_text("\n".join(lines) + "\n")
 
 

@@ -86,17 +86,27 @@ def _frame_camera(scene) -> bool:
     return True
 
 
-def _notes(scene) -> str:
-    """What F12 says it approximates or leaves out: the export's line and the camera's unsupported settings."""
+def _notes(scene, record: dict) -> None:
+    """What F12 says it approximates or leaves out: the export's line and the camera's unsupported settings
+    ("notes"), and what Scene Conversion says of each material, light and the world ("said"); "lamps": the
+    scene's lights rendered (0: the world is its only light)."""
     from addon import camera, export
 
     notes = export.ExportNotes()
     try:
-        export.scene_document(bpy.context, notes=notes, budget=False)
+        document = export.scene_document(bpy.context, notes=notes, budget=False)
     except Exception as error:  # a refusal is recorded as the engine's note, not raised here
-        return f"export: {error}"
+        record["notes"] = f"export: {error}"
+        return
     said = camera.unsupported(scene, exporting=False)
-    return "; ".join(filter(None, [notes.line(), *(f"does not render: {part}" for part in said)]))
+    record["notes"] = "; ".join(filter(None, [notes.line(), *(f"does not render: {part}" for part in said)]))
+    record["said"] = {
+        "materials": {name: found for name, found in notes.materials.items() if found},
+        "lights": {name: found for name, found in notes.lights.items() if found},
+        "world": notes.world,
+        "scene": [part for part in notes.line().split("; ") if not part.startswith("approximated: ")] + said,
+    }
+    record["lamps"] = sum(light.get("type") != "ambient" for light in document.get("lights", []))
 
 
 def measure(path: Path, folder: Path, out: Path) -> dict:
@@ -140,7 +150,7 @@ def measure(path: Path, folder: Path, out: Path) -> dict:
     traced, record["engine_error"], record["engine_seconds"] = _render(
         scene, "WEATHERVANE_TRACER", folder / "engine.exr"
     )
-    record["notes"] = _notes(scene)
+    _notes(scene, record)
     if reference is None:
         record["skipped"] = f"Cycles did not render: {record['cycles_error']}"
         return record

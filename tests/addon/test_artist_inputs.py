@@ -207,3 +207,38 @@ def test_a_udim_image_is_named() -> None:
     tree.links.new(texture.outputs["Color"], diffuse.inputs["Color"])
     _, notes = material_convert.convert_material(material)
     assert "UDIM image on Diffuse BSDF Color: tile 1001 over the whole surface" in notes, notes
+
+
+def test_scene_conversion_lists_materials_reached_through_instances_and_geometry_nodes() -> None:
+    """A material on an object that only a collection instance places, and one a Geometry Nodes Set Material gives:
+    both render, so both are in Render Properties > Scene Conversion."""
+    from addon import conversion_report
+
+    _plane_scene()
+    scene = bpy.context.scene
+    props = bpy.data.collections.new("props")  # not linked to the scene: only the instance below shows it
+    placed = bpy.data.meshes.new("placed")
+    placed.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    placed.materials.append(bpy.data.materials.new("instanced"))
+    props.objects.link(bpy.data.objects.new("placed", placed))
+    holder = bpy.data.objects.new("holder", None)
+    holder.instance_type, holder.instance_collection = "COLLECTION", props
+    scene.collection.objects.link(holder)
+    noded = bpy.data.objects.new("noded", bpy.data.meshes["plane"].copy())
+    scene.collection.objects.link(noded)
+    group = bpy.data.node_groups.new("set", "GeometryNodeTree")
+    if hasattr(group, "interface"):
+        group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    else:
+        group.inputs.new("NodeSocketGeometry", "Geometry")
+        group.outputs.new("NodeSocketGeometry", "Geometry")
+    given, taken = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+    setter = group.nodes.new("GeometryNodeSetMaterial")
+    setter.inputs["Material"].default_value = bpy.data.materials.new("from nodes")
+    group.links.new(given.outputs[0], setter.inputs["Geometry"])
+    group.links.new(setter.outputs[0], taken.inputs[0])
+    noded.modifiers.new("set", "NODES").node_group = group
+    bpy.context.view_layer.update()
+    listed = {name for kind, name, _ in conversion_report.scene_conversion(scene) if kind == "MATERIAL"}
+    assert {"instanced", "from nodes", "surface"} <= listed, listed
