@@ -556,7 +556,9 @@ def _mesh_object(placed: mesh_export.Placed, source: _Source, export: _Export) -
     slots, used = placed.slots_of(len(slot_materials))
     first = export.material(slot_materials[used[0]])
     names = [export.material(material) for material in slot_materials] if len(used) > 1 else [first]
-    fields = placed.fields(arrays=export.arrays, uvs=_textured(names, export.materials))
+    fields = placed.fields(
+        arrays=export.arrays, uvs=_textured(names, export.materials), colors=_colored(names, export.materials)
+    )
     body = {"name": "", "type": "mesh", "material": first, **fields}
     if len(used) > 1:
         body["materials"] = names
@@ -569,6 +571,17 @@ def _textured(names, materials: dict) -> bool:
     """Whether any of these scene-file materials has a texture or an emission texture (its meshes then carry their
     corner UVs)."""
     return any({"texture", "emission_texture"} & set(materials.get(name, {})) for name in names)
+
+
+def _colored(names, materials: dict) -> str | None:
+    """The colour attribute ("" the render default) that an "attribute" texture of one of these scene-file materials
+    reads (its meshes then carry those corner colours), or None."""
+    for name in names:
+        for key in ("texture", "emission_texture"):
+            texture = materials.get(name, {}).get(key) or {}
+            if "attribute" in texture:
+                return texture["attribute"].get("name", "")
+    return None
 
 
 def _texture_lists(materials: dict) -> None:
@@ -692,7 +705,9 @@ def _mesh_entry(geometry: _Geometry, local: mesh_export.Placed, materials: tuple
         count += 1
         name = f"{geometry.stem}#{count}"
     names = [materials[1]] if materials[0] == "one" else list(materials[1])
-    entry = local.fields(arrays=collected.arrays, uvs=_textured(names, collected.materials))
+    entry = local.fields(
+        arrays=collected.arrays, uvs=_textured(names, collected.materials), colors=_colored(names, collected.materials)
+    )
     if materials[0] == "one":
         entry["material"] = materials[1]
     else:

@@ -447,7 +447,9 @@ def _constant_value(socket) -> float | None:
     return node_tree.constant_number(socket)
 
 
-def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only: bool = True) -> tuple | None:
+def texture_input(
+    socket, label: str, notes: list[str], depth: int = 0, uv_only: bool = True, material=None
+) -> tuple | None:
     """The texture a colour input reads by the mesh's UVs, as (pixels, interpolation, extension, procedural, mapping),
     or None where it is not one (the caller then takes the mean, named); mapping: _uv_mapping's fields:
 
@@ -456,6 +458,9 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
       {"checker": {"scale": s}};
     - a Gradient Texture, through a Color Ramp (Linear or Constant, RGB): pixels the ramp's colours (K, 1, 3);
       procedural {"gradient": {"type": t, "stops": positions, "interpolation": i}};
+    - a Color Attribute node, or an Attribute node naming a colour attribute of material's meshes (with material
+      given): pixels the images of black and white (2, 1, 3) under what follows (Mix nodes are affine);
+      procedural {"attribute": {"name": n, "mean": the attribute's mean colour}};
 
     through Mix nodes (Mix, Multiply) with a constant factor and a constant other colour, and a Color Ramp (Linear or
     Constant, RGB) or a Hue/Saturation/Value node of constant settings applied to an image's texels or a checker's
@@ -465,6 +470,8 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
     if node is None or depth > 8:
         return None
     kind = node.bl_idname
+    if kind in ATTRIBUTE_NODES:
+        return _attribute_texture(node, output, material)
     if kind == "ShaderNodeTexImage":
         image = node.image
         if image is None or output.name != "Color" or getattr(node, "projection", "FLAT") != "FLAT":
@@ -502,13 +509,13 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
         ramp = node.color_ramp
         if output.name != "Color" or ramp.color_mode != "RGB" or ramp.interpolation not in ("LINEAR", "CONSTANT"):
             return None
-        found = texture_input(node.inputs["Fac"], label, notes, depth + 1, uv_only)
+        found = texture_input(node.inputs["Fac"], label, notes, depth + 1, uv_only, material)
         return None if found is None else _ramped(found, ramp, label, notes)
     if kind == "ShaderNodeHueSaturation":
         settings = [_constant_value(node.inputs[name]) for name in ("Hue", "Saturation", "Value", "Fac")]
-        found = texture_input(node.inputs["Color"], label, notes, depth + 1, uv_only)
-        if found is None or any(value is None for value in settings):
-            return None
+        found = texture_input(node.inputs["Color"], label, notes, depth + 1, uv_only, material)
+        if found is None or any(value is None for value in settings) or "attribute" in (found[3] or {}):
+            return None  # HSV is not affine: an attribute's colours cannot go through it here
         if "gradient" in (found[3] or {}) and not _plain_gradient(found):  # HSV is linear on greys only
             return None
         pixels, interpolation, extension, procedural, mapping = found
@@ -523,7 +530,7 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
     if f is None:
         return None
     f = min(1.0, max(0.0, f))
-    found = [texture_input(part, label, notes, depth + 1, uv_only) for part in (first, second)]
+    found = [texture_input(part, label, notes, depth + 1, uv_only, material) for part in (first, second)]
     if (found[0] is None) == (found[1] is None):
         return None
     constant = _constant_color(second if found[0] is not None else first)
@@ -537,6 +544,27 @@ def texture_input(socket, label: str, notes: list[str], depth: int = 0, uv_only:
     if getattr(node, "clamp_result", False) or getattr(node, "use_clamp", False):
         mixed = np.clip(mixed, 0.0, 1.0)
     return mixed, interpolation, extension, procedural, mapping
+
+
+ATTRIBUTE_NODES = ("ShaderNodeVertexColor", "ShaderNodeAttribute")
+
+
+def _attribute_texture(node, output, material) -> tuple | None:
+    """A Color Attribute node, or an Attribute node (type Geometry) naming a colour attribute that material's meshes
+    have, as an "attribute" texture (texture_input); None for anything else (its mean is then taken, named)."""
+    if material is None or output.name != "Color":
+        return None
+    if node.bl_idname == "ShaderNodeAttribute":
+        if node.attribute_type != "GEOMETRY" or not node.attribute_name:
+            return None
+        name = node.attribute_name
+    else:
+        name = node.layer_name
+    mean = attribute_mean(material, name)
+    if mean is None:
+        return None
+    black_and_white = np.asarray([[[0.0, 0.0, 0.0]], [[1.0, 1.0, 1.0]]])
+    return black_and_white, "linear", "repeat", {"attribute": {"name": name, "mean": mean}}, {}
 
 
 def _plain_gradient(found: tuple) -> bool:
@@ -560,6 +588,8 @@ def _ramped(found: tuple, ramp, label: str, notes: list[str]) -> tuple | None:
     from the table's within 1 / (n - 1) of a stop); None for a gradient already through a ramp."""
     pixels, interpolation, extension, procedural, mapping = found
     size = compat.cycles_ramp_table()
+    if procedural is not None and "attribute" in procedural:  # a ramp is not affine
+        return None
     if procedural is not None and "gradient" in procedural:
         gradient = procedural["gradient"]
         if not _plain_gradient(found):
@@ -587,6 +617,9 @@ def texture_mean(found: tuple) -> tuple[float, float, float]:
     """A texture's (texture_input) mean linear colour: an image's or a checker's colours' mean, a gradient's over
     the unit UV square (GRID_MEAN^2 points, as the tracer evaluates it)."""
     pixels, _, _, procedural, mapping = found
+    if procedural is not None and "attribute" in procedural:  # black's and white's images: the map is affine
+        black, white = pixels[0, 0], pixels[1, 0]
+        return tuple(float(c) for c in black + (white - black) * np.asarray(procedural["attribute"]["mean"]))
     if procedural is None or "checker" in procedural:
         return tuple(float(c) for c in pixels.reshape(-1, 3).mean(axis=0))
     gradient = procedural["gradient"]
@@ -636,7 +669,7 @@ def value_input(socket, label: str, notes: list[str]) -> float:
 def _textured_color(socket, material, label: str, notes: list[str]) -> tuple[tuple, tuple | None]:
     """A colour input's value and, where an image texture by UV feeds it (texture_input), that texture: its value
     is then the texture's mean."""
-    texture = texture_input(socket, label, notes)
+    texture = texture_input(socket, label, notes, material=material)
     if texture is None:
         return color_input(socket, material, label, notes), None
     return texture_mean(texture), texture
@@ -1058,6 +1091,14 @@ def _texture_document(texture: tuple, base, local: float, high: float = 1.0) -> 
     gradient's ramp stops."""
     interpolation, extension, procedural, mapping = texture[3:]
     mapping = {key: [float(c) for c in value] for key, value in mapping.items()}
+    if procedural is not None and "attribute" in procedural:  # the tracer maps each colour: gain c + bias, clamped
+        black, white = _texture_values(texture, base, local)[:, 0]
+        fields = {
+            "name": procedural["attribute"]["name"],
+            "gain": compat_color(white - black),
+            "bias": compat_color(black),
+        }
+        return {"attribute": fields}
     values = np.clip(_texture_values(texture, base, local), 0.0, high)
     if procedural is not None and "checker" in procedural:
         one, two = (compat_color(c) for c in values[:, 0])

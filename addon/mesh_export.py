@@ -33,6 +33,9 @@ class MeshArrays:
     corner_normals: np.ndarray | None  # (T, 3, 3) float64, None when every face is flat
     slots: np.ndarray  # (T,) int64, the material slot of each triangle
     uvs: np.ndarray | None = None  # (T, 3, 2) float64 the active render UV map's per corner, None without one
+    # the colour attributes (point or corner domain) per corner, linear RGB (T, 3, 3) float64 each, by name; "" names
+    # the render default (what a Color Attribute node of no name reads)
+    colors: dict = field(default_factory=dict)
     memo: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -47,7 +50,7 @@ class MeshArrays:
 
     @property
     def nbytes(self) -> int:
-        arrays = (self.vertices, self.triangles, self.corner_normals, self.slots, self.uvs)
+        arrays = (self.vertices, self.triangles, self.corner_normals, self.slots, self.uvs, *self.colors.values())
         return sum(array.nbytes for array in arrays if array is not None)
 
 
@@ -63,6 +66,34 @@ def _corner_uvs(mesh, loop_triangles, count: int) -> np.ndarray | None:
     loops = np.empty(count * 3, dtype=np.int32)
     loop_triangles.foreach_get("loops", loops)
     return uvs.reshape(-1, 2).astype(np.float64)[loops].reshape(count, 3, 2)
+
+
+def _corner_colors(mesh, loop_triangles, count: int, triangles: np.ndarray) -> dict[str, np.ndarray]:
+    """The mesh's colour attributes of the point or corner domain at each triangle corner (T, 3, 3) float64 linear
+    RGB, by name, the render default also under "" (Cycles' Color Attribute node of no name); {} without any."""
+    attributes = getattr(mesh, "color_attributes", None)
+    if not attributes:
+        return {}
+    loops = None
+    found = {}
+    for attribute in attributes:
+        if attribute.domain == "CORNER":
+            if loops is None:
+                loops = np.empty(count * 3, dtype=np.int32)
+                loop_triangles.foreach_get("loops", loops)
+            size, corner = len(mesh.loops), loops
+        elif attribute.domain == "POINT":
+            size, corner = len(mesh.vertices), triangles
+        else:
+            continue
+        values = np.empty(size * 4, dtype=np.float32)
+        attribute.data.foreach_get("color", values)  # scene linear, byte colours too
+        found[attribute.name] = values.reshape(-1, 4)[:, :3].astype(np.float64)[corner].reshape(count, 3, 3)
+    index = getattr(attributes, "render_color_index", -1)
+    default = attributes[index].name if 0 <= index < len(attributes) else next(iter(found), None)
+    if default in found:
+        found[""] = found[default]
+    return found
 
 
 def read(obj) -> MeshArrays | None:
@@ -103,6 +134,7 @@ def read(obj) -> MeshArrays | None:
             # the polygon's, which neither triangle has): only smooth faces carry corner normals
             corner_normals[flat] = face_normals.astype(np.float64).reshape(count, 1, 3)[flat]
         uvs = _corner_uvs(mesh, loop_triangles, count)
+        colors = _corner_colors(mesh, loop_triangles, count, triangles)
     finally:
         obj.to_mesh_clear()
     return MeshArrays(
@@ -111,6 +143,7 @@ def read(obj) -> MeshArrays | None:
         corner_normals=corner_normals,
         slots=slots.astype(np.int64),
         uvs=uvs,
+        colors=colors,
     )
 
 
@@ -127,21 +160,34 @@ class Placed:
     slots: np.ndarray  # (T,) int64, the material slot of each kept triangle
     dropped: int  # triangles left out for spanning no area (the tracer refuses them; Blender renders nothing of them)
     uvs: np.ndarray | None = None  # (T, 3, 2) float64 corner UVs of the kept triangles, None without a UV map
+    colors: dict = field(default_factory=dict)  # name -> (T, 3, 3) float64 corner colours of the kept triangles
     memo: dict = field(default_factory=dict, compare=False, repr=False)  # what fields() and slots_of() made
 
     @property
     def nbytes(self) -> int:
         """Its arrays' bytes; a small mesh's counted 8 times, for the lists it keeps (a row of 3 floats is a list of
         float objects: about 150 bytes against 24)."""
-        arrays = (self.vertices, self.triangles, self.normals, self.slots, self.uvs)
+        arrays = (self.vertices, self.triangles, self.normals, self.slots, self.uvs, *self.colors.values())
         size = sum(array.nbytes for array in arrays if array is not None)
         return size * 8 if len(self.triangles) <= SMALL_MESH else size
 
-    def fields(self, arrays: bool = False, uvs: bool = False) -> dict:
-        """fields_without_uvs(arrays), with the corner "uvs" where asked (a textured material): an array where arrays
-        are asked (a render in this process), else lists made once. A mesh with no UV map gets (0, 0) at every
+    def fields(self, arrays: bool = False, uvs: bool = False, colors: str | None = None) -> dict:
+        """fields_without_uvs(arrays), with the corner "uvs" where asked (a textured material) and the corner "colors"
+        of the colour attribute named colors ("" the render default) where the mesh has it: arrays where arrays are
+        asked (a render in this process), else lists made once. A mesh with no UV map gets (0, 0) at every
         corner: Cycles reads a missing UV map as zero, so its textures show the texel found at (0, 0)."""
         found = self.fields_without_uvs(arrays)
+        corner_colors = self.colors.get(colors) if colors is not None else None
+        if corner_colors is not None:  # the colour attribute an "attribute" texture of its material reads
+            if arrays:
+                view = corner_colors.view()
+                view.flags.writeable = False
+                found["colors"] = view
+            else:
+                listed = self.memo.get(("color lists", colors))
+                if listed is None:
+                    listed = self.memo[("color lists", colors)] = corner_colors.tolist()
+                found["colors"] = list(listed)
         if not uvs:
             return found
         corners = self.uvs
@@ -264,7 +310,13 @@ def place(arrays: MeshArrays, matrix=None) -> Placed:
         uvs = arrays.uvs if everything else arrays.uvs[spans_area]
         if mirrored:
             uvs = uvs[:, order]
-    return Placed(placed_vertices, remapped, normals, slots, dropped, uvs)
+    colors, done = {}, {}
+    for name, corners in arrays.colors.items():  # the same, each colour attribute ("" shares its default's)
+        if id(corners) not in done:
+            kept_colors = corners if everything else corners[spans_area]
+            done[id(corners)] = kept_colors[:, order] if mirrored else kept_colors
+        colors[name] = done[id(corners)]
+    return Placed(placed_vertices, remapped, normals, slots, dropped, uvs, colors)
 
 
 def in_world(arrays: MeshArrays, matrix) -> tuple[dict, np.ndarray, int]:

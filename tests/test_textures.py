@@ -544,3 +544,93 @@ def test_procedural_scenes_follow_the_schema_and_it_refuses_a_checker_beside_pix
         assert not validator.is_valid(quad_document(texture)), texture
         with pytest.raises(SceneError):
             scene_from_dict(quad_document(texture))
+
+
+# --- corner colours (Blender's colour attributes) ---------------------------------------------------------------------
+
+CORNER_COLORS = [[0.9, 0.1, 0.2], [0.1, 0.8, 0.3], [0.2, 0.3, 0.95], [1.0, 1.0, 0.0]]  # the quad's four vertices'
+
+
+def corner_document(gain=(0.8, 1.2, 1.0), bias=(0.1, -0.05, 0.0)) -> dict[str, Any]:
+    """quad_document with the four vertices' colours per triangle corner and an "attribute" texture."""
+    document = quad_document({"attribute": {"gain": list(gain), "bias": list(bias)}})
+    quad = document["objects"][0]
+    quad["colors"] = [[CORNER_COLORS[k] for k in triangle] for triangle in quad["triangles"]]
+    del quad["uvs"]
+    return document
+
+
+def expected_corner_colors(gain, bias) -> np.ndarray:
+    """Each pixel's colour written out here: the corner colours weighted by the pixel centre's barycentric
+    coordinates in its triangle ((0, 1, 2) below the diagonal x = y, (0, 2, 3) above), then gain c + bias clamped."""
+    x, y = pixel_uvs()
+    c = np.asarray(CORNER_COLORS)
+    lower = x >= y
+    first = (1 - x)[..., None] * c[0] + (x - y)[..., None] * c[1] + y[..., None] * c[2]
+    second = (1 - y)[..., None] * c[0] + x[..., None] * c[2] + (y - x)[..., None] * c[3]
+    colors = np.where(lower[..., None], first, second)
+    return np.clip(colors * np.asarray(gain) + np.asarray(bias), 0.0, 1.0)
+
+
+def test_corner_colours_are_interpolated_over_each_triangle_and_mapped_by_gain_and_bias() -> None:
+    gain, bias = (0.8, 1.2, 1.0), (0.1, -0.05, 0.0)
+    scene = scene_from_dict(corner_document(gain, bias))
+    image = render(scene, workers=1).image
+    assert np.abs(image - expected_corner_colors(gain, bias)).max() <= 1e-9
+    assert np.abs(np.asarray(render_reference(scene)) - image).max() <= 1e-9
+
+
+def test_instances_of_a_mesh_with_corner_colours_show_them() -> None:
+    document = corner_document()
+    quad = document["objects"].pop()
+    document["meshes"] = {"quad": {k: quad[k] for k in ("vertices", "triangles", "colors", "material")}}
+    document["objects"] = [
+        {"type": "instances", "name": "quads", "mesh": "quad", "matrices": [[[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]]}
+    ]
+    scene = scene_from_dict(document)
+    image = render(scene, workers=1).image
+    assert np.abs(image - expected_corner_colors((0.8, 1.2, 1.0), (0.1, -0.05, 0.0))).max() <= 1e-9
+    assert np.abs(np.asarray(render_reference(scene)) - image).max() <= 1e-9
+
+
+def test_an_attribute_texture_on_a_mesh_without_colours_keeps_the_materials_colour_and_uvs_are_not_colours() -> None:
+    document = corner_document()
+    del document["objects"][0]["colors"]
+    image = render(scene_from_dict(document), workers=1).image
+    assert np.allclose(image, 0.5)
+    document = quad_document({"pixels": TEXELS, "colorspace": "linear"})  # an image texture ignores corner colours
+    document["objects"][0]["colors"] = corner_document()["objects"][0]["colors"]
+    with_colors = render(scene_from_dict(document), workers=1).image
+    del document["objects"][0]["colors"]
+    assert np.array_equal(with_colors, render(scene_from_dict(document), workers=1).image)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"texture": {"attribute": {"gain": [1, 1]}}}, "materials.tex.texture.attribute.gain: must be"),
+        ({"texture": {"attribute": {}, "uv_scale": [2, 2]}}, 'must give "attribute" alone'),
+        ({"colors": [[[1, 0, 0], [0, 1, 0]], [[1, 0, 0], [0, 1, 0], [0, 0, 1]]]}, "objects[0].colors[0]: must be 3"),
+    ],
+)
+def test_the_loader_names_bad_corner_colours_and_attribute_textures(change: dict, message: str) -> None:
+    document = corner_document()
+    if "texture" in change:
+        document["materials"]["tex"]["texture"] = change["texture"]
+    else:
+        document["objects"][0].update(change)
+    with pytest.raises(SceneError) as caught:
+        scene_from_dict(document)
+    assert any(message in problem for problem in caught.value.problems), caught.value.problems
+
+
+def test_corner_colour_scenes_follow_the_schema() -> None:
+    import json
+    from pathlib import Path
+
+    import jsonschema
+
+    schema = json.loads((Path(__file__).resolve().parents[1] / "docs" / "scene.schema.json").read_text())
+    validator = jsonschema.Draft202012Validator(schema)
+    validator.validate(corner_document())
+    assert not validator.is_valid(quad_document({"attribute": {}, "pixels": TEXELS}))

@@ -242,3 +242,41 @@ def test_scene_conversion_lists_materials_reached_through_instances_and_geometry
     bpy.context.view_layer.update()
     listed = {name for kind, name, _ in conversion_report.scene_conversion(scene) if kind == "MATERIAL"}
     assert {"instanced", "from nodes", "surface"} <= listed, listed
+
+
+def _both_images(tmp_path: Path) -> tuple[np.ndarray, np.ndarray]:
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    cycles = f12_exr(tmp_path / "cycles.exr")
+    scene.render.engine = "WEATHERVANE_TRACER"
+    return cycles, f12_exr(tmp_path / "tracer.exr")
+
+
+@pytest.mark.parametrize(("domain", "kind"), [("CORNER", "FLOAT_COLOR"), ("POINT", "BYTE_COLOR")])
+def test_a_colour_attribute_is_interpolated_per_corner_as_in_cycles(tmp_path: Path, domain: str, kind: str) -> None:
+    """The four corners of the plane in four colours, through a Multiply Mix with a constant colour (glTF's vertex
+    colour times base colour factor) on Principled's Base Color: each pixel as Cycles shows it (before: the
+    attribute's mean colour over the whole plane)."""
+    material, tree, diffuse = _plane_scene()
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = 24
+    scene.cycles.filter_width = 0.01  # each pixel sampled at its centre, as the tracer samples it
+    mesh = bpy.data.meshes["plane"]
+    colors = mesh.color_attributes.new("Col", kind, domain)
+    corners = [0.9, 0.1, 0.2, 1.0, 0.1, 0.8, 0.3, 1.0, 0.2, 0.3, 0.95, 1.0, 1.0, 1.0, 0.0, 1.0]
+    colors.data.foreach_set("color", corners)
+    attribute = tree.nodes.new("ShaderNodeVertexColor")
+    multiply = tree.nodes.new("ShaderNodeMixRGB")
+    multiply.blend_type, multiply.inputs["Fac"].default_value = "MULTIPLY", 1.0
+    multiply.inputs["Color2"].default_value = (0.8, 0.9, 1.0, 1.0)
+    tree.links.new(attribute.outputs["Color"], multiply.inputs["Color1"])
+    tree.links.new(multiply.outputs[0], diffuse.inputs["Color"])
+    document, notes = material_convert.convert_material(material)
+    assert "attribute" in document["texture"] and notes == [], (document, notes)
+    cycles, tracer = _both_images(tmp_path)
+    error = np.mean((np.clip(tracer, 0, 1) - np.clip(cycles, 0, 1)) ** 2)
+    psnr = 10.0 * np.log10(1.0 / error)
+    flat = np.full_like(cycles, cycles.reshape(-1, 3).mean(axis=0))  # the mean colour the conversion gave before
+    before = 10.0 * np.log10(1.0 / np.mean((flat - np.clip(cycles, 0, 1)) ** 2))
+    print(f"colour attribute ({domain}, {kind}): PSNR {psnr:.1f} dB against Cycles (its mean colour: {before:.1f} dB)")
+    assert psnr >= 35.0 and psnr > before + 10.0

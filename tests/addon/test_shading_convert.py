@@ -607,7 +607,7 @@ def test_the_factory_startup_scene_converts_with_its_approximations_named() -> N
     assert conversion_report.summary_line(rows) == "1 exact, 2 approximated (Light, World)"
 
 
-def test_vertex_colours_on_base_color_are_their_mean_named() -> None:
+def test_vertex_colours_on_base_color_are_an_attribute_texture_of_their_corners() -> None:
     mesh = bpy.data.meshes.new("painted")
     mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
     if hasattr(mesh, "color_attributes"):
@@ -626,9 +626,13 @@ def test_vertex_colours_on_base_color_are_their_mean_named() -> None:
     )
     material_convert.clear_cache()
     document, notes = material_convert.convert_material(material)
-    mean = sum(document["color"]) / 3
+    mean = sum(document["color"]) / 3  # where a mesh lacks the attribute: its mean, as before
     assert document["color"] == pytest.approx([mean] * 3, rel=1e-3) and mean > 0.2
-    assert notes == ["colour attribute on Base Color: mean colour"]
+    texture = document["texture"]["attribute"]
+    k = document["color"][0] / (1.0 / 3.0)  # Principled's diffuse factor of the mean grey
+    assert texture["name"] == "paint" and texture["bias"] == pytest.approx([0.0] * 3, abs=1e-9)
+    assert texture["gain"] == pytest.approx([k] * 3, rel=1e-6)
+    assert notes == []
 
 
 def test_an_addon_light_recoloured_in_blender_keeps_its_intensity_and_takes_the_colour() -> None:

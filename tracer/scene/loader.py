@@ -294,7 +294,7 @@ def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
         "uv_scale": reader.vector("uv_scale", (1.0, 1.0), length=2, low=-TEXTURE_SCALE_MAX, high=TEXTURE_SCALE_MAX),
         "uv_offset": reader.vector("uv_offset", (0.0, 0.0), length=2, low=-COORDINATE_LIMIT, high=COORDINATE_LIMIT),
     }
-    if "checker" in reader.data or "gradient" in reader.data:
+    if "checker" in reader.data or "gradient" in reader.data or "attribute" in reader.data:
         texture = _procedural_texture(reader)
         return None if texture is None else replace(texture, **mapping)
     colorspace = reader.choice("colorspace", tx.COLORSPACES, "sRGB")
@@ -342,10 +342,11 @@ def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
 
 def _procedural_texture(reader: _Reader) -> sc.Texture | None:
     """A texture given as {"checker": {...}} or {"gradient": {...}} (Blender's Checker and Gradient Texture nodes on
-    the UV map; a gradient's colour ramp), alone in its object."""
-    kind = "checker" if "checker" in reader.data else "gradient"
+    the UV map; a gradient's colour ramp) or {"attribute": {...}} (a mesh's corner colours), alone in its object."""
+    kind = next(key for key in ("checker", "gradient", "attribute") if key in reader.data)
     inner = reader.reader(kind)
-    beside = [key for key in reader.data if key not in (kind, "uv_scale", "uv_offset")]
+    mapped = ("uv_scale", "uv_offset") if kind != "attribute" else ()  # corner colours are not read by UV
+    beside = [key for key in reader.data if key not in (kind, *mapped)]
     if beside:
         others = ", ".join(json.dumps(key) for key in beside)
         reader.fail("", f'must give "{kind}" alone: a procedural texture has no {others}')
@@ -353,6 +354,14 @@ def _procedural_texture(reader: _Reader) -> sc.Texture | None:
     if inner is None:
         reader.fail(kind, "must be an object, got null")
         return None
+    if kind == "attribute":
+        gain = inner.vector("gain", (1.0, 1.0, 1.0), length=3, low=-INTENSITY_MAX, high=INTENSITY_MAX)
+        bias = inner.vector("bias", (0.0, 0.0, 0.0), length=3, low=-INTENSITY_MAX, high=INTENSITY_MAX)
+        name = inner.raw("name", "")  # which colour attribute the meshes' "colors" hold: for readers, not the tracer
+        if not isinstance(name, str):
+            inner.fail("name", f"must be a colour attribute's name (a string), got {_show_shape(name)}")
+        inner.finish()
+        return sc.Texture(kind="attribute", gain=gain, bias=bias)
     if kind == "checker":
         colors = (inner.color("color1", (0.8, 0.8, 0.8)), inner.color("color2", (0.2, 0.2, 0.2)))
         scale = inner.number("scale", 5.0, low=-TEXTURE_SCALE_MAX, high=TEXTURE_SCALE_MAX)
@@ -426,6 +435,14 @@ def _corner_uvs(reader: _Reader, count: int) -> np.ndarray | None:
     array = _corner_array(reader, "uvs", count, "UVs [u, v]")
     if array is not None:
         array.flags.writeable = False  # (T, 3, 2): the mesh keeps it, without a copy
+    return array
+
+
+def _corner_colors(reader: _Reader, count: int) -> np.ndarray | None:
+    """A mesh's "colors": one [[r, g, b] x 3] per triangle (its corners' linear colours), checked as one array."""
+    array = _corner_array(reader, "colors", count, "colours [r, g, b]")
+    if array is not None:
+        array.flags.writeable = False  # (T, 3, 3): the mesh keeps it, without a copy
     return array
 
 
@@ -644,6 +661,7 @@ def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Mater
             triangles=triangles_array,
             normals=normals,
             uvs=_corner_uvs(reader, count),
+            colors=_corner_colors(reader, count),
             materials=names,
             material_indices=indices,
             **common,
@@ -692,6 +710,7 @@ def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Mater
         triangles=tuple(triangles),
         normals=normals,
         uvs=_corner_uvs(reader, count),
+        colors=_corner_colors(reader, count),
         materials=names,
         material_indices=indices,
         **common,

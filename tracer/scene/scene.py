@@ -237,6 +237,9 @@ class Texture(ArraysByBits):
     outside the image are black). source: where the pixels came from (a file's path, or "" for pixels given inline), for
     messages and exports only. Equality compares the pixels' bits (ArraysByBits).
 
+    kind "attribute" is a mesh's corner colours (Blender's Color Attribute node), interpolated over each triangle as
+    Cycles interpolates them, then gain * colour + bias per channel, clamped to [0, 1] (the nodes after it: a Mix with
+    a constant colour, the material's factors); a mesh without colours keeps the material's colour.
     kind "checker" and "gradient" are procedural (Blender's Checker and Gradient Texture nodes on the UV map) and have
     no pixels: colors are the checker's (color1, color2) or the gradient's colour ramp stops' colours (at positions,
     ascending in [0, 1], interpolated by ramp: linear or constant); scale multiplies the checker's UV; gradient is the
@@ -249,7 +252,7 @@ class Texture(ArraysByBits):
     interpolation: Literal["linear", "closest"] = "linear"
     extension: Literal["repeat", "extend", "clip"] = "repeat"
     source: str = ""
-    kind: Literal["image", "checker", "gradient"] = "image"
+    kind: Literal["image", "checker", "gradient", "attribute"] = "image"
     colors: tuple[Vec3, ...] = ()
     positions: tuple[float, ...] = ()
     ramp: Literal["linear", "constant"] = "linear"
@@ -258,6 +261,8 @@ class Texture(ArraysByBits):
     # a Mapping node before the texture (every kind): the UV read as (u su + ou, v sv + ov)
     uv_scale: tuple[float, float] = (1.0, 1.0)
     uv_offset: tuple[float, float] = (0.0, 0.0)
+    gain: Vec3 = (1.0, 1.0, 1.0)  # kind "attribute": gain * colour + bias
+    bias: Vec3 = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "pixels", frozen_array(self.pixels, np.float32, (-1, -1, 3)))
@@ -283,7 +288,7 @@ class TriangleMesh(ArraysByBits, Primitive):
     pickle; as arrays it is 36 MB and goes to the kernels without a conversion. Equality compares the arrays' bits
     (ArraysByBits)."""
 
-    ARRAYS = ("vertices", "triangles", "normals", "material_indices", "uvs")
+    ARRAYS = ("vertices", "triangles", "normals", "material_indices", "uvs", "colors")
 
     vertices: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     triangles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
@@ -291,6 +296,7 @@ class TriangleMesh(ArraysByBits, Primitive):
     materials: tuple[str, ...] | None = None
     material_indices: np.ndarray | None = None
     uvs: np.ndarray | None = None  # (T, 3, 2) float64: each triangle's corners' (u, v), for textures
+    colors: np.ndarray | None = None  # (T, 3, 3) float64: each triangle's corners' linear RGB, for attribute textures
 
     def __post_init__(self) -> None:
         set_field = object.__setattr__  # frozen: the conversion happens once, before anyone sees the object
@@ -304,6 +310,8 @@ class TriangleMesh(ArraysByBits, Primitive):
             set_field(self, "material_indices", frozen_array(self.material_indices, np.int64, (-1,)))
         if self.uvs is not None:
             set_field(self, "uvs", frozen_array(self.uvs, np.float64, (-1, 3, 2)))
+        if self.colors is not None:
+            set_field(self, "colors", frozen_array(self.colors, np.float64, (-1, 3, 3)))
 
     def __setstate__(self, state: dict) -> None:
         """Unpickled (a worker's copy): the arrays read-only again, as made (pickle does not keep the flag)."""
@@ -357,6 +365,11 @@ class MeshInstances(ArraysByBits, Primitive):
     def uvs(self) -> np.ndarray | None:
         """The mesh's corner UVs (T, 3, 2), or None."""
         return self.mesh.uvs
+
+    @property
+    def colors(self) -> np.ndarray | None:
+        """The mesh's corner colours (T, 3, 3), or None."""
+        return self.mesh.colors
 
     def __setstate__(self, state: dict) -> None:
         for value in state.values():

@@ -592,29 +592,46 @@ class ReferenceTracer:
         if material.texture is None and material.emission_texture is None:
             return material
         obj = self.scene.objects[index]
-        if getattr(obj, "uvs", None) is None:
+        if getattr(obj, "uvs", None) is None and getattr(obj, "colors", None) is None:
             return material
         from dataclasses import replace
 
-        from .texturing import sample_one
+        changes = {}
+        for field, texture in (("color", material.texture), ("emission", material.emission_texture)):
+            value = self._texture_value(texture, index, part, P)
+            if value is not None:
+                changes[field] = value
+        return replace(material, **changes)
 
-        kept = self.__dict__.setdefault("_uv_corners", {})
-        if index not in kept:  # each corner's (u, v, 0): _interpolated's three components
-            kept[index] = [[(u, v, 0.0) for u, v in corners] for corners in obj.uvs.tolist()]
+    def _texture_value(
+        self, texture: sc.Texture | None, index: int, part: int, P: sc.Vec3
+    ) -> tuple[float, float, float] | None:
+        """A texture's colour at a hit on object index's part: an "attribute" texture's from the corner colours, the
+        others' from the corner UVs, weighted by P's barycentric coordinates (as smooth normals'; an instance's in its
+        own space); None where the object has not what the texture reads."""
+        from .texturing import attribute_one, sample_one
+
+        if texture is None:
+            return None
+        key = "colors" if texture.kind == "attribute" else "uvs"
+        obj = self.scene.objects[index]
+        if getattr(obj, key, None) is None:
+            return None
+        kept = self.__dict__.setdefault(f"_{key}_corners", {})
+        if index not in kept:  # each corner's (u, v, 0) or (r, g, b): _interpolated's three components
+            values = getattr(obj, key).tolist()
+            kept[index] = values if key == "colors" else [[(u, v, 0.0) for u, v in c] for c in values]
         corners = kept[index]
         primitive = self.primitives[index]
         if isinstance(obj, sc.MeshInstances):
             instance, triangle = divmod(part, len(primitive.mesh.triangles))
             local = _affine(primitive.inverses[instance], P, True)
-            u, v, _ = _interpolated(primitive.mesh.triangles[triangle], corners[triangle], local)
+            found = _interpolated(primitive.mesh.triangles[triangle], corners[triangle], local)
         else:
-            u, v, _ = _interpolated(primitive.triangles[part], corners[part], P)
-        changes = {}
-        if material.texture is not None:
-            changes["color"] = sample_one(material.texture, u, v)
-        if material.emission_texture is not None:
-            changes["emission"] = sample_one(material.emission_texture, u, v)
-        return replace(material, **changes)
+            found = _interpolated(primitive.triangles[part], corners[part], P)
+        if texture.kind == "attribute":
+            return attribute_one(texture, found)
+        return sample_one(texture, found[0], found[1])
 
     def trace_ray(
         self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, depth: int, camera: bool = False, layers: int = 0

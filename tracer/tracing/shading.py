@@ -29,6 +29,7 @@ from ..geometry.rayframes import RayFrames
 from ..geometry.robust import offset_origins
 from ..scene import scene as sc
 from .rays import SHADOW_T_MIN, RayCounts, tally
+from .texturing import attribute
 from .texturing import sample as sample_texture
 
 
@@ -81,34 +82,56 @@ class Shading:
         emission = self.emission.take(material, axis=1) if self.emissive else None
         if not self.textured:
             return colors, specular, emission
-        for index in (*self.uv_meshes, *self.uv_instances):
+        for index in dict.fromkeys((*self.uv_meshes, *self.uv_instances, *self.color_meshes, *self.color_instances)):
             rows = indices(obj == index)
             if rows.size:
                 rows = rows.take(indices(self.has_texture.take(material.take(rows))))
             if not rows.size:
                 continue
             triangle = part.take(rows)
-            if index in self.uv_meshes:
-                v0, e1, e2, uv0, uv1, uv2 = self.uv_meshes[index]
-                w = take(P, rows).astype(np.float64) - v0.take(triangle, axis=1)
-                corners = (uv.take(triangle, axis=1) for uv in (uv0, uv1, uv2))
-                uv = interpolated_corners(w, e1.take(triangle, axis=1), e2.take(triangle, axis=1), *corners)
-            else:
-                uv, _ = self.kernels[index].corner_values(take(P, rows), triangle, self.uv_instances[index])
+            uv = self._corner_values(index, rows, triangle, P, self.uv_meshes, self.uv_instances)
+            tint = self._corner_values(index, rows, triangle, P, self.color_meshes, self.color_instances)
             rows_material = material.take(rows)
             for row in np.unique(rows_material).tolist():
                 mine = indices(rows_material == row)
                 where = rows.take(mine)
-                u, v = uv[0].take(mine), uv[1].take(mine)
                 texture, glow = self.row_textures[row], self.row_emission_textures[row]
-                if texture is not None:
-                    value = sample_texture(texture, u, v).astype(self.dtype)
+                value = self._texture_value(texture, uv, tint, mine)
+                if value is not None:
                     colors[:, where] = value
                     if specular is not None and self.scene.materials[self.material_names[row]].specular_color is None:
                         specular[:, where] = value
-                if glow is not None:
-                    emission[:, where] = sample_texture(glow, u, v).astype(self.dtype)
+                glowing = self._texture_value(glow, uv, tint, mine)
+                if glowing is not None:
+                    emission[:, where] = glowing
         return colors, specular, emission
+
+    def _corner_values(
+        self, index: int, rows: np.ndarray, triangle: np.ndarray, P: np.ndarray, meshes: dict, instances: dict
+    ) -> np.ndarray | None:
+        """Object index's corner values (UVs or colours) interpolated at its hits rows (k, n), or None where it has
+        none."""
+        if index in meshes:
+            v0, e1, e2, c0, c1, c2 = meshes[index]
+            w = take(P, rows).astype(np.float64) - v0.take(triangle, axis=1)
+            corners = (c.take(triangle, axis=1) for c in (c0, c1, c2))
+            return interpolated_corners(w, e1.take(triangle, axis=1), e2.take(triangle, axis=1), *corners)
+        if index in instances:
+            return self.kernels[index].corner_values(take(P, rows), triangle, instances[index])[0]
+        return None
+
+    def _texture_value(
+        self, texture: sc.Texture | None, uv: np.ndarray | None, tint: np.ndarray | None, mine: np.ndarray
+    ) -> np.ndarray | None:
+        """A texture's colours (3, m) at the hits mine of the interpolated uv (2, n) or corner colours tint (3, n):
+        an "attribute" texture by the colours, the others by the UVs; None where the mesh has not what it reads."""
+        if texture is None:
+            return None
+        if texture.kind == "attribute":
+            return None if tint is None else attribute(texture, tint.take(mine, axis=1)).astype(self.dtype)
+        if uv is None:
+            return None
+        return sample_texture(texture, uv[0].take(mine), uv[1].take(mine)).astype(self.dtype)
 
     def cryptomatte_hashes(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """The distinct names of the placed objects (cryptomatte_object) or material rows (cryptomatte_material)

@@ -9,6 +9,9 @@ bottom (v = 0; the pixels' row H - 1 - j, as their row 0 is the top). As Cycles'
   (i, j + 1), (i + 1, j + 1) weighted (1 - a)(1 - b), a (1 - b), (1 - a) b, a b, added in that order;
 - repeat: i modulo W; extend: i clamped to 0..W - 1; clip: a texel outside the image is black (0).
 
+An "attribute" texture is not looked up by UV: a mesh's corner colours interpolated at the hit (barycentric, as
+smooth normals) go through gain * colour + bias, clamped to [0, 1] (attribute(), attribute_one()).
+
 A UV that is not finite is read as (0, 0); a texture's uv_scale and uv_offset (a Mapping node) then make it
 (u su + ou, v sv + ov). The vectorized sample() and the per-ray sample_one() do the same float64
 operations in the same order, so the tracer and the per-pixel reference agree to the last bits but for the
@@ -126,6 +129,24 @@ def _texels(texture: sc.Texture, flat: np.ndarray, width: int, height: int, i: n
     ii, jj = np.clip(ii, 0, width - 1), np.clip(jj, 0, height - 1)
     values = flat.take((height - 1 - jj) * width + ii, axis=0).T.astype(np.float64)
     return np.where(inside, values, 0.0)
+
+
+def attribute(texture: sc.Texture, colors: np.ndarray) -> np.ndarray:
+    """An "attribute" texture's colours (3, n) float64 from the hits' interpolated corner colours (3, n): gain *
+    colour + bias per channel, clamped to [0, 1]; a colour that is not finite is read as 0."""
+    colors = np.where(np.isfinite(colors), colors, 0.0)
+    gain = np.asarray(texture.gain, dtype=np.float64)[:, None]
+    bias = np.asarray(texture.bias, dtype=np.float64)[:, None]
+    return np.minimum(np.maximum(colors * gain + bias, 0.0), 1.0)
+
+
+def attribute_one(texture: sc.Texture, color: tuple[float, float, float]) -> tuple[float, float, float]:
+    """attribute()'s operations on one colour in plain Python floats (the per-pixel reference)."""
+    found = []
+    for c, gain, bias in zip(color, texture.gain, texture.bias, strict=True):
+        c = c if math.isfinite(c) else 0.0
+        found.append(min(max(c * gain + bias, 0.0), 1.0))
+    return found[0], found[1], found[2]
 
 
 def sample_one(texture: sc.Texture, u: float, v: float) -> tuple[float, float, float]:

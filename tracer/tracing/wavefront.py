@@ -469,31 +469,40 @@ class PreparedScene(Shading, SeeThrough):
             self.smooth[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
 
     def _textures(self, objects: tuple[sc.SceneObject, ...], primitives: list) -> None:
-        """Where a material row has a texture and a mesh has UVs (textured): each such row's textures, and each
-        such mesh's triangles' v0, e1, e2 (3, T) and corner UVs (2, T) each (float64, as for smooth normals), or an
-        instanced mesh's corner UVs (T, 3, 2) in its own space. Without them nothing here runs while tracing."""
+        """Where a material row has a texture and a mesh has UVs or corner colours (textured): each such row's
+        textures, and each such mesh's triangles' v0, e1, e2 (3, T) and corner UVs (2, T) or colours (3, T) each
+        (float64, as for smooth normals), or an instanced mesh's corner UVs (T, 3, 2) or colours (T, 3, 3) in its own
+        space. Without them nothing here runs while tracing."""
         rows = [self.scene.materials[name] for name in self.material_names]
         self.row_textures = [m.texture for m in rows]
         self.row_emission_textures = [m.emission_texture for m in rows]
         with_texture = [m.texture is not None or m.emission_texture is not None for m in rows]
-        self.textured = any(with_texture) and any(getattr(obj, "uvs", None) is not None for obj in objects)
+        self.textured = any(with_texture) and any(
+            getattr(obj, "uvs", None) is not None or getattr(obj, "colors", None) is not None for obj in objects
+        )
         if not self.textured:
             return
         self.has_texture = np.asarray(with_texture, dtype=bool)
         self.emissive = self.emissive or any(e is not None for e in self.row_emission_textures)
         self.uv_meshes: dict[int, tuple[np.ndarray, ...]] = {}
         self.uv_instances: dict[int, np.ndarray] = {}
+        self.color_meshes: dict[int, tuple[np.ndarray, ...]] = {}
+        self.color_instances: dict[int, np.ndarray] = {}
         for index, (obj, primitive) in enumerate(zip(objects, primitives, strict=True)):
-            uvs = getattr(obj, "uvs", None)
-            if uvs is None:
-                continue
-            if isinstance(obj, sc.MeshInstances):
-                self.uv_instances[index] = np.asarray(uvs, dtype=np.float64).reshape(-1, 3, 2)
-                continue
-            triangles = np.asarray(primitive.triangles, dtype=np.float64)  # (T, 3, 3), world
-            v0 = triangles[:, 0]
-            parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, uvs[:, 0], uvs[:, 1], uvs[:, 2])
-            self.uv_meshes[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
+            for key, meshes, instances, width in (
+                ("uvs", self.uv_meshes, self.uv_instances, 2),
+                ("colors", self.color_meshes, self.color_instances, 3),
+            ):
+                corners = getattr(obj, key, None)
+                if corners is None:
+                    continue
+                if isinstance(obj, sc.MeshInstances):
+                    instances[index] = np.asarray(corners, dtype=np.float64).reshape(-1, 3, width)
+                    continue
+                triangles = np.asarray(primitive.triangles, dtype=np.float64)  # (T, 3, 3), world
+                v0 = triangles[:, 0]
+                parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, corners[:, 0], corners[:, 1], corners[:, 2])
+                meshes[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
 
     # ---- TraceRay as a wavefront -------------------------------------------------------------------------------
 
