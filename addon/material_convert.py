@@ -265,7 +265,7 @@ def _render_color(attributes):
 def attribute_mean(material, attribute_name: str) -> tuple[float, float, float] | None:
     """The mean of a colour attribute (no name: the render default) over the meshes that use material (cached); None
     where none has it."""
-    key = ("attribute", material.name, attribute_name)
+    key = ("attribute", material.as_pointer(), material.name, attribute_name)
     if key in _means:
         return _means[key]
     total, count = [0.0, 0.0, 0.0], 0
@@ -336,8 +336,32 @@ def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, 
         if mean is not None:
             notes.append(f"colour attribute on {label}: mean colour")
             return mean
+    mixed = _mixed_means(node, material, label)
+    if mixed is not None:  # e.g. glTF's image x colour attribute x factor: the product of their means
+        notes.append(f"{node.name} of varying colours on {label}: its inputs' means mixed")
+        return mixed
     notes.append(f"{node.name} on {label}: the input's own value")
     return own
+
+
+def _mixed_means(node, material, label: str) -> tuple[float, float, float] | None:
+    """A colour Mix node (a per-channel blend, a constant factor) of inputs that vary over the surface as the blend
+    of their means (color_input), or None for anything else."""
+    mix = _mix_sockets(node)
+    if mix is None or any(part is None for part in mix[:3]):
+        return None
+    factor, first, second, blend = mix
+    f = _constant_value(factor)
+    if f is None:
+        return None
+    inner: list[str] = []
+    a, b = (color_input(part, material, label, inner) for part in (first, second))
+    if any(note.endswith("the input's own value") for note in inner):  # an input it could not read: not a mean
+        return None
+    mixed = node_tree.blend_colors(blend, min(1.0, max(0.0, f)), a, b)
+    if mixed is not None and (getattr(node, "clamp_result", False) or getattr(node, "use_clamp", False)):
+        mixed = tuple(min(1.0, max(0.0, c)) for c in mixed)
+    return mixed
 
 
 def _rgba_pixels(image) -> np.ndarray | None:

@@ -18,6 +18,7 @@ from tests.addon.f12_images import f12_exr
 def _plane_scene() -> tuple[bpy.types.Material, bpy.types.NodeTree, bpy.types.Node]:
     """A 2 m plane (with a UV map) of a Diffuse BSDF material under a 3 W/m^2 sun, an orthographic camera filling
     the view with it, no world. -> the material, its tree and the Diffuse node."""
+    material_convert.clear_cache()  # the means of an earlier test's image or attribute of the same name
     scene = bpy.context.scene
     material = bpy.data.materials.new("surface")
     compat.enable_nodes(material)
@@ -280,3 +281,25 @@ def test_a_colour_attribute_is_interpolated_per_corner_as_in_cycles(tmp_path: Pa
     before = 10.0 * np.log10(1.0 / np.mean((flat - np.clip(cycles, 0, 1)) ** 2))
     print(f"colour attribute ({domain}, {kind}): PSNR {psnr:.1f} dB against Cycles (its mean colour: {before:.1f} dB)")
     assert psnr >= 35.0 and psnr > before + 10.0
+
+
+def test_a_mix_of_two_varying_colours_is_the_mix_of_their_means_named() -> None:
+    """glTF's base colour: an image times a colour attribute (a product no texture of the format holds): the product
+    of their means, named (was the input's own value, black)."""
+    material, tree, diffuse = _plane_scene()
+    mesh = bpy.data.meshes["plane"]
+    colors = mesh.color_attributes.new("Col", "FLOAT_COLOR", "CORNER")
+    colors.data.foreach_set("color", [0.2, 0.4, 0.6, 1.0] * 2 + [0.6, 0.8, 1.0, 1.0] * 2)  # mean (0.4, 0.6, 0.8)
+    image = bpy.data.images.new("two", 2, 1, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    image.pixels.foreach_set([0.5, 0.5, 0.5, 1.0, 1.0, 0.5, 0.0, 1.0])  # mean (0.75, 0.5, 0.25)
+    texture, attribute = tree.nodes.new("ShaderNodeTexImage"), tree.nodes.new("ShaderNodeVertexColor")
+    texture.image = image
+    multiply = tree.nodes.new("ShaderNodeMixRGB")
+    multiply.blend_type, multiply.inputs["Fac"].default_value = "MULTIPLY", 1.0
+    tree.links.new(texture.outputs["Color"], multiply.inputs["Color1"])
+    tree.links.new(attribute.outputs["Color"], multiply.inputs["Color2"])
+    tree.links.new(multiply.outputs[0], diffuse.inputs["Color"])
+    document, notes = material_convert.convert_material(material)
+    assert document["color"] == pytest.approx([0.3, 0.3, 0.2])
+    assert notes == [f"{multiply.name} of varying colours on Diffuse BSDF Color: its inputs' means mixed"], notes
