@@ -99,10 +99,12 @@ bench-scenes: $(STAMP)
 # every .blend file under the folders in CORPUS (e.g. CORPUS=path/to/glTF-Blender-IO/tests), in bpy 5.0.1 and, where
 # installed, Debian's Blender 3.4.1; writes docs/corpus.md and docs/corpus-blender-3.4.md (and .json)
 CORPUS ?=
+CORPUS_DESCRIBE ?=
 corpus: $(STAMP)
-	$(BIN)/python scripts/corpus.py $(foreach folder,$(CORPUS),--folder $(folder)) --out docs/corpus
+	$(BIN)/python scripts/corpus.py $(foreach folder,$(CORPUS),--folder $(folder)) --describe "$(CORPUS_DESCRIBE)" \
+		--out docs/corpus
 	command -v blender >/dev/null && $(BIN)/python scripts/corpus.py --blender "$$(command -v blender)" \
-		$(foreach folder,$(CORPUS),--folder $(folder)) --out docs/corpus-blender-3.4
+		$(foreach folder,$(CORPUS),--folder $(folder)) --describe "$(CORPUS_DESCRIBE)" --out docs/corpus-blender-3.4
 
 bench-cluster: $(STAMP)
 	$(BIN)/python scripts/bench_cluster.py --repeats 3

@@ -168,6 +168,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--blender", help="a Blender executable (default: this Python's bpy)")
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "corpus")
     parser.add_argument("--limit", type=int, default=0, help="at most this many files (0: all)")
+    parser.add_argument("--describe", default="", help="what the folders are, for the table's header")
     arguments = parser.parse_args(argv)
     python = sys.executable
     files = bundled_files(python, arguments.blender)
@@ -177,7 +178,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"error: --folder {folder}: not a folder", file=sys.stderr)
             return 2
         files += sorted(folder.rglob("*.blend"))
-        sources.append(str(folder))
+        sources.append(f"`{folder.name}/`")
+    if arguments.describe:
+        sources.append(arguments.describe)
     if arguments.limit:
         files = files[: arguments.limit]
     records = []
