@@ -721,7 +721,7 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
     lobes.add_specular([metallic * c + dielectric * f0 for c in base], roughness)
     if glass > 0.0:
         ior = value_input(node.inputs["IOR"], "IOR", notes)
-        lobes.add_glass(glass, base, ior)
+        lobes.add_glass(glass, compat.principled_transmission_tint(base), ior)
         if compat.principled_transmission_roughness(node, roughness) > 0.0:
             notes.append("rough transmission: sharp")
         if "Specular IOR Level" in node.inputs and abs(level - 0.5) > 1e-6:  # 4.0+: it scales the glass's Fresnel too

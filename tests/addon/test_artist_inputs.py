@@ -303,3 +303,54 @@ def test_a_mix_of_two_varying_colours_is_the_mix_of_their_means_named() -> None:
     document, notes = material_convert.convert_material(material)
     assert document["color"] == pytest.approx([0.3, 0.3, 0.2])
     assert notes == [f"{multiply.name} of varying colours on Diffuse BSDF Color: its inputs' means mixed"], notes
+
+
+@pytest.mark.parametrize("kind", ["ShaderNodeBsdfPrincipled", "ShaderNodeBsdfGlass"])
+def test_a_glass_cube_tints_what_is_seen_through_it_as_in_cycles(tmp_path: Path, kind: str) -> None:
+    """A 1 m cube of clear glass (Principled Transmission 1, or Glass BSDF) of colour (0.2, 0.6, 0.9) before a white
+    emitting wall, seen straight through: Cycles 4.0+ tints a ray through Principled's closed object by Base Color
+    once (sqrt at each crossing), 3.x and Glass BSDF by the colour at each crossing (before: 0.1 of Principled's 5.0
+    Cycles brightness came out 0.02 through the square)."""
+    scene = bpy.context.scene
+    wall = bpy.data.materials.new("wall")
+    compat.enable_nodes(wall)
+    tree = wall.node_tree
+    tree.nodes.clear()
+    emission, output = tree.nodes.new("ShaderNodeEmission"), tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(emission.outputs[0], output.inputs["Surface"])
+    mesh = bpy.data.meshes.new("wall")
+    mesh.from_pydata([(-5, -5, -2), (5, -5, -2), (5, 5, -2), (-5, 5, -2)], [], [(0, 1, 2, 3)])
+    mesh.materials.append(wall)
+    scene.collection.objects.link(bpy.data.objects.new("wall", mesh))
+    glass = bpy.data.materials.new("glass")
+    compat.enable_nodes(glass)
+    tree = glass.node_tree
+    tree.nodes.clear()
+    shader, output = tree.nodes.new(kind), tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(shader.outputs[0], output.inputs["Surface"])
+    shader.inputs["Roughness"].default_value = 0.0
+    if kind == "ShaderNodeBsdfPrincipled":
+        shader.inputs["Base Color"].default_value = (0.2, 0.6, 0.9, 1.0)
+        compat.principled_input(shader, "transmission").default_value = 1.0
+    else:
+        shader.inputs["Color"].default_value = (0.2, 0.6, 0.9, 1.0)
+    corners = [(x, y, z) for z in (-0.5, 0.5) for y in (-0.5, 0.5) for x in (-0.5, 0.5)]
+    faces = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    cube = bpy.data.meshes.new("cube")
+    cube.from_pydata(corners, [], faces)
+    cube.materials.append(glass)
+    scene.collection.objects.link(bpy.data.objects.new("cube", cube))
+    camera = bpy.data.cameras.new("camera")
+    camera.type, camera.ortho_scale = "ORTHO", 0.5
+    scene.camera = bpy.data.objects.new("camera", camera)
+    scene.camera.location = (0.0, 0.0, 3.0)
+    scene.collection.objects.link(scene.camera)
+    scene.render.resolution_x = scene.render.resolution_y = 8
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.world = None
+    scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 16, False
+    scene.cycles.caustics_refractive = False
+    cycles, tracer = _both(tmp_path)
+    print(f"{kind} cube: Cycles {np.round(cycles, 4)}, tracer {np.round(tracer, 4)}")
+    np.testing.assert_allclose(tracer, cycles, rtol=0.03)
