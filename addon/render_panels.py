@@ -12,7 +12,7 @@ from __future__ import annotations
 import bpy
 
 from . import build, conversion_report
-from .panels import characters_for, draw_background, draw_highlights, draw_processes
+from .panels import characters_for, draw_background, draw_highlights, draw_processes, wrapped
 
 ENGINE = "WEATHERVANE_TRACER"
 
@@ -150,6 +150,9 @@ class WEATHERVANE_WORLD_PT_background(TracerPanel, bpy.types.Panel):
         draw_background(self.split_layout(), context.scene.weathervane)
 
 
+NOTE_INDENT = 44  # pixels before a note's text: the row's separator (factor 2) and the icon, with some room
+
+
 class WEATHERVANE_RENDER_PT_conversion(TracerPanel, bpy.types.Panel):
     bl_label = "Scene Conversion"
     bl_context = "render"
@@ -165,10 +168,11 @@ class WEATHERVANE_RENDER_PT_conversion(TracerPanel, bpy.types.Panel):
         for kind, name, notes in rows:
             column = layout.column(align=True)
             column.label(text=f"{name}: {'exact' if not notes else 'approximated'}", icon=icons[kind])
-            for note in notes:
-                row = column.row()
-                row.separator(factor=2.0)
-                row.label(text=note, icon="INFO")
+            for note in notes:  # wrapped to the editor's width (a missing image's path, the longer notes)
+                for index, line in enumerate(wrapped(note, width, NOTE_INDENT)):
+                    row = column.row()
+                    row.separator(factor=2.0)
+                    row.label(text=line, icon="INFO" if index == 0 else "BLANK1")
 
 
 class WEATHERVANE_VIEWLAYER_PT_passes(TracerPanel, bpy.types.Panel):

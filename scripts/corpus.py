@@ -113,7 +113,7 @@ def _display(path: str) -> str:
 
 
 def _row(record: dict) -> str:
-    name = _display(record["file"])
+    name = record["file"]
     measured = ""
     if "iou" in record:
         measured = (
@@ -133,9 +133,19 @@ def _row(record: dict) -> str:
     return f"| {name} | {record['class']} | {measured} | {said} |"
 
 
+def _portable(records: list[dict], folders: list[Path]) -> list[dict]:
+    """The records with this machine's paths shortened as the table shows them: a folder's path to its own name,
+    Blender's files to "blender:"."""
+    text = json.dumps(records)
+    for folder in folders:
+        text = text.replace(json.dumps(str(folder.resolve()))[1:-1] + "/", folder.resolve().name + "/")
+        text = text.replace(json.dumps(str(folder))[1:-1] + "/", folder.name + "/")
+    return [{**record, "file": _display(record["file"])} for record in json.loads(text)]
+
+
 def write(records: list[dict], out: Path, sources: list[str], blender_version: str) -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.with_suffix(".json").write_text(json.dumps(records, indent=1) + "\n")
+    out.parent.joinpath(out.name + ".json").write_text(json.dumps(records, indent=1) + "\n")
     counted = {kind: [r for r in records if r["class"] == kind] for kind in
                ("right", "named", "silently wrong", "crash", "skipped")}  # fmt: skip
     rendered = len(records) - len(counted["skipped"])
@@ -159,7 +169,7 @@ def write(records: list[dict], out: Path, sources: list[str], blender_version: s
         lines.append("")
     lines += ["## Every file", "", "| file | class | measured | what F12 says |", "| --- | --- | --- | --- |"]
     lines += [_row(r) for r in records]
-    out.with_suffix(".md").write_text("\n".join(lines) + "\n")
+    out.parent.joinpath(out.name + ".md").write_text("\n".join(lines) + "\n")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -190,8 +200,8 @@ def main(argv: list[str] | None = None) -> int:
         records.append(record)
         print(f"[{index}/{len(files)}] {record['class']:15} {path}", flush=True)
     version = records[0].get("blender", "?") if records else "?"
-    write(records, arguments.out, sources, f"Blender {version}")
-    print(f"wrote {arguments.out.with_suffix('.md')}")
+    write(_portable(records, arguments.folder), arguments.out, sources, f"Blender {version}")
+    print(f"wrote {arguments.out}.md")
     return 0
 
 
