@@ -32,13 +32,14 @@ image's linear pixels (sRGB byte images decoded; float, Non-Color and Linear ima
 times the same factors as the colour (color = texture's mean), Closest or Linear (Cubic and Smart: Linear, named),
 Repeat, Extend or Clip. A Checker or Gradient Texture read by the UV map (linked from Texture Coordinate UV or a UV
 Map node; unlinked, procedural textures read Generated coordinates) becomes the format's checker or gradient, a
-Gradient through a Color Ramp (Linear, Constant) the ramp's stops. A Mapping node of no rotation between the UV
-source and any of these becomes the texture's uv_scale and uv_offset. A Color Ramp or Hue/Saturation/Value node
-between an image or a checker and the input is applied to its texels or colours (exact for Closest images and
-checkers; named on Linear images, where the node maps the interpolated colour). The same on Emission Color and the
-Emission shader's Color becomes "emission_texture", times the strength. Anything else (other coordinates, Mirror,
-other nodes in between) keeps the texture's mean colour, named, as colour attributes do (the means computed once per
-image or attribute and kept in a cache).
+Gradient through a Color Ramp (Linear, Constant) the ramp's stops. A Mapping node rotating about Z alone between the
+UV source and any of these becomes the texture's uv_scale, uv_offset and uv_rotation. A Color Ramp or
+Hue/Saturation/Value node between an image or a checker and the input is applied to its texels or colours (exact for
+Closest images and checkers; named on Linear images, where the node maps the interpolated colour). The same on
+Emission Color and the Emission shader's Color becomes "emission_texture", times the strength. Anything else (other
+coordinates, Mirror, other nodes in between) keeps the texture's mean colour, named (the means computed once per
+image or attribute and kept in a cache). A Color Attribute node (or an Attribute node naming a colour attribute)
+becomes an "attribute" texture of the meshes' corner colours, through the Mix nodes after it.
 
 Glass and transparency are shares of the same sum: Glass BSDF (Color, IOR) and Refraction BSDF (its Fresnel
 reflection added, named) are a clear dielectric of weight 1; Principled's Transmission t is one of weight (1 - m) t
@@ -401,9 +402,9 @@ GRID_MEAN = 64  # a gradient's mean colour: over GRID_MEAN^2 points of the unit 
 
 def _uv_mapping(texture_node, unlinked_uv: bool = True, procedural: bool = False) -> dict | None:
     """How a texture node reads the mesh's default UV map (_uv_coordinates), straight ({}) or through a Mapping node
-    of constant settings and no rotation ({"uv_scale": [su, sv], "uv_offset": [ou, ov]}: Point u S + L, Texture
-    (u - L) / S, Vector u S); None where it does not (a procedural texture also where the Mapping moves z: it reads
-    (u, v, 0))."""
+    of constant settings rotating about Z alone ({"uv_scale": [su, sv], "uv_offset": [ou, ov], "uv_rotation": a}
+    (degrees, where not 0): Point R(u S) + L, Vector R(u S), Texture S^-1 R^-1 (u - L) where the scale is uniform in
+    u and v); None where it does not (a procedural texture also where the Mapping moves z: it reads (u, v, 0))."""
     node, _ = _source(texture_node.inputs["Vector"])
     if node is None or node.bl_idname != "ShaderNodeMapping":
         return {} if _uv_coordinates(texture_node, unlinked_uv) else None
@@ -411,7 +412,8 @@ def _uv_mapping(texture_node, unlinked_uv: bool = True, procedural: bool = False
     values = {name: _constant_vector(node.inputs.get(name)) for name in ("Location", "Rotation", "Scale")}
     if kind not in ("POINT", "TEXTURE", "VECTOR") or values["Scale"] is None or values["Rotation"] is None:
         return None
-    if any(value != 0.0 for value in values["Rotation"]) or not _uv_coordinates(node, False):
+    rotation = values["Rotation"]
+    if rotation[0] != 0.0 or rotation[1] != 0.0 or not _uv_coordinates(node, False):
         return None
     scale, location = values["Scale"], values["Location"]
     if kind == "VECTOR":  # no location
@@ -420,14 +422,15 @@ def _uv_mapping(texture_node, unlinked_uv: bool = True, procedural: bool = False
         return None
     if procedural and location[2] != 0.0:
         return None
+    turned = {"uv_rotation": math.degrees(rotation[2])} if rotation[2] != 0.0 else {}
     if kind != "TEXTURE":
-        return {"uv_scale": scale[:2], "uv_offset": location[:2]}
-    if scale[0] == 0.0 or scale[1] == 0.0:
-        return None
-    return {
-        "uv_scale": [1.0 / scale[0], 1.0 / scale[1]],
-        "uv_offset": [-location[0] / scale[0], -location[1] / scale[1]],
-    }
+        return {"uv_scale": scale[:2], "uv_offset": location[:2], **turned}
+    if scale[0] == 0.0 or scale[1] == 0.0 or (turned and scale[0] != scale[1]):
+        return None  # the inverse rotates before it scales: with a rotation, only a uniform scale commutes
+    cosine, sine = math.cos(-rotation[2]), math.sin(-rotation[2])
+    x, y = location[0] * cosine - location[1] * sine, location[0] * sine + location[1] * cosine  # R^-1 L
+    turned = {"uv_rotation": -turned["uv_rotation"]} if turned else {}
+    return {"uv_scale": [1.0 / scale[0], 1.0 / scale[1]], "uv_offset": [-x / scale[0], -y / scale[1]], **turned}
 
 
 def _constant_vector(socket) -> list[float] | None:
@@ -655,6 +658,7 @@ def texture_mean(found: tuple) -> tuple[float, float, float]:
         colors=tuple(tuple(float(c) for c in color) for color in pixels.reshape(-1, 3)),
         uv_scale=tuple(mapping.get("uv_scale", (1.0, 1.0))),
         uv_offset=tuple(mapping.get("uv_offset", (0.0, 0.0))),
+        uv_rotation=float(mapping.get("uv_rotation", 0.0)),
     )
     centres = (np.arange(GRID_MEAN) + 0.5) / GRID_MEAN
     u, v = np.meshgrid(centres, centres)
@@ -1114,7 +1118,9 @@ def _texture_document(texture: tuple, base, local: float, high: float = 1.0) -> 
     to [0, high] as the colour is; an image's pixels rows top first, float32 linear; a checker's two colours; a
     gradient's ramp stops."""
     interpolation, extension, procedural, mapping = texture[3:]
-    mapping = {key: [float(c) for c in value] for key, value in mapping.items()}
+    mapping = {
+        key: float(value) if key == "uv_rotation" else [float(c) for c in value] for key, value in mapping.items()
+    }
     if procedural is not None and "attribute" in procedural:  # the tracer maps each colour: gain c + bias, clamped
         black, white = _texture_values(texture, base, local)[:, 0]
         fields = {

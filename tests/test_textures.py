@@ -634,3 +634,25 @@ def test_corner_colour_scenes_follow_the_schema() -> None:
     validator = jsonschema.Draft202012Validator(schema)
     validator.validate(corner_document())
     assert not validator.is_valid(quad_document({"attribute": {}, "pixels": TEXELS}))
+
+
+@pytest.mark.parametrize("interpolation", ["closest", "linear"])
+def test_a_rotated_mapping_turns_the_scaled_uv_before_the_offset(interpolation: str) -> None:
+    """uv_rotation (degrees): the texture reads R (u su, v sv) + (ou, ov), written out here on its own, for an
+    image and a checker; the per-pixel reference agrees."""
+    image = {"pixels": TEXELS, "colorspace": "linear", "interpolation": interpolation}
+    mapping = {"uv_scale": [0.4, 0.8], "uv_offset": [0.5, 0.4], "uv_rotation": 15.0}
+    scene = scene_from_dict(quad_document({**image, **mapping}))
+    found = render(scene, workers=1).image
+    u, v = pixel_uvs()
+    angle = np.radians(15.0)
+    x, y = u * 0.4, v * 0.8
+    turned_u, turned_v = x * np.cos(angle) - y * np.sin(angle) + 0.5, x * np.sin(angle) + y * np.cos(angle) + 0.4
+    expected = expected_texels(np.asarray(TEXELS, dtype=np.float32), turned_u, turned_v, interpolation, "repeat")
+    assert np.abs(found - expected).max() <= 1e-9
+    assert np.abs(np.asarray(render_reference(scene)) - found).max() <= 1e-9
+    checker = {"checker": {"color1": [1, 0, 0], "color2": [0, 0, 1], "scale": 3.0}, **mapping}
+    found = render(scene_from_dict(quad_document(checker)), workers=1).image
+    a, b = turned_u * 3, turned_v * 3
+    edges = np.minimum(np.abs(a - np.round(a)), np.abs(b - np.round(b))) > 1e-6
+    assert np.array_equal(found[edges], checker_expected(turned_u, turned_v, 3.0, [1, 0, 0], [0, 0, 1])[edges])

@@ -7,6 +7,7 @@ pixel centres."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import bpy
@@ -63,10 +64,10 @@ def by_uv(material, node) -> None:
 
 
 def checker(
-    scale: float, output: str = "Color", mapping: str | None = None
+    scale: float, output: str = "Color", mapping: str | None = None, turn: float = 0.0
 ) -> tuple[bpy.types.Material, bpy.types.Node]:
     """A Checker Texture of this scale by UV on Base Color (through a Mapping node of this type: scale (1.6, 0.7),
-    location (0.13, -0.2))."""
+    location (0.13, -0.2); with turn degrees about Z, and for Texture a uniform scale 1.3)."""
     material, shader = uv_plane()
     node = material.node_tree.nodes.new("ShaderNodeTexChecker")
     node.inputs["Color1"].default_value, node.inputs["Color2"].default_value = RED, BLUE
@@ -76,8 +77,9 @@ def checker(
     else:
         moved = material.node_tree.nodes.new("ShaderNodeMapping")
         moved.vector_type = mapping
-        moved.inputs["Scale"].default_value = (1.6, 0.7, 1.0)
+        moved.inputs["Scale"].default_value = (1.3, 1.3, 1.0) if turn and mapping == "TEXTURE" else (1.6, 0.7, 1.0)
         moved.inputs["Location"].default_value = (0.13, -0.2, 0.0)
+        moved.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(turn))
         by_uv(material, moved)
         material.node_tree.links.new(moved.outputs["Vector"], node.inputs["Vector"])
     material.node_tree.links.new(node.outputs[output], shader.inputs["Base Color"])
@@ -319,16 +321,21 @@ def test_hue_saturation_on_a_gradients_grey_scales_it(tmp_path) -> None:
 # ---- beside Cycles --------------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize(("scale", "mapping"), [(5.0, None), (3.7, None), (3.7, "POINT"), (2.5, "TEXTURE")])
-def test_f12_shows_the_checker_as_cycles_does(tmp_path, scale: float, mapping: str | None) -> None:
-    material, _ = checker(scale, mapping=mapping)
+@pytest.mark.parametrize(
+    ("scale", "mapping", "turn"),
+    [(5.0, None, 0.0), (3.7, None, 0.0), (3.7, "POINT", 0.0), (2.5, "TEXTURE", 0.0), (3.7, "POINT", 15.0),
+     (2.5, "TEXTURE", 20.0)],
+)  # fmt: skip
+def test_f12_shows_the_checker_as_cycles_does(tmp_path, scale: float, mapping: str | None, turn: float) -> None:
+    material, _ = checker(scale, mapping=mapping, turn=turn)
     if mapping is not None:
-        assert set(material_convert.convert_material(material)[0]["texture"]) == {"checker", "uv_scale", "uv_offset"}
+        fields = {"checker", "uv_scale", "uv_offset"} | ({"uv_rotation"} if turn else set())
+        assert set(material_convert.convert_material(material)[0]["texture"]) == fields
     tracer, cycles = both(tmp_path)
     message = compare_means(tracer, cycles)
     first, expected = tracer[..., 0] > tracer[..., 2], cycles[..., 0] > cycles[..., 2]  # Color1 is the red one
     overlap = iou(first, expected)
-    print(f"checker {scale} {mapping}: {message}; Color1 IoU {overlap:.4f}, share {expected.mean():.3f}")
+    print(f"checker {scale} {mapping} {turn}: {message}; Color1 IoU {overlap:.4f}, share {expected.mean():.3f}")
     assert 0.3 < expected.mean() < 0.7 and overlap >= 0.95, f"{message}; IoU {overlap:.4f}"
 
 

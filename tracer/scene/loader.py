@@ -293,6 +293,7 @@ def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
     mapping = {
         "uv_scale": reader.vector("uv_scale", (1.0, 1.0), length=2, low=-TEXTURE_SCALE_MAX, high=TEXTURE_SCALE_MAX),
         "uv_offset": reader.vector("uv_offset", (0.0, 0.0), length=2, low=-COORDINATE_LIMIT, high=COORDINATE_LIMIT),
+        "uv_rotation": reader.number("uv_rotation", 0.0, low=-ANGLE_LIMIT, high=ANGLE_LIMIT),
     }
     if "checker" in reader.data or "gradient" in reader.data or "attribute" in reader.data:
         texture = _procedural_texture(reader)
@@ -345,7 +346,7 @@ def _procedural_texture(reader: _Reader) -> sc.Texture | None:
     the UV map; a gradient's colour ramp) or {"attribute": {...}} (a mesh's corner colours), alone in its object."""
     kind = next(key for key in ("checker", "gradient", "attribute") if key in reader.data)
     inner = reader.reader(kind)
-    mapped = ("uv_scale", "uv_offset") if kind != "attribute" else ()  # corner colours are not read by UV
+    mapped = ("uv_scale", "uv_offset", "uv_rotation") if kind != "attribute" else ()  # colours are not read by UV
     beside = [key for key in reader.data if key not in (kind, *mapped)]
     if beside:
         others = ", ".join(json.dumps(key) for key in beside)

@@ -244,7 +244,8 @@ class Texture(ArraysByBits):
     no pixels: colors are the checker's (color1, color2) or the gradient's colour ramp stops' colours (at positions,
     ascending in [0, 1], interpolated by ramp: linear or constant); scale multiplies the checker's UV; gradient is the
     Gradient Texture's type (GRADIENTS). uv_scale, uv_offset: the UV the texture reads is (u su + ou, v sv + ov)
-    (Blender's Mapping node of no rotation)."""
+    (Blender's Mapping node), turned by uv_rotation degrees between the scale and the offset (the Mapping's Z
+    rotation)."""
 
     ARRAYS = ("pixels",)
 
@@ -261,6 +262,7 @@ class Texture(ArraysByBits):
     # a Mapping node before the texture (every kind): the UV read as (u su + ou, v sv + ov)
     uv_scale: tuple[float, float] = (1.0, 1.0)
     uv_offset: tuple[float, float] = (0.0, 0.0)
+    uv_rotation: float = 0.0  # degrees about the UV origin, after uv_scale and before uv_offset (a Mapping's Z)
     gain: Vec3 = (1.0, 1.0, 1.0)  # kind "attribute": gain * colour + bias
     bias: Vec3 = (0.0, 0.0, 0.0)
 

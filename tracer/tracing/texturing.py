@@ -12,10 +12,10 @@ bottom (v = 0; the pixels' row H - 1 - j, as their row 0 is the top). As Cycles'
 An "attribute" texture is not looked up by UV: a mesh's corner colours interpolated at the hit (barycentric, as
 smooth normals) go through gain * colour + bias, clamped to [0, 1] (attribute(), attribute_one()).
 
-A UV that is not finite is read as (0, 0); a texture's uv_scale and uv_offset (a Mapping node) then make it
-(u su + ou, v sv + ov). The vectorized sample() and the per-ray sample_one() do the same float64
-operations in the same order, so the tracer and the per-pixel reference agree to the last bits but for the
-rounding of the hit's UV itself.
+A UV that is not finite is read as (0, 0); a texture's uv_scale, uv_rotation and uv_offset (a Mapping node of
+type Point) then make it R (u su, v sv) + (ou, ov), R the rotation by uv_rotation degrees counter-clockwise. The
+vectorized sample() and the per-ray sample_one() do the same float64 operations in the same order, so the tracer and
+the per-pixel reference agree to the last bits but for the rounding of the hit's UV itself.
 
 Procedural textures read the UV as Cycles' texture coordinate (u, v, 0):
 
@@ -39,11 +39,22 @@ import numpy as np
 from ..scene import scene as sc
 
 
+def _turn(degrees: float) -> tuple[float, float]:
+    """cos and sin of a Mapping node's Z rotation (degrees), the same floats for sample() and sample_one()."""
+    angle = math.radians(degrees)
+    return math.cos(angle), math.sin(angle)
+
+
 def sample(texture: sc.Texture, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """The texture's colours (3, n) float64 at UVs u, v (n,)."""
     u = np.where(np.isfinite(u), u, 0.0)
     v = np.where(np.isfinite(v), v, 0.0)
-    if texture.uv_scale != (1.0, 1.0) or texture.uv_offset != (0.0, 0.0):
+    if texture.uv_rotation != 0.0:
+        cosine, sine = _turn(texture.uv_rotation)
+        x, y = u * texture.uv_scale[0], v * texture.uv_scale[1]
+        u = x * cosine - y * sine + texture.uv_offset[0]
+        v = x * sine + y * cosine + texture.uv_offset[1]
+    elif texture.uv_scale != (1.0, 1.0) or texture.uv_offset != (0.0, 0.0):
         u = u * texture.uv_scale[0] + texture.uv_offset[0]
         v = v * texture.uv_scale[1] + texture.uv_offset[1]
     if texture.kind == "checker":
@@ -153,7 +164,12 @@ def sample_one(texture: sc.Texture, u: float, v: float) -> tuple[float, float, f
     """The texture's colour at one UV: sample()'s operations in plain Python floats (the per-pixel reference)."""
     u = u if math.isfinite(u) else 0.0
     v = v if math.isfinite(v) else 0.0
-    if texture.uv_scale != (1.0, 1.0) or texture.uv_offset != (0.0, 0.0):
+    if texture.uv_rotation != 0.0:
+        cosine, sine = _turn(texture.uv_rotation)
+        x, y = u * texture.uv_scale[0], v * texture.uv_scale[1]
+        u = x * cosine - y * sine + texture.uv_offset[0]
+        v = x * sine + y * cosine + texture.uv_offset[1]
+    elif texture.uv_scale != (1.0, 1.0) or texture.uv_offset != (0.0, 0.0):
         u = u * texture.uv_scale[0] + texture.uv_offset[0]
         v = v * texture.uv_scale[1] + texture.uv_offset[1]
     if texture.kind == "checker":
