@@ -567,10 +567,15 @@ def _mesh_object(placed: mesh_export.Placed, source: _Source, export: _Export) -
     return body
 
 
-def _textured(names, materials: dict) -> bool:
-    """Whether any of these scene-file materials has a texture or an emission texture (its meshes then carry their
-    corner UVs)."""
-    return any({"texture", "emission_texture"} & set(materials.get(name, {})) for name in names)
+def _textured(names, materials: dict) -> bool | str:
+    """Which corner UVs the meshes of these scene-file materials carry: the UV map a texture of theirs reads (its
+    "uv_map": a UV Map node's), True for the default one, False where none has a texture read by UV."""
+    for name in names:
+        for key in ("texture", "emission_texture"):
+            texture = materials.get(name, {}).get(key)
+            if texture is not None and "attribute" not in texture:
+                return texture.get("uv_map") or True
+    return False
 
 
 def _colored(names, materials: dict) -> str | None:

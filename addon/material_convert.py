@@ -407,14 +407,16 @@ def _uv_mapping(texture_node, unlinked_uv: bool = True, procedural: bool = False
     u and v); None where it does not (a procedural texture also where the Mapping moves z: it reads (u, v, 0))."""
     node, _ = _source(texture_node.inputs["Vector"])
     if node is None or node.bl_idname != "ShaderNodeMapping":
-        return {} if _uv_coordinates(texture_node, unlinked_uv) else None
+        uv_map = _uv_coordinates(texture_node, unlinked_uv)
+        return None if uv_map is None else ({"uv_map": uv_map} if uv_map else {})
     kind = node.vector_type
     values = {name: _constant_vector(node.inputs.get(name)) for name in ("Location", "Rotation", "Scale")}
     if kind not in ("POINT", "TEXTURE", "VECTOR") or values["Scale"] is None or values["Rotation"] is None:
         return None
-    rotation = values["Rotation"]
-    if rotation[0] != 0.0 or rotation[1] != 0.0 or not _uv_coordinates(node, False):
+    rotation, uv_map = values["Rotation"], _uv_coordinates(node, False)
+    if rotation[0] != 0.0 or rotation[1] != 0.0 or uv_map is None:
         return None
+    named = {"uv_map": uv_map} if uv_map else {}
     scale, location = values["Scale"], values["Location"]
     if kind == "VECTOR":  # no location
         location = [0.0, 0.0, 0.0]
@@ -424,13 +426,18 @@ def _uv_mapping(texture_node, unlinked_uv: bool = True, procedural: bool = False
         return None
     turned = {"uv_rotation": math.degrees(rotation[2])} if rotation[2] != 0.0 else {}
     if kind != "TEXTURE":
-        return {"uv_scale": scale[:2], "uv_offset": location[:2], **turned}
+        return {"uv_scale": scale[:2], "uv_offset": location[:2], **turned, **named}
     if scale[0] == 0.0 or scale[1] == 0.0 or (turned and scale[0] != scale[1]):
         return None  # the inverse rotates before it scales: with a rotation, only a uniform scale commutes
     cosine, sine = math.cos(-rotation[2]), math.sin(-rotation[2])
     x, y = location[0] * cosine - location[1] * sine, location[0] * sine + location[1] * cosine  # R^-1 L
     turned = {"uv_rotation": -turned["uv_rotation"]} if turned else {}
-    return {"uv_scale": [1.0 / scale[0], 1.0 / scale[1]], "uv_offset": [-x / scale[0], -y / scale[1]], **turned}
+    return {
+        "uv_scale": [1.0 / scale[0], 1.0 / scale[1]],
+        "uv_offset": [-x / scale[0], -y / scale[1]],
+        **turned,
+        **named,
+    }
 
 
 def _constant_vector(socket) -> list[float] | None:
@@ -441,16 +448,18 @@ def _constant_vector(socket) -> list[float] | None:
     return None if value is None else list(value)
 
 
-def _uv_coordinates(texture_node, unlinked_uv: bool = True) -> bool:
-    """Whether a texture node reads the mesh's default UV map: its Vector unlinked (an Image Texture; procedural
-    textures read Generated coordinates there: unlinked_uv False), or from a Texture Coordinate's UV output or a UV
-    Map node that names no map."""
+def _uv_coordinates(texture_node, unlinked_uv: bool = True) -> str | None:
+    """The UV map a texture node reads: "" for the mesh's default (its Vector unlinked: an Image Texture; procedural
+    textures read Generated coordinates there: unlinked_uv False; a Texture Coordinate's UV output; a UV Map node
+    that names no map), a UV Map node's map by name; None where it reads other coordinates."""
     node, output = _source(texture_node.inputs["Vector"])
     if node is None:
-        return unlinked_uv
+        return "" if unlinked_uv else None
     if node.bl_idname == "ShaderNodeTexCoord":
-        return output.name == "UV" and getattr(node, "object", None) is None
-    return node.bl_idname == "ShaderNodeUVMap" and not getattr(node, "uv_map", "")
+        return "" if output.name == "UV" and getattr(node, "object", None) is None else None
+    if node.bl_idname == "ShaderNodeUVMap" and not getattr(node, "from_instancer", False):
+        return getattr(node, "uv_map", "")
+    return None
 
 
 def _mix_sockets(node):
@@ -1119,7 +1128,8 @@ def _texture_document(texture: tuple, base, local: float, high: float = 1.0) -> 
     gradient's ramp stops."""
     interpolation, extension, procedural, mapping = texture[3:]
     mapping = {
-        key: float(value) if key == "uv_rotation" else [float(c) for c in value] for key, value in mapping.items()
+        key: value if key == "uv_map" else float(value) if key == "uv_rotation" else [float(c) for c in value]
+        for key, value in mapping.items()
     }
     if procedural is not None and "attribute" in procedural:  # the tracer maps each colour: gain c + bias, clamped
         black, white = _texture_values(texture, base, local)[:, 0]

@@ -33,6 +33,7 @@ class MeshArrays:
     corner_normals: np.ndarray | None  # (T, 3, 3) float64, None when every face is flat
     slots: np.ndarray  # (T,) int64, the material slot of each triangle
     uvs: np.ndarray | None = None  # (T, 3, 2) float64 the active render UV map's per corner, None without one
+    uv_maps: dict = field(default_factory=dict)  # every UV map's, (T, 3, 2) float64 each, by name
     # the colour attributes (point or corner domain) per corner, linear RGB (T, 3, 3) float64 each, by name; "" names
     # the render default (what a Color Attribute node of no name reads)
     colors: dict = field(default_factory=dict)
@@ -50,22 +51,27 @@ class MeshArrays:
 
     @property
     def nbytes(self) -> int:
-        arrays = (self.vertices, self.triangles, self.corner_normals, self.slots, self.uvs, *self.colors.values())
-        return sum(array.nbytes for array in arrays if array is not None)
+        maps = [array for array in self.uv_maps.values() if array is not self.uvs]
+        arrays = (self.vertices, self.triangles, self.corner_normals, self.slots, self.uvs, *maps)
+        return sum(array.nbytes for array in (*arrays, *self.colors.values()) if array is not None)
 
 
-def _corner_uvs(mesh, loop_triangles, count: int) -> np.ndarray | None:
-    """The mesh's UV map that Cycles' image textures read by default (the active render one, else the active one)
-    at each triangle corner (T, 3, 2) float64, through foreach_get; None where the mesh has no UV map."""
+def _corner_uvs(mesh, loop_triangles, count: int) -> tuple[np.ndarray | None, dict[str, np.ndarray]]:
+    """The mesh's UV maps at each triangle corner (T, 3, 2) float64, through foreach_get: the one Cycles' image
+    textures read by default (the active render one, else the active one; None where the mesh has no UV map), and
+    every one by name (for a UV Map node that names one)."""
     layers = getattr(mesh, "uv_layers", None)
     if not layers:
-        return None
-    layer = next((uv for uv in layers if uv.active_render), None) or layers.active or layers[0]
-    uvs = np.empty(len(mesh.loops) * 2, dtype=np.float32)
-    layer.data.foreach_get("uv", uvs)
+        return None, {}
+    default = next((uv for uv in layers if uv.active_render), None) or layers.active or layers[0]
     loops = np.empty(count * 3, dtype=np.int32)
     loop_triangles.foreach_get("loops", loops)
-    return uvs.reshape(-1, 2).astype(np.float64)[loops].reshape(count, 3, 2)
+    found = {}
+    for layer in layers:
+        uvs = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+        layer.data.foreach_get("uv", uvs)
+        found[layer.name] = uvs.reshape(-1, 2).astype(np.float64)[loops].reshape(count, 3, 2)
+    return found[default.name], found
 
 
 def _corner_colors(mesh, loop_triangles, count: int, triangles: np.ndarray) -> dict[str, np.ndarray]:
@@ -133,7 +139,7 @@ def read(obj) -> MeshArrays | None:
             # a flat face shades with each triangle's own normal, as Cycles does (a non-planar quad's split normal is
             # the polygon's, which neither triangle has): only smooth faces carry corner normals
             corner_normals[flat] = face_normals.astype(np.float64).reshape(count, 1, 3)[flat]
-        uvs = _corner_uvs(mesh, loop_triangles, count)
+        uvs, uv_maps = _corner_uvs(mesh, loop_triangles, count)
         colors = _corner_colors(mesh, loop_triangles, count, triangles)
     finally:
         obj.to_mesh_clear()
@@ -143,6 +149,7 @@ def read(obj) -> MeshArrays | None:
         corner_normals=corner_normals,
         slots=slots.astype(np.int64),
         uvs=uvs,
+        uv_maps=uv_maps,
         colors=colors,
     )
 
@@ -160,6 +167,7 @@ class Placed:
     slots: np.ndarray  # (T,) int64, the material slot of each kept triangle
     dropped: int  # triangles left out for spanning no area (the tracer refuses them; Blender renders nothing of them)
     uvs: np.ndarray | None = None  # (T, 3, 2) float64 corner UVs of the kept triangles, None without a UV map
+    uv_maps: dict = field(default_factory=dict)  # name -> (T, 3, 2) float64 each UV map's of the kept triangles
     colors: dict = field(default_factory=dict)  # name -> (T, 3, 3) float64 corner colours of the kept triangles
     memo: dict = field(default_factory=dict, compare=False, repr=False)  # what fields() and slots_of() made
 
@@ -167,12 +175,14 @@ class Placed:
     def nbytes(self) -> int:
         """Its arrays' bytes; a small mesh's counted 8 times, for the lists it keeps (a row of 3 floats is a list of
         float objects: about 150 bytes against 24)."""
-        arrays = (self.vertices, self.triangles, self.normals, self.slots, self.uvs, *self.colors.values())
+        maps = [array for array in self.uv_maps.values() if array is not self.uvs]
+        arrays = (self.vertices, self.triangles, self.normals, self.slots, self.uvs, *maps, *self.colors.values())
         size = sum(array.nbytes for array in arrays if array is not None)
         return size * 8 if len(self.triangles) <= SMALL_MESH else size
 
-    def fields(self, arrays: bool = False, uvs: bool = False, colors: str | None = None) -> dict:
-        """fields_without_uvs(arrays), with the corner "uvs" where asked (a textured material) and the corner "colors"
+    def fields(self, arrays: bool = False, uvs: bool | str = False, colors: str | None = None) -> dict:
+        """fields_without_uvs(arrays), with the corner "uvs" where asked (a textured material: True the default UV map,
+        a name that UV map) and the corner "colors"
         of the colour attribute named colors ("" the render default) where the mesh has it: arrays where arrays are
         asked (a render in this process), else lists made once. A mesh with no UV map gets (0, 0) at every
         corner: Cycles reads a missing UV map as zero, so its textures show the texel found at (0, 0)."""
@@ -190,7 +200,8 @@ class Placed:
                 found["colors"] = list(listed)
         if not uvs:
             return found
-        corners = self.uvs
+        # a UV map by name (a UV Map node's): one the mesh lacks reads (0, 0) below, as Cycles reads a missing one
+        corners = self.uv_maps.get(uvs) if isinstance(uvs, str) else self.uvs
         if corners is None:
             corners = self.memo.get("zero uvs")
             if corners is None:
@@ -200,9 +211,9 @@ class Placed:
             view.flags.writeable = False
             found["uvs"] = view
         else:
-            listed = self.memo.get("uv lists")
+            listed = self.memo.get(("uv lists", uvs))
             if listed is None:
-                listed = self.memo["uv lists"] = corners.tolist()
+                listed = self.memo[("uv lists", uvs)] = corners.tolist()
             found["uvs"] = list(listed)
         return found
 
@@ -310,13 +321,17 @@ def place(arrays: MeshArrays, matrix=None) -> Placed:
         uvs = arrays.uvs if everything else arrays.uvs[spans_area]
         if mirrored:
             uvs = uvs[:, order]
-    colors, done = {}, {}
-    for name, corners in arrays.colors.items():  # the same, each colour attribute ("" shares its default's)
+    done: dict[int, np.ndarray] = {id(arrays.uvs): uvs} if uvs is not None else {}
+
+    def kept(corners: np.ndarray) -> np.ndarray:  # the same, each UV map and colour attribute (shared ones once)
         if id(corners) not in done:
-            kept_colors = corners if everything else corners[spans_area]
-            done[id(corners)] = kept_colors[:, order] if mirrored else kept_colors
-        colors[name] = done[id(corners)]
-    return Placed(placed_vertices, remapped, normals, slots, dropped, uvs, colors)
+            some = corners if everything else corners[spans_area]
+            done[id(corners)] = some[:, order] if mirrored else some
+        return done[id(corners)]
+
+    uv_maps = {name: kept(corners) for name, corners in arrays.uv_maps.items()}
+    colors = {name: kept(corners) for name, corners in arrays.colors.items()}
+    return Placed(placed_vertices, remapped, normals, slots, dropped, uvs, uv_maps, colors)
 
 
 def in_world(arrays: MeshArrays, matrix) -> tuple[dict, np.ndarray, int]:

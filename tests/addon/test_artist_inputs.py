@@ -354,3 +354,33 @@ def test_a_glass_cube_tints_what_is_seen_through_it_as_in_cycles(tmp_path: Path,
     cycles, tracer = _both(tmp_path)
     print(f"{kind} cube: Cycles {np.round(cycles, 4)}, tracer {np.round(tracer, 4)}")
     np.testing.assert_allclose(tracer, cycles, rtol=0.03)
+
+
+def test_an_image_read_through_a_named_uv_map_is_looked_up_there_as_in_cycles(tmp_path: Path) -> None:
+    """A plane with two UV maps, the default and one turned a quarter (u, v) -> (v, 1 - u); an image by a UV Map node
+    naming the second: each pixel as Cycles shows it (before: the image's mean colour, named)."""
+    material, tree, diffuse = _plane_scene()
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = 24
+    scene.cycles.filter_width = 0.01
+    mesh = bpy.data.meshes["plane"]
+    turned = mesh.uv_layers.new(name="Turned")
+    default = np.empty(len(mesh.loops) * 2)
+    mesh.uv_layers["UVMap"].data.foreach_get("uv", default)
+    u, v = default[0::2], default[1::2]
+    turned.data.foreach_set("uv", np.stack([v, 1.0 - u], axis=1).ravel())
+    mesh.uv_layers.active = mesh.uv_layers["UVMap"]
+    image = bpy.data.images.new("quarters", 2, 2, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    image.pixels.foreach_set([0.9, 0.1, 0.1, 1, 0.1, 0.9, 0.1, 1, 0.1, 0.1, 0.9, 1, 0.9, 0.9, 0.1, 1])
+    texture, uv_map = tree.nodes.new("ShaderNodeTexImage"), tree.nodes.new("ShaderNodeUVMap")
+    texture.image, texture.interpolation, uv_map.uv_map = image, "Closest", "Turned"
+    tree.links.new(uv_map.outputs["UV"], texture.inputs["Vector"])
+    tree.links.new(texture.outputs["Color"], diffuse.inputs["Color"])
+    document, notes = material_convert.convert_material(material)
+    assert document["texture"]["uv_map"] == "Turned" and notes == []
+    cycles, tracer = _both_images(tmp_path)
+    error = np.mean((np.clip(tracer, 0, 1) - np.clip(cycles, 0, 1)) ** 2)
+    psnr = 10.0 * np.log10(1.0 / error) if error > 0 else 99.0
+    print(f"named UV map: PSNR {psnr:.1f} dB against Cycles")
+    assert psnr >= 35.0

@@ -295,6 +295,9 @@ def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
         "uv_offset": reader.vector("uv_offset", (0.0, 0.0), length=2, low=-COORDINATE_LIMIT, high=COORDINATE_LIMIT),
         "uv_rotation": reader.number("uv_rotation", 0.0, low=-ANGLE_LIMIT, high=ANGLE_LIMIT),
     }
+    uv_map = reader.raw("uv_map", "")  # which UV map the meshes' "uvs" hold: for readers, not the tracer
+    if not isinstance(uv_map, str):
+        reader.fail("uv_map", f"must be a UV map's name (a string), got {_show_shape(uv_map)}")
     if "checker" in reader.data or "gradient" in reader.data or "attribute" in reader.data:
         texture = _procedural_texture(reader)
         return None if texture is None else replace(texture, **mapping)
@@ -346,7 +349,7 @@ def _procedural_texture(reader: _Reader) -> sc.Texture | None:
     the UV map; a gradient's colour ramp) or {"attribute": {...}} (a mesh's corner colours), alone in its object."""
     kind = next(key for key in ("checker", "gradient", "attribute") if key in reader.data)
     inner = reader.reader(kind)
-    mapped = ("uv_scale", "uv_offset", "uv_rotation") if kind != "attribute" else ()  # colours are not read by UV
+    mapped = ("uv_scale", "uv_offset", "uv_rotation", "uv_map") if kind != "attribute" else ()  # colours: not by UV
     beside = [key for key in reader.data if key not in (kind, *mapped)]
     if beside:
         others = ", ".join(json.dumps(key) for key in beside)
