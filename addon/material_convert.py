@@ -339,9 +339,9 @@ def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, 
             return mean
     mixed = _mixed_means(node, material, label)
     if mixed is not None:  # e.g. glTF's image x colour attribute x factor: the product of their means
-        notes.append(f"{node.name} of varying colours on {label}: its inputs' means mixed")
+        notes.append(f"{node.path_name} of varying colours on {label}: its inputs' means mixed")
         return mixed
-    notes.append(f"{node.name} on {label}: the input's own value")
+    notes.append(f"{node.path_name} on {label}: the input's own value")
     return own
 
 
@@ -696,7 +696,7 @@ def value_input(socket, label: str, notes: list[str]) -> float:
         else:
             notes.append(f"{what} on {label}: its mean")
         return float(np.asarray(texture_mean(texture)) @ LUMINANCE)
-    notes.append(f"{node.name if node is not None else 'a node'} on {label}: the input's own value")
+    notes.append(f"{node.path_name if node is not None else 'a node'} on {label}: the input's own value")
     return float(node_tree.wrap(socket).default_value)
 
 

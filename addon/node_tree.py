@@ -118,9 +118,11 @@ class Node:
         return _Sockets(self.bpy.outputs, self.path)
 
     @property
-    def label(self) -> str:
-        """The node's name as the notes give it: inside groups, the group nodes' names before it."""
-        return " > ".join([*(group.name for group in self.path), self.bpy.name])
+    def path_name(self) -> str:
+        """The node's name as the notes give it: inside groups, the groups' names before it (each group node's
+        node tree, as its header shows it)."""
+        groups = [group.node_tree.name if group.node_tree is not None else group.name for group in self.path]
+        return " > ".join([*groups, self.bpy.name])
 
 
 def wrap(socket_or_node):

@@ -193,7 +193,7 @@ def _color_of(socket, notes: list[str]) -> tuple[float, float, float]:
     if node.bl_idname == "ShaderNodeTexSky":
         notes.append(f"sky texture: a clear-sky blue {SKY_MEAN}")
         return SKY_MEAN
-    notes.append(f"{node.name} on the world's Color: the input's own value")
+    notes.append(f"{node.path_name} on the world's Color: the input's own value")
     return own
 
 

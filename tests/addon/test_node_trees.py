@@ -121,7 +121,7 @@ def test_the_node_walker_sees_every_node_in_groups_and_names_their_path() -> Non
     found = {node.bl_idname: node for node in node_tree.nodes(material.node_tree)}
     principled = found["ShaderNodeBsdfPrincipled"]
     assert [group.node_tree.name for group in principled.path] == ["outer", "inner"]
-    assert principled.label.endswith("Principled BSDF") and principled.label.count(">") == 2
+    assert principled.path_name.endswith("Principled BSDF") and principled.path_name.count(">") == 2
     assert "ShaderNodeGroup" not in found
 
 
