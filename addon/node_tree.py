@@ -95,10 +95,10 @@ class _Sockets:
 class Node:
     """A node in the flattened graph: the bpy node and the group nodes around it (outermost first)."""
 
-    __slots__ = ("bpy", "path")
+    __slots__ = ("_sockets", "bpy", "path")
 
     def __init__(self, node, path: tuple = ()) -> None:
-        self.bpy, self.path = node, path
+        self.bpy, self.path, self._sockets = node, path, None
 
     def __getattr__(self, name: str):
         return getattr(self.bpy, name)
@@ -111,7 +111,9 @@ class Node:
 
     @property
     def inputs(self) -> _Sockets:
-        return _Sockets(self.bpy.inputs, self.path)
+        if self._sockets is None:  # made once: a conversion asks a Principled BSDF for its inputs dozens of times
+            self._sockets = _Sockets(self.bpy.inputs, self.path)
+        return self._sockets
 
     @property
     def outputs(self) -> _Sockets:
@@ -148,8 +150,10 @@ def _step(socket: Socket) -> Socket | None:
     """One hop back from an input: the output that feeds it (a node's, in the flattened graph), the input that
     stands for it (through a reroute, a muted node, a group's boundary), or None where nothing feeds it."""
     bpy_socket, path = socket.bpy, socket.path
+    if not bpy_socket.is_linked:  # first: bpy's `links` walks the whole tree's links in Python
+        return None
     links = [link for link in bpy_socket.links if link.is_valid and not getattr(link, "is_muted", False)]
-    if not bpy_socket.is_linked or not links:
+    if not links:
         return None
     link = links[0]
     node, output = link.from_node, link.from_socket
@@ -177,6 +181,8 @@ def _step(socket: Socket) -> Socket | None:
 def _resolve(socket: Socket) -> Socket | None:
     """The output that feeds an input in the flattened graph, or the unlinked input whose value it holds (None
     where the links run in a circle)."""
+    if not socket.bpy.is_linked:  # the common case: an input that holds its own value
+        return socket
     current = socket
     for _ in range(MAX_DEPTH):
         if current.bpy.is_output:
@@ -190,6 +196,8 @@ def _resolve(socket: Socket) -> Socket | None:
 
 def source(socket) -> tuple[Node | None, Socket | None]:
     """The node and output that feed an input (a bpy socket or a Socket) in the flattened graph, or (None, None)."""
+    if not (socket.bpy if isinstance(socket, Socket) else socket).is_linked:  # the common case, without wrapping
+        return None, None
     found = _resolve(wrap(socket))
     if found is None or not found.bpy.is_output:
         return None, None
@@ -234,7 +242,8 @@ def as_color(value) -> tuple[float, float, float] | None:
 
 
 def _own(socket: Socket):
-    value = socket.default_value
+    """A resolved socket's own value (an unlinked input's, or an output's): a float, a (3,) tuple or None."""
+    value = socket.bpy.default_value
     if isinstance(value, int | float):
         return float(value)
     try:
@@ -266,10 +275,17 @@ def constant(socket, depth: int = 0):
 
 
 def constant_number(socket) -> float | None:
+    bpy_socket = socket.bpy if isinstance(socket, Socket) else socket
+    if not bpy_socket.is_linked and bpy_socket.type == "VALUE":  # the common case, without the walk
+        return float(bpy_socket.default_value)
     return as_number(constant(socket))
 
 
 def constant_color(socket) -> tuple[float, float, float] | None:
+    bpy_socket = socket.bpy if isinstance(socket, Socket) else socket
+    if not bpy_socket.is_linked and bpy_socket.type in ("RGBA", "VECTOR"):  # the common case, without the walk
+        value = bpy_socket.default_value
+        return (float(value[0]), float(value[1]), float(value[2]))
     return as_color(constant(socket))
 
 
