@@ -53,7 +53,7 @@ class Socket:
     @property
     def is_linked(self) -> bool:
         """Whether a node feeds this input in the flattened graph (an output: whether it feeds anything)."""
-        if self.bpy.is_output:
+        if self.bpy.is_output or not self.bpy.is_linked:
             return self.bpy.is_linked
         return source(self)[0] is not None
 
@@ -70,13 +70,16 @@ class Socket:
 class _Sockets:
     """A node's inputs or outputs as Sockets, looked up as bpy's are (by name, index or .get)."""
 
-    __slots__ = ("_path", "_sockets")
+    __slots__ = ("_made", "_path", "_sockets")
 
     def __init__(self, sockets, path: tuple) -> None:
-        self._sockets, self._path = sockets, path
+        self._sockets, self._path, self._made = sockets, path, {}
 
     def __getitem__(self, key) -> Socket:
-        return Socket(self._sockets[key], self._path)
+        made = self._made.get(key)
+        if made is None:
+            made = self._made[key] = Socket(self._sockets[key], self._path)
+        return made
 
     def get(self, key, default=None) -> Socket | None:
         socket = self._sockets.get(key)
