@@ -611,6 +611,9 @@ def test_an_attribute_texture_on_a_mesh_without_colours_keeps_the_materials_colo
         ({"texture": {"attribute": {"gain": [1, 1]}}}, "materials.tex.texture.attribute.gain: must be"),
         ({"texture": {"attribute": {}, "uv_scale": [2, 2]}}, 'must give "attribute" alone'),
         ({"colors": [[[1, 0, 0], [0, 1, 0]], [[1, 0, 0], [0, 1, 0], [0, 0, 1]]]}, "objects[0].colors[0]: must be 3"),
+        ({"texture": {"attribute": {"name": 7}}}, "materials.tex.texture.attribute.name: must be a colour attribute's"),
+        ({"texture": {"pixels": TEXELS, "uv_map": ["UV"]}}, "materials.tex.texture.uv_map: must be a UV map's name"),
+        ({"texture": {"pixels": TEXELS, "uv_rotation": "15"}}, "materials.tex.texture.uv_rotation: must be a number"),
     ],
 )
 def test_the_loader_names_bad_corner_colours_and_attribute_textures(change: dict, message: str) -> None:
