@@ -8,7 +8,7 @@ weighs its two inputs by its factor, Add Shader adds them. Then the documented m
     color           = D / (1 - r)                      the tracer weighs the local colour by 1 - r
     specular s      = n / coef (Blinn-Phong), n / 4 (Phong)     the twin's relation, inverted (materials.py)
     specular_color  = G (n + 2) / 8 / (1 - r)          the twin's highlight_gain, inverted (clipped at 1, named)
-    emission        = E                                added unshadowed, as Cycles adds it (clipped at 1, named)
+    emission        = E                                added unshadowed, as Cycles adds it (up to 1e6)
 
 Lobes of the shaders (F0 is a dielectric's reflectance at normal incidence, compat.principled_f0: 0.04 by default):
 
@@ -68,9 +68,10 @@ from .node_tree import hue_saturation
 ROUGH_MIRROR = 0.1  # at or below: a mirror
 ROUGH_HIGHLIGHT = 0.5  # at or above: a highlight of the lights only
 DEFAULT_GREY = (0.8, 0.8, 0.8)  # Cycles' surface for an object without a material
-# The scene format's colours lie in [0, 1] (the loader checks): a highlight or emission brighter than that is clipped,
-# named. Where the format lets specular_color and emission be weights above 1, raise this.
+# The scene format's colours lie in [0, 1] (the loader checks): a highlight brighter than that is clipped, named.
+# Where the format lets specular_color be a weight above 1 (it allows up to 1e6), raise this.
 MAX_COLOR = 1.0
+MAX_EMISSION = 1e6  # emission is radiance, not a reflectance: the format takes it up to 1e6, as Cycles shows it
 # A glass lobe's index of refraction: Cycles clamps it to at least 1e-5; Blender's IOR sockets stop at 1000
 IOR_MIN, IOR_MAX = 1e-5, 1000.0
 # a rough specular lobe's mean weight above which the blurred reflection it leaves out is named (a metal's base
@@ -1101,13 +1102,14 @@ def _opaque_document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -
             notes.append("highlight brighter than a colour holds: clipped at 1")
         document["specular_color"] = [min(MAX_COLOR, c) for c in highlight]
     if any(c > 0.0 for c in lobes.emission):
-        if max(lobes.emission) > MAX_COLOR:
-            notes.append("emission above 1: clipped at 1")
-        document["emission"] = [min(MAX_COLOR, c) for c in lobes.emission]
+        if max(lobes.emission) > MAX_EMISSION:
+            notes.append("emission above 1e6: clipped")
+        document["emission"] = [min(MAX_EMISSION, c) for c in lobes.emission]
     if lobes.emission_texture is not None and any(c > 0.0 for c in lobes.emission):
-        document["emission_texture"] = _texture_document(lobes.emission_texture, lobes.emission, 1.0, MAX_COLOR)
-        if "emission above 1: clipped at 1" not in notes and _texture_clipped(lobes.emission_texture, lobes.emission):
-            notes.append("emission above 1: clipped at 1")
+        glow = lobes.emission_texture
+        document["emission_texture"] = _texture_document(glow, lobes.emission, 1.0, MAX_EMISSION)
+        if "attribute" in (glow[5] or {}) and _texture_clipped(glow, lobes.emission, MAX_COLOR):
+            notes.append("emission by a colour attribute above 1: clipped at 1")  # the format clamps it as a colour
     return document
 
 
@@ -1118,8 +1120,8 @@ def _texture_values(texture: tuple, base, local: float) -> np.ndarray:
     return (pixels * np.asarray(weight) + offset) * local
 
 
-def _texture_clipped(texture: tuple, base) -> bool:
-    return bool(_texture_values(texture, base, 1.0).max() > MAX_COLOR + 1e-6)
+def _texture_clipped(texture: tuple, base, high: float) -> bool:
+    return bool(_texture_values(texture, base, 1.0).max() > high + 1e-6)
 
 
 def _texture_document(texture: tuple, base, local: float, high: float = 1.0) -> dict:

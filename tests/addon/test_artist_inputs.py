@@ -384,3 +384,19 @@ def test_an_image_read_through_a_named_uv_map_is_looked_up_there_as_in_cycles(tm
     psnr = 10.0 * np.log10(1.0 / error) if error > 0 else 99.0
     print(f"named UV map: PSNR {psnr:.1f} dB against Cycles")
     assert psnr >= 35.0
+
+
+def test_emission_above_1_is_the_radiance_cycles_writes(tmp_path: Path) -> None:
+    """An Emission shader of strength 5: the EXR holds 5 x its colour in both (was clipped at 1, named)."""
+    material, tree, _diffuse = _plane_scene()
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (1.0, 0.5, 0.2, 1.0)
+    emission.inputs["Strength"].default_value = 5.0
+    tree.links.new(emission.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    bpy.data.objects.remove(bpy.data.objects["sun"])
+    document, notes = material_convert.convert_material(material)
+    assert document["emission"] == pytest.approx([5.0, 2.5, 1.0]) and notes == []
+    cycles, tracer = _both(tmp_path)
+    print(f"emission 5: Cycles {np.round(cycles, 4)}, tracer {np.round(tracer, 4)}")
+    np.testing.assert_allclose(tracer, cycles, rtol=1e-3)
+    np.testing.assert_allclose(cycles, [5.0, 2.5, 1.0], rtol=1e-3)

@@ -258,9 +258,9 @@ def test_an_image_on_emission_becomes_the_emission_texture_times_its_strength() 
     expected = np.asarray(image.pixels[:]).reshape(2, 2, 4)[::-1, :, :3] * 1.5
     assert document["emission_texture"]["pixels"] == pytest.approx(expected, abs=1e-6)
     assert document["emission"] == pytest.approx(expected.reshape(-1, 3).mean(axis=0), abs=1e-6)
-    shader.inputs["Emission Strength"].default_value = 3.0  # 0.5 x 3 clips at 1, named
+    shader.inputs["Emission Strength"].default_value = 3.0  # 0.5 x 3: radiance above 1, kept as Cycles keeps it
     document, notes = material_convert.convert_material(material)
-    assert document["emission_texture"]["pixels"].max() == 1.0 and notes == ["emission above 1: clipped at 1"]
+    assert document["emission_texture"]["pixels"].max() == pytest.approx(1.5) and notes == []
 
 
 def test_a_mapping_node_becomes_the_textures_uv_scale_and_offset() -> None:

@@ -102,8 +102,8 @@ def test_emission_is_added_and_an_emission_only_plane_is_not_black() -> None:
     emission.inputs["Strength"].default_value = 2.0
     material.node_tree.links.new(emission.outputs[0], output.inputs["Surface"])
     document, notes = material_convert.convert_material(material)
-    assert document["emission"] == pytest.approx([1.0, 1.0, 0.5]) and document["color"] == [0, 0, 0]
-    assert notes == ["emission above 1: clipped at 1"]
+    assert document["emission"] == pytest.approx([2.0, 1.0, 0.5]) and document["color"] == [0, 0, 0]
+    assert notes == []  # radiance above 1 is kept, as Cycles keeps it (the display clips, an EXR does not)
     lamp, notes = material_convert.convert_material(
         principled(emission=(0.0, 1.0, 0.0, 1.0), **{"Emission Strength": 0.5})
     )
