@@ -189,15 +189,7 @@ class Placed:
         found = self.fields_without_uvs(arrays)
         corner_colors = self.colors.get(colors) if colors is not None else None
         if corner_colors is not None:  # the colour attribute an "attribute" texture of its material reads
-            if arrays:
-                view = corner_colors.view()
-                view.flags.writeable = False
-                found["colors"] = view
-            else:
-                listed = self.memo.get(("color lists", colors))
-                if listed is None:
-                    listed = self.memo[("color lists", colors)] = corner_colors.tolist()
-                found["colors"] = list(listed)
+            found["colors"] = self._corners(corner_colors, ("color lists", colors), arrays)
         if not uvs:
             return found
         # a UV map by name (a UV Map node's): one the mesh lacks reads (0, 0) below, as Cycles reads a missing one
@@ -206,16 +198,20 @@ class Placed:
             corners = self.memo.get("zero uvs")
             if corners is None:
                 corners = self.memo["zero uvs"] = np.zeros((len(self.triangles), 3, 2))
+        found["uvs"] = self._corners(corners, ("uv lists", uvs), arrays)
+        return found
+
+    def _corners(self, corners: np.ndarray, key: tuple, arrays: bool):
+        """Per-corner values (T, 3, k) as the scene file takes them: a read-only view where arrays are asked, else
+        lists made once (kept in memo under key), in new outer lists."""
         if arrays:
             view = corners.view()
             view.flags.writeable = False
-            found["uvs"] = view
-        else:
-            listed = self.memo.get(("uv lists", uvs))
-            if listed is None:
-                listed = self.memo[("uv lists", uvs)] = corners.tolist()
-            found["uvs"] = list(listed)
-        return found
+            return view
+        listed = self.memo.get(key)
+        if listed is None:
+            listed = self.memo[key] = corners.tolist()
+        return list(listed)
 
     def fields_without_uvs(self, arrays: bool = False) -> dict:
         """The scene file's "vertices", "triangles" and, where faces are smooth, "normals" (lists). A small mesh's are

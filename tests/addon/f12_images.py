@@ -25,3 +25,19 @@ def f12_exr(path: Path, color_mode: str = "RGB") -> np.ndarray:
         return pixels.reshape(height, width, image.channels)[..., : len(color_mode)].astype(np.float64)
     finally:
         bpy.data.images.remove(image)
+
+
+def looking_down(height: float, ortho_scale: float, pixels: int = 8) -> None:
+    """The open scene seen straight down by an orthographic camera at (0, 0, height) ortho_scale across, pixels x
+    pixels, Standard view, no world, Cycles on the CPU at 16 samples without denoising (the tests beside Cycles)."""
+    scene = bpy.context.scene
+    camera = bpy.data.cameras.new("camera")
+    camera.type, camera.ortho_scale = "ORTHO", ortho_scale
+    scene.camera = bpy.data.objects.new("camera", camera)
+    scene.camera.location = (0.0, 0.0, height)
+    scene.collection.objects.link(scene.camera)
+    scene.render.resolution_x = scene.render.resolution_y = pixels
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.world = None
+    scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 16, False

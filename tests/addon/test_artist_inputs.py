@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from addon import compat, material_convert
-from tests.addon.f12_images import f12_exr
+from tests.addon.f12_images import f12_exr, looking_down
 
 
 def _plane_scene() -> tuple[bpy.types.Material, bpy.types.NodeTree, bpy.types.Node]:
@@ -34,16 +34,7 @@ def _plane_scene() -> tuple[bpy.types.Material, bpy.types.NodeTree, bpy.types.No
     sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
     sun.data.energy, sun.data.angle = 3.0, 0.0
     scene.collection.objects.link(sun)
-    camera = bpy.data.cameras.new("camera")
-    camera.type, camera.ortho_scale = "ORTHO", 1.5
-    scene.camera = bpy.data.objects.new("camera", camera)
-    scene.camera.location = (0.0, 0.0, 2.0)
-    scene.collection.objects.link(scene.camera)
-    scene.render.resolution_x = scene.render.resolution_y = 8
-    scene.render.resolution_percentage = 100
-    scene.view_settings.view_transform = "Standard"
-    scene.world = None
-    scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 16, False
+    looking_down(2.0, 1.5)
     scene.cycles.max_bounces = 0
     return material, tree, diffuse
 
@@ -340,16 +331,7 @@ def test_a_glass_cube_tints_what_is_seen_through_it_as_in_cycles(tmp_path: Path,
     cube.from_pydata(corners, [], faces)
     cube.materials.append(glass)
     scene.collection.objects.link(bpy.data.objects.new("cube", cube))
-    camera = bpy.data.cameras.new("camera")
-    camera.type, camera.ortho_scale = "ORTHO", 0.5
-    scene.camera = bpy.data.objects.new("camera", camera)
-    scene.camera.location = (0.0, 0.0, 3.0)
-    scene.collection.objects.link(scene.camera)
-    scene.render.resolution_x = scene.render.resolution_y = 8
-    scene.render.resolution_percentage = 100
-    scene.view_settings.view_transform = "Standard"
-    scene.world = None
-    scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 16, False
+    looking_down(3.0, 0.5)
     scene.cycles.caustics_refractive = False
     cycles, tracer = _both(tmp_path)
     print(f"{kind} cube: Cycles {np.round(cycles, 4)}, tracer {np.round(tracer, 4)}")

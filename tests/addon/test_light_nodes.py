@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from addon import compat, light_convert
-from tests.addon.f12_images import f12_exr
+from tests.addon.f12_images import f12_exr, looking_down
 
 
 def _scene() -> bpy.types.Object:
@@ -35,16 +35,7 @@ def _scene() -> bpy.types.Object:
     lamp = bpy.data.objects.new("lamp", data)
     lamp.location = (0.0, 0.0, 2.0)
     scene.collection.objects.link(lamp)
-    camera = bpy.data.cameras.new("camera")
-    camera.type, camera.ortho_scale = "ORTHO", 1.0
-    scene.camera = bpy.data.objects.new("camera", camera)
-    scene.camera.location = (0.0, 0.0, 1.0)
-    scene.collection.objects.link(scene.camera)
-    scene.render.resolution_x = scene.render.resolution_y = 8
-    scene.render.resolution_percentage = 100
-    scene.view_settings.view_transform = "Standard"
-    scene.world = None
-    scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 16, False
+    looking_down(1.0, 1.0)
     scene.cycles.max_bounces = 0
     scene.cycles.filter_width = 0.01
     return lamp

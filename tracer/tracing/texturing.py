@@ -45,18 +45,21 @@ def _turn(degrees: float) -> tuple[float, float]:
     return math.cos(angle), math.sin(angle)
 
 
-def sample(texture: sc.Texture, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The texture's colours (3, n) float64 at UVs u, v (n,)."""
-    u = np.where(np.isfinite(u), u, 0.0)
-    v = np.where(np.isfinite(v), v, 0.0)
+def _mapped(texture: sc.Texture, u, v):
+    """The UV a texture reads through its Mapping (uv_scale, uv_rotation, uv_offset): the same operations in the same
+    order on arrays (sample()) and on floats (sample_one())."""
     if texture.uv_rotation != 0.0:
         cosine, sine = _turn(texture.uv_rotation)
         x, y = u * texture.uv_scale[0], v * texture.uv_scale[1]
-        u = x * cosine - y * sine + texture.uv_offset[0]
-        v = x * sine + y * cosine + texture.uv_offset[1]
-    elif texture.uv_scale != (1.0, 1.0) or texture.uv_offset != (0.0, 0.0):
-        u = u * texture.uv_scale[0] + texture.uv_offset[0]
-        v = v * texture.uv_scale[1] + texture.uv_offset[1]
+        return x * cosine - y * sine + texture.uv_offset[0], x * sine + y * cosine + texture.uv_offset[1]
+    if texture.uv_scale != (1.0, 1.0) or texture.uv_offset != (0.0, 0.0):
+        return u * texture.uv_scale[0] + texture.uv_offset[0], v * texture.uv_scale[1] + texture.uv_offset[1]
+    return u, v
+
+
+def sample(texture: sc.Texture, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The texture's colours (3, n) float64 at UVs u, v (n,)."""
+    u, v = _mapped(texture, np.where(np.isfinite(u), u, 0.0), np.where(np.isfinite(v), v, 0.0))
     if texture.kind == "checker":
         return _checker(texture, u, v)
     if texture.kind == "gradient":
@@ -162,16 +165,7 @@ def attribute_one(texture: sc.Texture, color: tuple[float, float, float]) -> tup
 
 def sample_one(texture: sc.Texture, u: float, v: float) -> tuple[float, float, float]:
     """The texture's colour at one UV: sample()'s operations in plain Python floats (the per-pixel reference)."""
-    u = u if math.isfinite(u) else 0.0
-    v = v if math.isfinite(v) else 0.0
-    if texture.uv_rotation != 0.0:
-        cosine, sine = _turn(texture.uv_rotation)
-        x, y = u * texture.uv_scale[0], v * texture.uv_scale[1]
-        u = x * cosine - y * sine + texture.uv_offset[0]
-        v = x * sine + y * cosine + texture.uv_offset[1]
-    elif texture.uv_scale != (1.0, 1.0) or texture.uv_offset != (0.0, 0.0):
-        u = u * texture.uv_scale[0] + texture.uv_offset[0]
-        v = v * texture.uv_scale[1] + texture.uv_offset[1]
+    u, v = _mapped(texture, u if math.isfinite(u) else 0.0, v if math.isfinite(v) else 0.0)
     if texture.kind == "checker":
         x = _cell((u * texture.scale + 1e-6) * 0.999999)
         y = _cell((v * texture.scale + 1e-6) * 0.999999)
