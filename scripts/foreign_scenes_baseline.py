@@ -1,6 +1,6 @@
-"""Runs the foreign-scene acceptance suite (tests/addon/test_foreign_scenes.py, issues 21 and 22) in the bpy wheel
-and in Debian's Blender 3.4.1 and writes the measured numbers per scene and per Blender as a Markdown table
-(docs/foreign-scenes-baseline.md was made by it):
+"""Runs the foreign-scene acceptance suite (tests/addon/test_foreign_scenes.py: geometry, frames and visibility;
+materials, lights and world) in the bpy wheel and in Debian's Blender 3.4.1 and writes the measured numbers per
+scene and per Blender as a Markdown table (docs/foreign-scenes-baseline.md was made by it):
 
     .venv/bin/python scripts/foreign_scenes_baseline.py --out docs/foreign-scenes-baseline-table.md
 """

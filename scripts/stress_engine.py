@@ -5,9 +5,10 @@
 
 Two scenes alternate; each render's EXR must equal the first of its scene (the same scene, the same bytes). Prints a
 line per 50 renders and `STRESS renders=N crashes=0 seconds=S` at the end; a crash of Blender ends the process before
-that line, which is how a caller counts it. --start-method fork starts the engine's workers by forking Blender (how
-they were started before issue 11), to record how often that crashes; --fresh-pool starts new workers for every
-render (as each add-on test did, which is where the crash was seen), where the engine keeps its pool.
+that line, which is how a caller counts it. --start-method fork starts the engine's workers by forking
+Blender (as they were started before the engine spawned them), to record how often that crashes; --fresh-pool starts
+new workers for every render (as each add-on test did, which is where the crash was seen), where the engine keeps its
+pool.
 """
 
 from __future__ import annotations

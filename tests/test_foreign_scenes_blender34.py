@@ -1,6 +1,7 @@
-"""The foreign-scene acceptance suite (tests/addon/test_foreign_scenes.py, issues 21 and 22) inside Debian's Blender
-3.4.1, run once through tests/addon/run_in_blender.py as the other add-on tests are, reported here per scene: a
-failure names the scene and carries the inner failures' lines and the numbers measured in 3.4.1."""
+"""The foreign-scene acceptance suite (tests/addon/test_foreign_scenes.py: geometry, frames and visibility;
+materials, lights and world) inside Debian's Blender 3.4.1, run once through tests/addon/run_in_blender.py as the
+other add-on tests are, reported here per scene: a failure names the scene and carries the inner failures' lines and
+the numbers measured in 3.4.1."""
 
 from __future__ import annotations
 

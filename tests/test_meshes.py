@@ -176,7 +176,7 @@ def test_a_deep_stack_of_triangles_is_walked_not_pictured() -> None:
     assert (t < np.inf).all()
 
 
-# ---- meshes as arrays (issue 23 item 3) --------------------------------------------------------------------------
+# ---- meshes as arrays: vertices, triangles and corner fields as NumPy arrays -----------------------------------------
 
 
 def as_tuples(value: object) -> object:
