@@ -152,8 +152,8 @@ class EditableImage:
             if any(box is None for box in boxes):  # an unbounded plane moved: anything may change
                 return np.arange(self.pixels)
             volume = Volume.around(boxes, np.dtype(np.float64), float(np.abs(np.concatenate(boxes)).max()))
-        # a mask of the pixels rather than np.unique of their segments' pixels: a sort of a million pixels took most
-        # of the 0.03 s that an edit of the ground's colour spent finding it is not a small edit (1586x926)
+        # a mask of the pixels rather than np.unique of their segments' pixels: a sort of a million pixels was most
+        # of the time an edit of the ground's colour spent finding it is not a small edit
         touched = np.zeros(self.pixels, dtype=bool)
         # uses[hit]: whether the object hit shows the material (the last entry, False, for a miss's -1)
         uses = np.zeros(len(self.scene.objects) + 1, dtype=bool)

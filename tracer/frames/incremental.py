@@ -28,9 +28,9 @@ from ..workers.parallel import BandDone, Progress, Renderer, RenderResult, batch
 from ..workers.resources import band_samples
 
 # The image without the parts, with its footprint, costs about two plain frames and the marks of 120 headings about
-# three (the default animation, one process: 0.4 s and 0.6 s, a plain frame 0.21 s); a frame then traces its own
-# pixels (1.5% of the image there). Runs bound the marks kept at once (a list of pixels per heading) and the frames
-# a run's marks keep waiting; the image without the parts serves every run.
+# three (docs/measurements.md#the-tracers-constants); a frame then traces its own pixels (a few percent of the
+# image). Runs bound the marks kept at once (a list of pixels per heading) and the frames a run's marks keep waiting;
+# the image without the parts serves every run.
 RUN_FRAMES = 120
 MIN_FRAMES = 4  # an animation of fewer frames is traced whole: the image without the parts would cost more
 FULL_SHARE = 0.5

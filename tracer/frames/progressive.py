@@ -28,15 +28,15 @@ from ..workers.parallel import Renderer
 from .edits import Edit, EditableImage, edits_between
 
 LEVELS = (8, 4, 2, 1)  # divisors of the image's width and height, coarse to fine
-# Up to this many camera samples (width x height x samples) the full level's ray trees are kept afterwards (234
-# bytes a sample on the default scene: 216 MB at 1280x720, 342 MB for the 1586x926 3D View of a full-HD window, traced
-# again in 1.6 s in one process, in pieces), so that a later scene that differs by one small edit is answered at full
-# size by tracing only the pixels it changes (a whole 1920x1080 view at one sample is under it).
+# Up to this many camera samples (width x height x samples) the full level's ray trees are kept afterwards (their
+# size and the time to keep them: docs/measurements.md#the-tracers-constants), so that a later scene that differs by
+# one small edit is answered at full size by tracing only the pixels it changes (a whole 1920x1080 view at one
+# sample is under it).
 EDITABLE_SAMPLES = 1 << 21
 KEPT_BYTES_PER_SAMPLE = 234  # measured on the default scene (above): what the memory check counts for kept trees
 # Nor when the full level took longer than this many seconds times the pool's workers: the ray trees are traced again
-# in one process, and a scene of many triangles (a subdivided Suzanne in a 1321x786 view) kept them for 16 s after
-# its image was done, its CPU taken from the next edit's coarse levels.
+# in one process, and a scene of many triangles (a subdivided Suzanne) would keep them long after its image was
+# done, its CPU taken from the next edit's coarse levels.
 EDITABLE_SECONDS = 1.5
 # An edit that changes more than this share of the pixels goes coarse to fine instead: its re-trace in one process
 # would come later than the pool's first coarse level (the ground's material: 57% of the default scene's pixels).
@@ -125,8 +125,8 @@ class ProgressiveRender:
         with self._condition:
             if self._condition.wait_for(ready, timeout):
                 return True
-            # the newest scene is being answered from the kept ray trees (an object moved: its pixels found in
-            # 0.2-0.4 s): up to editing_timeout in all, still sooner than a draw of the old image and another
+            # the newest scene is being answered from the kept ray trees (an object moved: its pixels found from
+            # them): up to editing_timeout in all, still sooner than a draw of the old image and another
             return self._editing and self._condition.wait_for(ready, max(0.0, editing_timeout - timeout))
 
     def latest(self) -> Level | None:
@@ -211,8 +211,8 @@ class ProgressiveRender:
                             count = result.image.shape[0] * result.image.shape[1]
                             self._deliver(Level(result.image, divisor, generation, 0.0, count), handed_over)
                         # the full image drawn first: keeping the trees holds the interpreter that Blender's
-                        # drawing needs too (the full image came 0.2-0.5 s later on screen); a change meanwhile
-                        # goes before them
+                        # drawing needs too (the full image came later on screen); a change meanwhile goes before
+                        # them
                         if (
                             levels[-1] == 1
                             and scene.render.width * scene.render.height * scene.render.samples <= EDITABLE_SAMPLES

@@ -125,16 +125,15 @@ def _split_build(
 # Kernel.cost (one box test over a ray): walking gathers each ray's origin and direction at every node and leaf
 # kernel it reaches (GATHER_COST each); brute force tests every kernel on every ray in place and offers each result
 # (BRUTE_OFFER_COST), which per ray costs about BRUTE_SCALE of what the same tests cost on gathered rays. Calibrated
-# on two scenes, alternating both ways in one process (CPU time per frame, 1 worker): the peer rt3.py's 4 spheres
-# (counted walk 22.6, brute 28.0; measured brute 54 ms, walk 88 ms in float64) and the default vane's 13 bounded
-# objects (counted walk 6.8, brute 137; measured walk 127 ms, brute 469 ms): any BRUTE_SCALE in (0.05, 0.8) chooses
-# right for both; 0.25 is about their geometric middle.
+# on the peer rt3.py's 4 spheres (brute force the faster) and the default vane's 13 bounded objects (the walk the
+# faster; both measured in docs/measurements.md#the-tracers-constants): any BRUTE_SCALE in (0.05, 0.8) chooses right
+# for both; 0.25 is about their geometric middle.
 GATHER_COST = 2.0
 BRUTE_OFFER_COST = 1.0
 BRUTE_SCALE = 0.25
 # Up to this many (ray, bounded kernel) pairs a query tests every kernel's own padded box at once instead of walking
-# the tree (_flat_walk): the last bounces' few hundred rays cost the walk ~20 NumPy calls per node reached, about
-# 1 ms a query for the default vane's 25 nodes, and the flat test ~20 calls in all
+# the tree (_flat_walk): the last bounces' few hundred rays cost the walk ~20 NumPy calls per node reached, and the
+# flat test ~20 calls in all
 FLAT_WALK_PAIRS = 1 << 16
 
 
@@ -183,7 +182,7 @@ class Hierarchy:
         self.brute = False
         self.walk_cost = self.brute_cost = 0.0
         # each bounded kernel's own padded box, as a leaf of it alone would have (brute force's check of its hits),
-        # made when brute force first needs it (0.3 ms for the default scene's 13 objects, per prepared scene)
+        # made when brute force first needs it, once per prepared scene
         self._padded: dict[int, tuple[np.ndarray, np.ndarray]] | None = None
         self._stacked: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # _flat_walk's boxes, made when needed
         if bounded.size:

@@ -26,10 +26,10 @@ from .kernels import Kernel, box_margin, ray_count, slab, take
 from .meshpicture import TrianglePicture, View
 
 # triangles per leaf: 4 rather than 8 costs one more level of box tests and halves the triangle tests of each leaf
-# a ray reaches; in-process A/B, float64, UV spheres: 4.5% faster at 1,000 triangles, 8% at 16,000, 3.6% at
-# 100,000. Beyond SMALL_LEAVES_UP_TO triangles 8: a million-triangle mesh's first frame is its preparation, which
-# the deeper tree costs (bench_meshes' big part: 11.4 s and 1,013 MiB for all processes with 4, 10.7 s and 899 MiB
-# with 8). The same hits either way (only which leaves hold them differs)
+# a ray reaches, which is faster from 1,000 to 100,000 triangles. Beyond SMALL_LEAVES_UP_TO triangles 8: a
+# million-triangle mesh's first frame is mostly its preparation, which the deeper tree makes slower and larger
+# (both measured in docs/measurements.md#the-tracers-constants). The same hits either way (only which leaves hold
+# them differs)
 LEAF_TRIANGLES = 8
 SMALL_LEAF_TRIANGLES = 4
 SMALL_LEAVES_UP_TO = 1 << 17
@@ -111,7 +111,7 @@ class MeshHierarchy:
                 ],
                 axis=1,
             )
-            axis = np.argmax(extent, axis=1)  # (n,): the first of equal extents, as before
+            axis = np.argmax(extent, axis=1)  # (n,): the first of equal extents
             lengths = inner_stops - inner_starts
             middle = inner_starts + lengths // 2
             # the triangles of each node's upper half along its axis go right

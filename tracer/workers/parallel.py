@@ -37,9 +37,9 @@ BLOCK_ROWS = 16
 Item = TypeVar("Item")
 # An animation's frames whose pixels are traced again go to the workers this many at a time, traced together
 # (PreparedScene with headings): such a frame traces a few thousand pixels, and much of its own trace's time is fixed
-# cost (preparing the scene, the NumPy calls of every bounce), which a batch pays once. Per frame of the default
-# animation (48 consecutive frames, one process, CPU time, medians of 5 rounds alternating): 1 at a time 44.1 ms, 4
-# together 29.7 ms, 8 together 28.1 ms, 12 together 29.7 ms (more boxes for every light's grid to tell apart).
+# cost (preparing the scene, the NumPy calls of every bounce), which a batch pays once. 8 was the fastest of 1, 4, 8
+# and 12 on the default animation; more frames make more boxes for every light's grid to tell apart
+# (docs/measurements.md#the-tracers-constants).
 FRAMES_PER_TASK = 8
 
 Progress = Callable[[int, int], None]
@@ -247,8 +247,8 @@ def _mapped(descriptor: int, keep: bool) -> mmap.mmap:
     kept = _worker_cache.get("mapping")
     if keep and kept is not None and kept[0] == key:
         return kept[1]
-    # not MAP_POPULATE: a large image goes in many bands, and each band would map all of the image's pages (at
-    # 1920x1080 float64, 35 bands: 2.6 s a frame instead of 1.8 s, and 180 MB at the peak instead of 140 MB)
+    # not MAP_POPULATE: a large image goes in many bands, and each band would map all of the image's pages (slower
+    # and larger at 1920x1080: docs/measurements.md#the-tracers-constants)
     mapping = mmap.mmap(descriptor, 0)
     if keep:
         if kept is not None:
@@ -661,12 +661,10 @@ class _Frame:
 
 # Image files of at most this size are kept by a Renderer and used again for later frames once nothing uses the
 # last frame's image (two kept: a caller holds one frame's result while the next is traced). A new file costs its
-# allocation and zeroing (2.8 ms for the 640x480 float64 frame here), page faults in every process that maps it
-# (workers 2.5 ms per band, the parent's read 0.6 ms) and its release (1.4 ms); a kept one none of these. Larger
-# images get a file each, as before, so that memory at 1920x1080 stays at one image. The size is the image's: a
-# file with render passes beside the image is kept by its image's size, up to KEEP_FILE_BYTES in all (at 640x480 in
-# float64, 7.4 MB of image and 98 MB of passes with all sixteen on: a new file of 106 MB took 52 ms to allocate and
-# release here, before any page fault)
+# allocation and zeroing, page faults in every process that maps it and its release (each a few ms at 640x480:
+# docs/measurements.md#the-tracers-constants); a kept one none of these. Larger images get a file each, so that
+# memory at 1920x1080 stays at one image. The size is the image's: a file with render passes beside the image is
+# kept by its image's size, up to KEEP_FILE_BYTES in all (every pass of a 640x480 float64 frame fits)
 KEEP_IMAGE_BYTES = 16 << 20
 KEEP_FILE_BYTES = 128 << 20
 KEEP_IMAGES = 2

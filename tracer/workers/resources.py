@@ -20,18 +20,16 @@ from ..scene import scene as sc
 BAND_PEAK_COORDINATES = 40
 WORKER_BASE_BYTES = 60 << 20
 # One coordinate of every camera sample of a band, in bytes. A band's arrays peak at about 35 such coordinates per
-# sample. Small frames go in few large bands (each band costs fixed NumPy overhead: at 640x480 in float64, 2 bands
-# were 9% faster than 4); a large image leaves less room beside it, so its bands are smaller: 1920x1080 in float64
-# took 197-211 MB for the parent and two workers together with bands of 148,000 samples, 155-165 MB with 80,000.
+# sample. Small frames go in few large bands (each band costs fixed NumPy overhead); a large image leaves less room
+# beside it, so its bands are smaller (both measured in docs/measurements.md#the-tracers-constants).
 BAND_BYTES = 1_280_000  # 160,000 samples in float64, 320,000 in float32
 LARGE_IMAGE_BYTES = 16 << 20
 LARGE_IMAGE_BAND_BYTES = 480_000  # 60,000 samples in float64, 120,000 in float32
 # Beyond the tracer's own estimate, room left for everything else on the machine.
 HEADROOM = 1.1
-# A scene's own share, measured in the bpy 5.0.1 wheel as the growth of Blender's process and its 2 workers over a
-# first F12 at 64x48 (less the workers' WORKER_BASE_BYTES), rounded up: a subdivided cube of 196,608 and 786,432
-# triangles grew by 1.9 and 1.5 KB a triangle (Blender's arrays read, the scene file's lists, the loader's arrays,
-# each worker's hierarchy); a Geometry Nodes forest of 100,000 instances by 2.9 KB an instance (10,000: 0.3 KB).
+# A scene's own share: the growth of Blender's process and its 2 workers over a first F12 (Blender's arrays read, the
+# scene file's lists, the loader's arrays, each worker's hierarchy), at most 1.9 KB a triangle and 2.9 KB an instance
+# as measured (docs/measurements.md#the-tracers-constants), rounded up.
 BYTES_PER_TRIANGLE = 2048
 BYTES_PER_INSTANCE = 4096
 
