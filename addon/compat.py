@@ -7,6 +7,7 @@ BLENDER_EEVEE_NEXT in 4.2-4.5. The default view transform is Filmic in 3.4 and A
 
 from __future__ import annotations
 
+import math
 import struct
 
 import bpy
@@ -15,6 +16,28 @@ VERSION = bpy.app.version
 # The longest data-block name in bytes (UTF-8): 63 until Blender 5.0 raised it to 255. A longer name is cut
 # silently, so a name looked up again after creation would not be found.
 MAX_NAME_BYTES = 255 if VERSION >= (5, 0, 0) else 63
+
+
+def version_name() -> str:
+    """This Blender's version as its splash screen writes it ("3.4.1", "5.0.1")."""
+    return ".".join(map(str, VERSION))
+
+
+def area_light_share() -> float:
+    """What Cycles' area light emits for a given power, as a share of what Blender 4.0+ emits: pi / 4 in 3.x."""
+    return math.pi / 4.0 if VERSION < (4, 0, 0) else 1.0
+
+
+def cycles_spot_model() -> str:
+    """The scene format's spot_model of this Blender's Cycles: "cycles3" before 4.0 (it also weights a spot by the
+    cosine to its axis), "cycles4" from 4.0 (smoothstep only)."""
+    return "cycles3" if VERSION < (4, 0, 0) else "cycles4"
+
+
+def passes_named_in_words() -> bool:
+    """Blender 5.0 names passes in words ("Object Index", "Diffuse Direct"); earlier releases in codes ("IndexOB",
+    "DiffDir")."""
+    return VERSION >= (5, 0, 0)
 
 
 def fcurves_of(owner: bpy.types.ID) -> list:

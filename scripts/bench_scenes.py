@@ -290,13 +290,13 @@ def _timed(function: Callable[..., Any], spans: dict[str, float], key: str) -> C
 def _time_engine_steps(spans: dict[str, float]) -> None:
     """The engine reports only its trace time: export, the document's JSON round trip and loading are timed around
     the functions it calls, which it looks up at each render (so these wrappers are what it runs)."""
-    from addon import engine, export
-    from addon._tracer import module
+    from addon import tracer_api
+    from addon.convert import export
+    from addon.engine import engine
 
     export.scene_document = _timed(export.scene_document, spans, "export")
     engine.json = SimpleNamespace(dumps=_timed(json.dumps, spans, "json"), loads=_timed(json.loads, spans, "json"))
-    loader = module("scene.loader")
-    loader.scene_from_dict = _timed(loader.scene_from_dict, spans, "load")
+    tracer_api.scene_from_dict = _timed(tracer_api.scene_from_dict, spans, "load")
 
 
 def measure_one(spec: dict[str, Any]) -> int:

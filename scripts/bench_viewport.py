@@ -61,7 +61,7 @@ def timed_levels(session, view, started: float) -> dict[int, float]:
 
 def keyed_turn(frames: int = 10) -> None:
     """The vane's turn keyed over frames 1..frames (a new heading each frame)."""
-    from addon import build
+    from addon.vane import build
 
     scene, turn = bpy.context.scene, bpy.data.objects[build.TURN]
     scene.frame_start, scene.frame_end = 1, frames
@@ -89,7 +89,7 @@ def main() -> int:
     if not bpy.app.background:
         return window_main(options)
     import addon
-    from addon import viewport
+    from addon.engine import viewport
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon.register()
@@ -156,7 +156,7 @@ class Window:
 
     def instrument(self) -> None:
         """The session's export, hand-over and draw, the tracer's finished levels and the end of each view draw."""
-        from addon import viewport
+        from addon.engine import viewport
         from tracer.frames import progressive
 
         cls = viewport.ViewportSession
@@ -322,7 +322,7 @@ def view3d():
 
 
 def _session():
-    from addon import viewport
+    from addon.engine import viewport
 
     sessions = list(viewport._sessions)
     return sessions[0] if sessions else None

@@ -90,7 +90,8 @@ def _notes(scene, record: dict) -> None:
     """What F12 says it approximates or leaves out: the export's line and the camera's unsupported settings
     ("notes"), and what Scene Conversion says of each material, light and the world ("said"); "lamps": the
     scene's lights rendered (0: the world is its only light)."""
-    from addon import camera, export
+    from addon.convert import export
+    from addon.vane import camera
 
     notes = export.ExportNotes()
     try:

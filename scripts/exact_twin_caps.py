@@ -47,7 +47,7 @@ def run_step(name: str, step: str, width: int, height: int, samples: int, out: P
 
     import render_both
 
-    from addon import build
+    from addon.vane import build
 
     changes = step.split("+")
     if "fine" in changes:

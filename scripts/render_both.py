@@ -111,7 +111,7 @@ def choose_twin(args: argparse.Namespace) -> None:
     asked = "exact" in args.engines  # by name in --engines
     if not asked and (args.twin == "physical" or "cycles" not in args.engines):
         return
-    from addon import exact_twin
+    from addon.convert import exact_twin
 
     reason = exact_twin.unavailable()
     if reason is not None:
@@ -148,7 +148,7 @@ def prepare(args: argparse.Namespace) -> None:
 
 def render_tracer(samples: int, passes: tuple[str, ...] = (), folder: Path | None = None) -> np.ndarray:
     """The tracer's image of what the add-on exports; with passes, each saved as folder/passes/tracer.<pass>.npy."""
-    from addon.export import scene_document
+    from addon.convert.export import scene_document
     from tracer.scene.loader import scene_from_dict
     from tracer.workers.parallel import render
 
@@ -167,7 +167,7 @@ def render_tracer(samples: int, passes: tuple[str, ...] = (), folder: Path | Non
 def render_blender(folder: Path, name: str, passes: tuple[str, ...] = ()) -> np.ndarray:
     """Blender's image with the scene's engine; with passes, its View Layer passes of those names ticked for this
     render and saved as Blender's multilayer EXR, folder/passes/<name>.exr."""
-    from addon.pass_map import PASSES
+    from addon.convert.pass_map import PASSES
 
     scene = bpy.context.scene
     view_layer = bpy.context.view_layer
@@ -205,7 +205,7 @@ def render_blender(folder: Path, name: str, passes: tuple[str, ...] = ()) -> np.
 
 
 def render_frame(args: argparse.Namespace, folder: Path) -> dict:
-    from addon import twin
+    from addon.convert import twin
 
     folder.mkdir(parents=True, exist_ok=True)
     stale_passes = [*folder.glob("passes/tracer.*.npy"), folder / "passes" / "cycles.exr"]
@@ -219,7 +219,7 @@ def render_frame(args: argparse.Namespace, folder: Path) -> dict:
         if name == "tracer":
             image = render_tracer(args.tracer_samples, args.passes, folder)
         elif name == "exact":
-            from addon import exact_twin
+            from addon.convert import exact_twin
 
             state = exact_twin.apply(bpy.context, args.cycles_samples, pixel_centres=args.pixel_centres)
             if state.line():

@@ -36,7 +36,7 @@ def errors(image: np.ndarray, reference: np.ndarray) -> dict:
 
 
 def tracer_image(samples: int, depth: int, dtype: str, renderer, seed: int = 0) -> tuple[np.ndarray, float]:
-    from addon.export import scene_document
+    from addon.convert.export import scene_document
     from tracer.scene.loader import scene_from_dict
 
     document = scene_document(bpy.context)
@@ -75,7 +75,7 @@ def main() -> None:
     parser.add_argument("--cycles-reference", type=int, default=4096)
     args = parser.parse_args(script_arguments())
     render_both.prepare(argparse.Namespace(scene=None, width=args.width, height=args.height))
-    from addon import twin
+    from addon.convert import twin
     from tracer.workers.parallel import Renderer
 
     scene = bpy.context.scene

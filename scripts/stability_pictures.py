@@ -84,7 +84,7 @@ def faceting_chart(target: Path) -> None:
     focal = scene.camera.lens / scene.camera.sensor_width * width
     figure, axis = plt.subplots(figsize=(7, 4), dpi=110)
     segments = np.arange(6, 257)
-    from addon.build import segments_for  # the add-on's own choice (imports bpy: the wheel)
+    from addon.vane.build import segments_for  # the add-on's own choice (imports bpy: the wheel)
 
     for obj in scene.objects:
         kind = type(obj).__name__

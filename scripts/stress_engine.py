@@ -42,7 +42,7 @@ def arguments() -> argparse.Namespace:
 def main() -> int:
     options = arguments()
     import addon
-    from addon import engine
+    from addon.engine import engine
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon.register()

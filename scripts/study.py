@@ -141,7 +141,7 @@ def cycles(repeats: int) -> dict | None:
     sys.path.insert(0, str(ROOT / "scripts"))
     import render_both
 
-    from addon import twin
+    from addon.convert import twin
 
     width, height = CYCLES_SIZE
     render_both.prepare(argparse.Namespace(scene=None, width=width, height=height))

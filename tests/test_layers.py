@@ -2,7 +2,8 @@
 never in a circle; the tracer imports nothing from Blender or the add-on.
 
 Read from the source with `ast`, every import counted, also those inside functions (a lazy import still ties the
-modules together) and the add-on's `module("layer.name")` look-ups of the tracer.
+modules together). The add-on reaches the tracer through one module, its facade (addon/tracer_api.py), by ordinary
+imports: no other add-on module imports the tracer, and none looks a module up by its name in a string.
 """
 
 from __future__ import annotations
@@ -17,35 +18,44 @@ ROOT = Path(__file__).resolve().parents[1]
 # Lowest first. A module may import modules of its own layer or of a lower one.
 TRACER_LAYERS = ("scene", "geometry", "tracing", "workers", "frames", "")  # "": the package's top (entry points)
 ADDON_LAYERS: tuple[tuple[str, ...], ...] = (
-    # Blender's API, the tracer, plain data both ways
+    # Blender's API, the tracer (through its facade), plain data both ways; the folders' docstring-only __init__s
     (
         "compat",
-        "_tracer",
-        "workers",
-        "camera",
-        "lights",
-        "materials",
-        "mesh_export",
-        "node_tree",
-        "material_convert",
-        "light_convert",
-        "world_convert",
-        "pass_map",
+        "tracer_api",
+        "vane",
+        "convert",
+        "engine",
+        "engine.workers",
+        "vane.camera",
+        "vane.lights",
+        "vane.materials",
+        "convert.mesh_export",
+        "convert.node_tree",
+        "convert.material_convert",
+        "convert.light_convert",
+        "convert.world_convert",
+        "convert.pass_map",
     ),
     (
-        "build",
-        "animation",
-        "export",
-        "twin",
-        "exact_twin",
-        "properties",
-        "conversion_report",
-        "sync",
+        "vane.build",
+        "vane.animation",
+        "vane.properties",
+        "vane.sync",
+        "convert.export",
+        "convert.twin",
+        "convert.exact_twin",
+        "convert.conversion_report",
     ),  # the scene the add-on builds, reads and keys
-    ("viewport", "engine"),  # the render engine and the Rendered view
-    ("operators", "panels", "render_panels"),  # what the user clicks
+    ("engine.viewport", "engine.engine"),  # the render engine and the Rendered view
+    ("vane.operators", "vane.panels", "engine.render_panels"),  # what the user clicks
     ("__init__",),  # registration
 )
+# The add-on's folders: the weathervane (vane/), the conversion between Blender and the tracer (convert/), the render
+# engine (engine/); at the top only registration, Blender's version differences and the tracer's facade.
+ADDON_FOLDERS = ("vane", "convert", "engine")
+ADDON_TOP = ("__init__", "compat", "tracer_api")
+FACADE = "tracer_api"  # the one module of the add-on that imports the tracer
+TRACER_PACKAGES = ("tracer", "weathervane_tracer")  # the repository's package; the built add-on's copy of it
 
 
 def module_name(path: Path, package_root: Path) -> str:
@@ -160,7 +170,14 @@ def test_every_tracer_module_is_in_a_layer():
         assert len(parts) == 1 or parts[0] in TRACER_LAYERS, f"{path}: not in a layer of TRACER_LAYERS"
 
 
-@pytest.mark.parametrize("path", sorted((ROOT / "addon").glob("*.py")), ids=lambda path: path.name)
+ADDON_MODULES = sorted((ROOT / "addon").rglob("*.py"))
+
+
+def addon_id(path: Path) -> str:
+    return path.relative_to(ROOT / "addon").as_posix()
+
+
+@pytest.mark.parametrize("path", ADDON_MODULES, ids=addon_id)
 def test_addon_modules_import_only_their_layer_and_below(path):
     name = module_name(path, ROOT / "addon")
     upward = {target for target in imports_of(path, ROOT / "addon") if addon_layer(target) > addon_layer(name)}
@@ -176,23 +193,98 @@ def test_the_tracer_never_imports_blender_or_the_addon():
                 assert name.split(".")[0] not in {"bpy", "mathutils", "gpu", "addon"}, f"{path} imports {name}"
 
 
-def test_the_addons_tracer_lookups_name_existing_modules():
-    """The add-on reaches the tracer through `module("layer.name")` (addon/_tracer.py); a moved module must be
-    followed there too."""
-    known = {module_name(path, ROOT / "tracer") for path in (ROOT / "tracer").rglob("*.py")}
-    for path in (ROOT / "addon").glob("*.py"):
+def test_every_addon_module_is_in_a_layer_and_a_folder():
+    for path in ADDON_MODULES:
+        name = module_name(path, ROOT / "addon") or "__init__"
+        assert any(name in layer for layer in ADDON_LAYERS), f"addon/{addon_id(path)}: not in a layer of ADDON_LAYERS"
+        parts = path.relative_to(ROOT / "addon").parts
+        if len(parts) == 1:
+            assert path.stem in ADDON_TOP, f"addon/{addon_id(path)}: belongs in one of the folders {ADDON_FOLDERS}"
+        else:
+            assert len(parts) == 2 and parts[0] in ADDON_FOLDERS, f"addon/{addon_id(path)}: not in {ADDON_FOLDERS}"
+
+
+def test_each_addon_folder_says_what_it_turns_into_what():
+    for folder in ADDON_FOLDERS:
+        tree = ast.parse((ROOT / "addon" / folder / "__init__.py").read_text(encoding="utf-8"))
+        docstring = ast.get_docstring(tree)
+        assert docstring and "->" in docstring and len(docstring.splitlines()) == 1, f"addon/{folder}/__init__.py"
+
+
+def _string_lookups(tree: ast.AST) -> list[str]:
+    """Calls that import a module by a name in a string: importlib.import_module, __import__, and the add-on's old
+    `module("layer.name")` helper."""
+    found = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Call):
+            continue
+        function = node.func
+        called = function.attr if isinstance(function, ast.Attribute) else getattr(function, "id", None)
+        if called in {"import_module", "__import__", "module", "find_spec", "spec_from_file_location"}:
+            found.append(ast.unparse(node))
+    return found
+
+
+def test_the_addon_looks_no_module_up_by_a_name_in_a_string():
+    """A module named in a string is one that neither a reader nor an IDE can follow; the add-on imports the tracer
+    (through its facade) and its own modules by ordinary imports."""
+    for path in ADDON_MODULES:
+        found = _string_lookups(ast.parse(path.read_text(encoding="utf-8")))
+        assert not found, f"addon/{addon_id(path)} looks modules up by name: {found}"
+
+
+def test_the_string_lookup_guard_sees_the_ways_of_importing_by_name():
+    source = (
+        "import importlib\nfrom ._tracer import module\n"
+        "a = importlib.import_module('tracer.scene.loader')\nb = module('scene.loader')\nc = __import__('tracer')\n"
+    )
+    assert len(_string_lookups(ast.parse(source))) == 3
+
+
+def _tracer_imports(tree: ast.AST) -> list[str]:
+    """The modules of the tracer (the repository's package or the built add-on's copy) that the source imports."""
+    found = []
+    for node in ast.walk(tree):
+        names = [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else []
+        names += [alias.name for alias in node.names] if isinstance(node, ast.Import) else []
+        found += [name for name in names if name.split(".")[0] in TRACER_PACKAGES]
+    return found
+
+
+def test_the_addon_reaches_the_tracer_only_through_its_facade():
+    for path in ADDON_MODULES:
+        if path.stem != FACADE:
+            found = _tracer_imports(ast.parse(path.read_text(encoding="utf-8")))
+            assert not found, f"addon/{addon_id(path)} imports the tracer past addon/{FACADE}.py: {found}"
+
+
+def test_the_facades_two_branches_import_the_same_names_and_all_lists_them():
+    """The facade imports the tracer's names from the repository's package or from the built add-on's copy; both
+    branches take the same names from the same modules, every name the add-on uses, and __all__ lists them."""
+    tree = ast.parse((ROOT / "addon" / f"{FACADE}.py").read_text(encoding="utf-8"))
+    branch = next(node for node in tree.body if isinstance(node, ast.If) and _tracer_imports(node))
+    imported = []
+    for body, package in ((branch.body, "weathervane_tracer"), (branch.orelse, "tracer")):
+        names = set()
+        for node in ast.walk(ast.Module(body=body, type_ignores=[])):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] in TRACER_PACKAGES:
+                assert node.module.split(".")[0] == package, f"{node.module} in the {package} branch"
+                relative = node.module.split(".", 1)[1]
+                assert (ROOT / "tracer" / f"{relative.replace('.', '/')}.py").is_file(), f"no tracer.{relative}"
+                names |= {(relative, alias.name, alias.asname or alias.name) for alias in node.names}
+        imported.append(names)
+    assert imported[0] == imported[1]
+    exported = next(
+        ast.literal_eval(node.value)
+        for node in tree.body
+        if isinstance(node, ast.Assign) and getattr(node.targets[0], "id", None) == "__all__"
+    )
+    assert sorted(exported) == sorted(name for _, _, name in imported[1])
+    used = set()
+    for path in ADDON_MODULES:
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "module" and node.args:
-                argument = node.args[0]
-                if isinstance(argument, ast.Constant):
-                    assert argument.value in known, f"{path.name}: module({argument.value!r}) is not a tracer module"
-
-
-def test_every_module_is_on_the_map():
-    """docs/architecture.md names every module with what it turns into what: a new module is added there too."""
-    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
-    tracer_modules = [path.relative_to(ROOT / "tracer").as_posix() for path in (ROOT / "tracer").rglob("*.py")]
-    tracer_modules = [name for name in tracer_modules if not name.endswith("/__init__.py") and name != "__main__.py"]
-    addon_modules = [path.name for path in (ROOT / "addon").glob("*.py")]
-    missing = [name for name in tracer_modules + addon_modules if f"`{name}`" not in text]
-    assert not missing, f"docs/architecture.md does not name: {missing}"
+            if isinstance(node, ast.Attribute) and getattr(node.value, "id", None) == "tracer":
+                used.add(node.attr)  # `from .. import tracer_api as tracer`, then tracer.name
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[-1] == FACADE:
+                used |= {alias.name for alias in node.names}
+    assert used == set(exported), f"unused: {sorted(set(exported) - used)}; missing: {sorted(used - set(exported))}"

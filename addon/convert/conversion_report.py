@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import bpy
 
-from . import build, light_convert, material_convert, world_convert
+from ..vane import build
+from . import light_convert, material_convert, world_convert
 
 _updates = [0]  # depsgraph updates seen
 _converted: dict[tuple[str, str], list[str]] = {}  # (kind, name) -> notes, until that data-block changes

@@ -36,11 +36,13 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from . import build, compat, light_convert, material_convert, mesh_export, world_convert
-from . import camera as camera_module
-from . import materials as vane_materials
-from ._tracer import module
-from .animation import motion_for
+from .. import compat
+from .. import tracer_api as tracer
+from ..vane import build
+from ..vane import camera as camera_module
+from ..vane import materials as vane_materials
+from ..vane.animation import motion_for
+from . import light_convert, material_convert, mesh_export, world_convert
 
 
 def _transform(matrix) -> dict:
@@ -308,7 +310,7 @@ class _Export:
         self.stamp = mesh_export.CACHE.clock  # taken before anything is read: a later update makes it stale
         scene = depsgraph.scene_eval
         self.frame = float(scene.frame_current) + float(scene.frame_subframe)
-        self.min_determinant = module("scene.loader").MATRIX_MIN_DETERMINANT
+        self.min_determinant = tracer.MATRIX_MIN_DETERMINANT
         # what a conversion depends on besides the material: material_convert reads the context scene's settings
         settings = getattr(bpy.context.scene, "weathervane", None)
         model, coef = getattr(settings, "model", None), float(getattr(settings, "coef", 0.0))
@@ -340,16 +342,15 @@ class MemoryBudget:
     def __init__(self, blender_scene, cancelled=None, size: tuple[int, int] | None = None, extra: int = 0) -> None:
         """size: the image's (width, height) where it is not the render's (a Rendered view's region); extra: bytes
         held beside the render (the view's kept ray trees)."""
-        resources = module("scene.scene")
         render, settings = blender_scene.render, blender_scene.weathervane
         scale = render.resolution_percentage / 100.0
         width, height = size or (max(1, round(render.resolution_x * scale)), max(1, round(render.resolution_y * scale)))
-        self.settings = resources.RenderSettings(
+        self.settings = tracer.RenderSettings(
             width=width, height=height, samples=int(settings.samples), dtype=settings.precision
         )
         self.extra = extra
-        self.workers = module("workers.parallel").worker_count(settings.workers)
-        self.available = module("workers.resources").available_memory()
+        self.workers = tracer.worker_count(settings.workers)
+        self.available = tracer.available_memory()
         self.cancelled = cancelled
         self.triangles = self.instances = 0
         self.meshes: dict[str, int] = {}  # a geometry's name -> its triangles
@@ -377,7 +378,7 @@ class MemoryBudget:
         if self.available is None:
             return
         largest = sorted(self.meshes.items(), key=lambda item: -item[1])[: self.LARGEST]
-        module("workers.resources").check_resources(
+        tracer.check_resources(
             self.settings,
             self.workers,
             triangles=self.triangles,
@@ -785,8 +786,9 @@ def _blender_light(light, notes: ExportNotes) -> dict:
     """A light the panel does not drive (an evaluated light object) -> a scene-file light in Cycles' units."""
     document, said = light_convert.convert_light(light)
     notes.lights[light.name] = said
-    if document["type"] == "spot" and bpy.app.version < (4, 0, 0):
-        document["spot_model"] = "cycles3"  # Cycles before 4.0 also weights a spot by the angle's cosine
+    model = compat.cycles_spot_model()
+    if document["type"] == "spot" and model != "cycles4":  # cycles4: the scene format's default
+        document["spot_model"] = model
     return document
 
 

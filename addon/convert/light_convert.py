@@ -16,7 +16,7 @@ the render's Shadows setting).
 
 An area light is the tracer's "area" light (a one-sided cosine emitter sampled over its shape, docs/scene-format.md):
 its intensity along the normal is P / pi W/sr, so {"intensity": P / pi^2} in Blender 4.0-5.0 and P / pi^2 * pi / 4 in
-3.4 (AREA_FACTOR_BEFORE_4: Cycles 3.4 emits pi / 4 as much for the same power). Its size is Blender's size (and size_y
+3.4 (compat.area_light_share(): Cycles 3.4 emits pi / 4 as much for one power). Its size is Blender's size (and size_y
 for a rectangle or an ellipse) times the object's scale along its local X and Y (a square or disk scaled unevenly
 becomes a rectangle or an ellipse), its x_axis the object's local X. Measured on a white diffuse plane, 1000 W, 2 m
 square, disk, 2 x 1 m rectangle and ellipse at 1, 2 and 5 m, straight under and 45 degrees off (Cycles 256 samples
@@ -27,7 +27,7 @@ to a disk of that radius facing each point: soft shadows with Shadows above 1 sa
 and 4.0+'s Soft Falloff near the light is named (a 100 W point of radius 0.1 m is 0.25% darker than radius 0 at 2 m,
 3.9% at 0.5 m; radius 0.25 m at 0.5 m: 20%).
 
-The add-on's own lights (lights.py: documented point lights with a constant-falloff node, and suns) convert back to
+The add-on's own lights (vane/lights.py: documented point lights with a constant-falloff node, and suns) convert back to
 exactly the intensity, location and direction the panel and the scene file hold.
 """
 
@@ -38,12 +38,12 @@ import math
 import bpy
 from mathutils import Vector
 
-from . import compat, node_tree
+from .. import compat
+from . import node_tree
 
 POINT_WATTS_PER_UNIT = 4.0 * math.pi**2  # P = 4 pi^2 i (measured: see above)
 SUN_STRENGTH_PER_UNIT = math.pi  # S = pi i
 AREA_WATTS_PER_UNIT = math.pi**2  # an area light: P = pi^2 i (i along its normal; measured: see above)
-AREA_FACTOR_BEFORE_4 = math.pi / 4.0  # Cycles 3.4's area lights emit this share of 4.0+'s for the same power
 
 
 def _shadow_samples(blender_scene) -> int:
@@ -61,7 +61,7 @@ def _area_document(obj, light, power: float, notes: list[str]) -> dict:
     size = [float(light.size * x_axis.length), float(size_y * y_axis.length)]
     if shape in ("square", "disk") and not math.isclose(size[0], size[1], rel_tol=1e-9):
         shape = {"square": "rectangle", "disk": "ellipse"}[shape]
-    factor = AREA_FACTOR_BEFORE_4 if bpy.app.version < (4, 0, 0) else 1.0
+    factor = compat.area_light_share()
     spread = float(getattr(light, "spread", math.pi))
     if spread < math.pi - 1e-6:
         notes.append(f"area light spread {math.degrees(spread):.3g}°: 180°")

@@ -6,7 +6,7 @@ weighs its two inputs by its factor, Add Shader adds them. Then the documented m
 
     reflective r    = mean(M)                          the documented mirror is white: a tinted mirror is named
     color           = D / (1 - r)                      the tracer weighs the local colour by 1 - r
-    specular s      = n / coef (Blinn-Phong), n / 4 (Phong)     the twin's relation, inverted (materials.py)
+    specular s      = n / coef (Blinn-Phong), n / 4 (Phong)     the twin's relation, inverted (vane/materials.py)
     specular_color  = G (n + 2) / 8 / (1 - r)          the twin's highlight_gain, inverted (clipped at 1, named)
     emission        = E                                added unshadowed, as Cycles adds it (up to 1e6)
 
@@ -19,7 +19,7 @@ Lobes of the shaders (F0 is a dielectric's reflectance at normal incidence, comp
     Emission         E = Color x Strength
 
 and a specular F splits by roughness rho into a mirror share and a highlight share. The twin draws the documented
-highlight of exponent n as a Beckmann lobe of roughness rho = (2 / (n + 2))^(1/4) (materials.py), so rho maps back
+highlight of exponent n as a Beckmann lobe of roughness rho = (2 / (n + 2))^(1/4) (vane/materials.py), so rho maps back
 to n = 2 / rho^4 - 2. A lobe at rho <= 0.1 (n >= 20000, narrower than any exponent the add-on's materials reach) is
 a mirror; at rho >= 0.5 (n <= 30, a lobe 14 degrees wide) the scene's reflection is blurred past recognition and
 only the lights' highlight is kept; in between the share moves linearly: mirror w = (0.5 - rho) / 0.4 of F, and
@@ -51,7 +51,7 @@ refracted light by color: the glass's tint where no opaque diffuse shows, else t
 differ). Rough glass is sharp (named). A Mix Shader switched by Light Path's Is Camera Ray or Is Shadow Ray takes the
 factor camera rays see, for every ray (named). Subsurface, coat, sheen, thin film, normal and bump maps, and volumes
 are named and rendered as the opaque base. With no node tree the Viewport Display colour is the colour.
-The add-on's own materials (materials.py) convert back to exactly the values the panel holds.
+The add-on's own materials (vane/materials.py) convert back to exactly the values the panel holds.
 """
 
 from __future__ import annotations
@@ -61,8 +61,10 @@ import math
 import bpy
 import numpy as np
 
-from . import compat, materials, node_tree
-from ._tracer import module
+from .. import compat
+from .. import tracer_api as tracer
+from ..vane import materials
+from . import node_tree
 from .node_tree import hue_saturation
 
 ROUGH_MIRROR = 0.1  # at or below: a mirror
@@ -95,7 +97,7 @@ def exponent_from_roughness(roughness: float) -> float:
 
 
 def specular_from_exponent(exponent: float, model: str = "blinn-phong", coef: float = 3.0) -> float:
-    """The material's specular s for a half-vector exponent n (n = s * coef, or 4 s for Phong: materials.py)."""
+    """The material's specular s for a half-vector exponent n (n = s * coef, or 4 s for Phong: vane/materials.py)."""
     return exponent / coef if model == "blinn-phong" else exponent / 4.0
 
 
@@ -660,7 +662,7 @@ def texture_mean(found: tuple) -> tuple[float, float, float]:
     if procedural is None or "checker" in procedural:
         return tuple(float(c) for c in pixels.reshape(-1, 3).mean(axis=0))
     gradient = procedural["gradient"]
-    texture = module("scene.scene").Texture(
+    texture = tracer.Texture(
         kind="gradient",
         gradient=gradient["type"],
         ramp=gradient["interpolation"],
@@ -672,7 +674,7 @@ def texture_mean(found: tuple) -> tuple[float, float, float]:
     )
     centres = (np.arange(GRID_MEAN) + 0.5) / GRID_MEAN
     u, v = np.meshgrid(centres, centres)
-    values = module("tracing.texturing").sample(texture, u.reshape(-1), v.reshape(-1))
+    values = tracer.sample_texture(texture, u.reshape(-1), v.reshape(-1))
     return tuple(float(c) for c in values.mean(axis=1))
 
 
@@ -918,9 +920,9 @@ OWN_NODES = ("WV Diffuse", "WV Highlight", "WV Mix")
 
 
 def _own(material, blender_scene, model: str, coef: float) -> dict | None:
-    """An add-on material (materials.py) back as its documented values: its "WV Surface" group node's Color, Shininess
-    and Reflectivity, exactly (a material built before the group, its flat nodes read back through the twin's
-    relations); None where its nodes are not the add-on's."""
+    """An add-on material (vane/materials.py) back as its documented values: its "WV Surface" group node's Color,
+    Shininess and Reflectivity, exactly (a material built before the group, its flat nodes read back through the
+    twin's relations); None where its nodes are not the add-on's."""
     node = materials.top_node(material)
     if node is not None:
         color, specular, reflective = materials.node_values(node)

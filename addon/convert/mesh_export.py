@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import compat
+from .. import compat
 
 
 @dataclass(frozen=True)

@@ -7,10 +7,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import bpy
 import numpy as np
 
-from ._tracer import module
+from .. import compat
+from .. import tracer_api as tracer
 
 
 @dataclass(frozen=True)
@@ -82,7 +82,7 @@ def _ticked(entry: BlenderPass, scene, view_layer) -> bool:
 def wanted(scene, view_layer) -> tuple[str, ...]:
     """The tracer passes the view layer (and the add-on's own boxes) ask for, in the tracer's order."""
     names = {entry.tracer for entry in PASSES if _ticked(entry, scene, view_layer)}
-    return tuple(name for name in module("scene.passes").PASSES if name in names)
+    return tuple(name for name in tracer.PASSES if name in names)
 
 
 def not_made(view_layer) -> list[str]:
@@ -94,14 +94,14 @@ def layer_names(entry: BlenderPass) -> list[str]:
     """This Blender's pass names for an entry (Blender 5's where it renamed them): a Cryptomatte pass is one RGBA
     pass per two ranks."""
     if entry.name.startswith("Crypto"):
-        layers = module("scene.passes").CRYPTOMATTE_RANKS // 2
+        layers = tracer.CRYPTOMATTE_RANKS // 2
         return [f"{entry.name}{index:02d}" for index in range(layers)]
     return [blender_name(entry.name)]
 
 
 def blender_name(name: str) -> str:
     """A pass's name as this Blender calls it ("IndexOB" before 5.0, "Object Index" from 5.0)."""
-    return BLENDER_5_NAMES.get(name, name) if bpy.app.version >= (5, 0, 0) else name
+    return BLENDER_5_NAMES.get(name, name) if compat.passes_named_in_words() else name
 
 
 def register_passes(engine, scene, view_layer) -> None:
@@ -169,11 +169,12 @@ def exr_channels(passes: dict[str, np.ndarray], layer: str) -> dict[str, np.ndar
 def cryptomatte_metadata(scene, view_layer_name: str) -> dict[str, str]:
     """The Cryptomatte layers' header fields (name, hash, conversion, manifest) for the render result's metadata,
     where Blender's Cryptomatte node and its EXR writer find them."""
-    cryptomatte = module("tracing.cryptomatte")
     fields: dict[str, str] = {}
     if "cryptomatte_object" in scene.render.passes:
         names = list(dict.fromkeys(obj.name for obj in scene.objects))
-        fields.update(cryptomatte.layer_header(f"{view_layer_name}.CryptoObject", names, "object"))
+        fields.update(tracer.cryptomatte_layer_header(f"{view_layer_name}.CryptoObject", names, "object"))
     if "cryptomatte_material" in scene.render.passes:
-        fields.update(cryptomatte.layer_header(f"{view_layer_name}.CryptoMaterial", list(scene.materials), "material"))
+        fields.update(
+            tracer.cryptomatte_layer_header(f"{view_layer_name}.CryptoMaterial", list(scene.materials), "material")
+        )
     return fields

@@ -5,14 +5,14 @@ Cycles: bounces = depth (glossy only: the documented model has no indirect diffu
 width 1, no denoising, no clamping, no adaptive sampling, a fixed seed, the Standard view transform with no look
 and no dither (so the saved pixels are the linear result), and a world that only camera and mirror rays see (the
 background is what a miss returns; it lights nothing). The materials and lights are built for this by
-materials.py and lights.py.
+vane/materials.py and vane/lights.py.
 """
 
 from __future__ import annotations
 
 import bpy
 
-from . import compat
+from .. import compat
 
 WORLD = "WV World"
 
@@ -72,19 +72,18 @@ def _flat_color(blender_scene) -> tuple[float, float, float]:
     if settings.background == "none":
         return (0.0, 0.0, 0.0)
     # documented: the sky at the canvas centre, as the tracer computes it
-    from . import camera as camera_module
-    from ._tracer import module
+    from .. import tracer_api as tracer
+    from ..vane import camera as camera_module
 
-    sc = module("scene.scene")
     render = blender_scene.render
     scale = render.resolution_percentage / 100.0
-    size = sc.RenderSettings(
+    size = tracer.RenderSettings(
         width=max(1, round(render.resolution_x * scale)), height=max(1, round(render.resolution_y * scale))
     )
-    direction = module("geometry.camera").documented_background_direction(
-        sc.Camera(**camera_module.to_tracer(blender_scene.camera)), size
+    direction = tracer.documented_background_direction(
+        tracer.Camera(**camera_module.to_tracer(blender_scene.camera)), size
     )
-    background = sc.Background(horizon=tuple(settings.horizon), zenith=tuple(settings.zenith))
+    background = tracer.Background(horizon=tuple(settings.horizon), zenith=tuple(settings.zenith))
     return background.sky(direction[2])
 
 

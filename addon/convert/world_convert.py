@@ -26,7 +26,8 @@ import os
 
 import bpy
 
-from . import compat, material_convert, node_tree
+from .. import compat
+from . import material_convert, node_tree
 
 OWN_WORLD = "WV World"  # twin.WORLD
 SKY_MEAN = (0.2, 0.35, 0.6)  # a clear day's sky, mean radiance at strength 1 (an estimate, named where used)

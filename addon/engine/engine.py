@@ -1,7 +1,7 @@
 """The documented tracer as a Blender render engine: F12, animation renders, `blender -b -E WEATHERVANE_TRACER` and
-the 3D View's Rendered shading (addon/viewport.py).
+the 3D View's Rendered shading (engine/viewport.py).
 
-Each frame exports the evaluated scene to a tracer scene (addon/export.py), renders it on the tracer's worker
+Each frame exports the evaluated scene to a tracer scene (convert/export.py), renders it on the tracer's worker
 pool band by band with progress and cancel, and hands the linear float image to Blender's render result.
 """
 
@@ -12,8 +12,10 @@ import time
 import bpy
 import numpy as np
 
-from . import camera, export, pass_map, viewport
-from ._tracer import module
+from .. import tracer_api as tracer
+from ..convert import export, pass_map
+from ..vane import camera
+from . import viewport
 from .workers import spawn_with_blenders_python
 
 
@@ -40,7 +42,7 @@ def _renderer(workers: int):
     if _closing[0]:
         raise RenderCancelledError
     if workers not in _renderers:
-        _renderers[workers] = module("workers.parallel").Renderer(workers, start_method=spawn_with_blenders_python())
+        _renderers[workers] = tracer.Renderer(workers, start_method=spawn_with_blenders_python())
     return _renderers[workers]
 
 
@@ -113,19 +115,18 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         pass_map.register_passes(self, scene, renderlayer)
 
     def render(self, depsgraph) -> None:
-        from .export import ExportCancelledError, ExportNotes, MemoryBudget, named_problems, scene_document
+        from ..convert.export import ExportCancelledError, ExportNotes, MemoryBudget, named_problems, scene_document
 
         blender_scene = depsgraph.scene
-        loader, resources = module("scene.loader"), module("workers.resources")
         notes = ExportNotes()
         budget = MemoryBudget(blender_scene, cancelled=lambda: cancelled(self))
         try:
             document = scene_document(bpy.context, depsgraph, blender_scene, notes, budget, arrays=True)
-            scene = loader.scene_from_dict(export.as_json_types(document), "scene")
-        except loader.SceneError as error:
+            scene = tracer.scene_from_dict(export.as_json_types(document), "scene")
+        except tracer.SceneError as error:
             self.report({"ERROR"}, "; ".join(named_problems(error.problems, document, blender_scene.world)[:4]))
             return
-        except resources.ResourceError as error:  # refused before its arrays were read: nothing started
+        except tracer.ResourceError as error:  # refused before its arrays were read: nothing started
             self.report({"ERROR"}, f"Weathervane Tracer: not started: {error}")
             return
         except ExportCancelledError:
@@ -194,19 +195,19 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             if cancelled(self):
                 raise RenderCancelledError
 
-        pool, renderer = module("workers.pool"), None
+        renderer = None
         try:
             workers = scene.render.workers
             renderer = _renderer(workers)
             renderer.heartbeat = stop_if_cancelled
-            turning = _turning.setdefault(workers, module("frames.incremental").TurningFrames())
+            turning = _turning.setdefault(workers, tracer.TurningFrames())
             result = turning.render(renderer, scene, progress, band_done)
-        except (RenderCancelledError, pool.PoolClosedError):  # Esc, or Blender quitting (its pools closed)
+        except (RenderCancelledError, tracer.PoolClosedError):  # Esc, or Blender quitting (its pools closed)
             # the bands finished before the cancel: in the frame's result, or (Blender 3.4) in results of their own
             write_bands()
             self.end_result(render_result, cancel=not _fast_write(render_result))
             return
-        except (resources.ResourceError, pool.WorkerLostError, pool.TaskFailedError) as error:
+        except (tracer.ResourceError, tracer.WorkerLostError, tracer.TaskFailedError) as error:
             self.end_result(render_result, cancel=True)
             self.report({"ERROR"}, str(error))  # not enough memory, workers lost: one line, the pool stays usable
             return
@@ -241,14 +242,13 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         render_result = self.begin_result(0, 0, x1 - x0, y1 - y0)
         rows = np.arange(height - y1, height - y0)  # Blender counts rows from the bottom, the tracer from the top
         pixels = (rows[:, None] * width + np.arange(x0, x1)[None, :]).ravel()
-        pool, resources = module("workers.pool"), module("workers.resources")
         try:
             base = np.zeros((height, width, 4 if scene.has_alpha else 3), dtype=np.dtype(scene.render.dtype))
             result = _renderer(scene.render.workers).render_pixels(scene, pixels, base)
-        except (RenderCancelledError, pool.PoolClosedError):  # the engine is closing
+        except (RenderCancelledError, tracer.PoolClosedError):  # the engine is closing
             self.end_result(render_result, cancel=True)
             return
-        except (resources.ResourceError, pool.WorkerLostError, pool.TaskFailedError) as error:
+        except (tracer.ResourceError, tracer.WorkerLostError, tracer.TaskFailedError) as error:
             self.end_result(render_result, cancel=True)
             self.report({"ERROR"}, str(error))
             return

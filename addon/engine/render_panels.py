@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import bpy
 
-from . import build, conversion_report
-from .panels import characters_for, draw_background, draw_highlights, draw_processes, wrapped
+from ..convert import conversion_report
+from ..vane import build
+from ..vane.panels import characters_for, draw_background, draw_highlights, draw_processes, wrapped
 
 ENGINE = "WEATHERVANE_TRACER"
 

@@ -17,7 +17,7 @@ import weakref
 import bpy
 import numpy as np
 
-from ._tracer import module
+from .. import tracer_api as tracer
 from .workers import spawn_with_blenders_python
 
 SENSOR = 36.0  # millimetres: any width serves, the lens is derived from it
@@ -48,7 +48,7 @@ def view_camera(view_matrix, window_matrix, width: int, height: int) -> dict:
     camera_to_world = np.linalg.inv(np.array(view_matrix, dtype=np.float64))
     location, axes = camera_to_world[:3, 3], camera_to_world[:3, :3]
     section = {
-        "rotation": list(module("geometry.transforms").euler_xyz_from_matrix(axes.tolist())),
+        "rotation": list(tracer.euler_xyz_from_matrix(axes.tolist())),
         "sensor_width": SENSOR,
         "sensor_height": SENSOR * height / width,
         "sensor_fit": "HORIZONTAL",
@@ -99,9 +99,7 @@ class ViewportSession:
 
     def __init__(self, workers: int) -> None:
         self.workers = workers
-        self.progressive = module("frames.progressive").ProgressiveRender(
-            workers, start_method=spawn_with_blenders_python()
-        )
+        self.progressive = tracer.ProgressiveRender(workers, start_method=spawn_with_blenders_python())
         self.document: dict | None = None  # the scene without its camera (set by view_update)
         self.error: str | None = None  # why the scene cannot be traced (a bad scene), shown in the view
         self._scene_key = ""  # the document as JSON, made once per update: view_draw runs on every redraw
@@ -110,8 +108,7 @@ class ViewportSession:
         self._drawn_at = 0.0  # when a level was last drawn (time.perf_counter)
         self.status = ""  # the status line last drawn
         self._view_size: tuple[int, int] | None = None  # the region's (width, height) when last shown
-        progressive = module("frames.progressive")
-        self._editable_samples, self._kept_bytes = progressive.EDITABLE_SAMPLES, progressive.KEPT_BYTES_PER_SAMPLE
+        self._editable_samples, self._kept_bytes = tracer.EDITABLE_SAMPLES, tracer.KEPT_BYTES_PER_SAMPLE
         _sessions.add(self)
         # a session let go without close() still ends its thread and its workers (the thread holds the tracer, not
         # the session)
@@ -128,7 +125,7 @@ class ViewportSession:
             _textures.pop(id(self), None)  # the GPU texture freed now; elsewhere by the main thread's next look
 
     def update_scene(self, context, depsgraph) -> None:
-        from .export import MemoryBudget, scene_document
+        from ..convert.export import MemoryBudget, scene_document
 
         # the memory check counts the view's image (the last size it was drawn at) and its kept ray trees
         budget = True
@@ -138,7 +135,7 @@ class ViewportSession:
             budget = MemoryBudget(depsgraph.scene, size=self._view_size, extra=samples * self._kept_bytes)
         try:
             document = scene_document(context, depsgraph, depsgraph.scene, budget=budget)
-        except module("workers.resources").ResourceError as refusal:  # too large for the free memory: not read
+        except tracer.ResourceError as refusal:  # too large for the free memory: not read
             self.error, self.document = f"Weathervane Tracer: not started: {refusal}", None  # as F12 says it
             return
         except Exception as failure:  # shown in the view as one line; the console has the rest
@@ -167,11 +164,10 @@ class ViewportSession:
         if key == self._shown_key:
             return
         document = {**self.document, **json.loads(view_part)}
-        loader = module("scene.loader")
         try:
-            scene = loader.scene_from_dict(document, "viewport")
-        except loader.SceneError as error:
-            from .export import named_problems
+            scene = tracer.scene_from_dict(document, "viewport")
+        except tracer.SceneError as error:
+            from ..convert.export import named_problems
 
             self.error = "; ".join(named_problems(error.problems, document, bpy.context.scene.world)[:2])
             return

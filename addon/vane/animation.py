@@ -12,8 +12,9 @@ import math
 import bpy
 import numpy as np
 
-from . import build, compat
-from ._tracer import module
+from .. import compat
+from .. import tracer_api as tracer
+from . import build
 
 
 def _sampled(blender_scene, name: str, frames: np.ndarray) -> np.ndarray:
@@ -26,33 +27,32 @@ def _sampled(blender_scene, name: str, frames: np.ndarray) -> np.ndarray:
 
 def motion_for(blender_scene, last_frame: int):
     """The tracer Motion that the settings describe, frame 1 at time 0, over frames 1..last_frame."""
-    wind_module, motion_module = module("scene.wind"), module("scene.motion")
     settings = blender_scene.weathervane
     fps = blender_scene.render.fps / blender_scene.render.fps_base
     frames = np.arange(1, last_frame + 1, dtype=np.float64)
     directions = np.degrees(_sampled(blender_scene, "wind_direction", frames))
     speeds = np.clip(_sampled(blender_scene, "wind_speed", frames), 0.0, 60.0)
     keys = tuple(
-        wind_module.WindKey(float((frame - 1) / fps), float(direction % 360.0), float(speed))
+        tracer.WindKey(float((frame - 1) / fps), float(direction % 360.0), float(speed))
         for frame, direction, speed in zip(frames, directions, speeds, strict=True)
     )
     gusts = None
     if settings.gust_intensity > 0.0:
-        gusts = wind_module.Gusts(settings.gust_intensity, settings.gust_time_scale, settings.gust_seed)
-    wind = wind_module.Wind(
+        gusts = tracer.Gusts(settings.gust_intensity, settings.gust_time_scale, settings.gust_seed)
+    wind = tracer.Wind(
         keys=keys,
         gusts=gusts,
         start=max(0.0, (settings.start_frame - 1) / fps),
         stop=(settings.stop_frame - 1) / fps if settings.use_stop else None,
     )
-    spin = motion_module.Spin(
+    spin = tracer.Spin(
         direction=settings.spin_direction,
         speed=settings.spin_speed,
         smoothness=settings.spin_smoothness,
         start=max(0.0, (settings.start_frame - 1) / fps),
         stop=(settings.stop_frame - 1) / fps if settings.use_stop else None,
     )
-    return motion_module.Motion(
+    return tracer.Motion(
         mode=settings.mode.lower(),
         damping=settings.damping,
         wavelength=settings.wavelength,
@@ -66,7 +66,7 @@ def motion_for(blender_scene, last_frame: int):
 
 def headings(blender_scene, last_frame: int, initial_heading: float) -> np.ndarray:
     """Degrees (last_frame,) at frames 1..last_frame."""
-    return module("scene.motion").simulate(motion_for(blender_scene, last_frame), last_frame, initial_heading)
+    return tracer.simulate(motion_for(blender_scene, last_frame), last_frame, initial_heading)
 
 
 WIND_PROPERTIES = ("wind_direction", "wind_speed")
@@ -118,7 +118,7 @@ def bake(context, progress=None) -> tuple[int, int]:
         progress(0.7)
     span = angles[max(first, 1) - 1 : last]
     frames = np.arange(max(first, 1), last + 1)
-    keys = module("scene.keyframes").reduce_keys(span, blender_scene.weathervane.tolerance)
+    keys = tracer.reduce_keys(span, blender_scene.weathervane.tolerance)
     compat.replace_fcurve(
         turn, "rotation_euler", 2, [float(frames[k]) for k in keys], [math.radians(float(span[k])) for k in keys]
     )

@@ -15,9 +15,10 @@ import bmesh
 import bpy
 from mathutils import Matrix, Vector
 
+from .. import compat
+from .. import tracer_api as tracer
 from . import camera as camera_module
-from . import compat, lights, materials
-from ._tracer import module
+from . import lights, materials
 
 COLLECTION = "Weathervane"
 PIVOT = "WV Pivot"
@@ -46,7 +47,7 @@ def segments_for(radius: float, distance: float, focal_pixels: float, max_error_
 def focal_pixels(scene) -> float:
     """The camera's focal length in pixels of the scene's render width (tracer's sensor fit)."""
     width, height = scene.render.width, scene.render.height
-    sensor_x, _ = module("geometry.camera").sensor_size(scene.camera, width, height)
+    sensor_x, _ = tracer.sensor_size(scene.camera, width, height)
     return scene.camera.lens / sensor_x * width
 
 
@@ -94,23 +95,21 @@ def cylinder_mesh(name: str, radius: float, height: float, segments: int):
 
 def primitive_mesh(scene, obj, world):
     """The mesh of one tracer object, in its local frame."""
-    transforms = module("geometry.transforms")
-    sc = module("scene.scene")
     name = f"WV {obj.name}"
-    if isinstance(obj, sc.Sphere):
+    if isinstance(obj, tracer.Sphere):
         segments = segments_for(obj.radius, _distance(scene, world.center) - obj.radius, focal_pixels(scene))
         return sphere_mesh(name, obj.radius, segments)
-    if isinstance(obj, sc.Cylinder):
+    if isinstance(obj, tracer.Cylinder):
         centre = Vector(world.base) + Vector(world.axis) * (obj.height / 2.0)
         distance = _distance(scene, centre) - max(obj.radius, obj.height / 2.0)
         return cylinder_mesh(name, obj.radius, obj.height, segments_for(obj.radius, distance, focal_pixels(scene)))
-    if isinstance(obj, sc.Plane):
+    if isinstance(obj, tracer.Plane):
         hx, hy = (s / 2.0 for s in obj.size) if obj.size else (INFINITE_PLANE_SIZE / 2.0,) * 2
         return _mesh_from(name, [(-hx, -hy, 0.0), (hx, -hy, 0.0), (hx, hy, 0.0), (-hx, hy, 0.0)], [(0, 1, 2, 3)])
-    if isinstance(obj, sc.Box):
-        return _mesh_from(name, transforms.box_vertices(obj.size), transforms.BOX_TRIANGLES)
-    if isinstance(obj, sc.Pyramid):
-        return _mesh_from(name, transforms.pyramid_vertices(obj.size), transforms.PYRAMID_TRIANGLES)
+    if isinstance(obj, tracer.Box):
+        return _mesh_from(name, tracer.box_vertices(obj.size), tracer.BOX_TRIANGLES)
+    if isinstance(obj, tracer.Pyramid):
+        return _mesh_from(name, tracer.pyramid_vertices(obj.size), tracer.PYRAMID_TRIANGLES)
     return _mesh_from(name, obj.vertices.tolist(), obj.triangles.tolist())  # arrays -> Python numbers for bpy
 
 
@@ -220,7 +219,6 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
             collection.objects.link(obj)
             context.scene.collection.objects.unlink(obj)
     settings.built_from = source
-    transforms = module("geometry.transforms")
     if keep:
         scene = _with_kept_materials(scene, kept_colors)
     ambient = sum(light.intensity for light in scene.lights if type(light).__name__ == "AmbientLight")
@@ -255,13 +253,13 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
     still = scene.with_heading(0.0)
     context.view_layer.update()
     for obj in scene.objects:
-        world = transforms.world_primitive(obj, None)
+        world = tracer.world_primitive(obj, None)
         mesh = primitive_mesh(scene, obj, world)
         blender_object = bpy.data.objects.new(f"WV {obj.name}", mesh)
         blender_object.data.materials.append(made_materials[obj.material])
         blender_object.pass_index = obj.pass_index  # Object > Relations > Pass Index
         collection.objects.link(blender_object)
-        rotation, location = transforms.object_frame(obj, still.vane)
+        rotation, location = tracer.object_frame(obj, still.vane)
         blender_object.matrix_world = Matrix.Translation(location) @ Matrix(rotation).to_4x4()
         _record(blender_object, obj)
         blender_object["weathervane_material"] = obj.material

@@ -20,6 +20,8 @@ import math
 import bpy
 from mathutils import Matrix, Vector
 
+from .. import compat
+
 POINT_WATTS_PER_UNIT = 4.0 * math.pi**2
 SUN_STRENGTH_PER_UNIT = math.pi
 
@@ -73,8 +75,8 @@ def create(kind: str, intensity: float, name: str, collection, vector=(0.0, 0.0,
 def create_from_scene(light, name: str, collection):
     """A Blender light object for a scene file's point, directional, spot or area light that the documented panel
     entry cannot hold (a colour, inverse-square falloff, a radius, a sun's angle, a cone or a surface): made so that
-    the add-on's conversion (light_convert.py) gives the same light back. None for a documented point or directional
-    light (create() makes those)."""
+    the add-on's conversion (convert/light_convert.py) gives the same light back. None for a documented point or
+    directional light (create() makes those)."""
     kind = type(light).__name__
     if kind == "AmbientLight":
         return None
@@ -116,7 +118,7 @@ def _shape_area(obj, light) -> None:
     data.size = light.size[0]
     if light.shape in ("rectangle", "ellipse"):
         data.size_y = light.size[1]
-    factor = math.pi / 4.0 if bpy.app.version < (4, 0, 0) else 1.0  # Cycles 3.4 emits pi / 4 of 4.0+'s
+    factor = compat.area_light_share()  # Cycles 3.4 emits pi / 4 of 4.0+'s
     data.energy = light.intensity * math.pi**2 / factor
     z = -Vector(light.direction).normalized()
     x = Vector(light.x_axis)

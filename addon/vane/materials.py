@@ -29,7 +29,7 @@ import math
 
 import bpy
 
-from . import compat
+from .. import compat
 
 PREFIX = "WV "
 

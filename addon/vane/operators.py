@@ -12,9 +12,9 @@ import bpy
 from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
+from .. import tracer_api as tracer
+from ..convert.export import other_lights
 from . import animation, build, camera, lights
-from ._tracer import module
-from .export import other_lights
 
 _RESULT: list[str] = ["", "INFO"]  # the last operator's result line and its kind, shown in the sidebar
 
@@ -57,10 +57,9 @@ def reports_errors(execute):
 
 
 def _load_scene(path: str):
-    loader = module("scene.loader")
     if not path:
-        return loader.default_scene()
-    return loader.load_scene(bpy.path.abspath(path))
+        return tracer.default_scene()
+    return tracer.load_scene(bpy.path.abspath(path))
 
 
 class WEATHERVANE_OT_build(bpy.types.Operator):
@@ -89,7 +88,7 @@ def _build_from(operator: bpy.types.Operator, context, path: str, reset: bool = 
     keeps the user's settings unless reset."""
     try:
         scene = _load_scene(path)
-    except module("scene.loader").SceneError as error:
+    except tracer.SceneError as error:
         for problem in error.problems[:8]:
             report(operator, {"ERROR"}, f"{error.source}: {problem}")
         return {"CANCELLED"}
@@ -265,32 +264,31 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
 
     @reports_errors
     def execute(self, context):
-        from .export import named_problems, scene_document
+        from ..convert.export import named_problems, scene_document
 
         try:
             document = scene_document(context)
-        except module("workers.resources").ResourceError as error:  # refused before the scene's arrays were read
+        except tracer.ResourceError as error:  # refused before the scene's arrays were read
             report(self, {"ERROR"}, f"cannot export: {error}")
             return {"CANCELLED"}
         try:
-            module("scene.loader").scene_from_dict(json.loads(json.dumps(document)), "export")
-        except module("scene.loader").SceneError as error:
+            tracer.scene_from_dict(json.loads(json.dumps(document)), "export")
+        except tracer.SceneError as error:
             for problem in named_problems(error.problems, document, context.scene.world)[:8]:
                 report(self, {"ERROR"}, f"cannot export: {problem}")
             return {"CANCELLED"}
         target = Path(bpy.path.abspath(self.filepath))
-        images = module("tracing.images")
-        swept = images.sweep_stale_temporaries(target.parent)
+        swept = tracer.sweep_stale_temporaries(target.parent)
         try:
             picture = document.get("background", {}).get("image")
             if picture:  # a World's picture (world_convert.background_for_json): a .npy beside the scene file
                 import shutil
 
                 beside = target.with_name(f"{target.stem}.world.npy")
-                with images.atomic_path(beside) as temporary:
+                with tracer.atomic_path(beside) as temporary:
                     shutil.copyfile(picture, temporary)
                 document["background"] = {**document["background"], "image": beside.name}
-            with images.atomic_path(target) as temporary:  # nothing is left behind if it fails
+            with tracer.atomic_path(target) as temporary:  # nothing is left behind if it fails
                 temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
         except OSError as error:
             report(self, {"ERROR"}, f"cannot write {target}: {error.strerror or error}")

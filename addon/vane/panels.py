@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import bpy
 
+from ..convert.export import entry_kind, other_lights
 from . import build
-from .export import entry_kind, other_lights
 from .operators import result_line
 
 LIGHT_ICONS = {

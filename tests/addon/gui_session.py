@@ -43,7 +43,7 @@ def tracing_quiet(timeout: float = 60.0) -> None:
     other thread's), and crashed so twice in 5 window benchmarks while a view traced."""
     import time
 
-    viewport = sys.modules.get("weathervane.viewport")
+    viewport = sys.modules.get("weathervane.engine.viewport")
     started = time.perf_counter()
     while viewport is not None and any(session.progressive.busy for session in list(viewport._sessions)):
         assert time.perf_counter() - started < timeout, "the Rendered view kept tracing"
@@ -145,7 +145,7 @@ def open_every_panel() -> None:
 
 def PANELS() -> list:  # noqa: N802 - read like a constant
     """The add-on's panels: the sidebar's, and its own in the Properties editor (Scene Conversion opens too)."""
-    classes = sys.modules["weathervane.panels"].CLASSES + sys.modules["weathervane.render_panels"].CLASSES
+    classes = sys.modules["weathervane.vane.panels"].CLASSES + sys.modules["weathervane.engine.render_panels"].CLASSES
     return [cls for cls in classes if issubclass(cls, bpy.types.Panel)]
 
 
@@ -199,7 +199,7 @@ def capture() -> float | None:
 
 def result_line() -> str:
     """The add-on's last result line as the sidebar shows it (kind: text)."""
-    line, kind = sys.modules["weathervane.operators"].result_line()
+    line, kind = sys.modules["weathervane.vane.operators"].result_line()
     return f"{kind}: {line}"
 
 
@@ -319,7 +319,7 @@ def change_the_light_type_in_its_tab() -> None:
     import json
     import os
 
-    entry_kind = sys.modules["weathervane.export"].entry_kind  # what the sidebar's Lights panel draws
+    entry_kind = sys.modules["weathervane.convert.export"].entry_kind  # what the sidebar's Lights panel draws
     light = bpy.context.view_layer.objects.active
     entry = next(entry for entry in bpy.context.scene.weathervane.lights if entry.object_name == light.name)
     before = light.data.type
@@ -374,7 +374,7 @@ def full_image_then(step, idle: bool = True) -> float | None:
 
     def wait() -> float | None:
         _, area, region = view3d()
-        sessions = list(sys.modules["weathervane.viewport"]._sessions)
+        sessions = list(sys.modules["weathervane.engine.viewport"]._sessions)
         level = sessions[0].progressive.latest() if sessions else None
         if (
             level is None
@@ -400,7 +400,7 @@ def capture_rendered() -> float | None:
     import os
 
     window, area, region = view3d()
-    viewport = sys.modules["weathervane.viewport"]
+    viewport = sys.modules["weathervane.engine.viewport"]
     (session,) = list(viewport._sessions)
     view = area.spaces.active.region_3d
     document = dict(session.document)
@@ -427,7 +427,7 @@ def capture_rendered() -> float | None:
 
 def capture_rendered_with_the_interface() -> float | None:
     screenshot("-rendered-ui")
-    (session,) = list(sys.modules["weathervane.viewport"]._sessions)
+    (session,) = list(sys.modules["weathervane.engine.viewport"]._sessions)
     print("WEATHERVANE-GUI rendered screenshot with the interface, status:", session.status)
     assert session.status.startswith("Weathervane Tracer: done in"), session.status
     return guarded(edit_in_rendered_view)
@@ -439,7 +439,7 @@ def edit_in_rendered_view() -> float | None:
     "done" or a stale "1/1 resolution"; the time to the edited image is recorded (not asserted)."""
     import time
 
-    (session,) = list(sys.modules["weathervane.viewport"]._sessions)
+    (session,) = list(sys.modules["weathervane.engine.viewport"]._sessions)
     before, generation = session.status, session.progressive.generation
     materials = {entry.name: entry for entry in bpy.context.scene.weathervane.materials}
     materials["verdigris"].color = (0.9, 0.2, 0.1)
@@ -856,7 +856,7 @@ LATENCY_REPEATS = 3
 
 
 def the_session():
-    sessions = list(sys.modules["weathervane.viewport"]._sessions)
+    sessions = list(sys.modules["weathervane.engine.viewport"]._sessions)
     assert len(sessions) == 1, sessions
     return sessions[0]
 
@@ -1148,15 +1148,15 @@ HEARTBEAT_SECONDS = 0.02
 
 
 def refuse_a_scene_too_large() -> float | None:
-    """A scene whose preparation needs more than the free memory (faked: FAKE_FREE_MEMORY in the add-on's own copy
-    of the tracer, as tests/addon/test_memory_guard.py fakes it): a cube with Subdivision Surface at level 7, 196,608
+    """A scene whose preparation needs more than the free memory (faked: FAKE_FREE_MEMORY in the add-on's tracer
+    facade, as tests/addon/test_memory_guard.py fakes it): a cube with Subdivision Surface at level 7, 196,608
     triangles, added as a user adds it; the 3D View switched to Rendered shows the one refusal line and traces
     nothing, the window keeps answering (a timer every HEARTBEAT_SECONDS; N over the view toggles the sidebar), and
     F12 is refused with Blender's report, nothing written; then the free memory, the scene and Solid shading as they
     were."""
     import time
 
-    resources = sys.modules["weathervane._tracer"].module("workers.resources")
+    resources = sys.modules["weathervane.tracer_api"]  # what the add-on reads the free memory through
     real = resources.available_memory
     resources.available_memory = lambda: FAKE_FREE_MEMORY
     window, area, region = view3d()
@@ -1182,7 +1182,7 @@ def refuse_a_scene_too_large() -> float | None:
         area.tag_redraw()
 
     def refused() -> float | None:
-        sessions = list(sys.modules["weathervane.viewport"]._sessions)
+        sessions = list(sys.modules["weathervane.engine.viewport"]._sessions)
         waited = time.perf_counter() - state["started"]
         assert waited < 30.0, "the Rendered view showed no refusal"
         if not sessions or not sessions[0].error or sessions[0].status != sessions[0].error:

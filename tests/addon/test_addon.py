@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 from mathutils import Vector
 
-from addon import build, compat, export, material_convert, materials
-from addon.animation import motion_for
+from addon import compat
+from addon.convert import export, material_convert
+from addon.vane import build, materials
+from addon.vane.animation import motion_for
 from tracer.geometry import transforms
 from tracer.scene import motion as motion_module
 from tracer.scene.keyframes import DEFAULT_TOLERANCE
@@ -382,7 +384,7 @@ def test_an_unexpected_error_in_an_operator_is_one_report_line(monkeypatch: pyte
     def broken(*_args, **_kwargs):
         raise ZeroDivisionError("a bug")
 
-    monkeypatch.setattr("addon.animation.bake", broken)
+    monkeypatch.setattr("addon.vane.animation.bake", broken)
     with pytest.raises(RuntimeError) as raised:
         bpy.ops.weathervane.bake()
     message = str(raised.value)
@@ -391,7 +393,7 @@ def test_an_unexpected_error_in_an_operator_is_one_report_line(monkeypatch: pyte
 
 def test_file_import_export_and_add_menus_hold_the_operators_and_unregister_removes_them(tmp_path: Path) -> None:
     import addon
-    from addon import operators
+    from addon.vane import operators
 
     for menu, entry in operators.MENUS:
         assert entry in getattr(bpy.types, menu)._dyn_ui_initialize(), menu
@@ -463,7 +465,7 @@ def test_other_lights_are_left_out_until_asked_for_and_build_says_so(tmp_path: P
     assert len(document["lights"]) == len(default_scene().lights)  # only the listed ones
     # and every render says so, as the Scene Conversion panel does (it does not call the light or the world exact)
     assert "1 light beside the vane's not rendered (Light; Lights > Other Lights renders them)" in document["comment"]
-    from addon import conversion_report
+    from addon.convert import conversion_report
 
     rows = {(kind, name): notes for kind, name, notes in conversion_report.scene_conversion(bpy.context.scene)}
     assert rows[("LIGHT", "Light")] == ["off (see Other Lights)"]
@@ -523,7 +525,7 @@ class _Recorder:
 
 
 def _draw_lights_panel() -> dict:
-    from addon import panels
+    from addon.vane import panels
 
     drawn: dict = {"props": [], "labels": []}
     holder = type("Panel", (), {"layout": _Recorder(drawn)})()
@@ -548,7 +550,7 @@ def test_bake_refuses_a_wind_edit_that_its_keys_would_ignore_and_follows_it_once
     blender_scene.keyframe_insert("weathervane.wind_speed", frame=1)
     assert bpy.ops.weathervane.bake() == {"FINISHED"}
     frames = np.arange(1, 3, dtype=np.float64)
-    from addon.animation import _sampled
+    from addon.vane.animation import _sampled
 
     assert np.degrees(_sampled(blender_scene, "wind_direction", frames))[0] == pytest.approx(90.0)
 

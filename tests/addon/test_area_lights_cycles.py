@@ -166,7 +166,7 @@ def test_an_equirectangular_world_is_the_background_cycles_shows(tmp_path: Path)
     scene.render.image_settings.color_depth = "32"
     scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 4, False
     scene.cycles.filter_width = 0.01
-    from addon import world_convert
+    from addon.convert import world_convert
 
     background, _, notes = world_convert.convert_world(scene.world, blender_scene=scene)
     assert background["type"] == "image" and background["rotation"] == pytest.approx(40.0)
@@ -197,7 +197,7 @@ def _picture_world(scene) -> np.ndarray:
 
 
 def test_the_worlds_picture_goes_to_f12_as_an_array_and_to_json_documents_as_a_npy_file(tmp_path: Path) -> None:
-    from addon import export, world_convert
+    from addon.convert import export, world_convert
     from tracer.scene.loader import load_scene, scene_from_dict
 
     scene = bpy.context.scene

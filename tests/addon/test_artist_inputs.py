@@ -11,7 +11,8 @@ import bpy
 import numpy as np
 import pytest
 
-from addon import compat, material_convert
+from addon import compat
+from addon.convert import material_convert
 from tests.addon.f12_images import f12_exr, looking_down
 
 
@@ -100,7 +101,7 @@ def test_a_missing_world_picture_is_magenta_as_in_cycles(tmp_path: Path) -> None
     environment.image = _missing_image(tmp_path / "sky.exr")
     tree.links.new(environment.outputs["Color"], tree.nodes["Background"].inputs["Color"])
     bpy.data.objects.remove(bpy.data.objects["plane"])
-    from addon import world_convert
+    from addon.convert import world_convert
 
     _background, _, notes = world_convert.convert_world(scene.world, blender_scene=scene)
     assert any("sky.exr" in note and "magenta" in note for note in notes), notes
@@ -127,7 +128,7 @@ def test_a_texture_on_a_factor_input_is_its_mean_named() -> None:
 def test_render_controls_the_tracer_does_not_express_are_named() -> None:
     """Shadow catcher, holdout (object and collection), indirect-only collection and (4.0+) light and shadow
     linking: F12's line and Scene Conversion name each with the objects, collections or light it concerns."""
-    from addon import export, light_convert
+    from addon.convert import export, light_convert
 
     _plane_scene()
     scene = bpy.context.scene
@@ -204,7 +205,7 @@ def test_a_udim_image_is_named() -> None:
 def test_scene_conversion_lists_materials_reached_through_instances_and_geometry_nodes() -> None:
     """A material on an object that only a collection instance places, and one a Geometry Nodes Set Material gives:
     both render, so both are in Render Properties > Scene Conversion."""
-    from addon import conversion_report
+    from addon.convert import conversion_report
 
     _plane_scene()
     scene = bpy.context.scene

@@ -13,7 +13,7 @@ import pytest
 from bpy_extras.object_utils import world_to_camera_view
 from mathutils import Vector
 
-from addon.camera import unsupported
+from addon.vane.camera import unsupported
 from tracer.geometry import camera as cam
 from tracer.scene.loader import scene_from_dict
 

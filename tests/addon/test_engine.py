@@ -66,9 +66,9 @@ def test_engine_follows_the_baked_motion(tmp_path: Path) -> None:
 
 
 def test_a_render_too_large_for_memory_is_reported_in_one_line_not_raised(tmp_path: Path, monkeypatch) -> None:
-    from addon._tracer import module
+    from addon import tracer_api
 
-    monkeypatch.setattr(module("workers.resources"), "available_memory", lambda: 10**6)  # 1 MB free
+    monkeypatch.setattr(tracer_api, "available_memory", lambda: 10**6)  # 1 MB free, as the add-on reads it
     assert bpy.ops.weathervane.build() == {"FINISHED"}
     scene = bpy.context.scene
     scene.render.engine = "WEATHERVANE_TRACER"
@@ -147,7 +147,7 @@ def test_f12_png_equals_the_tracers_srgb_png_and_the_properties_show_the_engine(
     tracer_png = to_8bit(render(exported, workers=1).image, srgb=True).astype(int)
     assert np.abs(f12 - tracer_png).max() <= 1
     # Render and World Properties show the engine's own panels; the stock Output and colour panels include it
-    from addon import render_panels
+    from addon.engine import render_panels
 
     for panel in render_panels.CLASSES:
         assert panel.poll(bpy.context)
@@ -184,7 +184,7 @@ def test_numerics_and_precision_set_in_render_properties_reach_the_tracer(tmp_pa
 def test_a_cancelled_render_keeps_the_bands_finished_before_the_cancel(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from addon import engine
+    from addon.engine import engine
     from tracer.workers.parallel import bands
 
     engine_scene(workers=1)  # bands one after another: the cancel comes after the first
@@ -208,7 +208,7 @@ def test_a_cancelled_render_keeps_the_bands_finished_before_the_cancel(
 
 
 def test_the_engines_workers_are_started_afresh_not_forked_from_blender(tmp_path: Path) -> None:
-    from addon import engine
+    from addon.engine import engine
 
     scene = engine_scene(workers=2)
     scene.render.filepath = str(tmp_path / "two.exr")
@@ -229,7 +229,7 @@ def test_f12_writes_each_band_once_where_blender_takes_only_lists(tmp_path: Path
     band (62 s at 1920x1080 before), and the image is still the tracer's; where foreach_set works, the frame is
     written whole. Bands go into the result at most every WRITE_SECONDS: with 0 after every band, with a long time
     the first band at once and the rest at the end. Counted in numbers handed to the render results, not timed."""
-    from addon import engine
+    from addon.engine import engine
     from tracer.workers.parallel import bands
 
     scene = engine_scene(workers=1)
@@ -258,7 +258,7 @@ def test_f12_writes_each_band_once_where_blender_takes_only_lists(tmp_path: Path
 def test_an_image_handed_over_as_an_openexr_file_is_read_by_blender_exactly(tmp_path: Path) -> None:
     """Blender 3.4's F12 hands its bands over as float OpenEXR files (engine.exr_bytes): Blender's own reader gives
     back every float, the top row first in the file and last in Blender's bottom-up pixels."""
-    from addon import engine
+    from addon.engine import engine
 
     rgba = np.random.default_rng(5).normal(0.5, 2.0, (7, 11, 4)).astype(np.float32)  # negative and above 1 too
     (tmp_path / "band.exr").write_bytes(engine.exr_bytes(rgba))

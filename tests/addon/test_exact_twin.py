@@ -7,7 +7,7 @@ from __future__ import annotations
 import bpy
 import pytest
 
-from addon import exact_twin
+from addon.convert import exact_twin
 
 
 def _build():

@@ -11,7 +11,8 @@ import bpy
 import numpy as np
 import pytest
 
-from addon import compat, export, material_convert
+from addon import compat
+from addon.convert import export, material_convert
 from tests.addon.f12_images import f12_exr
 
 ENGINE = "WEATHERVANE_TRACER"

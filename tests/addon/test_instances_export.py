@@ -12,8 +12,8 @@ import bpy
 import numpy as np
 import pytest
 
-from addon import export, mesh_export
-from addon.export import ExportNotes, scene_document
+from addon.convert import export, mesh_export
+from addon.convert.export import ExportNotes, scene_document
 from tracer.scene.loader import scene_from_dict
 
 SPHERE_TRIANGLES = 16 * (11 - 2) * 2 + 2 * 16  # the scatter's UV sphere: 16 segments, 11 rings
@@ -341,7 +341,7 @@ def test_geometry_that_changes_with_the_frame_is_read_at_each_frame(tmp_path: Pa
 
 
 def test_materials_are_converted_once_until_they_change(monkeypatch) -> None:
-    from addon import material_convert
+    from addon.convert import material_convert
 
     for k in range(4):
         bpy.ops.mesh.primitive_cube_add(location=(3 * k, 0, 0))

@@ -11,7 +11,8 @@ import bpy
 import numpy as np
 import pytest
 
-from addon import compat, light_convert
+from addon import compat
+from addon.convert import light_convert
 from tests.addon.f12_images import f12_exr, looking_down
 
 

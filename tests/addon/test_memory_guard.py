@@ -10,7 +10,9 @@ from pathlib import Path
 import bpy
 import pytest
 
-from addon import engine, mesh_export
+from addon import tracer_api
+from addon.convert import mesh_export
+from addon.engine import engine
 from tracer.workers import resources
 
 
@@ -40,7 +42,7 @@ def peak_rss() -> int:
 
 def test_a_scene_larger_than_the_free_memory_is_refused_before_it_is_read(monkeypatch: pytest.MonkeyPatch) -> None:
     triangles = subdivided_cube(7)  # 196,608 triangles: about 400 MB to prepare and trace
-    monkeypatch.setattr(resources, "available_memory", lambda: 250_000_000)  # a machine with 250 MB free
+    monkeypatch.setattr(tracer_api, "available_memory", lambda: 250_000_000)  # a machine with 250 MB free
     reads = []
     monkeypatch.setattr(mesh_export.CACHE, "arrays", lambda *args: reads.append(args))
     peak_rss_reset()
@@ -66,7 +68,7 @@ def test_a_scene_larger_than_the_free_memory_is_refused_before_it_is_read(monkey
 def test_the_estimate_lets_a_scene_that_fits_render(monkeypatch: pytest.MonkeyPatch) -> None:
     """The same scene with 2 GB free renders; its real growth stays below the estimate (which errs large)."""
     triangles = subdivided_cube(7)
-    monkeypatch.setattr(resources, "available_memory", lambda: 2_000_000_000)
+    monkeypatch.setattr(tracer_api, "available_memory", lambda: 2_000_000_000)
     settings = resources.sc.RenderSettings(width=64, height=48)
     estimate = resources.memory_needed(settings, 2) + resources.scene_bytes(triangles, 1)
     engine.close_renderers()  # workers started afresh, as in a new Blender
@@ -111,7 +113,7 @@ def test_the_rendered_views_check_counts_the_views_size_and_its_kept_ray_trees(m
     """Once a view was shown, the check is made for its size, with the ray trees it keeps (2^21 samples at most,
     about 0.5 GB at full HD): the factory cube alone is refused in a 1920x1005 view with 400 MB free, its line naming
     the view's size, and traced with 2 GB."""
-    from addon import viewport
+    from addon.engine import viewport
     from tracer.frames.progressive import EDITABLE_SAMPLES, KEPT_BYTES_PER_SAMPLE
 
     bpy.ops.wm.read_factory_settings(use_empty=False)
@@ -121,12 +123,12 @@ def test_the_rendered_views_check_counts_the_views_size_and_its_kept_ray_trees(m
     try:
         session._view_size = (1920, 1005)  # as show() leaves it for a full-HD window's view
         kept = EDITABLE_SAMPLES * KEPT_BYTES_PER_SAMPLE
-        monkeypatch.setattr(resources, "available_memory", lambda: 400_000_000)
+        monkeypatch.setattr(tracer_api, "available_memory", lambda: 400_000_000)
         assert kept > 400_000_000 / resources.HEADROOM  # the trees alone would not fit
         session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
         assert session.document is None
         assert session.error.startswith("Weathervane Tracer: not started: a 1920x1005 float64 render with 1 workers")
-        monkeypatch.setattr(resources, "available_memory", lambda: 2_000_000_000)
+        monkeypatch.setattr(tracer_api, "available_memory", lambda: 2_000_000_000)
         session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
         assert session.error is None and session.document is not None
     finally:

@@ -13,7 +13,8 @@ import bpy
 import numpy as np
 import pytest
 
-from addon import compat, material_convert, node_tree
+from addon import compat
+from addon.convert import material_convert, node_tree
 from tests.addon.f12_images import f12_exr
 
 

@@ -14,7 +14,8 @@ import bpy
 import numpy as np
 import pytest
 
-from addon import compat, material_convert
+from addon import compat
+from addon.convert import material_convert
 from tests.addon.f12_images import f12_exr
 
 ENGINE = "WEATHERVANE_TRACER"
@@ -368,7 +369,7 @@ def test_f12_shows_an_image_through_a_ramp_or_hue_saturation_as_cycles_does(tmp_
 def test_f12_shows_an_emission_texture_as_cycles_does_and_the_export_carries_it(tmp_path) -> None:
     """A packed 8 x 8 image (Closest) on Principled's Emission Color, strength 0.8, over a black base with the sun
     off: the plane's pixels are the emission, as Cycles'; File > Export's document holds it as lists, with UVs."""
-    from addon import export
+    from addon.convert import export
 
     material = image_plane(None)
     shader = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")

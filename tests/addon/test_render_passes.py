@@ -14,7 +14,7 @@ import bpy
 import numpy as np
 import pytest
 
-from addon.pass_map import blender_name  # Blender 5 renamed its passes: the names this Blender uses
+from addon.convert.pass_map import blender_name  # Blender 5 renamed its passes: the names this Blender uses
 
 ROOT = Path(__file__).resolve().parents[2]
 WHITTED = tuple(blender_name(name) for name in ("Ambient", "DiffDir", "GlossDir", "Emit", "Reflection", "Env"))
@@ -172,7 +172,8 @@ def test_passes_go_over_without_lists_where_blender_takes_only_lists(tmp_path: P
     """Blender 3.4's passes take only Python lists (0.5 s a channel at 1920x1080): there the image and the passes
     go in through one multilayer OpenEXR file Blender reads itself, and no pass is written as a list; Blender 4+
     takes an array a pass."""
-    from addon import engine, pass_map
+    from addon.convert import pass_map
+    from addon.engine import engine
 
     calls, write_passes = [], pass_map.write_passes
     monkeypatch.setattr(pass_map, "write_passes", lambda *args, fast: calls.append(fast) or write_passes(*args, fast))
@@ -209,7 +210,7 @@ def test_the_passes_take_the_names_cycles_gives_them_in_this_blender(tmp_path: P
 
 
 def test_the_engines_own_pass_boxes_belong_to_each_view_layer() -> None:
-    from addon import pass_map
+    from addon.convert import pass_map
 
     scene = plane_and_cube_scene()
     first = scene.view_layers[0]

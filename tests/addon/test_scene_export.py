@@ -10,8 +10,8 @@ import bpy
 import numpy as np
 import pytest
 
-from addon import engine
-from addon.export import ExportNotes, scene_document
+from addon.convert.export import ExportNotes, scene_document
+from addon.engine import engine
 
 
 def export(notes: ExportNotes | None = None) -> dict:
@@ -264,7 +264,7 @@ def test_the_render_border_is_traced_alone_and_cropped_as_blender_does(tmp_path:
 
 
 def test_problems_name_the_blender_object_not_the_export_index() -> None:
-    from addon.export import named_problems
+    from addon.convert.export import named_problems
 
     document = {"objects": [{"name": "Cube"}, {"name": "Suzanne"}]}
     problems = ["objects[1].vertices[3]: must be 3 finite numbers", "render.width: must be >= 1"]
@@ -275,7 +275,7 @@ def test_problems_name_the_blender_object_not_the_export_index() -> None:
 
 
 def test_a_panel_light_whose_type_is_changed_in_the_light_tab_exports_and_shows_as_the_new_type() -> None:
-    from addon.export import entry_kind
+    from addon.convert.export import entry_kind
 
     assert bpy.ops.weathervane.build() == {"FINISHED"}
     settings = bpy.context.scene.weathervane
@@ -319,7 +319,7 @@ def test_export_sweeps_what_a_killed_export_left_and_keeps_a_live_writers_file(t
     import subprocess
     import sys
 
-    from addon import operators
+    from addon.vane import operators
     from tracer.tracing.images import atomic_path
 
     gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)

@@ -1,4 +1,4 @@
-"""Blender's materials, lights and world -> the tracer's (addon/material_convert.py, light_convert.py,
+"""Blender's materials, lights and world -> the tracer's (addon/convert/material_convert.py, light_convert.py,
 world_convert.py), the round trip of the add-on's own, Cycles' light units measured, and Blender's own property
 panels shown for the engine. Runs in the bpy wheel (5.0.1) and in Debian's 3.4.1 (run_in_blender.py)."""
 
@@ -13,7 +13,9 @@ import bpy
 import numpy as np
 import pytest
 
-from addon import build, compat, conversion_report, light_convert, material_convert, world_convert
+from addon import compat
+from addon.convert import conversion_report, light_convert, material_convert, world_convert
+from addon.vane import build
 from tracer.scene.loader import default_scene_dict, scene_from_dict
 
 
@@ -446,7 +448,7 @@ def triangle(scene):
 
 
 def test_blenders_material_light_world_and_mesh_panels_show_for_the_engine() -> None:
-    from addon import render_panels
+    from addon.engine import render_panels
 
     scene = bpy.context.scene
     scene.render.engine = "WEATHERVANE_TRACER"
@@ -668,7 +670,7 @@ def test_an_environment_texture_is_its_mean_over_the_sphere() -> None:
 
 def test_the_world_tab_shows_the_vanes_background_only_where_the_vane_is_built() -> None:
     """Without the vane F12 renders the World's Surface: the World tab shows that, not the vane's background."""
-    from addon import render_panels
+    from addon.engine import render_panels
 
     scene = bpy.context.scene
     scene.render.engine = "WEATHERVANE_TRACER"
@@ -684,7 +686,8 @@ def test_the_world_tab_shows_the_vanes_background_only_where_the_vane_is_built()
 
 
 def test_a_light_type_changed_in_the_light_tab_redraws_the_sidebars_lights_list(monkeypatch) -> None:
-    from addon import export, sync
+    from addon.convert import export
+    from addon.vane import sync
 
     build.build(bpy.context, scene_from_dict(default_scene_dict()), source="lights")
     bpy.context.view_layer.update()
@@ -719,7 +722,7 @@ def test_the_scene_conversion_summary_fits_its_room() -> None:
     assert conversion_report.summary_line(rows, 44) == "1 exact, 3 approximated (Material.001, ...)"
     assert conversion_report.summary_line(rows, 30) == "1 exact, 3 approximated"
     for width in (200, 280, 400):  # the Properties editor's width: the line in the characters it holds
-        from addon.panels import characters_for
+        from addon.vane.panels import characters_for
 
         line = conversion_report.summary_line(rows, characters_for(width))
         assert len(line) <= characters_for(width) and line.startswith("1 exact, 3 approximated")

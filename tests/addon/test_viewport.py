@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from mathutils import Matrix
 
-from addon import viewport
+from addon.engine import viewport
 from tracer.geometry import camera as cam
 from tracer.scene import scene as sc
 from tracer.scene.loader import scene_from_dict
