@@ -7,9 +7,9 @@ projection of the scene camera at that size, the path view_update / view_draw ta
 Each repeat edits the tail fin's colour (a small edit: its pixels traced again at full size over the kept ray trees),
 the ground's (most pixels: coarse to fine) (the depsgraph changes: view_update exports the scene again) and orbits the
 view (view_draw sees new matrices); the time counts the export, the hand-over and the tracing, not Blender's redraw
-(drawn within addon/viewport.py's REDRAW_SECONDS after a level is ready). Medians of the repeats. Then playback: the
-vane's turn keyed over 10 frames, each frame handed over as an animation playing (1/4 of the view) and waited for:
-frames a second.
+(drawn within addon/engine/viewport.py's REDRAW_SECONDS after a level is ready). Medians of the repeats. Then
+playback: the vane's turn keyed over 10 frames, each frame handed over as an animation playing (1/4 of the view) and
+waited for: frames a second.
 
 In a real Blender window (Debian's 3.4.1 under Xvfb, the default layout of a full-HD window, its 1586x926 3D View in
 Rendered shading), the same edits and an orbit as the user makes them, each timed from the change (a property set,

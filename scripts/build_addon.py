@@ -38,7 +38,7 @@ def stage(target: Path) -> None:
     """Copy the add-on and the tracer (sources and data only) into target."""
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
     shutil.copytree(ROOT / "addon", target, ignore=ignore)
-    # a top-level package of its own (addon/_tracer.py): worker processes started afresh import it without the add-on
+    # a top-level package of its own (addon/tracer_api.py): worker processes started afresh import it without the add-on
     shutil.copytree(ROOT / "tracer", target / "weathervane_tracer", ignore=ignore)
 
 

@@ -5,9 +5,9 @@
     blender -b [SCENE.blend] --python scripts/render_both.py -- [SCENE.json] --out out/compare
 
 Both paths render the same Blender scene: the add-on builds it (or the .blend is opened), the tracer renders what
-the add-on exports from it, and Cycles renders its twins. The exact twin (`exact`, addon/exact_twin.py: the
+the add-on exports from it, and Cycles renders its twins. The exact twin (`exact`, addon/convert/exact_twin.py: the
 documented model itself in OSL) where this Blender's Cycles has OSL, beside the physically based twin (`cycles`,
-addon/twin.py); --twin physical, or a Blender without OSL, renders the physical one only. Writes <engine>.npy
+addon/convert/twin.py); --twin physical, or a Blender without OSL, renders the physical one only. Writes <engine>.npy
 (linear) and .png, a FLIP heat map per pair, metrics.json, timings.json and report.html into the output folder (one
 folder per frame with --frames A-B), and prints the headline numbers. With --passes depth,normal,... the data passes
 both the tracer and Cycles make are compared too: the tracer's as passes/tracer.<pass>.npy, Cycles' in
@@ -115,7 +115,7 @@ def choose_twin(args: argparse.Namespace) -> None:
 
     reason = exact_twin.unavailable()
     if reason is not None:
-        rest = "rendering the physical twin only (addon/twin.py)" if "cycles" in args.engines else "left out"
+        rest = "rendering the physical twin only (addon/convert/twin.py)" if "cycles" in args.engines else "left out"
         print(f"exact twin: not rendered, {reason}; {rest}", flush=True)
         if asked:
             args.engines.remove("exact")

@@ -3,7 +3,7 @@ after Ctrl+C during an animation, in Debian's Blender 3.4.1 and in every bpy whe
 
 Blender 3.4.1 used to exit with a segmentation fault (status 139) whenever the add-on was enabled from a script run
 with --python: importing multiprocessing listed the script's module a second time as `__mp_main__`, and Blender
-frees that module after the script (addon/_tracer.py drops the second name)."""
+frees that module after the script (addon/tracer_api.py drops the second name)."""
 
 from __future__ import annotations
 

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 GUIDE = ROOT / "docs" / "performance.md"
 DOCS = sorted((ROOT / "docs").glob("*.md"))
-MODULES = sorted([*ROOT.glob("tracer/**/*.py"), *ROOT.glob("addon/*.py"), *ROOT.glob("scripts/*.py")])
+MODULES = sorted([*ROOT.glob("tracer/**/*.py"), *ROOT.glob("addon/**/*.py"), *ROOT.glob("scripts/*.py")])
 FIGURE_COLUMNS = ["what", "figure", "taken", "command"]
 # how the work was organised is commit history, not documentation
 NARRATION = re.compile(

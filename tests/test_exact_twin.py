@@ -1,4 +1,4 @@
-"""The exact twin (addon/exact_twin.py): Cycles computing the documented model in OSL agrees with the tracer.
+"""The exact twin (addon/convert/exact_twin.py): Cycles computing the documented model in OSL agrees with the tracer.
 
 On flat primitives (boxes, planes, pyramids: Blender's meshes are the tracer's triangles, nothing is tessellated)
 with mirrors at depth 3, both highlight models. Pixels are compared at their centres (--pixel-centres: the tracer's

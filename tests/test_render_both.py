@@ -115,7 +115,7 @@ def test_runs_inside_blender_34_too(tmp_path: Path) -> None:
     fallback = [line for line in result.stdout.splitlines() if line.startswith("exact twin:")]
     assert fallback == [
         "exact twin: not rendered, Blender 3.4.1's Cycles is built without OSL; rendering the physical twin only "
-        "(addon/twin.py)"
+        "(addon/convert/twin.py)"
     ], result.stdout[-2000:]
     assert not (tmp_path / "exact.npy").exists()
     metrics = json.loads((tmp_path / "metrics.json").read_text())["pairs"]["cycles_vs_tracer"]
