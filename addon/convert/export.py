@@ -240,7 +240,7 @@ class _Source:
     owner: object = None  # the instancer's original object; None for an object placed by itself
     slot_materials: list = field(default_factory=list)
     flags: dict = field(default_factory=dict)
-    turned: bool = False  # hangs below the vane's turn: each placement a world-space mesh, as before instances
+    turned: bool = False  # hangs below the vane's turn: each placement a world-space mesh, not an instance
     generated: bool = False  # made by its own object's evaluation (Geometry Nodes instances, a text's mesh)
     geometry: _Geometry | None = None
     done: bool = False  # a vane object's body is added once
@@ -928,7 +928,7 @@ def scene_document(
         document["render"]["film_transparent"] = True
         if glass and getattr(cycles, "film_transparent_glass", False):
             notes.approximated.append("Film > Transparent Glass: glass opaque in the alpha")
-    if int(settings.shadow_samples) > 1:  # lights of a size sampled over their surface (1: as before: not written)
+    if int(settings.shadow_samples) > 1:  # lights of a size sampled over their surface (1: the default, not written)
         document["render"]["shadow_samples"] = int(settings.shadow_samples)
     if notes.line():
         document["comment"] = notes.line()

@@ -186,8 +186,8 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         def band_done(image: np.ndarray, rows: np.ndarray) -> None:
             shown[height - 1 - rows, :, :3] = image[rows]
             unwritten[height - 1 - rows] = True
-            # at most one write every WRITE_SECONDS: each write costs Blender a redraw of the render's display (a
-            # full-HD frame's 36 bands come 15-30 ms apart); the first band at once, the others with the next write
+            # at most one write every WRITE_SECONDS (each write costs Blender a redraw of the render's display): the
+            # first band at once, the others with the next write
             if time.perf_counter() - last_write[0] >= WRITE_SECONDS:
                 write_bands()
 
@@ -306,9 +306,8 @@ def _write(render_result, rgba: np.ndarray, passes: dict[str, np.ndarray] | None
     passes ((H, W, C), rows top-down) into theirs: in one foreach_set a pass where a pass takes it (Blender 4+); in
     Blender 3.4 through a file that Blender reads itself (an uncompressed float OpenEXR: RenderLayer.load_from_file
     for the image alone, RenderResult.load_from_file for a multilayer file with the passes, the way external engines
-    hand over their images), since a list costs Blender 3.4 about 0.7 us a value (1.5 s of a 1920x1080 F12's 2 s,
-    headless or in the window; 0.5 s for each channel of a pass) and the file about 0.1 us; lists where the file
-    cannot be read."""
+    hand over their images), since a list costs Blender 3.4 about 0.7 us a value and the file about 0.1 us (most of an
+    F12's time at full HD: docs/measurements.md); lists where the file cannot be read."""
     combined = render_result.layers[0].passes["Combined"]
     if _fast_write(render_result):
         combined.rect.foreach_set(rgba.ravel())

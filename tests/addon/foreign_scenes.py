@@ -2,8 +2,8 @@
 
 Each builder takes nothing, builds into bpy.context.scene (already reset to empty factory settings), sets a camera,
 a small resolution and a frame range, and returns a Built that says what the acceptance tests measure on it
-(tests/addon/test_foreign_scenes.py renders each with the engine and with Cycles). Issues 21 (geometry, frames,
-visibility) and 22 (materials, lights, world).
+(tests/addon/test_foreign_scenes.py renders each with the engine and with Cycles), in two parts: geometry,
+frames and visibility; materials, lights and world.
 
 The API differences between Blender 3.4 and 5.0 that matter here go through addon/compat.py (read only) or the two
 small helpers below (Geometry Nodes group sockets, Principled inputs).
@@ -157,7 +157,7 @@ def _key(obj, data_path: str, frames_values: list[tuple[int, object]]) -> None:
         obj.keyframe_insert(data_path, frame=frame)
 
 
-# ---------------------------------------------------------------------------------------------------- issue 21
+# -------------------------------------------------------------------------------- geometry, frames and visibility
 
 
 def keyed_cube() -> Built:
@@ -320,7 +320,7 @@ def mirrored_object() -> Built:
 
 def per_face_materials() -> Built:
     """A cube with two material slots, red on +x, +y, +z faces... alternating, a sun; the Viewport Display colours
-    are set too so that the per-face test does not depend on the node-tree mapping of issue 22."""
+    are set too so that the per-face test does not depend on the materials' node-tree mapping."""
     _frame()
     cube = _add(bpy.ops.mesh.primitive_cube_add, size=2.0)
     red, blue = _material("Red", (0.8, 0.05, 0.05)), _material("Blue", (0.05, 0.1, 0.8))
@@ -401,7 +401,7 @@ def film_transparent() -> Built:
 
 def back_facing_plane() -> Built:
     """Two planes side by side under a sun from the camera's side: the left one's normal faces the camera, the right
-    one's faces away (flipped). Blender shades both sides alike (issue 22: two-sided shading for Blender's meshes)."""
+    one's faces away (flipped). Blender shades both sides alike (two-sided shading for Blender's meshes)."""
     _frame()
     clay = _material("Clay", (0.8, 0.8, 0.8))
     for x, turn in ((-1.1, 90.0), (1.1, -90.0)):
@@ -480,7 +480,7 @@ def mesh_without_faces() -> Built:
     return Built()
 
 
-# ---------------------------------------------------------------------------------------------------- issue 22
+# ------------------------------------------------------------------------------------ materials, lights and world
 
 
 def red_principled_sphere() -> Built:

@@ -1,5 +1,5 @@
-"""Acceptance suite of issues 21 and 22: scenes nobody on the team built (tests/addon/foreign_scenes.py), rendered by
-Render Engine = Weathervane Tracer and by Cycles (the independent truth), compared by the issues' numbers.
+"""Acceptance suite of rendering any scene: scenes nobody on the team built (tests/addon/foreign_scenes.py), rendered by
+Render Engine = Weathervane Tracer and by Cycles (the independent truth), compared by the acceptance thresholds below.
 
 Cycles runs on the CPU at low samples, denoising off, pixel filter width 0.01 px (so each pixel is sampled at its
 centre, as the tracer's one ray per pixel is) and Film > Transparent where the scene's coverage is compared: the
@@ -279,12 +279,12 @@ def gain_fitted_error(image: np.ndarray, truth: np.ndarray, where: np.ndarray, *
     return float(np.abs(g * a - b).mean() / b.mean())
 
 
-# ---------------------------------------------------------------------------------------------------- issue 21
+# -------------------------------------------------------------------------------- geometry, frames and visibility
 
 
 @pytest.mark.parametrize("name", scenes.COVERAGE)
 def test_coverage_mask_matches_cycles(name: str, folder: Path) -> None:
-    """Issue 21: the tracer's alpha > 0.5 against Cycles' alpha > 0.5, IoU >= 0.99 (every frame rendered)."""
+    """The tracer's alpha > 0.5 against Cycles' alpha > 0.5, IoU >= 0.99 (every frame rendered)."""
     result = renders(name, folder)
     values, by_colour = [], []
     for frame in result.built.frames:
@@ -304,7 +304,7 @@ def test_coverage_mask_matches_cycles(name: str, folder: Path) -> None:
 
 @pytest.mark.parametrize("name", scenes.VISIBILITY)
 def test_visibility_follows_blender(name: str, folder: Path) -> None:
-    """Issue 21: excluded and render-disabled collections, camera ray visibility off, holdout and film transparent:
+    """Excluded and render-disabled collections, camera ray visibility off, holdout and film transparent:
     the tracer's alpha equals Cycles' on all but 0.5% of the pixels (a seam's width)."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
@@ -341,7 +341,7 @@ def _cycles_moves(name: str, result: Renders) -> None:
 
 @pytest.mark.parametrize("name", scenes.KEYED)
 def test_keyed_motion_per_frame_f12(name: str, folder: Path) -> None:
-    """Issue 21: F12 at each of frames 1-5, the object's centroid within 1 px of Cycles'."""
+    """F12 at each of frames 1-5, the object's centroid within 1 px of Cycles'."""
     result = renders(name, folder)
     _cycles_moves(name, result)
     for frame in result.built.frames:
@@ -354,7 +354,7 @@ def test_keyed_motion_per_frame_f12(name: str, folder: Path) -> None:
 
 @pytest.mark.parametrize("name", scenes.KEYED)
 def test_keyed_motion_animation_render(name: str, folder: Path) -> None:
-    """Issue 21: render(animation=True) (Ctrl+F12, `-a`) over frames 1-5, centroids within 1 px of Cycles'."""
+    """render(animation=True) (Ctrl+F12, `-a`) over frames 1-5, centroids within 1 px of Cycles'."""
     result = renders(name, folder)
     _cycles_moves(name, result)
     assert "animation" not in result.errors, f"{name}: {result.errors['animation']}"
@@ -366,8 +366,8 @@ def test_keyed_motion_animation_render(name: str, folder: Path) -> None:
 
 @pytest.mark.parametrize("name", ["excluded_collection", "shadow_ray_visibility_off"])
 def test_excluded_light_and_shadow_visibility_shade_as_cycles(name: str, folder: Path) -> None:
-    """Issue 21: the 1000 W point light in the excluded collection lights nothing; a sphere with Shadow ray
-    visibility off casts no shadow. After one least-squares gain (the sun's units are issue 22's) the shading differs
+    """The 1000 W point light in the excluded collection lights nothing; a sphere with Shadow ray
+    visibility off casts no shadow. After one least-squares gain (sun units: the other part's) the shading differs
     from Cycles' by at most 5% of its mean and by more than a quarter of the mean on at most 1% of the pixels (with the
     excluded light used: 0.45 and 74%; with the sphere's shadow cast: 0.037 and 3.5%)."""
     result = renders(name, folder)
@@ -381,8 +381,8 @@ def test_excluded_light_and_shadow_visibility_shade_as_cycles(name: str, folder:
 
 @pytest.mark.parametrize("name", ["smooth_suzanne"])
 def test_smooth_suzanne_shades_as_cycles(name: str, folder: Path) -> None:
-    """Issue 21: Shade Smooth + Subdivision Suzanne, diffuse-only under a sun (direct light only). After one
-    least-squares gain (light units are issue 22's), the tracer's shading differs from Cycles' smooth image by at
+    """Shade Smooth + Subdivision Suzanne, diffuse-only under a sun (direct light only). After one
+    least-squares gain (light units: the other part's), the tracer's shading differs from Cycles' smooth image by at
     most 3% of its mean and by at most half of Cycles' own flat-vs-smooth difference (about 3.6%: faceting fails)."""
     smooth, flat = renders(name, folder), renders("flat_suzanne", folder)
     image, truth, faceted = tracer_frame(smooth, name), smooth.cycles[1], flat.cycles[1]
@@ -396,7 +396,7 @@ def test_smooth_suzanne_shades_as_cycles(name: str, folder: Path) -> None:
 
 @pytest.mark.parametrize("name", ["mirrored_object"])
 def test_mirrored_object_shades_as_the_original(name: str, folder: Path) -> None:
-    """Issue 21: Suzanne and a copy with scale x = -1 (symmetric under a symmetric light): the mirrored one's mean
+    """Suzanne and a copy with scale x = -1 (symmetric under a symmetric light): the mirrored one's mean
     brightness over the original's is Cycles' ratio within 5% (a wound-inward mirror renders black: ratio 0)."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
@@ -413,7 +413,7 @@ def test_mirrored_object_shades_as_the_original(name: str, folder: Path) -> None
 
 @pytest.mark.parametrize("name", ["per_face_materials"])
 def test_per_face_materials(name: str, folder: Path) -> None:
-    """Issue 21: a cube with a red and a blue slot on alternate faces: each covered pixel is red where Cycles' is
+    """A cube with a red and a blue slot on alternate faces: each covered pixel is red where Cycles' is
     red and blue where Cycles' is blue (98% of the pixels both cover)."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
@@ -426,7 +426,7 @@ def test_per_face_materials(name: str, folder: Path) -> None:
     measured(name, slot_agreement=round(agree, 4))
 
 
-# ---------------------------------------------------------------------------------------------------- issue 22
+# ------------------------------------------------------------------------------------ materials, lights and world
 
 
 def _close(found: np.ndarray, truth: np.ndarray, relative: float, floor: float) -> bool:
@@ -435,7 +435,7 @@ def _close(found: np.ndarray, truth: np.ndarray, relative: float, floor: float) 
 
 @pytest.mark.parametrize("name", ["red_principled_sphere"])
 def test_red_principled_sphere_under_a_coloured_sun(name: str, folder: Path) -> None:
-    """Issue 22: the sphere's mean colour within 3% of Cycles' per channel (or 0.002 for a nearly black one)."""
+    """The sphere's mean colour within 3% of Cycles' per channel (or 0.002 for a nearly black one)."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
     where = mask(truth)
@@ -446,7 +446,7 @@ def test_red_principled_sphere_under_a_coloured_sun(name: str, folder: Path) -> 
 
 @pytest.mark.parametrize("name", scenes.LIGHTS)
 def test_point_and_spot_light_power_and_falloff(name: str, folder: Path) -> None:
-    """Issue 22: a white diffuse plane under a point or spot light of 100 W or 1000 W: the brightness under the light
+    """A white diffuse plane under a point or spot light of 100 W or 1000 W: the brightness under the light
     and 1.5 heights aside (two distances) each within 3% of Cycles'."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
@@ -462,7 +462,7 @@ def test_point_and_spot_light_power_and_falloff(name: str, folder: Path) -> None
 
 @pytest.mark.parametrize("name", scenes.SPOTS)
 def test_spot_cone_coverage(name: str, folder: Path) -> None:
-    """Issue 22: the lit part of the plane (brighter than 5% of the brightness under the light), IoU >= 0.97."""
+    """The lit part of the plane (brighter than 5% of the brightness under the light), IoU >= 0.97."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
     threshold = 0.05 * luminance(truth)[result.camera["near"]]
@@ -475,7 +475,7 @@ def test_spot_cone_coverage(name: str, folder: Path) -> None:
 
 @pytest.mark.parametrize("name", ["back_facing_plane"])
 def test_back_facing_plane_is_lit_as_in_blender(name: str, folder: Path) -> None:
-    """Issue 22: a plane whose normal faces away from the camera and the sun shades as the one facing them (Blender
+    """A plane whose normal faces away from the camera and the sun shades as the one facing them (Blender
     lights both sides): right-over-left brightness is Cycles' within 5% (the documented one-sided rule gives 0)."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
@@ -491,7 +491,7 @@ def test_back_facing_plane_is_lit_as_in_blender(name: str, folder: Path) -> None
 
 @pytest.mark.parametrize("name", ["emission_plane"])
 def test_emission_plane(name: str, folder: Path) -> None:
-    """Issue 22: an emission-only plane's mean colour within 2% of Cycles' per channel."""
+    """An emission-only plane's mean colour within 2% of Cycles' per channel."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
     where = mask(truth)
@@ -502,7 +502,7 @@ def test_emission_plane(name: str, folder: Path) -> None:
 
 @pytest.mark.parametrize("name", ["world_colour"])
 def test_world_colour_background(name: str, folder: Path) -> None:
-    """Issue 22: where camera rays miss, the world's Background colour x strength, equal to Cycles' (to 0.002)."""
+    """Where camera rays miss, the world's Background colour x strength, equal to Cycles' (to 0.002)."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
     world = np.array([0.05, 0.15, 0.3]) * 2.0
@@ -522,7 +522,7 @@ def test_world_colour_background(name: str, folder: Path) -> None:
 
 @pytest.mark.parametrize("name", ["mirror_scene", "glossy_ray_visibility_off"])
 def test_metallic_mirror_psnr(name: str, folder: Path) -> None:
-    """Issue 22: metallic 1 roughness 0 as a mirror, PSNR >= 35 dB against Cycles over the frame (issue 21: also with
+    """Metallic 1 roughness 0 as a mirror, PSNR >= 35 dB against Cycles over the frame (and, for visibility, with
     one cube's Glossy ray visibility off, so that it is missing from the mirror)."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
@@ -535,7 +535,7 @@ def test_metallic_mirror_psnr(name: str, folder: Path) -> None:
 
 @pytest.mark.parametrize("name", ["factory_startup"])
 def test_factory_startup_scene_brightness(name: str, folder: Path) -> None:
-    """Issue 22: F12 on Blender's factory startup scene, mean brightness within 10% of Cycles'."""
+    """F12 on Blender's factory startup scene, mean brightness within 10% of Cycles'."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
     found, expected = float(luminance(image).mean()), float(luminance(truth).mean())

@@ -1,4 +1,4 @@
-"""Glass and transparency from Blender's node trees (issue 36, item 2): Glass BSDF, Refraction BSDF, Principled
+"""Glass and transparency from Blender's node trees: Glass BSDF, Refraction BSDF, Principled
 Transmission and IOR, Principled Alpha and Transparent BSDF -> the material's transmission t, ior and alpha a
 (docs/scene-format.md), and F12 beside Cycles: a glass sphere's refracted checker, an Alpha 0 object that is not
 there, an Alpha 0.5 one that is half there. Runs in the bpy wheel (5.0.1) and in Debian's 3.4.1 (run_in_blender.py)."""

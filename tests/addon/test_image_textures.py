@@ -1,4 +1,4 @@
-"""Image textures by UV in Blender (issue 36, item 1): a UV-mapped plane with an Image Texture (a small generated
+"""Image textures by UV in Blender: a UV-mapped plane with an Image Texture (a small generated
 image, packed) on Principled's Base Color renders the texture in F12, as Cycles does: the mean colour over the plane
 within 4% (+0.01) of Cycles' per channel, and its pixels the texels Cycles shows there (the grid's cells, not one
 mean colour). The conversion hands the texture and the plane's corner UVs to the tracer and no longer names it."""
@@ -191,7 +191,7 @@ def rgba_f12(engine: str, samples: int, path: Path, seed: int = 0) -> np.ndarray
 
 
 def test_a_textured_cube_and_sphere_are_as_close_to_cycles_as_cycles_at_64_samples(tmp_path) -> None:
-    """Issue 36's bar: the objects' pixels (those Cycles covers wholly) within 3 dB of Cycles' own at 64 samples,
+    """The bar: the objects' pixels (those Cycles covers wholly) within 3 dB of Cycles' own at 64 samples,
     both against Cycles at 1024 samples. Measured at 96 x 72, the engine at 64 samples against Cycles at 64: 53.20
     against 56.10 dB (bpy 5.0.1), 53.31 / 55.89 (4.5.15, 4.2.23), 53.02 / 54.81 (Debian 3.4.1); the cube alone 58 dB,
     the sphere 51 (the pixels along its terminator); the mean colour within 0.2% of Cycles'; 0.3% of the pixels more

@@ -1,5 +1,5 @@
 """Instances export as instances: a geometry placed many times is one entry of the document's meshes table and a matrix
-per placement, renders as the same scene realized, and is not read again while nothing changes it (issue 34).
+per placement, renders as the same scene realized, and is not read again while nothing changes it (scenes of real size).
 
 The truth is Blender's own depsgraph: its object instances' matrices, and the engine's image of the same scene with
 the instances realized (Geometry Nodes' Realize Instances) or the shared meshes made single-user."""
@@ -207,7 +207,7 @@ def test_shared_meshes_mirrored_and_stretched_render_as_their_single_user_copies
     )
     instanced = render_engine(tmp_path, "instanced")
     for obj in shared[1:]:
-        obj.data = obj.data.copy()  # each its own mesh: world-space triangles, as before instances
+        obj.data = obj.data.copy()  # each its own mesh: world-space triangles, no instances
     assert "meshes" not in document()
     alone = render_engine(tmp_path, "alone")
     assert instanced.std() > 0.02

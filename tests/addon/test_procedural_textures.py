@@ -1,5 +1,5 @@
 """Checker and Gradient textures, Color Ramp and Hue/Saturation on a texture, and Image Textures on Emission in
-Blender (issue 36, item 1): the conversion hands them to the tracer (docs/scene-format.md, Procedural textures), and
+Blender: the conversion hands them to the tracer (docs/scene-format.md, Procedural textures), and
 F12 renders a UV-mapped plane as Cycles does: the mean colour over the plane, the mask of Color1's pixels (IoU with
 Cycles' >= 0.95), and an image through a Color Ramp (Constant) or Hue/Saturation within 3 dB (PSNR over the plane)
 of the plain image's PSNR. Lit by a sun straight down (diffuse only), orthographic, 96 x 96, Cycles 16 samples at the

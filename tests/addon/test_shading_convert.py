@@ -139,7 +139,7 @@ def test_mix_and_add_weigh_their_shaders() -> None:
 
 
 def test_an_image_texture_on_base_color_is_rendered_by_uv_its_mean_the_colour() -> None:
-    """Issue 36: an Image Texture read by the mesh's UVs becomes the material's texture (not named); its mean is the
+    """An Image Texture read by the mesh's UVs becomes the material's texture (not named); its mean is the
     colour (hits without UVs); with Generated coordinates it is the mean colour, named."""
     image = bpy.data.images.new("checker", 4, 4, float_buffer=True)
     pixels = [0.0] * 64
