@@ -959,7 +959,7 @@ def environment(background: sc.Background, D: sc.Vec3) -> sc.Color:
     """An image background's colour for direction D: the equirectangular (u, v) (lightsamples.equirectangular),
     then the texel by Cycles' rules (linear: bilinear between the texel centres around (u W - 0.5, v H - 0.5), v
     from the bottom, wrapping in u, clamped at the poles; closest: the texel (floor(u W), floor(v H))), times the
-    strength; the same operations as shading.environment."""
+    strength; the same operations as surfaces.environment."""
     image = background.image
     height, width = image.shape[:2]
     u, v = lightsamples.equirectangular(D, background.rotation)
