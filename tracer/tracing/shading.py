@@ -10,9 +10,39 @@ import numpy as np
 from ..geometry.footprint import Footprint
 from ..geometry.kernels import dot, indices
 from . import shadows
+from .batch import Hits
 from .lights import directed
 from .prepared import PreparedScene
 from .rays import RayCounts
+
+
+def local_colors(
+    scene: PreparedScene,
+    hits: Hits,
+    pixel: np.ndarray,
+    counts: RayCounts,
+    footprint: Footprint | None,
+    frames: np.ndarray | None,
+    split: dict[str, np.ndarray] | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Listing 3.1's local colour of the hits (n,) of camera samples pixel (n,): (1 - r) times the lit colour (the
+    intensity times the colour; coloured, diffuse times the colour plus highlight times the specular colour), plus
+    emission -> the colours (3, n) and the reflectivities r (n,). frames, counts, footprint, split: as
+    find_intensity takes them (frames: where each frame's samples start)."""
+    specular = scene.specular.take(hits.material)
+    points = None if frames is None else np.searchsorted(pixel, frames)  # where each frame's points start
+    intensity = find_intensity(
+        scene, hits.P, hits.S, hits.V, specular, counts, hits.surface, footprint, pixel, hits.geometric, points, split
+    )
+    reflective = scene.reflective.take(hits.material)
+    if scene.colored:
+        diffuse, highlight = intensity
+        local = (diffuse * hits.colors + highlight * hits.specular_colors) * (1.0 - reflective)
+    else:
+        local = (intensity * (1.0 - reflective)) * hits.colors
+    if scene.emissive:
+        local = local + hits.emission
+    return local, reflective
 
 
 def find_intensity(

@@ -10,9 +10,20 @@ import numpy as np
 
 from ..geometry.kernels import column, dot, indices, interpolated_corners, spread, take, unit_or
 from ..scene import scene as sc
+from .batch import Hits
 from .prepared import PreparedScene
 from .texturing import attribute
 from .texturing import sample as sample_texture
+
+
+def hits(scene: PreparedScene, P: np.ndarray, V: np.ndarray, obj: np.ndarray, part: np.ndarray) -> Hits:
+    """The points P (3, n) where rays from V's side (3, n) met the primitives part (n,) of the objects obj (n,) ->
+    the hits with their normals, material rows, shading normals and colours."""
+    N, surface = scene.normals(P, obj, part)
+    material = scene.material_of(obj, part)
+    S = shading_normals(scene, N, V, P, obj, part, material)
+    colors, specular_colors, emission = surface_colors(scene, material, P, obj, part)
+    return Hits(P, V, N, S, obj, part, material, surface, colors, specular_colors, emission)
 
 
 def surface_colors(

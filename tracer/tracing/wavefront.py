@@ -18,6 +18,7 @@ from ..geometry.kernels import dot, indices, quiet, take
 from ..geometry.rayframes import RayFrames
 from ..geometry.robust import offset_origins
 from . import see_through, shading, surfaces
+from .batch import Hits, RayBatch
 from .prepared import PreparedScene
 from .rays import CAMERA_T_MIN, REFLECTION_T_MIN, RayCounts, accumulate, tally
 from .raystore import RayStore
@@ -32,50 +33,6 @@ SEE_THROUGH_PIECE = 2
 
 class TracedScene(PreparedScene):
     """A prepared scene that traces: TraceRay's bounces over arrays and the bands' scheduling."""
-
-    def _mirror_sets(
-        self,
-        rows: np.ndarray | None,
-        pixels: np.ndarray | None,
-        pixel: np.ndarray,
-        came_from: np.ndarray,
-        total: int,
-        runs: list[int] | None = None,
-    ) -> tuple[list, np.ndarray | None]:
-        """The first mirror rays' sets for Hierarchy.closest: rays (n,) of camera rays pixel (n,) off objects
-        came_from (n,), of total camera rays in rows (R,) or of flat pixels (P,) -> (kernel, rays) for every kernel
-        that the rays off a culled plane can meet (from self.mirrors), and the other rays (walked), or (None, None)
-        where no ray comes off such a plane. runs: the pixels' frames, as ScreenRectangles.pixel_rays takes them."""
-        sets, culled = [], []
-        position = None  # each camera ray's mirror ray, where it has one off the plane at hand
-        for plane, rectangles in self.mirrors.items():
-            off_plane = indices(came_from == plane)
-            if off_plane.size == 0:
-                continue
-            culled.append(plane)
-            if position is None:
-                position = np.full(total, -1, dtype=np.intp)
-            camera_ray = pixel.take(off_plane)
-            position[camera_ray] = off_plane
-            if rows is not None:
-                found = rectangles.rays(rows)
-            else:
-                found = rectangles.pixel_rays(pixels, runs, self.mirror_hierarchy.frame_of)
-            for kernel, camera_rays in found:
-                if camera_rays is None:
-                    sets.append((kernel, off_plane))
-                    continue
-                rays = position.take(camera_rays)
-                rays = rays.take(indices(rays >= 0))
-                if rays.size:
-                    sets.append((kernel, rays))
-            position[camera_ray] = -1
-        if not culled:
-            return None, None
-        other = came_from != culled[0]
-        for plane in culled[1:]:
-            other &= came_from != plane
-        return sets, indices(other)
 
     # ---- TraceRay as a wavefront -------------------------------------------------------------------------------
 
@@ -95,6 +52,11 @@ class TracedScene(PreparedScene):
         """Camera rays (3, N) -> linear colors (3, N), unclamped; alpha (N,), where given (ones), is set to 0 for
         the rays that meet a holdout first, or nothing with a transparent film.
 
+        One loop over wavefronts: each finds the closest hit of its rays (intersect), adds the background for the
+        misses, shades the hits (shading.local_colors) and sends on the rays they continue with: mirror rays, and
+        in a scene with glass or transparency refracted and straight ones (see_through.continuing), whose samples
+        may then repeat in a wavefront (their colours added with np.add.at, in ray order).
+
         frames: for a scene prepared with headings, where each frame's camera rays start (K + 1,): the rays come
         frame by frame, and counts is then a list of each frame's RayCounts (K,).
 
@@ -104,126 +66,180 @@ class TracedScene(PreparedScene):
         origins (3, N): where each ray starts (None: all at the camera); far (N,): where each stops (None: never),
         as camera.band_starts gives them for a clipped or orthographic camera. footprint: records which of the N
         camera rays' trees meet its volume. recorder: keeps the render passes of the N camera rays."""
-        if self.see_through:
-            return see_through.trace(self, D, counts, rows, origins, far, footprint, alpha, pixels, frames, recorder)
-        depth = self.scene.render.depth
+        settings = self.scene.render
         total = D.shape[1]
-        query = None if frames is None else RayFrames(frames[None])  # which frame each ray of a query is of
-        tally(counts, "camera", total, query)
-        transparent = self.scene.render.film_transparent
-        # a camera ray that meets nothing shows the background (its colour 0 with a transparent film): every pixel
-        # starts with it, and the camera rays' hits overwrite theirs (no list of the misses to make)
-        if transparent:
+        glass = self.see_through
+        tally(counts, "camera", total, None if frames is None else RayFrames(frames[None]))
+        # without glass a camera ray that meets nothing shows the background (0 under a transparent film): every
+        # pixel starts with it and the camera rays' hits overwrite theirs (no list of the misses to make); with
+        # glass a sample's rays add up from 0
+        if glass or settings.film_transparent:
             color = np.zeros((3, total), dtype=self.dtype)
         else:
             color = np.empty((3, total), dtype=self.dtype)
             color[...] = surfaces.background(self, D, None)
-        weight = None  # each ray's product of reflectivities; a camera ray's is 1 (1 * x = x: none kept)
-        pixel = np.arange(total)
-        O = self.origin if origins is None else origins  # (3, 1): every camera ray starts at the camera
-        t_min = CAMERA_T_MIN
-        came_from = None  # the first mirror rays' objects, where some may come off a culled plane
-        runs = None if frames is None else (frames // self.scene.render.samples).tolist()  # each frame's pixels
-        for bounce in range(depth + 1):
-            sets = walk = None
-            if bounce == 0 and self.screen is not None and (rows is not None or pixels is not None):
-                if rows is not None:
-                    sets = self.screen.rays(rows)
-                else:
-                    sets = self.screen.pixel_rays(pixels, runs, self.camera_hierarchy.frame_of)
-            elif bounce == 1 and came_from is not None:
-                sets, walk = self._mirror_sets(rows, pixels, pixel, came_from, total, runs)
-            hierarchy = self.camera_hierarchy if bounce == 0 else self.mirror_hierarchy
-            t, obj, part = hierarchy.closest(O, D, t_min, sets, walk, query)
-            if bounce == 0 and far is not None:  # beyond the camera's clip_end: the nearest hit is, so all are
-                obj[t >= far] = -1
+        origin = self.origin if origins is None else origins
+        batch = RayBatch(np.arange(total), origin, D, left=settings.depth, reach=far)
+        if glass:
+            batch = see_through.camera_batch(batch, self.dtype)
+        culling = _Culling(self, rows, pixels, frames, total)
+        first = True
+        while batch.size:
+            t_min = CAMERA_T_MIN if first else 0.0 if self.robust else REFLECTION_T_MIN
+            t, obj, part = self._intersect(batch, t_min, first, culling, frames)
+            if batch.reach is not None:  # beyond the camera's clip_end: the nearest hit is, so all are
+                obj[t >= batch.reach] = -1
             if footprint is not None:  # each ray up to its hit; a miss to its end
-                end = np.where(obj >= 0, t, np.inf if bounce or far is None else far)
-                footprint.record(pixel, O, D, t_min, end, hit=obj)
-            if bounce == 0:  # the misses already hold the background (or 0 under a transparent film)
-                if transparent and alpha is not None:
-                    alpha[obj < 0] = 0.0  # the film shows nothing there
-                if recorder is not None:
-                    missed = indices(obj < 0)
-                    recorder.environment(missed, take(color, missed))
+                end = np.where(obj >= 0, t, np.inf if batch.reach is None else batch.reach)
+                footprint.record(batch.pixel, batch.origin, batch.direction, t_min, end, hit=obj)
+            if glass:
+                see_through.add_misses(self, color, batch, obj, first, alpha, recorder)
+                hit = see_through.hold_out(self, batch, obj, first, alpha, recorder)
             else:
-                miss = indices(obj < 0)
-                if miss.size:
-                    sky = weight.take(miss) * surfaces.background(self, D, miss)
-                    accumulate(color, pixel.take(miss), sky, False)
-                    if recorder is not None:
-                        recorder.environment(pixel.take(miss), sky)
-            hit = indices(obj >= 0)
-            if hit.size == 0:
+                self._add_misses(color, batch, obj, first, alpha, recorder)
+                hit = self._hold_out(color, batch, obj, first, alpha, recorder)
+            if not hit.size:
                 break
-            if self.any_holdout:  # a holdout adds nothing, and a camera ray that meets it first leaves alpha 0
-                held = self.holdout.take(obj.take(hit))
-                if held.any():
-                    if bounce == 0:  # nothing shows there, not even the background it started with
-                        color[:, hit.take(indices(held))] = 0.0
-                        if alpha is not None:
-                            alpha[hit.take(indices(held))] = 0.0
-                        if recorder is not None:
-                            recorder.holdout(hit.take(indices(held)))
-                    hit = hit.take(indices(~held))
-                    if not hit.size:
-                        break
-            O, D, t, obj, part = take(O, hit), take(D, hit), t.take(hit), obj.take(hit), part.take(hit)
-            if bounce:
-                weight, pixel = weight.take(hit), pixel.take(hit)
-            else:  # the camera rays' own positions
-                pixel = hit
-            P = O + D * t
-            V = -D
-            O = D = t = None  # memory: a band's peak comes in the shading below
-            N, surface = self.normals(P, obj, part)
-            material = self.material_of(obj, part)
-            S = surfaces.shading_normals(self, N, V, P, obj, part, material)
-            geometric = None if S is N else N
-            specular = self.specular.take(material)
-            points = None if frames is None else np.searchsorted(pixel, frames)  # where each frame's points start
-            split = {} if recorder is not None and bounce == 0 and recorder.shading else None
-            intensity = shading.find_intensity(
-                self, P, S, V, specular, counts, surface, footprint, pixel, geometric, points, split
-            )
-            reflective = self.reflective.take(material)
-            colors, specular_colors, emission = surfaces.surface_colors(self, material, P, obj, part)
-            if recorder is not None and bounce == 0:
-                recorder.first_hit(pixel, P, S, obj, material)
-                if split is not None:
-                    recorder.terms(pixel, split, material, reflective, (colors, specular_colors, emission))
-            if self.colored:
-                diffuse, highlight = intensity
-                lit = diffuse * colors
-                local = (lit + highlight * specular_colors) * (1.0 - reflective)
+            batch, t, obj, part = batch.take(hit), t.take(hit), obj.take(hit), part.take(hit)
+            P, V = batch.origin + batch.direction * t, -batch.direction
+            # memory: a band's peak comes in the shading below (glass keeps the directions it refracts)
+            if glass:  # a straight continuation goes on from the hit: what is left of its reach
+                batch = batch.with_rays(origin=None, reach=None if batch.reach is None else batch.reach - t)
             else:
-                local = (intensity * (1.0 - reflective)) * colors
-            if self.emissive:
-                local = local + emission
-            if bounce:
-                local = weight * local
-            accumulate(color, pixel, local, bounce == 0)
-            if recorder is not None and bounce:
-                recorder.reflection(pixel, local)
-            go_on = indices(reflective > 0.0)
-            if bounce == depth or go_on.size == 0:
+                batch = batch.with_rays(origin=None, direction=None)
+            hits = surfaces.hits(self, P, V, obj, part)
+            if glass:
+                see_through.add_local(self, color, hits, batch, counts, footprint, frames, recorder, first)
+                batch = see_through.continuing(self, hits, batch)
+            else:
+                reflective = self._add_local(color, hits, batch, counts, footprint, frames, recorder, first)
+                batch = self._mirror_rays(hits, batch, reflective, culling if first else None)
+            first = False
+            if batch is None:
                 break
-            same = S is N
-            P, N, V = take(P, go_on), take(N, go_on), take(V, go_on)
-            S = N if same else take(S, go_on)
-            k = 2.0 * dot(S, V)
-            O, D = P, S * k - V
-            if self.robust:
-                O = offset_origins(P, N, D, *(part.take(go_on) for part in surface))
-            ratio = reflective.take(go_on)
-            weight, pixel = ratio if weight is None else weight.take(go_on) * ratio, pixel.take(go_on)
-            if bounce == 0 and (rows is not None or pixels is not None) and self.mirrors:
-                came_from = obj.take(go_on)
-            if frames is not None:
-                query = RayFrames.of(pixel, frames)
-            tally(counts, "reflection", D.shape[1], query)
-            t_min = 0.0 if self.robust else REFLECTION_T_MIN
+            tally(counts, "reflection", batch.size, None if frames is None else RayFrames.of(batch.pixel, frames))
         return color
+
+    def _intersect(
+        self, batch: RayBatch, t_min: float, first: bool, culling: _Culling, frames: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The closest hit (t, object, part) (n,) of each ray of the batch among the objects its kind of ray sees:
+        camera rays (and their straight continuations) those the camera sees, the others those mirror rays see;
+        the camera rays and the first mirror rays culled by their screen rectangles where culling has them."""
+        query = None if frames is None else RayFrames(frames[None]) if first else RayFrames.of(batch.pixel, frames)
+        if batch.camera is not None:
+            return see_through.closest_by_kind(
+                self, batch, t_min, culling.camera_sets() if first else None, query, frames
+            )
+        sets = walk = None
+        if first:
+            sets = culling.camera_sets()
+        elif culling.came_from is not None:
+            sets, walk = culling.mirror_sets(batch.pixel)
+            culling.came_from = None
+        hierarchy = self.camera_hierarchy if first else self.mirror_hierarchy
+        return hierarchy.closest(batch.origin, batch.direction, t_min, sets, walk, query)
+
+    def _add_misses(
+        self,
+        color: np.ndarray,
+        batch: RayBatch,
+        obj: np.ndarray,
+        first: bool,
+        alpha: np.ndarray | None,
+        recorder: PassRecorder | None,
+    ) -> None:
+        """The background where the rays of a Whitted wavefront miss (a camera ray's is there already; a
+        transparent film leaves alpha 0 there), times the rays' weights, and the Environment pass."""
+        if first:
+            if self.scene.render.film_transparent and alpha is not None:
+                alpha[obj < 0] = 0.0  # the film shows nothing there
+            if recorder is not None:
+                missed = indices(obj < 0)
+                recorder.environment(missed, take(color, missed))
+            return
+        miss = indices(obj < 0)
+        if miss.size:
+            sky = batch.weight.take(miss) * surfaces.background(self, batch.direction, miss)
+            accumulate(color, batch.pixel.take(miss), sky, False)
+            if recorder is not None:
+                recorder.environment(batch.pixel.take(miss), sky)
+
+    def _hold_out(
+        self,
+        color: np.ndarray,
+        batch: RayBatch,
+        obj: np.ndarray,
+        first: bool,
+        alpha: np.ndarray | None,
+        recorder: PassRecorder | None,
+    ) -> np.ndarray:
+        """The rays of a Whitted wavefront that hit something other than a holdout (k,): a holdout adds nothing,
+        and a camera ray that meets it first shows nothing, not even the background it started with (alpha 0)."""
+        hit = indices(obj >= 0)
+        if not self.any_holdout or not hit.size:
+            return hit
+        held = self.holdout.take(obj.take(hit))
+        if not held.any():
+            return hit
+        if first:
+            gone = hit.take(indices(held))
+            color[:, gone] = 0.0
+            if alpha is not None:
+                alpha[gone] = 0.0
+            if recorder is not None:
+                recorder.holdout(gone)
+        return hit.take(indices(~held))
+
+    def _add_local(
+        self,
+        color: np.ndarray,
+        hits: Hits,
+        batch: RayBatch,
+        counts: RayCounts,
+        footprint: Footprint | RayStore | None,
+        frames: np.ndarray | None,
+        recorder: PassRecorder | None,
+        first: bool,
+    ) -> np.ndarray:
+        """A Whitted wavefront's local colours (listing 3.1's (1 - r) local colour, emission added) times the rays'
+        weights into their samples (the camera rays' replace the background), and the passes; -> the hits'
+        reflectivities r (n,)."""
+        split = {} if recorder is not None and first and recorder.shading else None
+        local, reflective = shading.local_colors(self, hits, batch.pixel, counts, footprint, frames, split)
+        if recorder is not None and first:
+            recorder.first_hit(batch.pixel, hits.P, hits.S, hits.obj, hits.material)
+            if split is not None:
+                paints = (hits.colors, hits.specular_colors, hits.emission)
+                recorder.terms(batch.pixel, split, hits.material, reflective, paints)
+        if not first:
+            local = batch.weight * local
+        accumulate(color, batch.pixel, local, first)
+        if recorder is not None and not first:
+            recorder.reflection(batch.pixel, local)
+        return reflective
+
+    def _mirror_rays(
+        self, hits: Hits, batch: RayBatch, reflective: np.ndarray, culling: _Culling | None
+    ) -> RayBatch | None:
+        """The mirror rays of a Whitted wavefront's reflective hits (listing 3.1's R = 2 N (N . V) - V), their weights
+        multiplied by r; None at the depth or where no hit reflects. culling: the camera rays' (the first mirror
+        rays off a culled plane keep where they came from)."""
+        go_on = indices(reflective > 0.0)
+        if batch.left == 0 or go_on.size == 0:
+            return None
+        P, N, V = take(hits.P, go_on), take(hits.N, go_on), take(hits.V, go_on)
+        S = N if hits.S is hits.N else take(hits.S, go_on)
+        k = 2.0 * dot(S, V)
+        D = S * k - V
+        O = P
+        if self.robust:
+            O = offset_origins(P, N, D, *(part.take(go_on) for part in hits.surface))
+        ratio = reflective.take(go_on)
+        weight = ratio if batch.weight is None else batch.weight.take(go_on) * ratio
+        if culling is not None and culling.culls and self.mirrors:
+            culling.came_from = hits.obj.take(go_on)
+        return RayBatch(batch.pixel.take(go_on), O, D, weight, batch.left - 1)
 
     # ---- the bands' scheduling: pieces of camera samples, rows, pixels ------------------------------------------
 
@@ -444,3 +460,67 @@ class TracedScene(PreparedScene):
             recorder.combine(settings.samples)
         hit = None if volume is None else footprint.touched.reshape(-1, settings.samples).any(axis=1)
         return np.ascontiguousarray(image.T), counts, hit
+
+
+class _Culling:
+    """Which kernels the camera rays of a piece and their first mirror rays can meet, from the screen rectangles
+    (the scene's, and each reflective plane's mirrored ones), where the piece is whole rows (R,) or known flat
+    pixels (P,); came_from: the first mirror rays' objects, set where some come off a culled plane."""
+
+    def __init__(
+        self,
+        scene: TracedScene,
+        rows: np.ndarray | None,
+        pixels: np.ndarray | None,
+        frames: np.ndarray | None,
+        total: int,
+    ) -> None:
+        self.scene, self.rows, self.pixels, self.total = scene, rows, pixels, total
+        self.culls = rows is not None or pixels is not None
+        self.runs = None if frames is None else (frames // scene.scene.render.samples).tolist()  # each frame's pixels
+        self.came_from: np.ndarray | None = None
+
+    def camera_sets(self) -> list | None:
+        """The camera rays' sets for Hierarchy.closest (None: walk the hierarchy)."""
+        screen = self.scene.screen
+        if screen is None or not self.culls:
+            return None
+        if self.rows is not None:
+            return screen.rays(self.rows)
+        return screen.pixel_rays(self.pixels, self.runs, self.scene.camera_hierarchy.frame_of)
+
+    def mirror_sets(self, pixel: np.ndarray) -> tuple[list | None, np.ndarray | None]:
+        """The first mirror rays' sets for Hierarchy.closest: rays (n,) of camera rays pixel (n,) off objects
+        came_from (n,), of the piece's camera rays -> (kernel, rays) for every kernel that the rays off a culled
+        plane can meet (from the scene's mirrors), and the other rays (walked), or (None, None) where no ray comes
+        off such a plane."""
+        came_from, sets, culled = self.came_from, [], []
+        position = None  # each camera ray's mirror ray, where it has one off the plane at hand
+        for plane, rectangles in self.scene.mirrors.items():
+            off_plane = indices(came_from == plane)
+            if off_plane.size == 0:
+                continue
+            culled.append(plane)
+            if position is None:
+                position = np.full(self.total, -1, dtype=np.intp)
+            camera_ray = pixel.take(off_plane)
+            position[camera_ray] = off_plane
+            if self.rows is not None:
+                found = rectangles.rays(self.rows)
+            else:
+                found = rectangles.pixel_rays(self.pixels, self.runs, self.scene.mirror_hierarchy.frame_of)
+            for kernel, camera_rays in found:
+                if camera_rays is None:
+                    sets.append((kernel, off_plane))
+                    continue
+                rays = position.take(camera_rays)
+                rays = rays.take(indices(rays >= 0))
+                if rays.size:
+                    sets.append((kernel, rays))
+            position[camera_ray] = -1
+        if not culled:
+            return None, None
+        other = came_from != culled[0]
+        for plane in culled[1:]:
+            other &= came_from != plane
+        return sets, indices(other)
