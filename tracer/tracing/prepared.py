@@ -30,7 +30,7 @@ from ..geometry.kernels import (
 from ..geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MergedMember, MergedMeshKernel, MeshKernel
 from ..geometry.robust import make_robust_kernel
 from ..scene import scene as sc
-from .lights import DirectedLight, directed, prepare_lights
+from .lights import DirectedLight, PreparedLight, directed, prepare_lights
 from .rays import CAMERA_T_MIN
 from .recorder import view_axis
 
@@ -42,7 +42,21 @@ MERGE_MESHES_FROM = 64
 MERGE_SIZE_FACTOR = 8.0  # merged: meshes at most this many times the group's median size (their boxes' longest side)
 
 
-@dataclass
+@dataclass(frozen=True)
+class _Placed:
+    """The objects as traced (a vane's part once per heading where several are traced at once), their world
+    primitives, the frame each one's rays belong to (-1: every frame's; None without headings), the vane that places
+    each, and which of them are the vane's parts (None: no vane), which the hierarchies keep in a subtree of their
+    own (the rest kept between an animation's frames, bvh.py)."""
+
+    objects: tuple[sc.SceneObject, ...]
+    primitives: list[tf.WorldPrimitive]
+    frame_of: list[int] | None
+    vanes: list[sc.Vane | None]
+    moving: frozenset[int] | None
+
+
+@dataclass(eq=False)
 class PreparedScene:
     """What tracing needs, built once per scene: kernels, per-object materials, lights, background.
 
@@ -52,100 +66,81 @@ class PreparedScene:
 
     scene: sc.Scene
     headings: tuple[float, ...] | None = None
+    # numbers
     dtype: np.dtype = field(init=False)
+    # camera rays through a 32 x 24 grid of pixels (origins, directions), where some hierarchy has boxes: what the
+    # choices between walking a hierarchy and testing every kernel are made on (_choose_brute_force)
+    sample_rays: tuple[np.ndarray, np.ndarray] | None = field(init=False, default=None)
+    robust: bool = field(init=False)  # robust numerics (offset origins, watertight triangles) or the documented ones
+    # geometry: each placed object's kernel, the hierarchies over them for each kind of ray
     kernels: list[Kernel] = field(init=False)
+    centers: np.ndarray | None = field(init=False, default=None)  # (3, objects): a scene of spheres only
+    merged_starts: list[tuple[MergedMeshKernel, np.ndarray]] = field(init=False, default_factory=list)
+    hierarchy: Hierarchy = field(init=False)  # every object
+    camera_hierarchy: Hierarchy = field(init=False)  # the objects each kind of ray sees (Blender's ray visibility)
+    shadow_hierarchy: Hierarchy = field(init=False)
+    mirror_hierarchy: Hierarchy = field(init=False)
+    opaque_shadows: Hierarchy | None = field(init=False, default=None)  # objects that block shadow rays whole
+    smooth: dict[int, tuple[np.ndarray, ...]] = field(init=False, default_factory=dict)
+    smooth_instances: dict[int, np.ndarray] = field(init=False, default_factory=dict)
+    # the material table (_materials: rows by object, or by triangle with object_material and triangle_materials)
+    material_names: list[str] = field(init=False)
+    object_material: np.ndarray | None = field(init=False, default=None)
+    triangle_materials: dict[int, np.ndarray] = field(init=False, default_factory=dict)
+    colors: np.ndarray = field(init=False)  # (3, rows)
+    specular_colors: np.ndarray = field(init=False)  # (3, rows)
+    emission: np.ndarray = field(init=False)  # (3, rows)
+    specular: np.ndarray = field(init=False)  # (rows,)
+    reflective: np.ndarray = field(init=False)  # (rows,)
+    two_sided: np.ndarray = field(init=False)  # (rows,) bool
+    material_pass_index: np.ndarray = field(init=False)  # (rows,)
+    alpha: np.ndarray | None = field(init=False, default=None)  # (rows,), where some material is see-through
+    transmission: np.ndarray | None = field(init=False, default=None)
+    ior: np.ndarray | None = field(init=False, default=None)
+    colored: bool = field(init=False)  # lights or materials with colours: the terms as (3, n) colours
+    emissive: bool = field(init=False)
+    any_two_sided: bool = field(init=False)
+    see_through: bool = field(init=False)  # some material has transmission or alpha < 1
+    shadow_alpha: bool = field(init=False)  # some material has alpha < 1: shadow rays pass it
+    textured: bool = field(init=False)  # the texture fields below exist (_textures)
+    # objects' own flags
+    holdout: np.ndarray = field(init=False)  # (objects,) bool
+    any_holdout: bool = field(init=False)
+    has_alpha: bool = field(init=False)
+    channels: int = field(init=False)  # a traced pixel's: colour, and alpha where the scene has one
+    # lights, camera, background
+    lights: list[PreparedLight] = field(init=False)
+    origin: np.ndarray = field(init=False)  # (3, 1) the camera's location
+    screen: ScreenRectangles | None = field(init=False, default=None)  # which camera rays each kernel can meet
+    mirrors: dict[int, ScreenRectangles] = field(init=False, default_factory=dict)  # the same for reflective planes
+    documented_color: np.ndarray | None = field(init=False, default=None)  # (3, 1) the documented background's
 
     def __post_init__(self) -> None:
         settings = self.scene.render
         self.dtype = np.dtype(settings.dtype)
         self.robust = settings.numerics == "robust"
-        build = make_robust_kernel if self.robust else make_kernel
-        objects, primitives, frame_of, vanes = self._placed_objects()
-        # the vane's parts in a subtree of their own, the rest kept between an animation's frames (bvh.py)
-        vane = self.scene.vane
-        moving = None
-        if vane is not None:
-            moving = frozenset(index for index, obj in enumerate(objects) if obj.name in vane.parts)
-        merged = self._merged_meshes(build, objects, primitives, frame_of, moving)
-        self.kernels = [  # per object: normals
-            merged[index]
-            if index in merged
-            else _instances_kernel(build, primitive, self.dtype)
-            if isinstance(primitive, tf.WorldInstances)
-            else _kernel(build, primitive, self.dtype)
-            for index, primitive in enumerate(primitives)
-        ]
-        # a scene of documented spheres only: every hit's normal from its centre, gathered, in one set of passes
-        self.centers = None
-        if self.kernels and all(type(kernel) is SphereKernel for kernel in self.kernels):
-            self.centers = np.concatenate([kernel.center for kernel in self.kernels], axis=1)  # (3, objects)
-        # a large mesh enters the scene's hierarchy as one leaf with a hierarchy of its own over its triangles
-        leaf_kernels = [
-            _kernel(MeshKernel, kernel, primitive)
-            if isinstance(primitive, tf.WorldTriangles)
-            and len(primitive.triangles) > MESH_HIERARCHY_TRIANGLES
-            and not isinstance(kernel, MergedMember)
-            else kernel
-            for kernel, primitive in zip(self.kernels, primitives, strict=True)
-        ]
-        # each merged kernel with each object's first triangle in it (-1: not one of its members), for normals()
-        self.merged_starts: list[tuple[MergedMeshKernel, np.ndarray]] = []
-        for kernel in {id(k.merged): k.merged for k in merged.values()}.values():
-            start_of = np.full(len(objects), -1, dtype=np.int64)
-            start_of[kernel.members] = kernel.starts
-            self.merged_starts.append((kernel, start_of))
-        leaves = []  # (owner object, kernel): a merged kernel once, in its first member's place
-        for index, kernel in enumerate(leaf_kernels):
-            if isinstance(kernel, MergedMember):
-                if kernel.start == 0:
-                    leaves.append((index, kernel.merged))
-            else:
-                leaves.append((index, kernel))
-        owners = [owner for owner, _ in leaves]
-        leaf_frames = None if frame_of is None else [frame_of[owner] for owner in owners]
-        self.hierarchy = Hierarchy([kernel for _, kernel in leaves], self.dtype, owners, moving, leaf_frames)
-
-        def seen_by(flag: str) -> Hierarchy:  # the objects one kind of ray sees (Blender's ray visibility)
-            if all(getattr(obj, flag) for obj in objects):
-                return self.hierarchy
-            chosen = [position for position, owner in enumerate(owners) if getattr(objects[owner], flag)]
-            kernels = [leaves[position][1] for position in chosen]
-            seen = [owners[position] for position in chosen]
-            frames = None if frame_of is None else [frame_of[owner] for owner in seen]
-            return Hierarchy(kernels, self.dtype, seen, moving, frames)
-
-        self.camera_hierarchy = seen_by("visible_camera")
-        self.shadow_hierarchy = seen_by("visible_shadow")
-        self.mirror_hierarchy = seen_by("visible_reflection")
-        self._choose_brute_force()
+        placed = _placed_objects(
+            self,
+        )
+        leaves = _kernels(self, placed)
+        _visibility(self, placed, leaves)
+        _choose_brute_force(
+            self,
+        )
+        objects = placed.objects
         self.holdout = np.asarray([obj.holdout for obj in objects], dtype=bool)
         self.any_holdout = bool(self.holdout.any())
         self.has_alpha = self.scene.has_alpha
-        self.channels = 4 if self.has_alpha else 3  # a traced pixel's: colour, and alpha where the scene has one
-        self._materials(objects)
-        # where shadow rays pass partly transparent surfaces: the objects that block them whole (every material of
-        # theirs has alpha 1), so that shadows.passing follows only the rays they leave open
-        self.opaque_shadows = None
+        self.channels = 4 if self.has_alpha else 3
+        _materials(self, objects)
         if self.shadow_alpha:
-            opaque = self._opaque_objects(len(objects))
-            chosen = [
-                (owner, kernel)
-                for owner, kernel in leaves
-                if objects[owner].visible_shadow
-                and all(opaque[member] for member in getattr(kernel, "members", np.array([owner])).tolist())
-            ]
-            if chosen:
-                frames = None if frame_of is None else [frame_of[owner] for owner, _ in chosen]
-                kernels, seen = [kernel for _, kernel in chosen], [owner for owner, _ in chosen]
-                self.opaque_shadows = Hierarchy(kernels, self.dtype, seen, moving, frames)
-                if getattr(self, "_samples", None) is not None:
-                    self.opaque_shadows.choose_brute(*self._samples)
+            _opaque_shadows(self, placed, leaves)
         if settings.passes:  # what the passes read of the placed objects and the material rows (recorder.py)
             self.object_names = [obj.name for obj in objects]
             self.object_pass_index = np.asarray([obj.pass_index for obj in objects], dtype=self.dtype)
             self.view_axis = view_axis(self.scene.camera, self.dtype)
-        self._smooth_normals(objects, primitives, vanes)
-        self._textures(objects, primitives)
+        _smooth_normals(self, objects, placed.primitives, placed.vanes)
+        _textures(self, objects, placed.primitives)
         self.lights = prepare_lights(self.scene, self.dtype)
         # the documented arithmetic (one intensity per point) unless a light or a material needs colours
         self.colored = self.colored or any(
@@ -155,246 +150,17 @@ class PreparedScene:
             for light in self.scene.lights
         )
         background = self.scene.background
-        self.documented_color = None
         if background.type == "documented":
             direction = cam.documented_background_direction(self.scene.camera, settings)
             self.documented_color = column(background.sky(direction[2]), self.dtype)
         self.origin = column(self.scene.camera.location, self.dtype)
-        self.screen = None  # which camera rays each bounded kernel can meet
-        if self.camera_hierarchy.boxes is not None:
-            self.screen = ScreenRectangles.build(
-                self.scene.camera, settings, self.origin.ravel().astype(np.float64), self.camera_hierarchy.boxes
-            )
-            screen = self.screen
-            if screen is not None and not self.camera_hierarchy.culls_well(screen.kernels, screen.shares):
-                self.screen = None
-        self.mirrors = self._mirror_rectangles(primitives)
-        if self.shadow_hierarchy.boxes is not None:
-            boxes = self.shadow_hierarchy.boxes
-            for light in directed(self.lights):
-                light.grid = light.make_grid(*boxes)
-                if light.grid is not None and self.shadow_hierarchy.brute:
-                    shares = self._sample_shares(light)
-                    if shares is None or not self.shadow_hierarchy.culls_well(light.grid.kernels, shares):
-                        light.grid = None
-
-    def _merged_meshes(
-        self,
-        build,
-        objects: tuple[sc.SceneObject, ...],
-        primitives: list[tf.WorldPrimitive],
-        frame_of: list[int] | None,
-        moving: frozenset[int] | None,
-    ) -> dict[int, MergedMember]:
-        """Where at least MERGE_MESHES_FROM triangle meshes stand still and are seen by the same rays, one
-        MergedMeshKernel for them, entering the scene's hierarchy once; -> each such object's member of it (its
-        normals from the merged arrays), by object index. Other objects keep a kernel of their own."""
-        groups: dict[tuple[bool, ...], list[int]] = {}
-        for index, (obj, primitive) in enumerate(zip(objects, primitives, strict=True)):
-            still = (frame_of is None or frame_of[index] < 0) and (moving is None or index not in moving)
-            if still and isinstance(primitive, tf.WorldTriangles):
-                flags = (obj.visible_camera, obj.visible_shadow, obj.visible_reflection)
-                groups.setdefault(flags, []).append(index)
-        merged: dict[int, MergedMember] = {}
-        for candidates in groups.values():
-            # a mesh much larger than the group's typical one (a ground under 3,000 cubes) stays a leaf of its own:
-            # inside the merged hierarchy its triangles would widen every box above them (the ground doubled a
-            # 1280x720 frame's time)
-            sizes = np.array([np.ptp(primitives[index].triangles.reshape(-1, 3), axis=0).max() for index in candidates])
-            typical = float(np.median(sizes)) if sizes.size else 0.0
-            members = [
-                index
-                for index, size in zip(candidates, sizes.tolist(), strict=True)
-                if size <= MERGE_SIZE_FACTOR * typical
-            ]
-            if len(members) < MERGE_MESHES_FROM:
-                continue
-            meshes = [primitives[index] for index in members]
-            kernel = _kernel(MergedMeshKernel, build, self.dtype, tuple(members), *meshes)
-            merged.update((index, kernel.member(position)) for position, index in enumerate(members))
-        return merged
-
-    def _placed_objects(
-        self,
-    ) -> tuple[tuple[sc.SceneObject, ...], list[tf.WorldPrimitive], list[int] | None, list[sc.Vane | None]]:
-        """The objects as traced, their world primitives, the frame each one's rays belong to (-1: every frame's;
-        None without headings) and the vane that places each (one of its headings for a part)."""
-        scene, headings = self.scene, self.headings
-        if headings is None:
-            return scene.objects, _world_primitives(scene), None, [scene.vane] * len(scene.objects)
-        if scene.vane is None:
-            raise ValueError("frames at several headings need a scene with a vane")
-        turned = [replace(scene.vane, heading=heading) for heading in headings]
-        objects, primitives, frame_of, vanes = [], [], [], []
-        for obj in scene.objects:
-            if obj.name not in scene.vane.parts:
-                objects.append(obj)
-                primitives.append(_still_primitive(obj, scene.vane))
-                frame_of.append(-1)
-                vanes.append(scene.vane)
-                continue
-            for frame, vane in enumerate(turned):
-                objects.append(obj)
-                primitives.append(tf.world_primitive(obj, vane))
-                frame_of.append(frame)
-                vanes.append(vane)
-        return tuple(objects), primitives, frame_of, vanes
-
-    def _mirror_rectangles(self, primitives: list) -> dict[int, ScreenRectangles]:
-        """For each reflective plane that camera rays can meet: which of its mirror rays each bounded kernel can
-        meet, by the pixels of the camera rays they continue (ScreenRectangles.mirrored). Keyed by the plane's
-        object index; empty where the camera rays have no screen rectangles or the mirror rays are not walked
-        through boxes (brute force tests every kernel on every ray)."""
-        mirrors = {}
-        hierarchy = self.mirror_hierarchy
-        if self.screen is None or hierarchy.boxes is None or hierarchy.brute:
-            return mirrors
-        location = self.origin.ravel().astype(np.float64)
-        for index in self.camera_hierarchy.unbounded:
-            owner = self.camera_hierarchy.owners[index]
-            plane = primitives[owner]
-            if not isinstance(plane, tf.WorldPlane):
-                continue
-            reflective = self.reflective.take(self.material_of(np.array([owner]), np.zeros(1, dtype=np.int32)))
-            if not reflective[0] > 0.0:
-                continue
-            rectangles = ScreenRectangles.mirrored(
-                self.scene.camera,
-                self.scene.render,
-                location,
-                hierarchy.boxes,
-                np.asarray(plane.point, dtype=np.float64),
-                np.asarray(plane.normal, dtype=np.float64),
-            )
-            if rectangles is not None:
-                mirrors[owner] = rectangles
-        return mirrors
-
-    def _sample_shares(self, light: DirectedLight) -> np.ndarray | None:
-        """The share (k,) of a light's shadow rays that its grid gives each kernel, estimated on the rays from where
-        _choose_brute_force's sample camera rays hit (None: none hits)."""
-        O, D = self._samples
-        t, obj, _ = self.camera_hierarchy.closest(O, D, CAMERA_T_MIN)
-        hit = indices(obj >= 0)
-        if hit.size == 0:
-            return None
-        return light.grid_shares(take(O, hit) + take(D, hit) * t.take(hit))
-
-    def _choose_brute_force(self) -> None:
-        """Whether each hierarchy is walked or every kernel tests every ray (Hierarchy.choose_brute), decided on a
-        32 x 24 grid of the camera's rays (the same bytes either way: only the work differs)."""
-        settings, camera = self.scene.render, self.scene.camera
-        if all(h.root is None for h in (self.camera_hierarchy, self.shadow_hierarchy, self.mirror_hierarchy)):
-            return
-        O, D = self._samples = _sample_rays(camera, settings)
-        for hierarchy in {
-            id(h): h for h in (self.camera_hierarchy, self.shadow_hierarchy, self.mirror_hierarchy)
-        }.values():
-            hierarchy.choose_brute(O, D)
-
-    def _materials(self, objects: tuple[sc.SceneObject, ...]) -> None:
-        """The materials as arrays (3, M) and (M,), and each object's (or a mesh's each triangle's) index into them.
-        Without per-triangle materials the rows are the objects' own materials (M = objects): a hit's object is its
-        row, as in the documented tracer (no index to look up per hit)."""
-        names = list(self.scene.materials)
-        number = {name: index for index, name in enumerate(names)}
-        self.object_material: np.ndarray | None = None
-        self.triangle_materials: dict[int, np.ndarray] = {}
-        for index, obj in enumerate(objects):
-            if getattr(obj, "material_indices", None) is not None:
-                # by triangle; an instance's part (instance * T + triangle) is taken modulo T (material_of)
-                slots = np.asarray([number[name] for name in obj.materials], dtype=np.intp)
-                self.triangle_materials[index] = slots.take(np.asarray(obj.material_indices, dtype=np.intp))
-        if self.triangle_materials:
-            table = [self.scene.materials[name] for name in names]
-            self.object_material = np.asarray([number[obj.material] for obj in objects], dtype=np.intp)
-            self.material_names = names
-        else:
-            table = [self.scene.materials[obj.material] for obj in objects]
-            self.material_names = [obj.material for obj in objects]
-        self.material_pass_index = np.asarray([m.pass_index for m in table], dtype=self.dtype)
-        as_columns = lambda values: np.asarray(values, dtype=self.dtype).T.reshape(3, -1)  # noqa: E731
-        self.colors = as_columns([m.color for m in table])  # (3, materials)
-        self.specular = np.asarray([m.specular for m in table], dtype=self.dtype)
-        self.reflective = np.asarray([m.reflective for m in table], dtype=self.dtype)
-        self.emission = as_columns([m.emission for m in table])
-        self.emissive = any(m.emission != sc.BLACK for m in table)
-        self.specular_colors = as_columns([m.color if m.specular_color is None else m.specular_color for m in table])
-        self.colored = any(m.specular_color is not None for m in table)
-        self.two_sided = np.asarray([m.two_sided for m in table], dtype=bool)
-        self.any_two_sided = bool(self.two_sided.any())
-        # glass and transparency (trace_see_through): only where some material has them, else nothing of it runs
-        self.see_through = any(m.see_through for m in table)
-        self.shadow_alpha = any(m.alpha < 1.0 for m in table)  # shadow rays pass such surfaces (shadows.passing)
-        if self.see_through:
-            self.alpha = np.asarray([m.alpha for m in table], dtype=self.dtype)
-            self.transmission = np.asarray([m.transmission for m in table], dtype=self.dtype)
-            self.ior = np.asarray([m.ior for m in table], dtype=self.dtype)
-
-    def _opaque_objects(self, count: int) -> list[bool]:
-        """Whether each placed object's materials (a mesh's every triangle's) all have alpha 1."""
-        opaque = []
-        for index in range(count):
-            if index in self.triangle_materials:
-                rows = self.triangle_materials[index]
-            else:
-                rows = np.array([index if self.object_material is None else self.object_material[index]])
-            opaque.append(bool(np.all(self.alpha.take(rows) >= 1.0)))
-        return opaque
-
-    def _smooth_normals(self, objects: tuple[sc.SceneObject, ...], primitives: list, vanes: list) -> None:
-        """For each mesh with corner normals: its triangles' v0, e1, e2 and corner normals n0, n1, n2 (3, T) each,
-        float64 (the reference's numbers); vanes: the vane that places each object."""
-        self.smooth: dict[int, tuple[np.ndarray, ...]] = {}
-        self.smooth_instances: dict[int, np.ndarray] = {}  # an instanced mesh's corner normals (T, 3, 3), local
-        for index, (obj, primitive, vane) in enumerate(zip(objects, primitives, vanes, strict=True)):
-            if isinstance(obj, sc.MeshInstances):
-                if obj.normals is not None:
-                    self.smooth_instances[index] = np.asarray(obj.normals, dtype=np.float64).reshape(-1, 3, 3)
-                continue
-            corners = tf.world_corner_normals(obj, vane)
-            if corners is None:
-                continue
-            triangles = np.asarray(primitive.triangles, dtype=np.float64)  # (T, 3, 3)
-            v0 = triangles[:, 0]
-            parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, corners[:, 0], corners[:, 1], corners[:, 2])
-            self.smooth[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
-
-    def _textures(self, objects: tuple[sc.SceneObject, ...], primitives: list) -> None:
-        """Where a material row has a texture and a mesh has UVs or corner colours (textured): each such row's
-        textures, and each such mesh's triangles' v0, e1, e2 (3, T) and corner UVs (2, T) or colours (3, T) each
-        (float64, as for smooth normals), or an instanced mesh's corner UVs (T, 3, 2) or colours (T, 3, 3) in its own
-        space. Without them nothing here runs while tracing."""
-        rows = [self.scene.materials[name] for name in self.material_names]
-        self.row_textures = [m.texture for m in rows]
-        self.row_emission_textures = [m.emission_texture for m in rows]
-        with_texture = [m.texture is not None or m.emission_texture is not None for m in rows]
-        self.textured = any(with_texture) and any(
-            getattr(obj, "uvs", None) is not None or getattr(obj, "colors", None) is not None for obj in objects
+        _screen(
+            self,
         )
-        if not self.textured:
-            return
-        self.has_texture = np.asarray(with_texture, dtype=bool)
-        self.emissive = self.emissive or any(e is not None for e in self.row_emission_textures)
-        self.uv_meshes: dict[int, tuple[np.ndarray, ...]] = {}
-        self.uv_instances: dict[int, np.ndarray] = {}
-        self.color_meshes: dict[int, tuple[np.ndarray, ...]] = {}
-        self.color_instances: dict[int, np.ndarray] = {}
-        for index, (obj, primitive) in enumerate(zip(objects, primitives, strict=True)):
-            for key, meshes, instances, width in (
-                ("uvs", self.uv_meshes, self.uv_instances, 2),
-                ("colors", self.color_meshes, self.color_instances, 3),
-            ):
-                corners = getattr(obj, key, None)
-                if corners is None:
-                    continue
-                if isinstance(obj, sc.MeshInstances):
-                    instances[index] = np.asarray(corners, dtype=np.float64).reshape(-1, 3, width)
-                    continue
-                triangles = np.asarray(primitive.triangles, dtype=np.float64)  # (T, 3, 3), world
-                v0 = triangles[:, 0]
-                parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, corners[:, 0], corners[:, 1], corners[:, 2])
-                meshes[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
+        self.mirrors = _mirror_rectangles(self, placed.primitives)
+        _light_grids(
+            self,
+        )
 
     def cryptomatte_hashes(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """The distinct names of the placed objects (cryptomatte_object) or material rows (cryptomatte_material)
@@ -462,6 +228,341 @@ class PreparedScene:
                     scale[rows] = rounding
                 start += size
         return N, ((distance, scale) if self.robust else None)
+
+
+# ---- preparing a scene: what __post_init__ calls, in its order -----------------------------------------------
+
+
+def _kernels(prepared: PreparedScene, placed: _Placed) -> list[tuple[int, Kernel]]:
+    """Each placed object's kernel (prepared.kernels, for normals), the scene's hierarchy over them (prepared.hierarchy)
+    -> its leaves: (owner object, kernel), a merged kernel once in its first member's place, a large mesh as a
+    kernel with a hierarchy of its own over its triangles."""
+    build = make_robust_kernel if prepared.robust else make_kernel
+    objects, primitives = placed.objects, placed.primitives
+    merged = _merged_meshes(prepared, build, objects, primitives, placed.frame_of, placed.moving)
+    prepared.kernels = [
+        merged[index]
+        if index in merged
+        else _instances_kernel(build, primitive, prepared.dtype)
+        if isinstance(primitive, tf.WorldInstances)
+        else _kernel(build, primitive, prepared.dtype)
+        for index, primitive in enumerate(primitives)
+    ]
+    # a scene of documented spheres only: every hit's normal from its centre, gathered, in one set of passes
+    if prepared.kernels and all(type(kernel) is SphereKernel for kernel in prepared.kernels):
+        prepared.centers = np.concatenate([kernel.center for kernel in prepared.kernels], axis=1)  # (3, objects)
+    leaf_kernels = [
+        _kernel(MeshKernel, kernel, primitive)
+        if isinstance(primitive, tf.WorldTriangles)
+        and len(primitive.triangles) > MESH_HIERARCHY_TRIANGLES
+        and not isinstance(kernel, MergedMember)
+        else kernel
+        for kernel, primitive in zip(prepared.kernels, primitives, strict=True)
+    ]
+    # each merged kernel with each object's first triangle in it (-1: not one of its members), for normals()
+    for kernel in {id(k.merged): k.merged for k in merged.values()}.values():
+        start_of = np.full(len(objects), -1, dtype=np.int64)
+        start_of[kernel.members] = kernel.starts
+        prepared.merged_starts.append((kernel, start_of))
+    leaves = []
+    for index, kernel in enumerate(leaf_kernels):
+        if isinstance(kernel, MergedMember):
+            if kernel.start == 0:
+                leaves.append((index, kernel.merged))
+        else:
+            leaves.append((index, kernel))
+    prepared.hierarchy = _hierarchy(prepared, placed, leaves)
+    return leaves
+
+
+def _hierarchy(prepared: PreparedScene, placed: _Placed, leaves: list[tuple[int, Kernel]]) -> Hierarchy:
+    """The hierarchy over leaves (owner object, kernel), the vane's parts in a subtree of their own (the rest
+    kept between an animation's frames, bvh.py), each leaf seeing its frame's rays."""
+    owners = [owner for owner, _ in leaves]
+    frames = None if placed.frame_of is None else [placed.frame_of[owner] for owner in owners]
+    return Hierarchy([kernel for _, kernel in leaves], prepared.dtype, owners, placed.moving, frames)
+
+
+def _visibility(prepared: PreparedScene, placed: _Placed, leaves: list[tuple[int, Kernel]]) -> None:
+    """The hierarchies of the objects that camera, shadow and mirror rays see (Blender's ray visibility): the
+    scene's own where every object is seen."""
+
+    def seen_by(flag: str) -> Hierarchy:
+        if all(getattr(obj, flag) for obj in placed.objects):
+            return prepared.hierarchy
+        return _hierarchy(prepared, placed, [leaf for leaf in leaves if getattr(placed.objects[leaf[0]], flag)])
+
+    prepared.camera_hierarchy = seen_by("visible_camera")
+    prepared.shadow_hierarchy = seen_by("visible_shadow")
+    prepared.mirror_hierarchy = seen_by("visible_reflection")
+
+
+def _opaque_shadows(prepared: PreparedScene, placed: _Placed, leaves: list[tuple[int, Kernel]]) -> None:
+    """Where shadow rays pass partly transparent surfaces: the hierarchy of the objects that block them whole
+    (every material of theirs has alpha 1), so that shadows.passing follows only the rays they leave open."""
+    opaque = _opaque_objects(prepared, len(placed.objects))
+    chosen = [
+        (owner, kernel)
+        for owner, kernel in leaves
+        if placed.objects[owner].visible_shadow
+        and all(opaque[member] for member in getattr(kernel, "members", np.array([owner])).tolist())
+    ]
+    if chosen:
+        prepared.opaque_shadows = _hierarchy(prepared, placed, chosen)
+        if prepared.sample_rays is not None:
+            prepared.opaque_shadows.choose_brute(*prepared.sample_rays)
+
+
+def _screen(prepared: PreparedScene) -> None:
+    """Which camera rays each bounded kernel can meet (ScreenRectangles), where that culls well."""
+    if prepared.camera_hierarchy.boxes is None:
+        return
+    settings = prepared.scene.render
+    screen = ScreenRectangles.build(
+        prepared.scene.camera, settings, prepared.origin.ravel().astype(np.float64), prepared.camera_hierarchy.boxes
+    )
+    if screen is not None and prepared.camera_hierarchy.culls_well(screen.kernels, screen.shares):
+        prepared.screen = screen
+
+
+def _light_grids(prepared: PreparedScene) -> None:
+    """Each light's coverage grid over the bounded kernels shadow rays see, where it culls well."""
+    if prepared.shadow_hierarchy.boxes is None:
+        return
+    boxes = prepared.shadow_hierarchy.boxes
+    for light in directed(prepared.lights):
+        light.grid = light.make_grid(*boxes)
+        if light.grid is not None and prepared.shadow_hierarchy.brute:
+            shares = _sample_shares(prepared, light)
+            if shares is None or not prepared.shadow_hierarchy.culls_well(light.grid.kernels, shares):
+                light.grid = None
+
+
+def _merged_meshes(
+    prepared: PreparedScene,
+    build,
+    objects: tuple[sc.SceneObject, ...],
+    primitives: list[tf.WorldPrimitive],
+    frame_of: list[int] | None,
+    moving: frozenset[int] | None,
+) -> dict[int, MergedMember]:
+    """Where at least MERGE_MESHES_FROM triangle meshes stand still and are seen by the same rays, one
+    MergedMeshKernel for them, entering the scene's hierarchy once; -> each such object's member of it (its
+    normals from the merged arrays), by object index. Other objects keep a kernel of their own."""
+    groups: dict[tuple[bool, ...], list[int]] = {}
+    for index, (obj, primitive) in enumerate(zip(objects, primitives, strict=True)):
+        still = (frame_of is None or frame_of[index] < 0) and (moving is None or index not in moving)
+        if still and isinstance(primitive, tf.WorldTriangles):
+            flags = (obj.visible_camera, obj.visible_shadow, obj.visible_reflection)
+            groups.setdefault(flags, []).append(index)
+    merged: dict[int, MergedMember] = {}
+    for candidates in groups.values():
+        # a mesh much larger than the group's typical one (a ground under 3,000 cubes) stays a leaf of its own:
+        # inside the merged hierarchy its triangles would widen every box above them (the ground doubled a
+        # 1280x720 frame's time)
+        sizes = np.array([np.ptp(primitives[index].triangles.reshape(-1, 3), axis=0).max() for index in candidates])
+        typical = float(np.median(sizes)) if sizes.size else 0.0
+        members = [
+            index for index, size in zip(candidates, sizes.tolist(), strict=True) if size <= MERGE_SIZE_FACTOR * typical
+        ]
+        if len(members) < MERGE_MESHES_FROM:
+            continue
+        meshes = [primitives[index] for index in members]
+        kernel = _kernel(MergedMeshKernel, build, prepared.dtype, tuple(members), *meshes)
+        merged.update((index, kernel.member(position)) for position, index in enumerate(members))
+    return merged
+
+
+def _placed_objects(prepared: PreparedScene) -> _Placed:
+    """The objects as traced: with headings each of the vane's parts once per heading."""
+    scene, headings = prepared.scene, prepared.headings
+    vane = scene.vane
+    moving = None if vane is None else frozenset(i for i, obj in enumerate(scene.objects) if obj.name in vane.parts)
+    if headings is None:
+        return _Placed(scene.objects, _world_primitives(scene), None, [vane] * len(scene.objects), moving)
+    if vane is None:
+        raise ValueError("frames at several headings need a scene with a vane")
+    turned = [replace(vane, heading=heading) for heading in headings]
+    objects, primitives, frame_of, vanes = [], [], [], []
+    for obj in scene.objects:
+        if obj.name not in vane.parts:
+            objects.append(obj)
+            primitives.append(_still_primitive(obj, vane))
+            frame_of.append(-1)
+            vanes.append(vane)
+            continue
+        for frame, turned_vane in enumerate(turned):
+            objects.append(obj)
+            primitives.append(tf.world_primitive(obj, turned_vane))
+            frame_of.append(frame)
+            vanes.append(turned_vane)
+    moving = frozenset(index for index, obj in enumerate(objects) if obj.name in vane.parts)
+    return _Placed(tuple(objects), primitives, frame_of, vanes, moving)
+
+
+def _mirror_rectangles(prepared: PreparedScene, primitives: list) -> dict[int, ScreenRectangles]:
+    """For each reflective plane that camera rays can meet: which of its mirror rays each bounded kernel can
+    meet, by the pixels of the camera rays they continue (ScreenRectangles.mirrored). Keyed by the plane's
+    object index; empty where the camera rays have no screen rectangles or the mirror rays are not walked
+    through boxes (brute force tests every kernel on every ray)."""
+    mirrors = {}
+    hierarchy = prepared.mirror_hierarchy
+    if prepared.screen is None or hierarchy.boxes is None or hierarchy.brute:
+        return mirrors
+    location = prepared.origin.ravel().astype(np.float64)
+    for index in prepared.camera_hierarchy.unbounded:
+        owner = prepared.camera_hierarchy.owners[index]
+        plane = primitives[owner]
+        if not isinstance(plane, tf.WorldPlane):
+            continue
+        reflective = prepared.reflective.take(prepared.material_of(np.array([owner]), np.zeros(1, dtype=np.int32)))
+        if not reflective[0] > 0.0:
+            continue
+        rectangles = ScreenRectangles.mirrored(
+            prepared.scene.camera,
+            prepared.scene.render,
+            location,
+            hierarchy.boxes,
+            np.asarray(plane.point, dtype=np.float64),
+            np.asarray(plane.normal, dtype=np.float64),
+        )
+        if rectangles is not None:
+            mirrors[owner] = rectangles
+    return mirrors
+
+
+def _sample_shares(prepared: PreparedScene, light: DirectedLight) -> np.ndarray | None:
+    """The share (k,) of a light's shadow rays that its grid gives each kernel, estimated on the rays from where
+    _choose_brute_force's sample camera rays hit (None: none hits)."""
+    O, D = prepared.sample_rays
+    t, obj, _ = prepared.camera_hierarchy.closest(O, D, CAMERA_T_MIN)
+    hit = indices(obj >= 0)
+    if hit.size == 0:
+        return None
+    return light.grid_shares(take(O, hit) + take(D, hit) * t.take(hit))
+
+
+def _choose_brute_force(prepared: PreparedScene) -> None:
+    """Whether each hierarchy is walked or every kernel tests every ray (Hierarchy.choose_brute), decided on a
+    32 x 24 grid of the camera's rays (the same bytes either way: only the work differs)."""
+    settings, camera = prepared.scene.render, prepared.scene.camera
+    if all(h.root is None for h in (prepared.camera_hierarchy, prepared.shadow_hierarchy, prepared.mirror_hierarchy)):
+        return
+    O, D = prepared.sample_rays = _sample_rays(camera, settings)
+    for hierarchy in {
+        id(h): h for h in (prepared.camera_hierarchy, prepared.shadow_hierarchy, prepared.mirror_hierarchy)
+    }.values():
+        hierarchy.choose_brute(O, D)
+
+
+def _materials(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...]) -> None:
+    """The materials as arrays (3, M) and (M,), and each object's (or a mesh's each triangle's) index into them.
+    Without per-triangle materials the rows are the objects' own materials (M = objects): a hit's object is its
+    row, as in the documented tracer (no index to look up per hit)."""
+    names = list(prepared.scene.materials)
+    number = {name: index for index, name in enumerate(names)}
+    prepared.object_material: np.ndarray | None = None
+    prepared.triangle_materials: dict[int, np.ndarray] = {}
+    for index, obj in enumerate(objects):
+        if getattr(obj, "material_indices", None) is not None:
+            # by triangle; an instance's part (instance * T + triangle) is taken modulo T (material_of)
+            slots = np.asarray([number[name] for name in obj.materials], dtype=np.intp)
+            prepared.triangle_materials[index] = slots.take(np.asarray(obj.material_indices, dtype=np.intp))
+    if prepared.triangle_materials:
+        table = [prepared.scene.materials[name] for name in names]
+        prepared.object_material = np.asarray([number[obj.material] for obj in objects], dtype=np.intp)
+        prepared.material_names = names
+    else:
+        table = [prepared.scene.materials[obj.material] for obj in objects]
+        prepared.material_names = [obj.material for obj in objects]
+    prepared.material_pass_index = np.asarray([m.pass_index for m in table], dtype=prepared.dtype)
+    as_columns = lambda values: np.asarray(values, dtype=prepared.dtype).T.reshape(3, -1)  # noqa: E731
+    prepared.colors = as_columns([m.color for m in table])  # (3, materials)
+    prepared.specular = np.asarray([m.specular for m in table], dtype=prepared.dtype)
+    prepared.reflective = np.asarray([m.reflective for m in table], dtype=prepared.dtype)
+    prepared.emission = as_columns([m.emission for m in table])
+    prepared.emissive = any(m.emission != sc.BLACK for m in table)
+    prepared.specular_colors = as_columns([m.color if m.specular_color is None else m.specular_color for m in table])
+    prepared.colored = any(m.specular_color is not None for m in table)
+    prepared.two_sided = np.asarray([m.two_sided for m in table], dtype=bool)
+    prepared.any_two_sided = bool(prepared.two_sided.any())
+    # glass and transparency (trace_see_through): only where some material has them, else nothing of it runs
+    prepared.see_through = any(m.see_through for m in table)
+    prepared.shadow_alpha = any(m.alpha < 1.0 for m in table)  # shadow rays pass such surfaces (shadows.passing)
+    if prepared.see_through:
+        prepared.alpha = np.asarray([m.alpha for m in table], dtype=prepared.dtype)
+        prepared.transmission = np.asarray([m.transmission for m in table], dtype=prepared.dtype)
+        prepared.ior = np.asarray([m.ior for m in table], dtype=prepared.dtype)
+
+
+def _opaque_objects(prepared: PreparedScene, count: int) -> list[bool]:
+    """Whether each placed object's materials (a mesh's every triangle's) all have alpha 1."""
+    opaque = []
+    for index in range(count):
+        if index in prepared.triangle_materials:
+            rows = prepared.triangle_materials[index]
+        else:
+            rows = np.array([index if prepared.object_material is None else prepared.object_material[index]])
+        opaque.append(bool(np.all(prepared.alpha.take(rows) >= 1.0)))
+    return opaque
+
+
+def _smooth_normals(
+    prepared: PreparedScene, objects: tuple[sc.SceneObject, ...], primitives: list, vanes: list
+) -> None:
+    """For each mesh with corner normals: its triangles' v0, e1, e2 and corner normals n0, n1, n2 (3, T) each,
+    float64 (the reference's numbers); vanes: the vane that places each object."""
+    prepared.smooth: dict[int, tuple[np.ndarray, ...]] = {}
+    prepared.smooth_instances: dict[int, np.ndarray] = {}  # an instanced mesh's corner normals (T, 3, 3), local
+    for index, (obj, primitive, vane) in enumerate(zip(objects, primitives, vanes, strict=True)):
+        if isinstance(obj, sc.MeshInstances):
+            if obj.normals is not None:
+                prepared.smooth_instances[index] = np.asarray(obj.normals, dtype=np.float64).reshape(-1, 3, 3)
+            continue
+        corners = tf.world_corner_normals(obj, vane)
+        if corners is None:
+            continue
+        triangles = np.asarray(primitive.triangles, dtype=np.float64)  # (T, 3, 3)
+        v0 = triangles[:, 0]
+        parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, corners[:, 0], corners[:, 1], corners[:, 2])
+        prepared.smooth[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
+
+
+def _textures(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...], primitives: list) -> None:
+    """Where a material row has a texture and a mesh has UVs or corner colours (textured): each such row's
+    textures, and each such mesh's triangles' v0, e1, e2 (3, T) and corner UVs (2, T) or colours (3, T) each
+    (float64, as for smooth normals), or an instanced mesh's corner UVs (T, 3, 2) or colours (T, 3, 3) in its own
+    space. Without them nothing here runs while tracing."""
+    rows = [prepared.scene.materials[name] for name in prepared.material_names]
+    prepared.row_textures = [m.texture for m in rows]
+    prepared.row_emission_textures = [m.emission_texture for m in rows]
+    with_texture = [m.texture is not None or m.emission_texture is not None for m in rows]
+    prepared.textured = any(with_texture) and any(
+        getattr(obj, "uvs", None) is not None or getattr(obj, "colors", None) is not None for obj in objects
+    )
+    if not prepared.textured:
+        return
+    prepared.has_texture = np.asarray(with_texture, dtype=bool)
+    prepared.emissive = prepared.emissive or any(e is not None for e in prepared.row_emission_textures)
+    prepared.uv_meshes: dict[int, tuple[np.ndarray, ...]] = {}
+    prepared.uv_instances: dict[int, np.ndarray] = {}
+    prepared.color_meshes: dict[int, tuple[np.ndarray, ...]] = {}
+    prepared.color_instances: dict[int, np.ndarray] = {}
+    for index, (obj, primitive) in enumerate(zip(objects, primitives, strict=True)):
+        for key, meshes, instances, width in (
+            ("uvs", prepared.uv_meshes, prepared.uv_instances, 2),
+            ("colors", prepared.color_meshes, prepared.color_instances, 3),
+        ):
+            corners = getattr(obj, key, None)
+            if corners is None:
+                continue
+            if isinstance(obj, sc.MeshInstances):
+                instances[index] = np.asarray(corners, dtype=np.float64).reshape(-1, 3, width)
+                continue
+            triangles = np.asarray(primitive.triangles, dtype=np.float64)  # (T, 3, 3), world
+            v0 = triangles[:, 0]
+            parts = (v0, triangles[:, 1] - v0, triangles[:, 2] - v0, corners[:, 0], corners[:, 1], corners[:, 2])
+            meshes[index] = tuple(np.ascontiguousarray(part.T) for part in parts)
 
 
 @functools.lru_cache(maxsize=16)

@@ -16,7 +16,7 @@ from .batch import Hits, RayBatch
 from .prepared import PreparedScene
 from .rays import RayCounts, accumulate
 from .raystore import RayStore
-from .recorder import PassRecorder
+from .recorder import NoPasses, PassRecorder
 
 
 def camera_batch(batch: RayBatch, dtype: np.dtype) -> RayBatch:
@@ -67,7 +67,7 @@ def add_misses(
     obj: np.ndarray,
     first: bool,
     alpha: np.ndarray | None,
-    recorder: PassRecorder | None,
+    recorder: PassRecorder | NoPasses,
 ) -> None:
     """The background where the rays of a see-through wavefront miss, times their weights, into their samples and
     passes; under a transparent film a camera ray (or its straight continuation) that meets nothing adds nothing
@@ -86,9 +86,9 @@ def add_misses(
         sky = surfaces.background(scene, batch.direction, seen)
         if batch.weight is not None:
             sky = take(batch.weight, seen) * sky
-        add_at(color, batch.pixel.take(seen), sky, first)
-        if recorder is not None:
-            record_tagged(recorder, "environment", batch.tag.take(seen), batch.pixel.take(seen), sky)
+        pixel = batch.pixel.take(seen)
+        add_at(color, pixel, sky, first)
+        recorder.tagged("environment", batch.tag, seen, pixel, sky)
 
 
 def hold_out(
@@ -97,7 +97,7 @@ def hold_out(
     obj: np.ndarray,
     first: bool,
     alpha: np.ndarray | None,
-    recorder: PassRecorder | None,
+    recorder: PassRecorder | NoPasses,
 ) -> np.ndarray:
     """The rays of a see-through wavefront that hit something other than a holdout (k,): a holdout adds nothing,
     and a camera ray (or its straight continuation) that meets it takes its share of alpha away."""
@@ -111,7 +111,7 @@ def hold_out(
     mine = gone.take(indices(batch.camera.take(gone)))
     if alpha is not None and mine.size:
         np.subtract.at(alpha, batch.pixel.take(mine), batch.clear.take(mine))
-    if recorder is not None and first:
+    if first:
         recorder.holdout(batch.pixel.take(gone))
     return hit.take(indices(~held))
 
@@ -124,7 +124,7 @@ def add_local(
     counts: RayCounts,
     footprint: Footprint | RayStore | None,
     frames: np.ndarray | None,
-    recorder: PassRecorder | None,
+    recorder: PassRecorder | NoPasses,
     first: bool,
 ) -> None:
     """The shaded share a (1 - t) of a see-through wavefront's hits: listing 3.2 there and the local colour as a
@@ -132,16 +132,7 @@ def add_local(
     ray's own hit term by term, the others' by their tag, and the data passes of the first surface of alpha at least
     the pass threshold met straight on."""
     a, transmission = scene.alpha.take(hits.material), scene.transmission.take(hits.material)
-    if recorder is not None:
-        shown = batch.pending & (a >= sc.PASS_ALPHA_THRESHOLD)
-        if shown.all():
-            recorder.first_hit(batch.pixel, hits.P, hits.S, hits.obj, hits.material)
-        elif shown.any():
-            rows = indices(shown)
-            recorder.first_hit(
-                batch.pixel.take(rows), take(hits.P, rows), take(hits.S, rows), hits.obj.take(rows),
-                hits.material.take(rows),
-            )  # fmt: skip
+    recorder.first_seen(batch.pixel, batch.pending, a, hits.P, hits.S, hits.obj, hits.material)
     shaded = a * (1.0 - transmission)
     lit = indices(shaded > 0.0)
     if not lit.size:
@@ -149,21 +140,19 @@ def add_local(
     every = lit.size == batch.size  # every hit is shaded: no gathers
     mine = hits if every else hits.take(lit)
     pixel = batch.pixel if every else batch.pixel.take(lit)
-    split = {} if recorder is not None and first and recorder.shading else None
+    split = {} if first and recorder.shading else None
     local, reflective = shading.local_colors(scene, mine, pixel, counts, footprint, frames, split)
     share = shaded if every else shaded.take(lit)
     local = local * share
     value = local if batch.weight is None else (batch.weight if every else take(batch.weight, lit)) * local
     add_at(color, pixel, value, first)
-    if recorder is None:
-        return
     if first:
         if split is not None:  # the terms times (1 - r) a (1 - t): a reflectivity of 1 - (1 - r) a (1 - t)
             glow = None if mine.emission is None else mine.emission * share
             paints = (mine.colors, mine.specular_colors, glow)
             recorder.terms(pixel, split, mine.material, 1.0 - (1.0 - reflective) * share, paints)
     else:
-        record_tagged(recorder, "reflection", batch.tag.take(lit), pixel, value)
+        recorder.tagged("reflection", batch.tag, lit, pixel, value)
 
 
 def continuing(scene: PreparedScene, hits: Hits, batch: RayBatch) -> RayBatch | None:
@@ -286,13 +275,3 @@ def add_at(color: np.ndarray, pixel: np.ndarray, value: np.ndarray, unique: bool
         return
     for row, add in zip(color, value, strict=True):
         np.add.at(row, pixel, add)
-
-
-def record_tagged(recorder: PassRecorder, name: str, tag: np.ndarray, pixel: np.ndarray, value: np.ndarray) -> None:
-    """What rays of a see-through wavefront add (3, n) into their passes: under a refracted or straight ray (tag 2)
-    the Transmission pass, else name (reflection for surfaces, environment for misses)."""
-    mine = tag == 2
-    if mine.any():
-        recorder.add("transmission", pixel[mine], value[:, mine])
-    if not mine.all():
-        recorder.add(name, pixel[~mine], value[:, ~mine])

@@ -14,15 +14,14 @@ import numpy as np
 
 from ..geometry import camera as cam
 from ..geometry.footprint import Footprint, Volume
-from ..geometry.kernels import dot, indices, quiet, take
+from ..geometry.kernels import indices, quiet
 from ..geometry.rayframes import RayFrames
-from ..geometry.robust import offset_origins
-from . import see_through, shading, surfaces
-from .batch import Hits, RayBatch
+from . import see_through, surfaces, whitted
+from .batch import RayBatch
 from .prepared import PreparedScene
-from .rays import CAMERA_T_MIN, REFLECTION_T_MIN, RayCounts, accumulate, tally
+from .rays import CAMERA_T_MIN, REFLECTION_T_MIN, RayCounts, tally
 from .raystore import RayStore
-from .recorder import PassRecorder
+from .recorder import NO_PASSES, NoPasses, PassRecorder
 
 # a scene with glass or transparency traces pieces of 1 / this of the camera samples a band may hold: its wavefronts
 # hold several rays per camera sample. The default scene with every material glass of alpha 0.7, 640x480 in one
@@ -47,7 +46,7 @@ class TracedScene(PreparedScene):
         alpha: np.ndarray | None = None,
         pixels: np.ndarray | None = None,
         frames: np.ndarray | None = None,
-        recorder: PassRecorder | None = None,
+        recorder: PassRecorder | NoPasses = NO_PASSES,
     ) -> np.ndarray:
         """Camera rays (3, N) -> linear colors (3, N), unclamped; alpha (N,), where given (ones), is set to 0 for
         the rays that meet a holdout first, or nothing with a transparent film.
@@ -65,7 +64,7 @@ class TracedScene(PreparedScene):
         screen rectangles cull the camera rays and their first mirror rays).
         origins (3, N): where each ray starts (None: all at the camera); far (N,): where each stops (None: never),
         as camera.band_starts gives them for a clipped or orthographic camera. footprint: records which of the N
-        camera rays' trees meet its volume. recorder: keeps the render passes of the N camera rays."""
+        camera rays' trees meet its volume. recorder: keeps the render passes of the N camera rays (NO_PASSES: none)."""
         settings = self.scene.render
         total = D.shape[1]
         glass = self.see_through
@@ -96,8 +95,8 @@ class TracedScene(PreparedScene):
                 see_through.add_misses(self, color, batch, obj, first, alpha, recorder)
                 hit = see_through.hold_out(self, batch, obj, first, alpha, recorder)
             else:
-                self._add_misses(color, batch, obj, first, alpha, recorder)
-                hit = self._hold_out(color, batch, obj, first, alpha, recorder)
+                whitted.add_misses(self, color, batch, obj, first, alpha, recorder)
+                hit = whitted.hold_out(self, color, batch, obj, first, alpha, recorder)
             if not hit.size:
                 break
             batch, t, obj, part = batch.take(hit), t.take(hit), obj.take(hit), part.take(hit)
@@ -112,8 +111,10 @@ class TracedScene(PreparedScene):
                 see_through.add_local(self, color, hits, batch, counts, footprint, frames, recorder, first)
                 batch = see_through.continuing(self, hits, batch)
             else:
-                reflective = self._add_local(color, hits, batch, counts, footprint, frames, recorder, first)
-                batch = self._mirror_rays(hits, batch, reflective, culling if first else None)
+                reflective = whitted.add_local(self, color, hits, batch, counts, footprint, frames, recorder, first)
+                batch = whitted.mirror_rays(self, hits, batch, reflective)
+                if first and batch is not None and culling.culls and self.mirrors:  # some may come off a culled plane
+                    culling.came_from = hits.obj.take(indices(reflective > 0.0))
             first = False
             if batch is None:
                 break
@@ -139,107 +140,6 @@ class TracedScene(PreparedScene):
             culling.came_from = None
         hierarchy = self.camera_hierarchy if first else self.mirror_hierarchy
         return hierarchy.closest(batch.origin, batch.direction, t_min, sets, walk, query)
-
-    def _add_misses(
-        self,
-        color: np.ndarray,
-        batch: RayBatch,
-        obj: np.ndarray,
-        first: bool,
-        alpha: np.ndarray | None,
-        recorder: PassRecorder | None,
-    ) -> None:
-        """The background where the rays of a Whitted wavefront miss (a camera ray's is there already; a
-        transparent film leaves alpha 0 there), times the rays' weights, and the Environment pass."""
-        if first:
-            if self.scene.render.film_transparent and alpha is not None:
-                alpha[obj < 0] = 0.0  # the film shows nothing there
-            if recorder is not None:
-                missed = indices(obj < 0)
-                recorder.environment(missed, take(color, missed))
-            return
-        miss = indices(obj < 0)
-        if miss.size:
-            sky = batch.weight.take(miss) * surfaces.background(self, batch.direction, miss)
-            accumulate(color, batch.pixel.take(miss), sky, False)
-            if recorder is not None:
-                recorder.environment(batch.pixel.take(miss), sky)
-
-    def _hold_out(
-        self,
-        color: np.ndarray,
-        batch: RayBatch,
-        obj: np.ndarray,
-        first: bool,
-        alpha: np.ndarray | None,
-        recorder: PassRecorder | None,
-    ) -> np.ndarray:
-        """The rays of a Whitted wavefront that hit something other than a holdout (k,): a holdout adds nothing,
-        and a camera ray that meets it first shows nothing, not even the background it started with (alpha 0)."""
-        hit = indices(obj >= 0)
-        if not self.any_holdout or not hit.size:
-            return hit
-        held = self.holdout.take(obj.take(hit))
-        if not held.any():
-            return hit
-        if first:
-            gone = hit.take(indices(held))
-            color[:, gone] = 0.0
-            if alpha is not None:
-                alpha[gone] = 0.0
-            if recorder is not None:
-                recorder.holdout(gone)
-        return hit.take(indices(~held))
-
-    def _add_local(
-        self,
-        color: np.ndarray,
-        hits: Hits,
-        batch: RayBatch,
-        counts: RayCounts,
-        footprint: Footprint | RayStore | None,
-        frames: np.ndarray | None,
-        recorder: PassRecorder | None,
-        first: bool,
-    ) -> np.ndarray:
-        """A Whitted wavefront's local colours (listing 3.1's (1 - r) local colour, emission added) times the rays'
-        weights into their samples (the camera rays' replace the background), and the passes; -> the hits'
-        reflectivities r (n,)."""
-        split = {} if recorder is not None and first and recorder.shading else None
-        local, reflective = shading.local_colors(self, hits, batch.pixel, counts, footprint, frames, split)
-        if recorder is not None and first:
-            recorder.first_hit(batch.pixel, hits.P, hits.S, hits.obj, hits.material)
-            if split is not None:
-                paints = (hits.colors, hits.specular_colors, hits.emission)
-                recorder.terms(batch.pixel, split, hits.material, reflective, paints)
-        if not first:
-            local = batch.weight * local
-        accumulate(color, batch.pixel, local, first)
-        if recorder is not None and not first:
-            recorder.reflection(batch.pixel, local)
-        return reflective
-
-    def _mirror_rays(
-        self, hits: Hits, batch: RayBatch, reflective: np.ndarray, culling: _Culling | None
-    ) -> RayBatch | None:
-        """The mirror rays of a Whitted wavefront's reflective hits (listing 3.1's R = 2 N (N . V) - V), their weights
-        multiplied by r; None at the depth or where no hit reflects. culling: the camera rays' (the first mirror
-        rays off a culled plane keep where they came from)."""
-        go_on = indices(reflective > 0.0)
-        if batch.left == 0 or go_on.size == 0:
-            return None
-        P, N, V = take(hits.P, go_on), take(hits.N, go_on), take(hits.V, go_on)
-        S = N if hits.S is hits.N else take(hits.S, go_on)
-        k = 2.0 * dot(S, V)
-        D = S * k - V
-        O = P
-        if self.robust:
-            O = offset_origins(P, N, D, *(part.take(go_on) for part in hits.surface))
-        ratio = reflective.take(go_on)
-        weight = ratio if batch.weight is None else batch.weight.take(go_on) * ratio
-        if culling is not None and culling.culls and self.mirrors:
-            culling.came_from = hits.obj.take(go_on)
-        return RayBatch(batch.pixel.take(go_on), O, D, weight, batch.left - 1)
 
     # ---- the bands' scheduling: pieces of camera samples, rows, pixels ------------------------------------------
 
@@ -439,7 +339,7 @@ class TracedScene(PreparedScene):
                 origins, far = cam.pixel_starts(camera, settings, pixels, directions)
                 origins = origins.astype(self.dtype)
             alpha = np.ones(directions.shape[1], dtype=self.dtype) if self.has_alpha else None
-            recorder = None if passes is None else PassRecorder(self, directions.shape[1], *passes)
+            recorder = NO_PASSES if passes is None else PassRecorder(self, directions.shape[1], *passes)
             color = self.trace(
                 directions,
                 counts if frames is None else frame_counts,
@@ -456,8 +356,7 @@ class TracedScene(PreparedScene):
             color = np.concatenate((color, alpha[None]))
         samples = color.reshape(color.shape[0], -1, settings.samples)
         image = samples.sum(axis=2) / settings.samples if settings.samples > 1 else samples[..., 0]
-        if recorder is not None:
-            recorder.combine(settings.samples)
+        recorder.combine(settings.samples)
         hit = None if volume is None else footprint.touched.reshape(-1, settings.samples).any(axis=1)
         return np.ascontiguousarray(image.T), counts, hit
 
