@@ -71,7 +71,6 @@ PEER_SCENE = {
 }
 
 
-
 def glass_scene() -> dict:
     """The built-in scene with its plinth stone glass (transmission 1, IOR 1.45), its brass and copper parts at
     alpha 0.6: every stage of a see-through wavefront (refracted, straight and mirror rays, shadows through

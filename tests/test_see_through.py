@@ -19,6 +19,7 @@ from tracer.scene.loader import SceneError, default_scene, scene_from_dict
 from tracer.tracing import reference as rf
 from tracer.tracing.images import to_8bit
 from tracer.tracing.raystore import RayStore
+from tracer.tracing.reference_passes import render_reference_passes
 from tracer.tracing.wavefront import TracedScene
 from tracer.workers.parallel import render
 
@@ -397,7 +398,7 @@ def test_data_passes_show_the_first_surface_of_alpha_at_least_one_half(alpha: fl
     np.testing.assert_allclose(passes["depth"], 2.0 if shows_card else 4.0, rtol=0, atol=1e-12)
     assert np.all(passes["object_index"] == (9 if shows_card else 3))
     assert np.all(passes["material_index"] == (5 if shows_card else 7))
-    expected = rf.render_reference_passes(scene)
+    expected = render_reference_passes(scene)
     assert {name for row in expected.objects for samples in row for name in samples} == {
         "card" if shows_card else "wall"
     }

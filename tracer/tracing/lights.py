@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 
@@ -163,6 +163,22 @@ class DirectionalSample(DirectedLight):
 
     def grid_shares(self, P: np.ndarray) -> np.ndarray:
         return self.grid.shares(P)
+
+
+class LightTerm(NamedTuple):
+    """One light's share of listing 3.2 at n points, before its shadow rays: the vector L (3, n) toward it (a shared
+    column for a direction), N.L and |L| (n,), where its diffuse term (N.L > 0) and its highlight (the gates) may
+    count (n,) bool, the highlight's cosine (n,), the points (k,) that need a shadow ray, and its attenuation (n,;
+    None: 1)."""
+
+    L: np.ndarray
+    NL: np.ndarray
+    length_l: np.ndarray
+    diffuse_gate: np.ndarray
+    gate: np.ndarray
+    cosine: np.ndarray
+    needed: np.ndarray
+    factor: np.ndarray | None
 
 
 def prepare_lights(scene: sc.Scene, dtype: np.dtype) -> list[PreparedLight]:

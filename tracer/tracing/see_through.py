@@ -130,7 +130,8 @@ def add_local(
     """The shaded share a (1 - t) of a see-through wavefront's hits: listing 3.2 there and the local colour as a
     Whitted hit has it, times the share and the rays' weights, added to their camera samples; the passes: a camera
     ray's own hit term by term, the others' by their tag, and the data passes of the first surface of alpha at least
-    the pass threshold met straight on."""
+    the pass threshold met straight on. The reason for 9 parameters: the wavefront's colours, hits and rays, and
+    the bookkeeping (counts, footprint, frames, passes) every stage of the loop carries."""
     a, transmission = scene.alpha.take(hits.material), scene.transmission.take(hits.material)
     recorder.first_seen(batch.pixel, batch.pending, a, hits.P, hits.S, hits.obj, hits.material)
     shaded = a * (1.0 - transmission)

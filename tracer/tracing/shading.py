@@ -11,7 +11,7 @@ from ..geometry.footprint import Footprint
 from ..geometry.kernels import dot, indices
 from . import shadows
 from .batch import Hits
-from .lights import directed
+from .lights import LightTerm, directed
 from .prepared import PreparedScene
 from .rays import RayCounts
 
@@ -31,9 +31,7 @@ def local_colors(
     find_intensity takes them (frames: where each frame's samples start)."""
     specular = scene.specular.take(hits.material)
     points = None if frames is None else np.searchsorted(pixel, frames)  # where each frame's points start
-    intensity = find_intensity(
-        scene, hits.P, hits.S, hits.V, specular, counts, hits.surface, footprint, pixel, hits.geometric, points, split
-    )
+    intensity = find_intensity(scene, hits, specular, pixel, counts, footprint, points, split)
     reflective = scene.reflective.take(hits.material)
     if scene.colored:
         diffuse, highlight = intensity
@@ -47,40 +45,55 @@ def local_colors(
 
 def find_intensity(
     scene: PreparedScene,
-    P: np.ndarray,
-    N: np.ndarray,
-    V: np.ndarray,
+    hits: Hits,
     specular: np.ndarray,
+    samples: np.ndarray,
     counts: RayCounts,
-    surface: tuple[np.ndarray, np.ndarray] | None = None,
     footprint: Footprint | None = None,
-    samples: np.ndarray | None = None,
-    geometric: np.ndarray | None = None,
     frames: np.ndarray | None = None,
     split: dict[str, np.ndarray] | None = None,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-    """Listing 3.2 for every hit point at once: P, N, V (3, n), specular (n,) -> intensity (n,); where lights or
-    materials have colours (scene.colored) the (ambient + diffuse, specular) intensities (3, n) each instead.
+    """Listing 3.2 for every hit at once (its points P, shading normals S and V (3, n)), specular exponents (n,) ->
+    intensity (n,); where lights or materials have colours (scene.colored) the (ambient + diffuse, specular)
+    intensities (3, n) each instead. The shadow rays start off the surfaces' own normals (robust numerics).
 
-    geometric: the surfaces' own unit normals where N (the shading normals) differs, for robust shadow origins.
+    samples: the camera samples (n,) the points belong to, whose shadow rays the footprint records. frames: where
+    each frame's points start (K + 1,), for a scene prepared with headings (counts is then a list of each frame's).
 
-    surface: robust numerics' (distance, scale) (n,) of each point, as normals() gives them. footprint: records
-    the shadow rays of the camera samples (n,) the points belong to. frames: where each frame's points start
-    (K + 1,), for a scene prepared with headings (counts is then a list of each frame's).
-
-    The shadow rays of all lights go through the hierarchy in one batch; the terms are then added light by
-    light in the listing's order.
+    The shadow rays of all lights go through the hierarchy in one batch; the terms are then added light by light in
+    the listing's order.
 
     split: a dict to fill with the same sums term by term for the passes: "ambient", "diffuse", "specular" ((n,)
     each, (3, n) where coloured) and "shadow" (n,), the share of the lights (not ambient) that reach each point
     (face it and are not blocked); the intensity returned is the same bytes either way."""
-    settings = scene.scene.render
+    P, N, V = hits.P, hits.S, hits.V
     count = P.shape[1]
     length_n = np.sqrt(dot(N, N))
+    terms = _light_terms(scene, P, N, V, specular, length_n)
+    own = [term for term in terms if term is not None]
+    normals = N if hits.geometric is None else hits.geometric
+    lit = shadows.reached(scene, own, P, normals, hits.surface, counts, footprint, samples, frames)
+    throughs = None  # each light's share that passes partly transparent surfaces (alpha < 1)
+    if scene.shadow_alpha:
+        throughs = shadows.passing(scene, own, lit, P, normals, counts, hits.surface, frames)
+        lit = [through > 0.0 for through in throughs]
+    if split is not None:
+        split["shadow"] = _shadow_share(scene, own, lit, throughs, count)
+    settings = scene.scene.render
+    exponent = specular * settings.coef if settings.model == "blinn-phong" else specular
+    if scene.colored:
+        return _colored(scene, terms, lit, count, length_n, exponent, split, throughs)
+    return _plain(scene, terms, lit, count, length_n, exponent, split, throughs)
+
+
+def _light_terms(
+    scene: PreparedScene, P: np.ndarray, N: np.ndarray, V: np.ndarray, specular: np.ndarray, length_n: np.ndarray
+) -> list[LightTerm | None]:
+    """Each light's LightTerm at the points P with normals N and V (3, n), in the scene's order (None: ambient)."""
+    settings = scene.scene.render
     length_v = np.sqrt(dot(V, V))
     shiny = specular > 0.0
-    exponent = specular * settings.coef if settings.model == "blinn-phong" else specular
-    terms = []
+    terms: list[LightTerm | None] = []
     toward_eye = None  # V / |V|, the same for every light's half vector
     facing: dict[int, tuple] = {}  # a light of a radius: the disk's axes at each point, by scene light
     for light in scene.lights:
@@ -116,34 +129,45 @@ def find_intensity(
         factor = light.attenuation(L, length_l)
         reaches = diffuse_gate | gate
         needed = indices(reaches & (factor > 0.0) if light.attenuated else reaches)
-        terms.append((L, NL, length_l, diffuse_gate, gate, cosine, needed, factor))
-    normals = N if geometric is None else geometric
-    lit = shadows.reached(
-        scene, [term for term in terms if term is not None], P, normals, counts, surface, footprint, samples, frames
-    )
-    throughs = None  # each light's share that passes partly transparent surfaces (alpha < 1)
-    if scene.shadow_alpha:
-        own = [term for term in terms if term is not None]
-        throughs = shadows.passing(scene, own, lit, P, normals, counts, surface, frames)
-        lit = [through > 0.0 for through in throughs]
-    if split is not None:
-        reached = [
-            light_lit & (term[3] | term[4]) for light_lit, term in zip(lit, [t for t in terms if t], strict=True)
-        ]
-        if throughs is not None:
-            reached = [light_reached * through for light_reached, through in zip(reached, throughs, strict=True)]
-        share = np.zeros(count, dtype=scene.dtype)
-        weights = [light.weight for light in directed(scene.lights)]
-        if all(weight == 1.0 for weight in weights):
-            for light_reached in reached:
-                share += light_reached
-            split["shadow"] = share / len(reached) if reached else np.ones(count, dtype=scene.dtype)
-        else:  # a light of a size counts once, each of its samples by its share
-            for light_reached, weight in zip(reached, weights, strict=True):
-                share += light_reached * weight
-            split["shadow"] = share / sum(weights)
-    if scene.colored:
-        return _colored(scene, terms, lit, count, length_n, exponent, split, throughs)
+        terms.append(LightTerm(L, NL, length_l, diffuse_gate, gate, cosine, needed, factor))
+    return terms
+
+
+def _shadow_share(
+    scene: PreparedScene,
+    terms: list[LightTerm],
+    lit: list[np.ndarray],
+    throughs: list[np.ndarray] | None,
+    count: int,
+) -> np.ndarray:
+    """The Shadow pass (n,): the share of the lights (not ambient) that reach each point, a light of a size once
+    (each of its samples by its share)."""
+    reached = [light_lit & (term.diffuse_gate | term.gate) for light_lit, term in zip(lit, terms, strict=True)]
+    if throughs is not None:
+        reached = [light_reached * through for light_reached, through in zip(reached, throughs, strict=True)]
+    share = np.zeros(count, dtype=scene.dtype)
+    weights = [light.weight for light in directed(scene.lights)]
+    if all(weight == 1.0 for weight in weights):
+        for light_reached in reached:
+            share += light_reached
+        return share / len(reached) if reached else np.ones(count, dtype=scene.dtype)
+    for light_reached, weight in zip(reached, weights, strict=True):
+        share += light_reached * weight
+    return share / sum(weights)
+
+
+def _plain(
+    scene: PreparedScene,
+    terms: list[LightTerm | None],
+    lit: list[np.ndarray],
+    count: int,
+    length_n: np.ndarray,
+    exponent: np.ndarray,
+    split: dict[str, np.ndarray] | None = None,
+    throughs: list[np.ndarray] | None = None,
+) -> np.ndarray:
+    """The light-by-light sum of find_intensity in the documented arithmetic (one intensity per point, (n,));
+    split: also the ambient, diffuse and specular sums apart (find_intensity)."""
     intensity = np.zeros(count, dtype=scene.dtype)
     if split is not None:
         ambient, diffuse_sum, specular_sum = (np.zeros(count, dtype=scene.dtype) for _ in range(3))
@@ -155,20 +179,20 @@ def find_intensity(
             if split is not None:
                 ambient = ambient + light.intensity
             continue
-        L, NL, length_l, diffuse_gate, gate, cosine, needed, _ = term
         light_lit = next(shadow_rays)
-        diffuse = light.intensity * NL / (length_n * length_l)
+        diffuse = light.intensity * term.NL / (length_n * term.length_l)
         if passing is not None:
             through = next(passing)
             diffuse = diffuse * through
-        intensity = np.where(light_lit & diffuse_gate, intensity + diffuse, intensity)
+        intensity = np.where(light_lit & term.diffuse_gate, intensity + diffuse, intensity)
+        gate = term.gate
         gate &= light_lit
-        highlight = light.intensity * np.power(np.where(gate, cosine, 1.0), exponent)
+        highlight = light.intensity * np.power(np.where(gate, term.cosine, 1.0), exponent)
         if passing is not None:
             highlight = highlight * through
         intensity = np.where(gate, intensity + highlight, intensity)
         if split is not None:
-            diffuse_sum = np.where(light_lit & diffuse_gate, diffuse_sum + diffuse, diffuse_sum)
+            diffuse_sum = np.where(light_lit & term.diffuse_gate, diffuse_sum + diffuse, diffuse_sum)
             specular_sum = np.where(gate, specular_sum + highlight, specular_sum)
     if split is not None:
         split.update(ambient=ambient, diffuse=diffuse_sum, specular=specular_sum)

@@ -13,24 +13,27 @@ from ..geometry.kernels import indices, take
 from ..geometry.rayframes import RayFrames
 from ..geometry.robust import offset_origins
 from ..scene import scene as sc
-from .lights import directed
+from .lights import DirectedLight, LightTerm, directed
 from .prepared import PreparedScene
 from .rays import SHADOW_T_MIN, RayCounts, tally
 
 
 def reached(
     scene: PreparedScene,
-    terms: list[tuple],
+    terms: list[LightTerm],
     P: np.ndarray,
     N: np.ndarray,
-    counts: RayCounts,
     surface: tuple[np.ndarray, np.ndarray] | None,
+    counts: RayCounts,
     footprint: Footprint | None = None,
     samples: np.ndarray | None = None,
     frames: np.ndarray | None = None,
 ) -> list[np.ndarray]:
-    """One any-hit query for the shadow rays of every light: which points (n,) each light reaches; frames: where
-    each frame's points start (K + 1,), as find_intensity() takes them.
+    """One any-hit query for the shadow rays of every light (terms: each light's, in order): which points (n,) of P
+    each light reaches, the rays starting off the normals N (3, n) and the points' surface (robust numerics);
+    footprint: records them as rays of the camera samples (n,); frames: where each frame's points start (K + 1,),
+    as find_intensity() takes them. The reason for 9 parameters: the points' three, and the bookkeeping of
+    counts, footprint and frames every query of the tracer carries.
 
     Robust numerics start each shadow ray just off the surface (offset_origins), on the light's side, and search
     t from 0; the documented ones start on the surface and search t from 0.001 (listing 3.2)."""
@@ -39,13 +42,7 @@ def reached(
     shadows, origins, vectors, limits, bits, views, runs = [], [], [], [], [], [], []
     start = 0  # where the light's rays start in the query of all lights
     for light, (L, *_, needed, _) in zip(lights, terms, strict=True):
-        vector = take(L, needed)  # a directional light's vector stays a shared column
-        origin = take(P, needed)
-        if scene.robust:
-            target = take(P, needed) + vector if light.disk is not None else light.vector
-            origin = offset_origins(origin, take(N, needed), vector, *(part.take(needed) for part in surface))
-            if light.ends_at_point:
-                vector = target - origin  # t = 1 is still exactly the light
+        origin, vector = _shadow_rays(scene, light, L, needed, P, N, surface)
         if footprint is not None:  # the whole segment: a blocker that moves in could block it anywhere
             footprint.record(samples.take(needed), origin, vector, t_min, light.t_max, light=light.source)
         own = None if frames is None else RayFrames.of(needed, frames)  # the light's rays by frame
@@ -103,9 +100,31 @@ def reached(
     return lit
 
 
+def _shadow_rays(
+    scene: PreparedScene,
+    light: DirectedLight,
+    L: np.ndarray,
+    needed: np.ndarray,
+    P: np.ndarray,
+    N: np.ndarray,
+    surface: tuple[np.ndarray, np.ndarray] | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The shadow rays toward a light from the points needed (k,) of P (3, n): origins and vectors (3, k; a
+    directional light's vector a shared column), the light at t = 1 for a point. Robust numerics start them just
+    off the surface (offset_origins, by the normals N and the points' surface), on the light's side."""
+    vector = take(L, needed)
+    origin = take(P, needed)
+    if scene.robust:
+        target = take(P, needed) + vector if light.disk is not None else light.vector
+        origin = offset_origins(origin, take(N, needed), vector, *(part.take(needed) for part in surface))
+        if light.ends_at_point:
+            vector = target - origin  # t = 1 is still exactly the light
+    return origin, vector
+
+
 def passing(
     scene: PreparedScene,
-    terms: list[tuple],
+    terms: list[LightTerm],
     lit: list[np.ndarray],
     P: np.ndarray,
     N: np.ndarray,
@@ -122,7 +141,7 @@ def passing(
     t_min = 0.0 if scene.robust else SHADOW_T_MIN
     throughs = []
     for light, term, reached in zip(lights, terms, lit, strict=True):
-        L, needed = term[0], term[6]
+        L, needed = term.L, term.needed
         through = reached.astype(scene.dtype)
         rows = needed.take(indices(~reached.take(needed)))
         if not rows.size:

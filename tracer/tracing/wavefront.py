@@ -64,7 +64,10 @@ class TracedScene(PreparedScene):
         screen rectangles cull the camera rays and their first mirror rays).
         origins (3, N): where each ray starts (None: all at the camera); far (N,): where each stops (None: never),
         as camera.band_starts gives them for a clipped or orthographic camera. footprint: records which of the N
-        camera rays' trees meet its volume. recorder: keeps the render passes of the N camera rays (NO_PASSES: none)."""
+        camera rays' trees meet its volume. recorder: keeps the render passes of the N camera rays (NO_PASSES: none).
+
+        The reason for 10 parameters: every kind of piece the tracer traces (rows of a band, flat pixels, frames of
+        an animation at once, a clipped camera's starts, an edit's ray store) comes through this one loop."""
         settings = self.scene.render
         total = D.shape[1]
         glass = self.see_through

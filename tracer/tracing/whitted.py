@@ -81,7 +81,8 @@ def add_local(
 ) -> np.ndarray:
     """A Whitted wavefront's local colours (listing 3.1's (1 - r) local colour, emission added) times the rays'
     weights into their samples (the camera rays' replace the background), and the passes; -> the hits'
-    reflectivities r (n,)."""
+    reflectivities r (n,). The reason for 9 parameters: the wavefront's colours, hits and rays, and the
+    bookkeeping (counts, footprint, frames, passes) every stage of the loop carries."""
     split = {} if first and recorder.shading else None
     local, reflective = shading.local_colors(scene, hits, batch.pixel, counts, footprint, frames, split)
     if first:
