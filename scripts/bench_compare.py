@@ -17,6 +17,8 @@ the wall time to show it.
 
 Cases:
   default64, default32  the built-in scene, 640x480, depth 3, 1 sample, 2 workers, float64 / float32
+  glass64               the built-in scene with a glass plinth and parts at alpha 0.6 (see-through wavefronts),
+                        640x480, depth 3, 2 workers, float64
   peer64, peer32        rt3.py's scene (4 spheres, a point light, 2 bounces, 400x300) in the scene format,
                         1 worker (one process), float64 / float32; rt3.py itself is timed in the same rounds
 The last line of the output is one JSON object with every figure.
@@ -68,11 +70,24 @@ PEER_SCENE = {
     "render": {"width": 400, "height": 300, "depth": 2, "model": "blinn-phong", "coef": 1, "samples": 1},
 }
 
+
+def glass_scene() -> dict:
+    """The built-in scene with its plinth stone glass (transmission 1, IOR 1.45), its brass and copper parts at
+    alpha 0.6: every stage of a see-through wavefront (refracted, straight and mirror rays, shadows through
+    transparency)."""
+    document = json.loads((ROOT / "tracer" / "scene" / "default_scene.json").read_text())
+    document["materials"]["stone"].update(transmission=1.0, ior=1.45)
+    for name in ("brass", "copper"):
+        document["materials"][name]["alpha"] = 0.6
+    return document
+
+
 CASES = {
     "default64": {"scene": None, "dtype": "float64", "workers": 2},
     "default32": {"scene": None, "dtype": "float32", "workers": 2},
     "peer64": {"scene": PEER_SCENE, "dtype": "float64", "workers": 1},
     "peer32": {"scene": PEER_SCENE, "dtype": "float32", "workers": 1},
+    "glass64": {"scene": glass_scene(), "dtype": "float64", "workers": 2},
 }
 
 # CPU seconds (user + system) of this process and its children (the workers), from /proc where there is one: on a
@@ -174,7 +189,7 @@ def run_peer(frames: int) -> dict:
 def compare(case: dict, old_root: Path, new_root: Path, rounds: int, frames: int) -> dict:
     """One case: per side the median over rounds of the per-process median wall time and mean CPU time per frame
     (ms), and the medians of the per-round ratios."""
-    sides = ["ref", "new"] + (["rt3"] if case["scene"] is not None else [])
+    sides = ["ref", "new"] + (["rt3"] if case["scene"] is PEER_SCENE else [])
     wall = {side: [] for side in sides}
     cpu = {side: [] for side in sides}
     span = {side: [] for side in sides}

@@ -3,7 +3,7 @@
 Usage: python scripts/bench_incremental_frame.py
 The default 120-frame animation at 640x480, its first run (incremental.py), thread CPU times in one process: the
 image without the vane with its footprint, the run's marks (footprint.HeadingMarks: the marked pixels' trees traced
-again and tested against the parts' oriented boxes at each heading), then for the run's headings PreparedScene (the
+again and tested against the parts' oriented boxes at each heading), then for the run's headings TracedScene (the
 still objects' hierarchy kept, bvh._still_subtree) and the trace of the frame's own pixels (medians), one frame at a
 time (as Blender's engine asks for them) and FRAMES_PER_TASK frames in one trace (as animate's workers take them);
 the trace of fewer pixels shows its fixed part; and the writer's PNG (images.FramePng) of a frame on its own and
@@ -26,7 +26,7 @@ from tracer.frames.animate import headings
 from tracer.geometry.footprint import heading_parts, swept_volume
 from tracer.scene.loader import default_scene
 from tracer.tracing.images import FramePng, to_8bit
-from tracer.tracing.wavefront import PreparedScene
+from tracer.tracing.wavefront import TracedScene
 from tracer.workers.parallel import FRAMES_PER_TASK
 from tracer.workers.resources import band_samples
 
@@ -45,7 +45,7 @@ def main() -> None:
     touched = np.zeros((scene.render.height, scene.render.width), dtype=bool)
     rows = np.arange(scene.render.height)
     still = incremental.without_vane(scene)
-    whole = cpu(lambda: PreparedScene(still).render_rows(rows, samples, volume, touched))
+    whole = cpu(lambda: TracedScene(still).render_rows(rows, samples, volume, touched))
     candidates = np.flatnonzero(touched)
     print(f"run of {len(run)} frames; the boxes' pixels {candidates.size} ({candidates.size / touched.size:.1%})")
     print(f"the image without the vane with its footprint, one process: {whole:.0f} ms")
@@ -61,7 +61,7 @@ def main() -> None:
             continue  # the frame before's image: nothing traced
         pixels = marks[0].at(heading)
         start = time.thread_time()
-        prepared = PreparedScene(scene.with_heading(heading))
+        prepared = TracedScene(scene.with_heading(heading))
         middle = time.thread_time()
         prepared.render_pixels(pixels, samples)
         prepare.append((middle - start) * 1e3)
@@ -77,7 +77,7 @@ def main() -> None:
     prepare, trace = [], []
     for batch in batches:
         start = time.thread_time()
-        prepared = PreparedScene(scene, batch)
+        prepared = TracedScene(scene, batch)
         middle = time.thread_time()
         prepared.render_frame_pixels([marks[0].at(heading) for heading in batch], samples)
         prepare.append((middle - start) * 1e3 / len(batch))
@@ -86,7 +86,7 @@ def main() -> None:
         f"per frame, {FRAMES_PER_TASK} frames in one trace ({len(batches)} batches): prepare "
         f"{statistics.median(prepare):.2f} ms, trace {statistics.median(trace):.1f} ms"
     )
-    prepared_scene = PreparedScene(scene.with_heading(run[-1]))
+    prepared_scene = TracedScene(scene.with_heading(run[-1]))
     pixels = marks[0].at(run[-1])
     for count in (100, 1000, min(5000, pixels.size)):
         chosen = pixels[np.linspace(0, pixels.size - 1, count).astype(np.int64)]
@@ -94,7 +94,7 @@ def main() -> None:
         print(f"trace {count} of a frame's pixels: {statistics.median(times):.1f} ms")
     plain = [cpu(lambda: prepared_scene.render_rows(rows, samples)) for _ in range(3)]
     print(f"a whole frame, one process: {statistics.median(plain):.0f} ms")
-    frames = [to_8bit(PreparedScene(scene.with_heading(heading)).render_rows(rows, samples)[0]) for heading in run[-3:]]
+    frames = [to_8bit(TracedScene(scene.with_heading(heading)).render_rows(rows, samples)[0]) for heading in run[-3:]]
     alone = [cpu(lambda: FramePng().encode(frames[-1])) for _ in range(5)]
     after = []
     for _ in range(5):

@@ -25,7 +25,7 @@ import mesh_scenes
 
 from tracer.geometry import bvh, meshbvh, meshpicture
 from tracer.scene.loader import default_scene, scene_from_dict
-from tracer.tracing import wavefront
+from tracer.tracing import shading, shadows, wavefront
 from tracer.workers import parallel
 
 spent: collections.Counter = collections.Counter()
@@ -37,7 +37,7 @@ MESHES = {
 }
 
 
-def timed(owner: type, name: str, label: str) -> None:
+def timed(owner: object, name: str, label: str) -> None:
     original = getattr(owner, name)
 
     def wrapper(*args, **kwargs):
@@ -65,16 +65,16 @@ def main() -> None:
     else:
         scene = default_scene().with_render(**settings)
     timed(bvh.Hierarchy, "closest", "closest")
-    timed(wavefront.PreparedScene, "_lit", "shadow")
-    timed(wavefront.PreparedScene, "find_intensity", "intensity")
-    timed(wavefront.PreparedScene, "normals", "normals")
-    timed(wavefront.PreparedScene, "trace", "trace")
-    timed(wavefront.PreparedScene, "render_rows", "rows")
+    timed(shadows, "reached", "shadow")
+    timed(shading, "find_intensity", "intensity")
+    timed(wavefront.TracedScene, "normals", "normals")
+    timed(wavefront.TracedScene, "trace", "trace")
+    timed(wavefront.TracedScene, "render_rows", "rows")
     timed(meshbvh.MeshKernel, "_search_cells", "pictures")
     timed(meshbvh.MeshKernel, "_search", "walk")
     timed(meshpicture.TrianglePicture, "build", "making pictures")
     parallel.tune_allocator()
-    prepared = parallel.PreparedScene(scene)
+    prepared = parallel.TracedScene(scene)
     bands = parallel.bands(scene.render)
     for rows in bands:  # warm-up: camera rays cached, allocator warmed, a mesh's pictures made
         prepared.render_rows(rows)
@@ -83,7 +83,7 @@ def main() -> None:
     for _ in range(args.repeats):
         spent.clear()
         started = time.thread_time()
-        parallel.PreparedScene(scene)
+        parallel.TracedScene(scene)
         preparation = time.thread_time() - started
         for rows in bands:
             prepared.render_rows(rows)

@@ -24,7 +24,7 @@ import numpy as np
 from tracer.geometry import transforms as tf
 from tracer.geometry.camera import band_directions
 from tracer.scene import scene as sc
-from tracer.tracing.wavefront import PreparedScene
+from tracer.tracing.wavefront import TracedScene
 from tracer.workers.parallel import render
 
 KINDS = ("sphere", "cylinder", "box", "plane")
@@ -130,7 +130,7 @@ def wrong_pixels(cell: Cell, numerics: str) -> tuple[int, int, int]:
     scene = scene_for(cell, numerics)
     lit = render(scene, workers=1).image[..., 0].reshape(-1) > 0.0
     centre, occluder_radius, occluder_centre, *_ = _layout(cell)
-    exact = PreparedScene(scene.with_render(dtype="float64", numerics="robust"))
+    exact = TracedScene(scene.with_render(dtype="float64", numerics="robust"))
     D = band_directions(scene.camera, scene.render, np.arange(HEIGHT))
     t, obj, _ = exact.hierarchy.closest(exact.origin, D, 0.0)
     on_receiver = obj == 0

@@ -20,7 +20,7 @@ from tests.random_scenes import extended_scene_document
 from tracer.scene import scene as sc
 from tracer.scene.loader import SceneError, default_scene, default_scene_dict, scene_from_dict
 from tracer.tracing.reference import render_reference, spot_attenuation
-from tracer.tracing.wavefront import PreparedScene, RayCounts, quiet
+from tracer.tracing.wavefront import RayCounts, TracedScene, quiet
 from tracer.workers.parallel import render
 
 
@@ -48,7 +48,7 @@ def floor_scene(lights: tuple[sc.Light, ...], material: sc.Material = WHITE_MATT
 
 def down_at(scene: sc.Scene, points: list[tuple[float, float]], height: float = 10.0) -> np.ndarray:
     """The colours (n, 3) of rays straight down onto the floor at the points (x, y)."""
-    prepared = PreparedScene(scene)
+    prepared = TracedScene(scene)
     origins = np.array([[x, y, height] for x, y in points], dtype=np.float64).T
     directions = np.tile(np.array([[0.0], [0.0], [-1.0]]), (1, len(points)))
     return prepared.trace(directions, RayCounts(), origins=origins).T
@@ -132,7 +132,7 @@ def test_two_sided_faces_are_lit_from_behind() -> None:
     for two_sided, expected in ((False, 0.1), (True, 0.9)):
         material = replace(WHITE_MATTE, two_sided=two_sided)
         scene = floor_scene((sc.AmbientLight(intensity=0.1), light), material)
-        prepared = PreparedScene(scene)
+        prepared = TracedScene(scene)
         origins = np.array([[0.0], [0.0], [-10.0]])
         colour = prepared.trace(np.array([[0.0], [0.0], [1.0]]), RayCounts(), origins=origins).T  # the back
         np.testing.assert_allclose(colour[0], expected, rtol=1e-15)
@@ -154,7 +154,7 @@ def _shadow_scene(**flags: bool) -> sc.Scene:
 
 def test_ray_visibility_flags() -> None:
     def floor_under_ball(scene: sc.Scene) -> float:  # a ray down onto the floor at (0, 0.8): beside the ball
-        prepared = PreparedScene(scene)
+        prepared = TracedScene(scene)
         return prepared.trace(np.array([[0.0], [0.0], [-1.0]]), RayCounts(), origins=np.array([[0.0], [0.0], [1.0]]))
 
     shadowed = floor_under_ball(_shadow_scene())
@@ -164,17 +164,17 @@ def test_ray_visibility_flags() -> None:
     # seen from above: the camera ray meets the ball unless it is invisible to the camera
     above = np.array([[0.0], [0.0], [10.0]])
     down = np.array([[0.0], [0.0], [-1.0]])
-    ball = PreparedScene(_shadow_scene()).trace(down, RayCounts(), origins=above)
+    ball = TracedScene(_shadow_scene()).trace(down, RayCounts(), origins=above)
     assert ball[0, 0] > 0.5
-    hidden = PreparedScene(_shadow_scene(visible_camera=False)).trace(down, RayCounts(), origins=above)
+    hidden = TracedScene(_shadow_scene(visible_camera=False)).trace(down, RayCounts(), origins=above)
     assert hidden[0, 0] == 0.0  # through to the floor, in the ball's shadow
     # a mirror floor sees the ball above it unless the ball is invisible to reflections
     mirror = replace(_shadow_scene(), objects=(replace(_shadow_scene().objects[0], material="mirror"),))
-    up = PreparedScene(replace(mirror, objects=(*mirror.objects, _shadow_scene().objects[1])))
+    up = TracedScene(replace(mirror, objects=(*mirror.objects, _shadow_scene().objects[1])))
     seen = up.trace(down, RayCounts(), origins=np.array([[0.0], [0.0], [1.0]]))
     assert seen[2, 0] < 1.0  # the ball's underside, not the blue sky
     flags = replace(_shadow_scene().objects[1], visible_reflection=False)
-    unseen = PreparedScene(replace(mirror, objects=(*mirror.objects, flags)))
+    unseen = TracedScene(replace(mirror, objects=(*mirror.objects, flags)))
     sky = unseen.trace(down, RayCounts(), origins=np.array([[0.0], [0.0], [1.0]]))
     np.testing.assert_array_equal(sky[:, 0], [0.0, 0.0, 1.0])
 

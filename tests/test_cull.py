@@ -8,18 +8,19 @@ import pytest
 from tests.random_scenes import extended_scene_document, random_scene_document
 from tracer.geometry.cull import CoverageGrid, ScreenRectangles
 from tracer.scene.loader import default_scene, scene_from_dict
-from tracer.tracing.wavefront import PreparedScene
+from tracer.tracing.lights import PointSample, directed
+from tracer.tracing.wavefront import TracedScene
 
 SEEDS = range(30)
 MODES = [("float64", "documented"), ("float32", "documented"), ("float64", "robust"), ("float32", "robust")]
 
 
 def _render(scene, culled: bool) -> tuple[np.ndarray, object]:
-    prepared = PreparedScene(scene)
+    prepared = TracedScene(scene)
     if not culled:
         prepared.screen = None
         prepared.mirrors = {}
-        for light in prepared.lights:
+        for light in directed(prepared.lights):
             light.grid = None
     return prepared.render_rows(np.arange(scene.render.height))
 
@@ -33,8 +34,8 @@ def test_culling_changes_no_pixel_of_random_scenes(dtype: str, numerics: str) ->
         plain, plain_counts = _render(scene, culled=False)
         assert np.array_equal(image, plain), f"seed {seed}"
         assert counts == plain_counts
-        prepared = PreparedScene(scene)
-        if prepared.screen is not None and any(light.grid is not None for light in prepared.lights):
+        prepared = TracedScene(scene)
+        if prepared.screen is not None and any(light.grid is not None for light in directed(prepared.lights)):
             culled_somewhere += 1
         mirrored += bool(prepared.mirrors)
     assert culled_somewhere >= len(SEEDS) // 2  # the comparison above exercised the culls
@@ -51,7 +52,7 @@ def test_culling_changes_no_pixel_of_scenes_with_holdouts_two_sided_mirrors_and_
         plain, plain_counts = _render(scene, culled=False)
         assert np.array_equal(image, plain), f"seed {seed}"
         assert counts == plain_counts
-        mirrored += bool(PreparedScene(scene).mirrors)
+        mirrored += bool(TracedScene(scene).mirrors)
     assert mirrored >= 3  # the comparison above exercised the mirror rays' rectangles
 
 
@@ -60,9 +61,9 @@ def test_culling_changes_no_pixel_of_the_default_scene() -> None:
     image, _ = _render(scene, culled=True)
     plain, _ = _render(scene, culled=False)
     assert np.array_equal(image, plain)
-    prepared = PreparedScene(scene)
+    prepared = TracedScene(scene)
     assert prepared.screen is not None
-    assert all(light.grid is not None for light in prepared.lights if light.kind != "ambient")
+    assert all(light.grid is not None for light in directed(prepared.lights))
 
 
 def _with_floor_sphere(seed: int) -> dict:
@@ -84,21 +85,21 @@ def test_a_floor_sphere_is_left_out_of_the_pictures_and_changes_no_pixel(dtype: 
         for brute in (False, True):
             images = []
             for culled in (True, False):
-                prepared = PreparedScene(scene)
+                prepared = TracedScene(scene)
                 for hierarchy in _hierarchies(prepared):
                     hierarchy.brute = brute and hierarchy.root is not None
                 if not culled:
                     prepared.screen = None
-                    for light in prepared.lights:
+                    for light in directed(prepared.lights):
                         light.grid = None
                 images.append(prepared.render_rows(np.arange(scene.render.height)))
             (image, counts), (plain, plain_counts) = images
             assert np.array_equal(image, plain), f"seed {seed}, brute {brute}"
             assert counts == plain_counts
-        prepared = PreparedScene(scene)
+        prepared = TracedScene(scene)
         floor = seed % 2
         if prepared.screen is not None and prepared.screen.whole == [floor]:
-            grids = [light.grid for light in prepared.lights if light.kind == "point"]
+            grids = [light.grid for light in prepared.lights if isinstance(light, PointSample)]
             assert all(grid is None or floor in grid.whole for grid in grids)
             left_out += 1
     assert left_out >= 12  # the comparison above exercised the left-out kernels
@@ -144,7 +145,7 @@ def test_screen_rectangles_hold_every_pixel_that_sees_a_sphere() -> None:
     ]
     document["render"]["samples"] = 1
     scene = scene_from_dict(document)
-    prepared = PreparedScene(scene)
+    prepared = TracedScene(scene)
     from tracer.geometry.camera import band_directions
 
     rows = np.arange(120)
@@ -176,7 +177,7 @@ def test_mirror_rectangles_hold_every_pixel_whose_mirror_ray_meets_a_sphere() ->
     document["materials"]["m0"]["reflective"] = 0.5
     document["render"]["samples"] = 1
     scene = scene_from_dict(document)
-    prepared = PreparedScene(scene)
+    prepared = TracedScene(scene)
     plane = prepared.kernels[0]
     point, normal = plane.point.ravel().astype(np.float64), plane.unit.ravel().astype(np.float64)
     location = np.asarray(scene.camera.location, dtype=np.float64)
@@ -203,7 +204,7 @@ def test_mirror_rectangles_hold_every_pixel_whose_mirror_ray_meets_a_sphere() ->
 def test_pixel_rays_give_a_list_of_pixels_the_rays_its_rows_would_have() -> None:
     """An animation's re-traced pixels are culled as whole rows are: the same pixels for each kernel."""
     scene = default_scene().with_render(width=160, height=120, samples=2)
-    screen = PreparedScene(scene).screen
+    screen = TracedScene(scene).screen
     rows = np.arange(30, 100)
     pixels = (rows[:, None] * 160 + np.arange(160)[None, :]).ravel()
     by_rows = screen.rays(rows)
@@ -219,7 +220,7 @@ def test_pixel_rays_of_ascending_runs_are_those_of_any_order() -> None:
     """Pixels in ascending runs (frames traced together) found by binary searches: each kernel gets the rays the
     masks over every pixel give it, or with frame_of those of its own run only."""
     scene = default_scene().with_render(width=160, height=120, samples=4)
-    screen = PreparedScene(scene).screen
+    screen = TracedScene(scene).screen
     rng = np.random.default_rng(3)
     frames = [np.sort(rng.choice(160 * 120, size, replace=False)) for size in (900, 0, 2500, 40)]
     pixels = np.concatenate(frames)
@@ -268,7 +269,7 @@ def test_a_grid_keeps_rays_it_cannot_resolve() -> None:
     assert rays.tolist() == [0, 1] and bits is None
 
 
-def _hierarchies(prepared: PreparedScene) -> list:
+def _hierarchies(prepared: TracedScene) -> list:
     return [prepared.camera_hierarchy, prepared.shadow_hierarchy, prepared.mirror_hierarchy]
 
 
@@ -279,7 +280,7 @@ def test_brute_force_and_the_walk_give_the_same_bytes(dtype: str, numerics: str)
         scene = scene_from_dict(random_scene_document(seed, 64, 48)).with_render(dtype=dtype, numerics=numerics)
         results = []
         for brute in (True, False):
-            prepared = PreparedScene(scene)
+            prepared = TracedScene(scene)
             for hierarchy in _hierarchies(prepared):
                 hierarchy.brute = brute and hierarchy.root is not None
             results.append(prepared.render_rows(np.arange(scene.render.height)))
@@ -300,13 +301,13 @@ def test_brute_force_is_chosen_for_a_few_spheres_and_the_walk_for_the_vane() -> 
         "render": {"width": 400, "height": 300, "depth": 2},
     }
     for dtype in ("float64", "float32"):
-        peer = PreparedScene(scene_from_dict(document).with_render(dtype=dtype))
+        peer = TracedScene(scene_from_dict(document).with_render(dtype=dtype))
         assert all(hierarchy.brute for hierarchy in _hierarchies(peer))
         # the camera's rays still go to the small spheres through their rectangles, the floor sees them all; the
         # light's grid would give the spheres too many rays (their own surfaces' and their shadows') to pay
         assert peer.screen is not None and peer.screen.kernels == [0, 1, 2] and peer.screen.whole == [3]
         assert peer.lights[1].grid is None
-        vane = PreparedScene(default_scene().with_render(dtype=dtype))
+        vane = TracedScene(default_scene().with_render(dtype=dtype))
         assert not any(hierarchy.brute for hierarchy in _hierarchies(vane))
         assert vane.screen is not None
 

@@ -17,7 +17,7 @@ from tracer.geometry.footprint import swept_volume
 from tracer.geometry.rayframes import RayFrames
 from tracer.scene import scene as sc
 from tracer.scene.loader import default_scene, scene_from_dict
-from tracer.tracing.wavefront import PreparedScene
+from tracer.tracing.wavefront import TracedScene
 from tracer.workers.parallel import FRAMES_PER_TASK, Renderer, frames_per_task
 
 
@@ -182,12 +182,12 @@ def test_the_vanes_own_subtree_traces_the_same_bytes(
     """The hierarchy with the vane's parts in a subtree of their own (the still objects' kept between frames) gives
     the images of the one surface-area tree over all objects, bit for bit, at any heading."""
     from tracer.geometry import bvh
-    from tracer.tracing.wavefront import PreparedScene
+    from tracer.tracing.wavefront import TracedScene
     from tracer.workers.resources import band_samples
 
     def image(scene: sc.Scene) -> np.ndarray:
         rows = np.arange(scene.render.height)
-        return PreparedScene(scene).render_rows(rows, band_samples(scene.render))[0]
+        return TracedScene(scene).render_rows(rows, band_samples(scene.render))[0]
 
     base = turning_scene(seed, dtype, numerics)
     turns = random_headings(seed, 3)
@@ -199,16 +199,16 @@ def test_the_vanes_own_subtree_traces_the_same_bytes(
 
 
 def assert_frames_together_are_frames_alone(scene: sc.Scene, turns: list[float], seed: int) -> None:
-    """Each frame's pixels traced with the other frames' (PreparedScene with headings: its parts' copies see only its
+    """Each frame's pixels traced with the other frames' (TracedScene with headings: its parts' copies see only its
     rays) get the bytes and ray counts of a trace of that frame alone, whole or in pieces that split frames."""
     rng = np.random.default_rng(seed)
     size = scene.render.width * scene.render.height
     frame_pixels = [np.sort(rng.choice(size, size // 3, replace=False)) for _ in turns]
-    together = PreparedScene(scene, tuple(turns))
+    together = TracedScene(scene, tuple(turns))
     for max_samples in (None, 97):
         traced = together.render_frame_pixels(frame_pixels, max_samples)
         for heading, pixels, (colors, counts) in zip(turns, frame_pixels, traced, strict=True):
-            alone, alone_counts = PreparedScene(scene.with_heading(heading)).render_pixels(pixels, max_samples)
+            alone, alone_counts = TracedScene(scene.with_heading(heading)).render_pixels(pixels, max_samples)
             assert np.array_equal(colors, alone), f"heading {heading}"
             assert counts == alone_counts
 

@@ -17,6 +17,7 @@ from tracer.geometry.kernels import make_kernel, quiet
 from tracer.geometry.robust import make_robust_kernel
 from tracer.scene import scene as sc
 from tracer.scene.loader import SceneError, scene_from_dict
+from tracer.tracing import prepared as preparation
 from tracer.tracing import wavefront
 from tracer.tracing.reference import render_reference
 from tracer.workers.parallel import render
@@ -224,17 +225,17 @@ def test_twenty_thousand_instances_of_one_mesh_are_prepared_without_comparing_me
         "render": {"width": 8, "height": 6, "workers": 1},
     }
     scene = scene_from_dict(doc)
-    wavefront._KERNELS.clear()
+    preparation._KERNELS.clear()
     before = sc.ARRAY_COMPARISONS[0]
-    wavefront.PreparedScene(scene)
-    wavefront.PreparedScene(scene)  # the second finds the kernels kept by the first
+    wavefront.TracedScene(scene)
+    wavefront.TracedScene(scene)  # the second finds the kernels kept by the first
     assert sc.ARRAY_COMPARISONS[0] - before <= 4
     # 2,000 separate meshes of one shape (each its own vertices): no comparison between different meshes
     separate = flattened(
         scene_from_dict({**doc, "objects": [{**doc["objects"][0], "matrices": doc["objects"][0]["matrices"][:2000]}]})
     )
     before = sc.ARRAY_COMPARISONS[0]
-    wavefront.PreparedScene(separate)
+    wavefront.TracedScene(separate)
     assert sc.ARRAY_COMPARISONS[0] - before <= 10
 
 
@@ -247,7 +248,7 @@ def test_an_instance_costs_its_matrix_not_its_triangles() -> None:
         "objects": [{"type": "instances", "mesh": "tree", "matrices": [_matrix(rng, False) for _ in range(5000)]}],
     }
     scene = scene_from_dict(doc)
-    kernel = wavefront.PreparedScene(scene).kernels[0]
+    kernel = wavefront.TracedScene(scene).kernels[0]
     assert isinstance(kernel, InstancesKernel)
     per_instance = (
         sum(
@@ -331,7 +332,7 @@ def many_small_meshes_document(seed: int, count: int = 90, width: int = 24, heig
 @pytest.mark.parametrize("seed", range(3))
 def test_many_small_meshes_merged_into_one_kernel_match_the_per_pixel_reference(seed: int) -> None:
     scene = scene_from_dict(many_small_meshes_document(seed))
-    prepared = wavefront.PreparedScene(scene)
+    prepared = wavefront.TracedScene(scene)
     assert len(prepared.merged_starts) >= 1  # merged: the case under test
     expected = np.asarray(render_reference(scene))
     np.testing.assert_allclose(render(scene, workers=1).image, expected, rtol=0, atol=1e-9)
@@ -341,8 +342,8 @@ def test_many_small_meshes_merged_into_one_kernel_match_the_per_pixel_reference(
 def test_merged_meshes_trace_the_same_bytes_as_a_leaf_per_object(settings: dict, monkeypatch) -> None:
     scene = scene_from_dict(many_small_meshes_document(7, 120, 48, 36)).with_render(**settings)
     merged = render(scene, workers=1)
-    monkeypatch.setattr(wavefront, "MERGE_MESHES_FROM", 10**9)
-    wavefront._KERNELS.clear()
+    monkeypatch.setattr(preparation, "MERGE_MESHES_FROM", 10**9)
+    preparation._KERNELS.clear()
     separate = render(scene, workers=1)
     assert merged.image.tobytes() == separate.image.tobytes()
     assert merged.rays == separate.rays

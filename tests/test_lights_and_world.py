@@ -18,7 +18,7 @@ from tracer.scene import passes as ps
 from tracer.scene import scene as sc
 from tracer.scene.loader import SceneError, default_scene, default_scene_dict, scene_from_dict
 from tracer.tracing.reference import render_reference
-from tracer.tracing.shading import environment
+from tracer.tracing.surfaces import environment
 from tracer.workers.parallel import render
 
 

@@ -92,14 +92,14 @@ def whole_image_passes(scene: sc.Scene, max_samples: int | None) -> dict[str, np
     """Every row of the scene traced in one process through render_rows in pieces of at most max_samples camera
     samples (None: all at once): the passes' planes."""
     from tracer.tracing.recorder import plane_dtype, plane_shape
-    from tracer.tracing.wavefront import PreparedScene
+    from tracer.tracing.wavefront import TracedScene
 
     settings = scene.render
     planes = {
         name: np.full(plane_shape(name, settings.height, settings.width), np.nan, plane_dtype(name, settings.dtype))
         for name in settings.passes
     }
-    prepared = PreparedScene(scene)
+    prepared = TracedScene(scene)
     for rows in (np.arange(0, settings.height, 2), np.arange(1, settings.height, 2)):  # two bands of every 2nd row
         prepared.render_rows(rows, max_samples, passes=planes)
     return planes
@@ -186,14 +186,14 @@ def test_the_memory_estimate_holds_the_passes_arrays() -> None:
     """The resource check counts the passes' arrays a render returns (beside the image), and the values a recorder
     keeps per camera sample while a band is traced at more than 1 sample."""
     from tracer.tracing.recorder import PassRecorder
-    from tracer.tracing.wavefront import PreparedScene
+    from tracer.tracing.wavefront import TracedScene
     from tracer.workers.resources import band_samples, memory_needed
 
     for samples, dtype in ((1, "float64"), (4, "float32")):
         plain = default_scene().with_render(width=40, height=30, samples=samples, dtype=dtype)
         every = plain.with_render(passes=tuple(ps.PASSES))
         planes = sum(values.nbytes for values in render(every, workers=1).passes.values())
-        kept = PassRecorder(PreparedScene(every), 1000 * samples)
+        kept = PassRecorder(TracedScene(every), 1000 * samples)
         per_sample = 0 if samples == 1 else sum(rows.nbytes for rows in kept.rows.values()) / (1000 * samples)
         at_once = min(band_samples(every.render), 40 * 30 * samples)
         assert memory_needed(every.render, 2) - memory_needed(plain.render, 2) == planes + 2 * at_once * per_sample
@@ -331,7 +331,7 @@ def test_a_scenes_bytes_do_not_depend_on_what_the_process_traced_before(monkeypa
     from collections import OrderedDict
 
     from tracer.geometry import camera as cam
-    from tracer.tracing import wavefront
+    from tracer.tracing import prepared
 
     base = default_scene().with_render(width=80, height=60, passes=("normal", "depth", "position"), workers=1)
 
@@ -340,7 +340,7 @@ def test_a_scenes_bytes_do_not_depend_on_what_the_process_traced_before(monkeypa
         return replace(base, objects=tuple(ground))
 
     def traced(*scenes: sc.Scene) -> bytes:
-        monkeypatch.setattr(wavefront, "_KERNELS", OrderedDict())  # a fresh process's caches
+        monkeypatch.setattr(prepared, "_KERNELS", OrderedDict())  # a fresh process's caches
         monkeypatch.setattr(cam, "_BAND_CACHE", OrderedDict())
         for scene in scenes:
             result = render(scene, workers=1)

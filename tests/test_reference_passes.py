@@ -21,8 +21,9 @@ from tests.test_instances import instanced_scene_document
 from tracer.scene import passes as ps
 from tracer.scene import scene as sc
 from tracer.scene.loader import scene_from_dict
-from tracer.tracing import reference as rf
+from tracer.tracing import reference_passes as rf
 from tracer.tracing.cryptomatte import name_hash, ranks
+from tracer.tracing.reference import render_reference
 from tracer.workers.parallel import render
 
 ATOL = 1e-9
@@ -86,7 +87,7 @@ def check_against_reference(scene: sc.Scene) -> tuple[rf.ReferencePasses, Any]:
     expected = rf.render_reference_passes(scene)
     values = reference_arrays(expected)
     held = np.asarray(expected.held, dtype=bool)
-    image = np.asarray(rf.render_reference(scene))[..., :3]
+    image = np.asarray(render_reference(scene))[..., :3]
     np.testing.assert_allclose(result.image, image, rtol=0, atol=ATOL)
     total = sum(values[name] for name in rf.WHITTED)
     np.testing.assert_allclose(total, image, rtol=0, atol=1e-12 * max(1.0, float(np.abs(image).max())))

@@ -15,7 +15,7 @@ import pytest
 
 from tracer import cli, default_scene
 from tracer.tracing.images import write_image
-from tracer.tracing.wavefront import PreparedScene
+from tracer.tracing.wavefront import TracedScene
 from tracer.workers import resources as rs
 from tracer.workers.parallel import Renderer, bands, render
 from tracer.workers.pool import MAX_ATTEMPTS, TaskFailedError, WorkerLostError, WorkerPool
@@ -261,13 +261,13 @@ def test_every_piece_traced_stays_within_the_band_budget_at_any_sample_count(mon
     bytes as one piece gives."""
     scene = default_scene().with_render(width=64, height=4, samples=256, depth=1)
     traced: list[int] = []
-    original = PreparedScene.trace
+    original = TracedScene.trace
 
     def recording(self, D, counts, *rest):
         traced.append(D.shape[1])
         return original(self, D, counts, *rest)
 
-    monkeypatch.setattr(PreparedScene, "trace", recording)
+    monkeypatch.setattr(TracedScene, "trace", recording)
     monkeypatch.setattr("tracer.workers.resources.BAND_BYTES", 4096 * 8)
     image = render(scene, workers=1).image
     assert band_samples(scene.render) == 4096 < 64 * 256  # less than one row

@@ -19,7 +19,8 @@ from tracer.scene.loader import SceneError, default_scene, scene_from_dict
 from tracer.tracing import reference as rf
 from tracer.tracing.images import to_8bit
 from tracer.tracing.raystore import RayStore
-from tracer.tracing.wavefront import PreparedScene
+from tracer.tracing.reference_passes import render_reference_passes
+from tracer.tracing.wavefront import TracedScene
 from tracer.workers.parallel import render
 
 SEEDS = range(30)
@@ -159,7 +160,7 @@ def test_total_internal_reflection_beyond_the_critical_angle(tilt: float, total:
 def _segments(scene: sc.Scene):
     """Every camera, mirror, refracted and straight segment of the single pixel's ray tree (no shadow rays)."""
     store = RayStore()
-    PreparedScene(scene).render_pixels(np.array([0]), store=store)
+    TracedScene(scene).render_pixels(np.array([0]), store=store)
     segments = store.segments()
     return segments.take(np.flatnonzero(segments.light < 0))
 
@@ -341,7 +342,7 @@ def test_the_defaults_are_the_documented_model() -> None:
     for material in document["materials"].values():
         material.update(transmission=0.0, ior=1.45, alpha=1.0)
     scene = scene_from_dict(document)
-    prepared = PreparedScene(scene)
+    prepared = TracedScene(scene)
     assert not prepared.see_through and not prepared.shadow_alpha
     for material in document["materials"].values():
         for field in ("transmission", "ior", "alpha"):
@@ -397,17 +398,17 @@ def test_data_passes_show_the_first_surface_of_alpha_at_least_one_half(alpha: fl
     np.testing.assert_allclose(passes["depth"], 2.0 if shows_card else 4.0, rtol=0, atol=1e-12)
     assert np.all(passes["object_index"] == (9 if shows_card else 3))
     assert np.all(passes["material_index"] == (5 if shows_card else 7))
-    expected = rf.render_reference_passes(scene)
+    expected = render_reference_passes(scene)
     assert {name for row in expected.objects for samples in row for name in samples} == {
         "card" if shows_card else "wall"
     }
     np.testing.assert_allclose(np.asarray(expected.values["depth"])[..., 0], passes["depth"][..., 0], atol=1e-12)
 
 
-def _forced(scene: sc.Scene) -> PreparedScene:
+def _forced(scene: sc.Scene) -> TracedScene:
     """The scene prepared as if some material were see-through (every alpha 1, transmission 0): trace() takes
     trace_see_through's way."""
-    prepared = PreparedScene(scene)
+    prepared = TracedScene(scene)
     count = len(prepared.reflective)
     prepared.see_through = True
     prepared.alpha, prepared.transmission = np.ones(count), np.zeros(count)
@@ -428,7 +429,7 @@ def test_the_see_through_way_with_nothing_see_through_is_the_documented_one(seed
         document["render"].pop("border", None)
         scene = scene_from_dict(document)
     rows = np.arange(scene.render.height)
-    plain, plain_counts = PreparedScene(scene).render_rows(rows)
+    plain, plain_counts = TracedScene(scene).render_rows(rows)
     forced, forced_counts = _forced(scene).render_rows(rows)
     assert np.array_equal(forced, plain)
     assert forced_counts == plain_counts

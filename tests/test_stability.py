@@ -18,7 +18,7 @@ from tracer.geometry.kernels import quiet
 from tracer.geometry.robust import offset_origins
 from tracer.scene import scene as sc
 from tracer.scene.loader import scene_from_dict
-from tracer.tracing.wavefront import PreparedScene
+from tracer.tracing.wavefront import TracedScene
 from tracer.workers.parallel import render
 
 INF = math.inf
@@ -26,7 +26,7 @@ INF = math.inf
 
 def hits(scene: sc.Scene, O: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Closest t and object (N,) for rays O, D (3, N) under the scene's numerics."""
-    t, obj, _ = PreparedScene(scene).hierarchy.closest(O, D, 0.0)
+    t, obj, _ = TracedScene(scene).hierarchy.closest(O, D, 0.0)
     return t, obj
 
 
@@ -114,7 +114,7 @@ def acne_and_leaks(scale: float, numerics: str, dtype: str) -> tuple[float, floa
     lit = render(scene, workers=1).image[..., 0].reshape(-1) > 0.0
     from tracer.geometry.camera import band_directions
 
-    exact = PreparedScene(scene.with_render(dtype="float64", numerics="robust"))
+    exact = TracedScene(scene.with_render(dtype="float64", numerics="robust"))
     D = band_directions(scene.camera, scene.render, np.arange(96))
     t, obj, _ = exact.hierarchy.closest(exact.origin, D, 0.0)
     P = exact.origin + D * np.where(obj >= 0, t, 0.0)
@@ -255,7 +255,7 @@ def rays_leaving(kind: str, size: float, position: float, dtype: str, count: int
         "cylinder": sc.Cylinder(name="o", material="m", location=centre, radius=size, height=2 * size),
         "box": sc.Box(name="o", material="m", location=centre, rotation=(10, 20, 30), size=(2 * size,) * 3),
     }[kind]
-    prepared = PreparedScene(one(obj, "robust").with_render(dtype=dtype))
+    prepared = TracedScene(one(obj, "robust").with_render(dtype=dtype))
     scalar = np.dtype(dtype)
     around = rng.normal(size=(3, count))
     around /= np.linalg.norm(around, axis=0)

@@ -8,7 +8,7 @@ import numpy as np
 
 from tracer.scene import scene as sc
 from tracer.tracing.reference import ReferenceTracer
-from tracer.tracing.wavefront import PreparedScene
+from tracer.tracing.wavefront import TracedScene
 
 MATERIALS = {"m": sc.Material(color=(0.5, 0.25, 0.1), specular=10.0, reflective=0.0)}
 
@@ -21,7 +21,7 @@ def one_object_scene(obj: sc.SceneObject, **render: object) -> sc.Scene:
 
 def first_hit(scene: sc.Scene, origin: sc.Vec3, direction: sc.Vec3, t_min: float = 0.0) -> tuple[float, float]:
     """The nearest t along one ray by the vectorized tracer and by the reference (inf for a miss)."""
-    prepared = PreparedScene(scene)
+    prepared = TracedScene(scene)
     O = np.asarray(origin, dtype=float).reshape(3, 1)
     D = np.asarray(direction, dtype=float).reshape(3, 1)
     t, obj, _ = prepared.hierarchy.closest(O, D, t_min)

@@ -28,7 +28,7 @@ from ..geometry.footprint import Volume
 from ..geometry.instances import placed_kernel
 from ..scene import scene as sc
 from ..tracing.raystore import RayStore, Segments
-from ..tracing.wavefront import PreparedScene, RayCounts
+from ..tracing.wavefront import RayCounts, TracedScene
 from ..workers.resources import band_samples
 
 
@@ -129,7 +129,7 @@ class EditableImage:
 
     def _trace(self, scene: sc.Scene, pixels: np.ndarray) -> None:
         store = RayStore()
-        colors, self.rays = PreparedScene(scene).render_pixels(pixels, band_samples(scene.render), store)
+        colors, self.rays = TracedScene(scene).render_pixels(pixels, band_samples(scene.render), store)
         self.image.reshape(-1, 3)[pixels] = colors[:, :3]
         if self.alpha is not None and colors.shape[1] == 4:
             self.alpha.reshape(-1)[pixels] = colors[:, 3]

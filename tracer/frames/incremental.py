@@ -23,7 +23,7 @@ import numpy as np
 from ..geometry.footprint import HeadingMarks, HeadingParts, heading_marks, heading_parts, swept_volume
 from ..scene import scene as sc
 from ..tracing.raystore import RayStore
-from ..tracing.wavefront import PreparedScene, RayCounts
+from ..tracing.wavefront import RayCounts, TracedScene
 from ..workers.parallel import BandDone, Progress, Renderer, RenderResult, batches
 from ..workers.resources import band_samples
 
@@ -99,7 +99,7 @@ def run_marks(renderer: Renderer, still: sc.Scene, pixels: np.ndarray, parts: He
 def _marks(still: sc.Scene, pixels: np.ndarray, parts: HeadingParts) -> HeadingMarks:
     """On a worker: the pixels' ray trees in still (the scene without its vane) -> their HeadingMarks for the parts."""
     store = RayStore()
-    PreparedScene(still).render_pixels(pixels, band_samples(still.render), store)
+    TracedScene(still).render_pixels(pixels, band_samples(still.render), store)
     return heading_marks(store.segments(), parts)
 
 

@@ -150,7 +150,7 @@ class Hierarchy:
     ) -> None:
         """kernels are the hierarchy's leaves; owners[i] is the scene object kernel i belongs to (default: i).
 
-        frame_of: for several frames traced at once (wavefront.PreparedScene with headings), the frame whose rays
+        frame_of: for several frames traced at once (prepared.PreparedScene with headings), the frame whose rays
         kernel i sees (-1: every frame's); a query then names each ray's frame (rayframes.RayFrames).
 
         moving: the owners that move between the frames of an animation (the vane's parts). Where some bounded

@@ -1,6 +1,6 @@
 """Rays of several animation frames traced in one query -> which of them belong to each frame.
 
-An animation's frames differ only in where the vane's parts are. Traced together (wavefront.PreparedScene with
+An animation's frames differ only in where the vane's parts are. Traced together (wavefront.TracedScene with
 headings), the still objects see every ray and each frame's copy of a part sees only the rays of its frame: the
 hierarchy asks select() for them. A query's rays come in runs (one per light in a shadow query, one otherwise), each
 ordered by frame, so a frame's rays are one slice of each run.

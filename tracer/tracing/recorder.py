@@ -206,6 +206,37 @@ class PassRecorder:
             self._put("emission", pixel, emission)
         self._put("shadow", pixel, split["shadow"])
 
+    def first_seen(
+        self, pixel: np.ndarray, pending: np.ndarray, alpha: np.ndarray, P: np.ndarray, S: np.ndarray, obj, material
+    ) -> None:
+        """first_hit() for the hits (n,) of a see-through wavefront whose camera rays' data passes are still
+        pending (n,) and whose surface's alpha (n,) reaches sc.PASS_ALPHA_THRESHOLD: the first such surface a camera
+        ray meets straight on."""
+        shown = pending & (alpha >= sc.PASS_ALPHA_THRESHOLD)
+        if shown.all():
+            self.first_hit(pixel, P, S, obj, material)
+        elif shown.any():
+            rows = shown.nonzero()[0]
+            self.first_hit(
+                pixel.take(rows), P.take(rows, axis=1), S.take(rows, axis=1), obj.take(rows), material.take(rows)
+            )
+
+    def camera_misses(self, obj: np.ndarray, color: np.ndarray) -> None:
+        """The Environment pass of the camera rays (N,) that hit nothing (obj < 0): the background their pixels
+        start with in color (3, N)."""
+        missed = (obj < 0).nonzero()[0]
+        self.environment(missed, color.take(missed, axis=1))
+
+    def tagged(self, name: str, tag: np.ndarray, rows: np.ndarray, pixel: np.ndarray, value: np.ndarray) -> None:
+        """What rays rows (n,) of a see-through wavefront add (3, n) at camera rays pixel (n,) into their passes, by
+        the wavefront's tags (N,): under a refracted or straight ray (tag 2) the Transmission pass, else name
+        (reflection for surfaces, environment for misses)."""
+        mine = tag.take(rows) == 2
+        if mine.any():
+            self.add("transmission", pixel[mine], value[:, mine])
+        if not mine.all():
+            self.add(name, pixel[~mine], value[:, ~mine])
+
     def reflection(self, pixel: np.ndarray, value: np.ndarray) -> None:
         """What a mirror ray's surface adds to its camera ray's pixel (already weighted)."""
         self._put("reflection", pixel, value, add=True)
@@ -374,3 +405,41 @@ def view_axis(camera: sc.Camera, dtype: np.dtype) -> np.ndarray:
     """The camera's unit view direction (its local -Z in world space) (3, 1)."""
     r = tf.euler_xyz_matrix(camera.rotation)
     return np.asarray([[-r[0][2]], [-r[1][2]], [-r[2][2]]], dtype=dtype)
+
+
+class NoPasses:
+    """The recorder of a trace that keeps no pass (PassRecorder's calls, each doing nothing): the stages call it
+    as they call a PassRecorder, with no guard at each call, and what only a pass reads is computed inside
+    PassRecorder's methods."""
+
+    shading = False  # no shading pass: find_intensity is not asked to split its terms
+
+    def first_hit(self, *_: object) -> None:
+        pass
+
+    def first_seen(self, *_: object) -> None:
+        pass
+
+    def camera_misses(self, *_: object) -> None:
+        pass
+
+    def tagged(self, *_: object) -> None:
+        pass
+
+    def terms(self, *_: object) -> None:
+        pass
+
+    def reflection(self, *_: object) -> None:
+        pass
+
+    def environment(self, *_: object) -> None:
+        pass
+
+    def holdout(self, *_: object) -> None:
+        pass
+
+    def combine(self, samples: int) -> dict[str, np.ndarray]:
+        return {}
+
+
+NO_PASSES = NoPasses()

@@ -1,407 +1,270 @@
 """Hits on glass and partly transparent surfaces (a material's transmission > 0 or alpha < 1) -> the mirror, refracted
-and straight-on rays they continue with, traced wave by wave, and the light that passes such surfaces (shadow rays).
-Only scenes with such materials run it (docs/algorithm.md, "Glass and transparency")."""
+and straight-on rays they continue with, traced wave by wave. Only scenes with such materials run it
+(docs/algorithm.md, "Glass and transparency"); the light that passes such surfaces is shadows.passing's."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..geometry.footprint import Footprint
-from ..geometry.kernels import (
-    dot,
-    indices,
-    take,
-)
+from ..geometry.kernels import dot, indices, take
 from ..geometry.rayframes import RayFrames
 from ..geometry.robust import offset_origins
 from ..scene import scene as sc
-from .rays import CAMERA_T_MIN, REFLECTION_T_MIN, SHADOW_T_MIN, RayCounts, accumulate, tally
+from . import shading, surfaces
+from .batch import Hits, RayBatch
+from .prepared import PreparedScene
+from .rays import RayCounts, accumulate
 from .raystore import RayStore
-from .recorder import PassRecorder
+from .recorder import NoPasses, PassRecorder
 
 
-class SeeThrough:
-    """PreparedScene's glass and transparency, a mixin: it reads PreparedScene's arrays and calls its shading
-    (Shading) and its kernels."""
+def camera_batch(batch: RayBatch, dtype: np.dtype) -> RayBatch:
+    """The camera rays' batch with the fields a see-through wavefront carries: every ray a camera ray with no
+    straight layer yet, tagged 0 (its own hit), clear (alpha not yet covered) and its data passes pending."""
+    total = batch.size
+    return batch.with_rays(
+        left=np.full(total, batch.left),
+        camera=np.ones(total, dtype=bool),
+        layers=np.zeros(total, dtype=np.int64),
+        tag=np.zeros(total, dtype=np.int8),
+        clear=np.ones(total, dtype=dtype),
+        pending=np.ones(total, dtype=bool),
+    )
 
-    def trace_see_through(
-        self,
-        D: np.ndarray,
-        counts: RayCounts,
-        rows: np.ndarray | None = None,
-        origins: np.ndarray | None = None,
-        far: np.ndarray | None = None,
-        footprint: Footprint | RayStore | None = None,
-        alpha: np.ndarray | None = None,
-        pixels: np.ndarray | None = None,
-        frames: np.ndarray | None = None,
-        recorder: PassRecorder | None = None,
-    ) -> np.ndarray:
-        """trace() for a scene with a material of transmission t > 0 or alpha a < 1 (docs/algorithm.md, "Glass and
-        transparency"); the same arguments and result. A hit adds a (1 - t) times the documented local colour and
-        sends on, each with its weight (3 channels: a refracted ray is tinted), a mirror ray (a ((1 - t) r + t F),
-        F the dielectric Fresnel reflectance), a refracted ray (a t (1 - F) colour; none in total internal
-        reflection) and a straight one (1 - a, the same direction, not a bounce: at most sc.TRANSPARENT_BOUNCES on
-        a path; a camera ray's straight continuation stays a camera ray). A camera sample's rays may then be several
-        in one wavefront: the wavefront is kept in order of camera sample and adds with np.add.at."""
-        settings = self.scene.render
-        total = D.shape[1]
-        query = None if frames is None else RayFrames(frames[None])
-        tally(counts, "camera", total, query)
-        color = np.zeros((3, total), dtype=self.dtype)
-        runs = None if frames is None else (frames // settings.samples).tolist()  # each frame's pixels
-        pixel = np.arange(total)  # each ray's camera sample, ascending
-        O = self.origin if origins is None else origins
-        weight = None  # (3, n); None: 1 (the camera rays)
-        left = np.full(total, settings.depth)  # bounces left
-        layers = np.zeros(total, dtype=np.int64)  # straight continuations on the path so far
-        camera = np.ones(total, dtype=bool)  # camera rays and their straight continuations
-        reach = far  # a camera ray's clip_end left beyond its origin (n,), inf for others; None: none
-        tag = np.zeros(total, dtype=np.int8)  # the passes: 0 the camera ray's hit, 1 under a mirror ray, 2 under a
-        # refracted or straight one (the Transmission pass)
-        clear = np.ones(total, dtype=self.dtype)  # camera rays' product of 1 - alpha so far (the film's alpha)
-        pending = np.ones(total, dtype=bool)  # camera rays whose data passes are not written yet
-        first = True
-        while pixel.size:
-            t_min = CAMERA_T_MIN if first else 0.0 if self.robust else REFLECTION_T_MIN
-            sets = None
-            if first and self.screen is not None and (rows is not None or pixels is not None):
-                if rows is not None:
-                    sets = self.screen.rays(rows)
-                else:
-                    sets = self.screen.pixel_rays(pixels, runs, self.camera_hierarchy.frame_of)
-            t, obj, part = self._closest_by_kind(O, D, t_min, camera, pixel, sets, frames)
-            if reach is not None:
-                obj[t >= reach] = -1
-            if footprint is not None:
-                end = np.where(obj >= 0, t, np.inf if reach is None else reach)
-                footprint.record(pixel, O, D, t_min, end, hit=obj)
-            miss = indices(obj < 0)
-            if miss.size:
-                seen = miss
-                if settings.film_transparent:  # a camera ray that meets nothing adds nothing, and its share of alpha
-                    film = camera.take(miss)
-                    if alpha is not None and film.any():
-                        gone = miss.take(indices(film))
-                        np.subtract.at(alpha, pixel.take(gone), clear.take(gone))
-                    seen = miss.take(indices(~film))
-                if seen.size:
-                    sky = self.background(D, seen)
-                    if weight is not None:
-                        sky = take(weight, seen) * sky
-                    add_at(color, pixel.take(seen), sky, first)
-                    if recorder is not None:
-                        record_tagged(recorder, "environment", tag.take(seen), pixel.take(seen), sky)
-            hit = indices(obj >= 0)
-            if self.any_holdout and hit.size:  # a holdout adds nothing; a camera ray's share of alpha goes
-                held = self.holdout.take(obj.take(hit))
-                if held.any():
-                    gone = hit.take(indices(held))
-                    mine = gone.take(indices(camera.take(gone)))
-                    if alpha is not None and mine.size:
-                        np.subtract.at(alpha, pixel.take(mine), clear.take(mine))
-                    if recorder is not None and first:
-                        recorder.holdout(pixel.take(gone))
-                    hit = hit.take(indices(~held))
-            if not hit.size:
-                break
-            O, D, t, obj, part = take(O, hit), take(D, hit), t.take(hit), obj.take(hit), part.take(hit)
-            pixel, left, layers = pixel.take(hit), left.take(hit), layers.take(hit)
-            camera, tag, clear, pending = camera.take(hit), tag.take(hit), clear.take(hit), pending.take(hit)
-            weight = None if weight is None else take(weight, hit)
-            reach = None if reach is None else reach.take(hit)
-            P = O + D * t
-            V = -D
-            O = None
-            N, surface = self.normals(P, obj, part)
-            material = self.material_of(obj, part)
-            S = self.shading_normals(N, V, P, obj, part, material)
-            colors, specular_colors, emission = self.surface_colors(material, P, obj, part)
-            a, transmission = self.alpha.take(material), self.transmission.take(material)
-            if recorder is not None:  # the data passes: the first surface of alpha >= the threshold met straight on
-                shown = pending & (a >= sc.PASS_ALPHA_THRESHOLD)
-                if shown.all():
-                    recorder.first_hit(pixel, P, S, obj, material)
-                elif shown.any():
-                    rows_ = indices(shown)
-                    recorder.first_hit(
-                        pixel.take(rows_), take(P, rows_), take(S, rows_), obj.take(rows_), material.take(rows_)
-                    )
-            shaded = a * (1.0 - transmission)
-            reflective = self.reflective.take(material)
-            lit = indices(shaded > 0.0)
-            if lit.size:
-                self._see_through_local(
-                    color, lit, P, N, S, V, material, surface, (colors, specular_colors, emission), shaded, weight,
-                    pixel, tag, counts, footprint, frames, recorder, first,
-                )  # fmt: skip
-            # what goes on: mirror rays, refracted rays, straight continuations
-            go = left > 0
-            mirror = shaded * reflective
-            bent_rows, bent_D, bent_weight = self._refract(go, a, transmission, material, N, S, D, mirror, colors)
-            mirror_rows = indices(go & (mirror > 0.0))
-            straight_rows = indices((a < 1.0) & (layers < sc.TRANSPARENT_BOUNCES))
-            ones = None
-            if weight is None:
-                ones = np.ones((3, pixel.size), dtype=self.dtype)
-            base = ones if weight is None else weight
-            k = 2.0 * dot(S, V)
-            children = []  # (rows, O, D, weight, left, layers, camera, tag, clear, reach)
-            if mirror_rows.size:
-                Sm, Vm = take(S, mirror_rows), take(V, mirror_rows)
-                children.append(
-                    (mirror_rows, Sm * k.take(mirror_rows) - Vm, take(base, mirror_rows) * mirror.take(mirror_rows),
-                     left.take(mirror_rows) - 1, False, 1)
-                )  # fmt: skip
-            if bent_rows.size:
-                children.append(
-                    (bent_rows, bent_D, take(base, bent_rows) * bent_weight, left.take(bent_rows) - 1, False, 2)
-                )
-            if straight_rows.size:
-                through = 1.0 - a.take(straight_rows)
-                children.append(
-                    (straight_rows, take(D, straight_rows), take(base, straight_rows) * through,
-                     left.take(straight_rows), True, 2)
-                )  # fmt: skip
-            if not children:
-                break
-            parts = []
-            for rows_, D_, weight_, left_, straight, kind in children:
-                P_ = take(P, rows_)
-                O_ = P_
-                if self.robust:
-                    O_ = offset_origins(P_, take(N, rows_), D_, *(part_.take(rows_) for part_ in surface))
-                tag_ = tag.take(rows_)
-                tag_ = np.where(tag_ == 0, np.int8(kind), tag_)
-                if straight:
-                    camera_ = camera.take(rows_)
-                    layers_ = layers.take(rows_) + 1
-                    clear_ = clear.take(rows_) * (1.0 - a.take(rows_))
-                    reach_ = None if reach is None else np.where(camera_, reach.take(rows_) - t.take(rows_), np.inf)
-                    pending_ = pending.take(rows_) & (a.take(rows_) < sc.PASS_ALPHA_THRESHOLD)
-                else:
-                    camera_ = np.zeros(rows_.size, dtype=bool)
-                    layers_ = layers.take(rows_)
-                    clear_ = np.zeros(rows_.size, dtype=self.dtype)
-                    reach_ = None if reach is None else np.full(rows_.size, np.inf)
-                    pending_ = np.zeros(rows_.size, dtype=bool)
-                parts.append(
-                    (pixel.take(rows_), O_, D_, weight_, left_, layers_, camera_, tag_, clear_, reach_, pending_)
-                )
-            joined = [
-                None if parts[0][k_] is None else np.concatenate([p[k_] for p in parts], axis=-1) for k_ in range(11)
-            ]
-            order = np.argsort(joined[0], kind="stable")
-            pixel, O, D, weight, left, layers, camera, tag, clear, reach, pending = (
-                None if value is None else value.take(order, axis=-1) for value in joined
-            )
-            first = False
-            query = None if frames is None else RayFrames.of(pixel, frames)
-            tally(counts, "reflection", pixel.size, query)
-        return color
 
-    def _closest_by_kind(
-        self,
-        O: np.ndarray,
-        D: np.ndarray,
-        t_min: float,
-        camera: np.ndarray,
-        pixel: np.ndarray,
-        sets: list | None,
-        frames: np.ndarray | None,
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Hierarchy.closest for a see-through wavefront: the camera rays (camera, and their straight continuations)
-        among the objects the camera sees, the others among those mirror rays see; sets: the camera rays' screen
-        rectangles (the first wavefront, all camera rays)."""
+def closest_by_kind(
+    scene: PreparedScene,
+    batch: RayBatch,
+    t_min: float,
+    sets: list | None,
+    query: RayFrames | None,
+    frames: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Hierarchy.closest for a see-through wavefront: the camera rays (and their straight continuations) among the
+    objects the camera sees, the others among those mirror rays see; sets: the camera rays' screen rectangles (the
+    first wavefront, all camera rays); query: the whole batch's frames."""
+    O, D, camera, pixel = batch.origin, batch.direction, batch.camera, batch.pixel
+    if camera.all():
+        return scene.camera_hierarchy.closest(O, D, t_min, sets, None, query)
+    if scene.camera_hierarchy is scene.mirror_hierarchy or not camera.any():
+        return scene.mirror_hierarchy.closest(O, D, t_min, None, None, query)
+    count = pixel.size
+    t = np.full(count, np.inf, dtype=scene.dtype)
+    obj = np.full(count, -1, dtype=np.int32)
+    part = np.zeros(count, dtype=np.int64)
+    for hierarchy, rows in ((scene.camera_hierarchy, indices(camera)), (scene.mirror_hierarchy, indices(~camera))):
+        own = None if frames is None else RayFrames.of(pixel.take(rows), frames)
+        found_t, found_obj, found_part = hierarchy.closest(take(O, rows), take(D, rows), t_min, None, None, own)
+        t[rows], obj[rows], part[rows] = found_t, found_obj, found_part
+    return t, obj, part
 
-        def of(rows: np.ndarray | None) -> RayFrames | None:
-            return None if frames is None else RayFrames.of(pixel if rows is None else pixel.take(rows), frames)
 
-        if camera.all():
-            return self.camera_hierarchy.closest(O, D, t_min, sets, None, of(None))
-        if self.camera_hierarchy is self.mirror_hierarchy or not camera.any():
-            return self.mirror_hierarchy.closest(O, D, t_min, None, None, of(None))
-        count = pixel.size
-        t = np.full(count, np.inf, dtype=self.dtype)
-        obj = np.full(count, -1, dtype=np.int32)
-        part = np.zeros(count, dtype=np.int64)
-        for hierarchy, rows in ((self.camera_hierarchy, indices(camera)), (self.mirror_hierarchy, indices(~camera))):
-            found_t, found_obj, found_part = hierarchy.closest(
-                take(O, rows), take(D, rows), t_min, None, None, of(rows)
-            )
-            t[rows], obj[rows], part[rows] = found_t, found_obj, found_part
-        return t, obj, part
+def add_misses(
+    scene: PreparedScene,
+    color: np.ndarray,
+    batch: RayBatch,
+    obj: np.ndarray,
+    first: bool,
+    alpha: np.ndarray | None,
+    recorder: PassRecorder | NoPasses,
+) -> None:
+    """The background where the rays of a see-through wavefront miss, times their weights, into their samples and
+    passes; under a transparent film a camera ray (or its straight continuation) that meets nothing adds nothing
+    and takes its share of alpha away."""
+    miss = indices(obj < 0)
+    if not miss.size:
+        return
+    seen = miss
+    if scene.scene.render.film_transparent:
+        film = batch.camera.take(miss)
+        if alpha is not None and film.any():
+            gone = miss.take(indices(film))
+            np.subtract.at(alpha, batch.pixel.take(gone), batch.clear.take(gone))
+        seen = miss.take(indices(~film))
+    if seen.size:
+        sky = surfaces.background(scene, batch.direction, seen)
+        if batch.weight is not None:
+            sky = take(batch.weight, seen) * sky
+        pixel = batch.pixel.take(seen)
+        add_at(color, pixel, sky, first)
+        recorder.tagged("environment", batch.tag, seen, pixel, sky)
 
-    def _see_through_local(
-        self,
-        color: np.ndarray,
-        lit: np.ndarray,
-        P: np.ndarray,
-        N: np.ndarray,
-        S: np.ndarray,
-        V: np.ndarray,
-        material: np.ndarray,
-        surface: tuple[np.ndarray, np.ndarray] | None,
-        paints: tuple[np.ndarray, np.ndarray | None, np.ndarray | None],
-        shaded: np.ndarray,
-        weight: np.ndarray | None,
-        pixel: np.ndarray,
-        tag: np.ndarray,
-        counts: RayCounts,
-        footprint: Footprint | RayStore | None,
-        frames: np.ndarray | None,
-        recorder: PassRecorder | None,
-        first: bool,
-    ) -> None:
-        """The shaded share a (1 - t) of the hits lit (k,) of a see-through wavefront: listing 3.2 there and the
-        local colour as trace() makes it (emission included), times the share and the rays' weights, added to their
-        camera samples; the passes: a camera ray's own hit term by term, the others' by their tag."""
-        every = lit.size == pixel.size  # every hit is shaded: no gathers
-        pick = (lambda array: array) if every else (lambda array: take(array, lit))
-        P_, S_, V_ = pick(P), pick(S), pick(V)
-        geometric = None if S is N else pick(N)
-        surface_ = None if surface is None else tuple(part if every else part.take(lit) for part in surface)
-        material_ = material if every else material.take(lit)
-        pixel_ = pixel if every else pixel.take(lit)
-        points = None if frames is None else np.searchsorted(pixel_, frames)
-        split = {} if recorder is not None and first and recorder.shading else None
-        specular = self.specular.take(material_)
-        intensity = self.find_intensity(
-            P_, S_, V_, specular, counts, surface_, footprint, pixel_, geometric, points, split
+
+def hold_out(
+    scene: PreparedScene,
+    batch: RayBatch,
+    obj: np.ndarray,
+    first: bool,
+    alpha: np.ndarray | None,
+    recorder: PassRecorder | NoPasses,
+) -> np.ndarray:
+    """The rays of a see-through wavefront that hit something other than a holdout (k,): a holdout adds nothing,
+    and a camera ray (or its straight continuation) that meets it takes its share of alpha away."""
+    hit = indices(obj >= 0)
+    if not scene.any_holdout or not hit.size:
+        return hit
+    held = scene.holdout.take(obj.take(hit))
+    if not held.any():
+        return hit
+    gone = hit.take(indices(held))
+    mine = gone.take(indices(batch.camera.take(gone)))
+    if alpha is not None and mine.size:
+        np.subtract.at(alpha, batch.pixel.take(mine), batch.clear.take(mine))
+    if first:
+        recorder.holdout(batch.pixel.take(gone))
+    return hit.take(indices(~held))
+
+
+def add_local(
+    scene: PreparedScene,
+    color: np.ndarray,
+    hits: Hits,
+    batch: RayBatch,
+    counts: RayCounts,
+    footprint: Footprint | RayStore | None,
+    frames: np.ndarray | None,
+    recorder: PassRecorder | NoPasses,
+    first: bool,
+) -> None:
+    """The shaded share a (1 - t) of a see-through wavefront's hits: listing 3.2 there and the local colour as a
+    Whitted hit has it, times the share and the rays' weights, added to their camera samples; the passes: a camera
+    ray's own hit term by term, the others' by their tag, and the data passes of the first surface of alpha at least
+    the pass threshold met straight on. The reason for 9 parameters: the wavefront's colours, hits and rays, and
+    the bookkeeping (counts, footprint, frames, passes) every stage of the loop carries."""
+    a, transmission = scene.alpha.take(hits.material), scene.transmission.take(hits.material)
+    recorder.first_seen(batch.pixel, batch.pending, a, hits.P, hits.S, hits.obj, hits.material)
+    shaded = a * (1.0 - transmission)
+    lit = indices(shaded > 0.0)
+    if not lit.size:
+        return
+    every = lit.size == batch.size  # every hit is shaded: no gathers
+    mine = hits if every else hits.take(lit)
+    pixel = batch.pixel if every else batch.pixel.take(lit)
+    split = {} if first and recorder.shading else None
+    local, reflective = shading.local_colors(scene, mine, pixel, counts, footprint, frames, split)
+    share = shaded if every else shaded.take(lit)
+    local = local * share
+    value = local if batch.weight is None else (batch.weight if every else take(batch.weight, lit)) * local
+    add_at(color, pixel, value, first)
+    if first:
+        if split is not None:  # the terms times (1 - r) a (1 - t): a reflectivity of 1 - (1 - r) a (1 - t)
+            glow = None if mine.emission is None else mine.emission * share
+            paints = (mine.colors, mine.specular_colors, glow)
+            recorder.terms(pixel, split, mine.material, 1.0 - (1.0 - reflective) * share, paints)
+    else:
+        recorder.tagged("reflection", batch.tag, lit, pixel, value)
+
+
+def continuing(scene: PreparedScene, hits: Hits, batch: RayBatch) -> RayBatch | None:
+    """The rays a see-through wavefront's hits send on, in one batch ordered by camera sample: mirror rays
+    (a ((1 - t) r + t F)), refracted rays (a t (1 - F) colour; none in total internal reflection) and straight ones
+    (1 - a, the same direction, not a bounce: at most sc.TRANSPARENT_BOUNCES on a path; a camera ray's straight
+    continuation stays a camera ray); None where no hit sends any."""
+    material, D = hits.material, batch.direction
+    a, transmission = scene.alpha.take(material), scene.transmission.take(material)
+    go = batch.left > 0
+    mirror = a * (1.0 - transmission) * scene.reflective.take(material)
+    bent_rows, bent_D, bent_weight = _refract(scene, go, a, transmission, material, hits, D, mirror)
+    mirror_rows = indices(go & (mirror > 0.0))
+    straight_rows = indices((a < 1.0) & (batch.layers < sc.TRANSPARENT_BOUNCES))
+    base = np.ones((3, batch.size), dtype=scene.dtype) if batch.weight is None else batch.weight
+    children = []  # (rows, D, weight, left, straight, tag)
+    if mirror_rows.size:
+        k = 2.0 * dot(hits.S, hits.V)
+        Sm, Vm = take(hits.S, mirror_rows), take(hits.V, mirror_rows)
+        children.append(
+            (mirror_rows, Sm * k.take(mirror_rows) - Vm, take(base, mirror_rows) * mirror.take(mirror_rows),
+             batch.left.take(mirror_rows) - 1, False, 1)
+        )  # fmt: skip
+    if bent_rows.size:
+        children.append(
+            (bent_rows, bent_D, take(base, bent_rows) * bent_weight, batch.left.take(bent_rows) - 1, False, 2)
         )
-        reflective = self.reflective.take(material_)
-        share = shaded if every else shaded.take(lit)
-        colors, specular_colors, emission = (None if paint is None else pick(paint) for paint in paints)
-        if self.colored:
-            diffuse, highlight = intensity
-            local = (diffuse * colors + highlight * specular_colors) * (1.0 - reflective)
-        else:
-            local = (intensity * (1.0 - reflective)) * colors
-        if self.emissive:
-            local = local + emission
-        local = local * share
-        value = local if weight is None else pick(weight) * local
-        add_at(color, pixel_, value, first)
-        if recorder is None:
-            return
-        if first:
-            if split is not None:  # the terms times (1 - r) a (1 - t): a reflectivity of 1 - (1 - r) a (1 - t)
-                glow = None if emission is None else emission * share
-                recorder.terms(
-                    pixel_, split, material_, 1.0 - (1.0 - reflective) * share, (colors, specular_colors, glow)
-                )
-        else:
-            record_tagged(recorder, "reflection", tag.take(lit), pixel_, value)
+    if straight_rows.size:
+        through = 1.0 - a.take(straight_rows)
+        children.append(
+            (straight_rows, take(D, straight_rows), take(base, straight_rows) * through,
+             batch.left.take(straight_rows), True, 2)
+        )  # fmt: skip
+    if not children:
+        return None
+    return RayBatch.joined([_child(scene, hits, batch, a, *child) for child in children])
 
-    def _refract(
-        self,
-        go: np.ndarray,
-        a: np.ndarray,
-        transmission: np.ndarray,
-        material: np.ndarray,
-        N: np.ndarray,
-        S: np.ndarray,
-        D: np.ndarray,
-        mirror: np.ndarray,
-        colors: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """The glass share of the hits that go on (go (n,)): adds a t F to their mirror weights (n,) in place and
-        gives the rows (k,) that refract, their unit directions (3, k) and weights a t (1 - F) colour (3, k) (the
-        reference's glass_split: eta = ior entering by the geometric normal N, 1 / ior leaving; the shading normal S
-        turned to face D bends the ray; Cycles' fresnel_dielectric_cos)."""
-        rows = indices(go & (transmission > 0.0) & (a > 0.0))
-        if not rows.size:
-            return rows, None, None
-        N_, S_, D_ = take(N, rows), take(S, rows), take(D, rows)
-        ior = self.ior.take(material.take(rows))
-        eta = np.where(dot(N_, D_) < 0.0, ior, 1.0 / ior)
-        facing = np.where(dot(S_, D_) < 0.0, S_, -S_)
-        d = D_ / np.sqrt(dot(D_, D_))
-        c = -dot(d, facing)
-        g2 = eta * eta - 1.0 + c * c
-        inside = g2 > 0.0  # else total internal reflection: F = 1
-        g = np.sqrt(np.where(inside, g2, 1.0))
-        A = (g - c) / (g + c)
-        B = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
-        F = np.where(inside, 0.5 * A * A * (1.0 + B * B), 1.0)
-        glass = a.take(rows) * transmission.take(rows)
-        mirror[rows] += glass * F
-        share = glass * (1.0 - F)
-        keep = indices(inside & (share > 0.0))
-        T = take((d + (c - g) * facing) / eta, keep)
-        T = T / np.sqrt(dot(T, T))
-        return rows.take(keep), T, take(colors, rows.take(keep)) * share.take(keep)
 
-    def _shadow_through(
-        self,
-        terms: list[tuple],
-        lit: list[np.ndarray],
-        P: np.ndarray,
-        N: np.ndarray,
-        counts: RayCounts,
-        surface: tuple[np.ndarray, np.ndarray] | None,
-        frames: np.ndarray | None,
-    ) -> list[np.ndarray]:
-        """Where some material has alpha < 1: the share (n,) of each light (not ambient) that reaches the points,
-        from _lit's answer: 1 where nothing blocks, else the product of 1 - alpha over the surfaces the shadow ray
-        meets, nearest first, each passed by a segment from its hit along the same vector (the rest of the range);
-        0 at an opaque one (glass too: Cycles' caustics off) or past sc.TRANSPARENT_BOUNCES of them (the
-        reference's shadow_through)."""
-        lights = [light for light in self.lights if light.kind != "ambient"]
-        t_min = 0.0 if self.robust else SHADOW_T_MIN
-        throughs = []
-        for light, term, reached in zip(lights, terms, lit, strict=True):
-            L, needed = term[0], term[6]
-            through = reached.astype(self.dtype)
-            rows = needed.take(indices(~reached.take(needed)))
-            if not rows.size:
-                throughs.append(through)
-                continue
-            vector = np.array(np.broadcast_to(take(L, rows), (3, rows.size)))
-            origin = np.array(np.broadcast_to(take(P, rows), (3, rows.size)))
-            target = None
-            if self.robust:  # as _lit starts them
-                target = origin + vector if light.disk is not None else light.vector
-                origin = offset_origins(origin, take(N, rows), vector, *(part.take(rows) for part in surface))
-                if light.kind == "point":
-                    vector = target - origin
-            limit = np.full(rows.size, light.t_max, dtype=self.dtype)
-            share = np.ones(rows.size, dtype=self.dtype)
-            live = np.arange(rows.size)
-            if self.opaque_shadows is not None:  # an object that blocks whole on the way: 0, whatever else is there
-                query = None if frames is None else RayFrames.of(rows, frames)
-                tally(counts, "shadow", rows.size, query)
-                whole = self.opaque_shadows.occluded(origin, vector, t_min, light.t_max, frames=query)
-                share[whole] = 0.0
-                live = indices(~whole)
-            for layer in range(sc.TRANSPARENT_BOUNCES + 1):
-                if not live.size:
-                    break
-                query = None if frames is None else RayFrames.of(rows.take(live), frames)
-                tally(counts, "shadow", live.size, query)
-                O_, L_ = take(origin, live), take(vector, live)
-                t, obj, part = self.shadow_hierarchy.closest(O_, L_, t_min, None, None, query)
-                found = indices((obj >= 0) & (t < limit.take(live)))
-                a = self.alpha.take(self.material_of(obj.take(found), part.take(found)))
-                opaque = (a >= 1.0) | (layer >= sc.TRANSPARENT_BOUNCES)
-                share[live.take(found.take(indices(opaque)))] = 0.0
-                on = indices(~opaque)
-                passed, at = found.take(on), t.take(found.take(on))
-                live = live.take(passed)
-                share[live] *= 1.0 - a.take(on)
-                Q = take(O_, passed) + take(L_, passed) * at
-                if self.robust:
-                    normals, rounding = self.normals(Q, obj.take(passed), part.take(passed))
-                    origin[:, live] = offset_origins(Q, normals, take(L_, passed), *rounding)
-                    if light.kind == "point":
-                        ends = target if target.shape[1] == 1 else take(target, live)
-                        vector[:, live] = ends - origin[:, live]
-                else:
-                    origin[:, live] = Q
-                    limit[live] -= at
-            through[rows] = share
-            throughs.append(through)
-        return throughs
+def _child(
+    scene: PreparedScene,
+    hits: Hits,
+    batch: RayBatch,
+    a: np.ndarray,
+    rows: np.ndarray,
+    D: np.ndarray,
+    weight: np.ndarray,
+    left: np.ndarray,
+    straight: bool,
+    kind: int,
+) -> RayBatch:
+    """The rays (k,) that the hits rows (k,) send in directions D (3, k) with weights (3, k) and bounces left (k,):
+    a straight continuation keeps its camera ray's kind, reach and pending passes and covers 1 - a more of its
+    alpha; a mirror or refracted ray (kind 1 or 2 for the passes' tag) is a new path. The reason for 10 parameters:
+    the four that vary by child come with the six every child shares."""
+    P = take(hits.P, rows)
+    O = P
+    if scene.robust:
+        O = offset_origins(P, take(hits.N, rows), D, *(part.take(rows) for part in hits.surface))
+    tag = batch.tag.take(rows)
+    tag = np.where(tag == 0, np.int8(kind), tag)
+    if straight:
+        camera = batch.camera.take(rows)
+        layers = batch.layers.take(rows) + 1
+        clear = batch.clear.take(rows) * (1.0 - a.take(rows))
+        reach = None if batch.reach is None else batch.reach.take(rows)  # what is left of it beyond the hit
+        pending = batch.pending.take(rows) & (a.take(rows) < sc.PASS_ALPHA_THRESHOLD)
+    else:
+        camera = np.zeros(rows.size, dtype=bool)
+        layers = batch.layers.take(rows)
+        clear = np.zeros(rows.size, dtype=scene.dtype)
+        reach = None if batch.reach is None else np.full(rows.size, np.inf)
+        pending = np.zeros(rows.size, dtype=bool)
+    return RayBatch(batch.pixel.take(rows), O, D, weight, left, reach, camera, layers, tag, clear, pending)
+
+
+def _refract(
+    scene: PreparedScene,
+    go: np.ndarray,
+    a: np.ndarray,
+    transmission: np.ndarray,
+    material: np.ndarray,
+    hits: Hits,
+    D: np.ndarray,
+    mirror: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """The glass share of the hits that go on (go (n,)): adds a t F to their mirror weights (n,) in place and
+    gives the rows (k,) that refract, their unit directions (3, k) and weights a t (1 - F) colour (3, k) (the
+    reference's glass_split: eta = ior entering by the geometric normal N, 1 / ior leaving; the shading normal S
+    turned to face D bends the ray; Cycles' fresnel_dielectric_cos)."""
+    rows = indices(go & (transmission > 0.0) & (a > 0.0))
+    if not rows.size:
+        return rows, None, None
+    N_, S_, D_ = take(hits.N, rows), take(hits.S, rows), take(D, rows)
+    ior = scene.ior.take(material.take(rows))
+    eta = np.where(dot(N_, D_) < 0.0, ior, 1.0 / ior)
+    facing = np.where(dot(S_, D_) < 0.0, S_, -S_)
+    d = D_ / np.sqrt(dot(D_, D_))
+    c = -dot(d, facing)
+    g2 = eta * eta - 1.0 + c * c
+    inside = g2 > 0.0  # else total internal reflection: F = 1
+    g = np.sqrt(np.where(inside, g2, 1.0))
+    A = (g - c) / (g + c)
+    B = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+    F = np.where(inside, 0.5 * A * A * (1.0 + B * B), 1.0)
+    glass = a.take(rows) * transmission.take(rows)
+    mirror[rows] += glass * F
+    share = glass * (1.0 - F)
+    keep = indices(inside & (share > 0.0))
+    T = take((d + (c - g) * facing) / eta, keep)
+    T = T / np.sqrt(dot(T, T))
+    return rows.take(keep), T, take(hits.colors, rows.take(keep)) * share.take(keep)
 
 
 def add_at(color: np.ndarray, pixel: np.ndarray, value: np.ndarray, unique: bool = False) -> None:
@@ -413,13 +276,3 @@ def add_at(color: np.ndarray, pixel: np.ndarray, value: np.ndarray, unique: bool
         return
     for row, add in zip(color, value, strict=True):
         np.add.at(row, pixel, add)
-
-
-def record_tagged(recorder: PassRecorder, name: str, tag: np.ndarray, pixel: np.ndarray, value: np.ndarray) -> None:
-    """What rays of a see-through wavefront add (3, n) into their passes: under a refracted or straight ray (tag 2)
-    the Transmission pass, else name (reflection for surfaces, environment for misses)."""
-    mine = tag == 2
-    if mine.any():
-        recorder.add("transmission", pixel[mine], value[:, mine])
-    if not mine.all():
-        recorder.add(name, pixel[~mine], value[:, ~mine])

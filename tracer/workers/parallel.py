@@ -29,14 +29,14 @@ from ..geometry.cull import GRID_BOXES
 from ..geometry.footprint import Volume
 from ..scene import scene as sc
 from ..tracing.recorder import plane_dtype, plane_shape
-from ..tracing.wavefront import PreparedScene, RayCounts
+from ..tracing.wavefront import RayCounts, TracedScene
 from .pool import PoolClosedError, Task, WorkerPool
 from .resources import band_samples, check_resources
 
 BLOCK_ROWS = 16
 Item = TypeVar("Item")
 # An animation's frames whose pixels are traced again go to the workers this many at a time, traced together
-# (PreparedScene with headings): such a frame traces a few thousand pixels, and much of its own trace's time is fixed
+# (TracedScene with headings): such a frame traces a few thousand pixels, and much of its own trace's time is fixed
 # cost (preparing the scene, the NumPy calls of every bounce), which a batch pays once. 8 was the fastest of 1, 4, 8
 # and 12 on the default animation; more frames make more boxes for every light's grid to tell apart
 # (docs/measurements.md#the-tracers-constants).
@@ -172,11 +172,11 @@ class _SceneMessage:
 
 def _prepared_for(
     scene: _SceneMessage, descriptors: tuple[int, ...], headings: tuple[float, ...] | None = None
-) -> tuple[PreparedScene, tuple[int, ...]]:
-    """The prepared scene (with the vane's parts at headings, where given: PreparedScene), rebuilt only when the
+) -> tuple[TracedScene, tuple[int, ...]]:
+    """The prepared scene (with the vane's parts at headings, where given: TracedScene), rebuilt only when the
     scene or the headings changed since the last task (a few ms per build; seconds for a million-triangle mesh),
     and the descriptors the scene did not use. The scene itself is unpickled only when it changed: frames at other
-    headings keep its objects, and with them what PreparedScene keeps by object."""
+    headings keep its objects, and with them what TracedScene keeps by object."""
     if scene.offsets is not None:
         file, descriptors = descriptors[0], descriptors[1:]
     if _worker_cache.get("scene") != (scene.key, headings):
@@ -194,9 +194,9 @@ def _prepared_for(
                 loaded = (scene.key, pickle.loads(scene.pickled, buffers=buffers))
             _worker_cache["loaded"] = loaded
         _worker_cache["scene"] = (scene.key, headings)
-        _worker_cache["prepared"] = PreparedScene(loaded[1], headings)
+        _worker_cache["prepared"] = TracedScene(loaded[1], headings)
     prepared = _worker_cache["prepared"]
-    assert isinstance(prepared, PreparedScene)
+    assert isinstance(prepared, TracedScene)
     return prepared, descriptors
 
 
@@ -280,7 +280,7 @@ def _render_frame_pixels(
     scene: _SceneMessage, headings: tuple[float, ...], frame_pixels: list[np.ndarray], *descriptors: int
 ) -> list[tuple[np.ndarray, RayCounts]]:
     """Trace each frame's flat pixels (P_k,) in the scene with its vane at headings[k]: their colours (P_k, 3) and
-    ray counts, all frames in one trace (PreparedScene.render_frame_pixels)."""
+    ray counts, all frames in one trace (TracedScene.render_frame_pixels)."""
     prepared, _ = _prepared_for(scene, descriptors, headings)
     return prepared.render_frame_pixels(frame_pixels, band_samples(prepared.scene.render))
 
@@ -305,7 +305,7 @@ class Renderer:
         self.workers = worker_count(workers)
         self._niceness = niceness
         self._pool: WorkerPool | None = None
-        self._prepared: tuple[bytes, tuple[float, ...] | None, PreparedScene] | None = None
+        self._prepared: tuple[bytes, tuple[float, ...] | None, TracedScene] | None = None
         default = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
         self._start_method = start_method or default
         self._images = _SharedImages() if hasattr(os, "memfd_create") else None
@@ -390,14 +390,14 @@ class Renderer:
                 progress(done, len(every))
         return _result(image, counts, time.perf_counter() - started, touched, settings, planes)
 
-    def _prepared_here(self, scene: sc.Scene, headings: tuple[float, ...] | None = None) -> PreparedScene:
+    def _prepared_here(self, scene: sc.Scene, headings: tuple[float, ...] | None = None) -> TracedScene:
         """The scene prepared in this process (one worker), with the vane at headings where given, kept while both
         stay the same."""
         tune_allocator()
         scene_bytes = pickle.dumps(scene)
         if self._prepared is None or self._prepared[:2] != (scene_bytes, headings):
             self._prepared = None  # the last scene's kernels go before the next one's are built
-            self._prepared = (scene_bytes, headings, PreparedScene(scene, headings))
+            self._prepared = (scene_bytes, headings, TracedScene(scene, headings))
         return self._prepared[2]
 
     def render_pixels(self, scene: sc.Scene, pixels: np.ndarray, base: np.ndarray) -> RenderResult:
@@ -436,7 +436,7 @@ class Renderer:
         self, scene: sc.Scene, frames: Iterable[tuple[float, np.ndarray]], base: np.ndarray
     ) -> Iterator[RenderResult]:
         """render_pixels(scene with its vane at heading, pixels, base) for each (heading, pixels) in turn, results in
-        order. The frames go FRAMES_PER_TASK at a time, each batch in one trace (PreparedScene with headings); with
+        order. The frames go FRAMES_PER_TASK at a time, each batch in one trace (TracedScene with headings); with
         workers a batch is one task, and as many batches as workers (and one more, queued) are traced at once: such
         a frame is small, and most of its time is the fixed cost of a trace, which a batch pays once and splitting
         would pay again in every worker."""

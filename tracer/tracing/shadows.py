@@ -1,0 +1,194 @@
+"""A prepared scene's shadow rays -> which lights reach which points: one any-hit query for the rays of every light
+(planes first, then each light's coverage grid, then the hierarchy), and where some material has alpha < 1 the share
+of each light that passes the partly transparent surfaces on the way (listing 3.2's shadow test, Cycles' transparent
+shadows)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.cull import kernel_sets
+from ..geometry.footprint import Footprint
+from ..geometry.kernels import indices, take
+from ..geometry.rayframes import RayFrames
+from ..geometry.robust import offset_origins
+from ..scene import scene as sc
+from .lights import DirectedLight, LightTerm, directed
+from .prepared import PreparedScene
+from .rays import SHADOW_T_MIN, RayCounts, tally
+
+
+def reached(
+    scene: PreparedScene,
+    terms: list[LightTerm],
+    P: np.ndarray,
+    N: np.ndarray,
+    surface: tuple[np.ndarray, np.ndarray] | None,
+    counts: RayCounts,
+    footprint: Footprint | None = None,
+    samples: np.ndarray | None = None,
+    frames: np.ndarray | None = None,
+) -> list[np.ndarray]:
+    """One any-hit query for the shadow rays of every light (terms: each light's, in order): which points (n,) of P
+    each light reaches, the rays starting off the normals N (3, n) and the points' surface (robust numerics);
+    footprint: records them as rays of the camera samples (n,); frames: where each frame's points start (K + 1,),
+    as find_intensity() takes them. The reason for 9 parameters: the points' three, and the bookkeeping of
+    counts, footprint and frames every query of the tracer carries.
+
+    Robust numerics start each shadow ray just off the surface (offset_origins), on the light's side, and search
+    t from 0; the documented ones start on the surface and search t from 0.001 (listing 3.2)."""
+    lights = directed(scene.lights)
+    t_min = 0.0 if scene.robust else SHADOW_T_MIN
+    shadows, origins, vectors, limits, bits, views, runs = [], [], [], [], [], [], []
+    start = 0  # where the light's rays start in the query of all lights
+    for light, (L, *_, needed, _) in zip(lights, terms, strict=True):
+        origin, vector = _shadow_rays(scene, light, L, needed, P, N, surface)
+        if footprint is not None:  # the whole segment: a blocker that moves in could block it anywhere
+            footprint.record(samples.take(needed), origin, vector, t_min, light.t_max, light=light.source)
+        own = None if frames is None else RayFrames.of(needed, frames)  # the light's rays by frame
+        tally(counts, "shadow", needed.size, own)
+        # planes first, light by light (a shared direction keeps their test cheap); then only the rays that
+        # the light's coverage grid cannot rule out go on to the hierarchy, all lights in one batch
+        whole = [] if light.grid is None else light.grid.whole  # what the light's picture leaves out
+        blocked = scene.shadow_hierarchy.blocked_by_planes(origin, vector, t_min, light.t_max, whole, own)
+        if light.grid is None:
+            rest, covering = indices(~blocked), None
+        else:
+            rest, covering = light.covering(origin, vector)
+            keep = indices(~blocked.take(rest))
+            rest = rest.take(keep)
+            covering = None if covering is None else covering.take(keep)
+        bits.append(None if covering is None else (light.grid.kernels, covering))
+        shadows.append((needed, blocked, rest))
+        if own is not None:
+            runs.append(RayFrames.of(rest, own.cuts[0], start))
+        start += rest.size
+        every = light.grid is None and rest.size == needed.size  # nothing left out: no need to gather
+        origins.append(origin if every and origin.shape[1] == rest.size else take(origin, rest))
+        if vector.shape[1] == 1:
+            vectors.append(np.broadcast_to(vector, (3, rest.size)))
+        else:
+            vectors.append(vector if every and vector.shape[1] == rest.size else take(vector, rest))
+        if len(lights) > 1:
+            limits.append(np.full(rest.size, light.t_max, dtype=scene.dtype))
+        views.append(light.view)
+    if not shadows:
+        return []
+    # where every light's grid told which boxes each ray may meet, the hierarchy is not walked
+    hierarchy = scene.shadow_hierarchy
+    sets = None if any(b is None for b in bits) else kernel_sets(bits)
+    # which light's point or direction each ray shares, for the meshes' pictures
+    which = np.repeat(np.arange(len(views)), [rest.size for *_, rest in shadows])
+    one = len(shadows) == 1  # one light: its arrays as they are, its limit one number
+    blocked_by_objects = hierarchy.occluded(
+        origins[0] if one else np.concatenate(origins, axis=1),
+        vectors[0] if one else np.concatenate(vectors, axis=1),
+        t_min,
+        lights[0].t_max if one else np.concatenate(limits),
+        planes=False,
+        sets=sets,
+        views=(views, which),
+        frames=RayFrames.joined(runs) if runs else None,
+    )
+    lit, start = [], 0
+    for needed, blocked, rest in shadows:
+        blocked[rest] = blocked_by_objects[start : start + rest.size]
+        start += rest.size
+        reaching = np.zeros(P.shape[1], dtype=bool)
+        reaching[needed] = ~blocked
+        lit.append(reaching)
+    return lit
+
+
+def _shadow_rays(
+    scene: PreparedScene,
+    light: DirectedLight,
+    L: np.ndarray,
+    needed: np.ndarray,
+    P: np.ndarray,
+    N: np.ndarray,
+    surface: tuple[np.ndarray, np.ndarray] | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The shadow rays toward a light from the points needed (k,) of P (3, n): origins and vectors (3, k; a
+    directional light's vector a shared column), the light at t = 1 for a point. Robust numerics start them just
+    off the surface (offset_origins, by the normals N and the points' surface), on the light's side."""
+    vector = take(L, needed)
+    origin = take(P, needed)
+    if scene.robust:
+        target = take(P, needed) + vector if light.disk is not None else light.vector
+        origin = offset_origins(origin, take(N, needed), vector, *(part.take(needed) for part in surface))
+        if light.ends_at_point:
+            vector = target - origin  # t = 1 is still exactly the light
+    return origin, vector
+
+
+def passing(
+    scene: PreparedScene,
+    terms: list[LightTerm],
+    lit: list[np.ndarray],
+    P: np.ndarray,
+    N: np.ndarray,
+    counts: RayCounts,
+    surface: tuple[np.ndarray, np.ndarray] | None,
+    frames: np.ndarray | None,
+) -> list[np.ndarray]:
+    """Where some material has alpha < 1: the share (n,) of each light (not ambient) that reaches the points,
+    from reached()'s answer: 1 where nothing blocks, else the product of 1 - alpha over the surfaces the shadow ray
+    meets, nearest first, each passed by a segment from its hit along the same vector (the rest of the range);
+    0 at an opaque one (glass too: Cycles' caustics off) or past sc.TRANSPARENT_BOUNCES of them (the
+    reference's shadow_through)."""
+    lights = directed(scene.lights)
+    t_min = 0.0 if scene.robust else SHADOW_T_MIN
+    throughs = []
+    for light, term, reached in zip(lights, terms, lit, strict=True):
+        L, needed = term.L, term.needed
+        through = reached.astype(scene.dtype)
+        rows = needed.take(indices(~reached.take(needed)))
+        if not rows.size:
+            throughs.append(through)
+            continue
+        vector = np.array(np.broadcast_to(take(L, rows), (3, rows.size)))
+        origin = np.array(np.broadcast_to(take(P, rows), (3, rows.size)))
+        target = None
+        if scene.robust:  # as reached() starts them
+            target = origin + vector if light.disk is not None else light.vector
+            origin = offset_origins(origin, take(N, rows), vector, *(part.take(rows) for part in surface))
+            if light.ends_at_point:
+                vector = target - origin
+        limit = np.full(rows.size, light.t_max, dtype=scene.dtype)
+        share = np.ones(rows.size, dtype=scene.dtype)
+        live = np.arange(rows.size)
+        if scene.opaque_shadows is not None:  # an object that blocks whole on the way: 0, whatever else is there
+            query = None if frames is None else RayFrames.of(rows, frames)
+            tally(counts, "shadow", rows.size, query)
+            whole = scene.opaque_shadows.occluded(origin, vector, t_min, light.t_max, frames=query)
+            share[whole] = 0.0
+            live = indices(~whole)
+        for layer in range(sc.TRANSPARENT_BOUNCES + 1):
+            if not live.size:
+                break
+            query = None if frames is None else RayFrames.of(rows.take(live), frames)
+            tally(counts, "shadow", live.size, query)
+            O_, L_ = take(origin, live), take(vector, live)
+            t, obj, part = scene.shadow_hierarchy.closest(O_, L_, t_min, None, None, query)
+            found = indices((obj >= 0) & (t < limit.take(live)))
+            a = scene.alpha.take(scene.material_of(obj.take(found), part.take(found)))
+            opaque = (a >= 1.0) | (layer >= sc.TRANSPARENT_BOUNCES)
+            share[live.take(found.take(indices(opaque)))] = 0.0
+            on = indices(~opaque)
+            passed, at = found.take(on), t.take(found.take(on))
+            live = live.take(passed)
+            share[live] *= 1.0 - a.take(on)
+            Q = take(O_, passed) + take(L_, passed) * at
+            if scene.robust:
+                normals, rounding = scene.normals(Q, obj.take(passed), part.take(passed))
+                origin[:, live] = offset_origins(Q, normals, take(L_, passed), *rounding)
+                if light.ends_at_point:
+                    ends = target if target.shape[1] == 1 else take(target, live)
+                    vector[:, live] = ends - origin[:, live]
+            else:
+                origin[:, live] = Q
+                limit[live] -= at
+        through[rows] = share
+        throughs.append(through)
+    return throughs
