@@ -27,10 +27,10 @@ order swapped every repeat) and takes medians over the repeats. A render that ta
 is abandoned (its process group killed) and recorded as exceeded; that engine then skips larger instance counts at
 that size and larger (a budget of the build itself: BUILD_SECONDS). The tracer's F12 is split: `trace` is the
 seconds the engine reports in its status line (result.seconds: handing the scene to the workers, their preparation
-and the tracing); `export` (addon.export.scene_document), `json` (the engine's JSON round trip of the document) and
-`load` (the loader's scene_from_dict) are timed by wrappers this measuring process puts around those functions (the
-add-on is not changed); `other` is the rest (Blender's render pipeline and depsgraph, the worker pool's start,
-writing the result). Peak memory: the summed resident set size (RSS) of the measuring process and all its
+and the tracing); `export` (addon.convert.export.scene_document), `json` (the engine's JSON round trip of the
+document) and `load` (the loader's scene_from_dict) are timed by wrappers this measuring process puts around those
+functions (the add-on is not changed); `other` is the rest (Blender's render pipeline and depsgraph, the worker
+pool's start, writing the result). Peak memory: the summed resident set size (RSS) of the measuring process and all its
 descendants (the tracer's workers), sampled every 20 ms from /proc by this (parent) process, over each F12; shared
 pages count once per process that maps them.
 

@@ -100,7 +100,7 @@ def test_the_shader_is_the_listing(tmp_path: Path) -> None:
         "import sys, json\n"
         f"sys.path.insert(0, {str(Path(__file__).resolve().parents[1])!r})\n"
         "from tests.test_exact_twin import flat_scene\n"
-        "from addon import exact_twin\n"
+        "from addon.convert import exact_twin\n"
         "from tracer.scene.loader import scene_from_dict\n"
         "for model in ('blinn-phong', 'phong'):\n"
         "    print(exact_twin.shader_source(scene_from_dict(flat_scene(model), 'test')))\n"

@@ -288,3 +288,85 @@ def test_the_facades_two_branches_import_the_same_names_and_all_lists_them():
             elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[-1] == FACADE:
                 used |= {alias.name for alias in node.names}
     assert used == set(exported), f"unused: {sorted(set(exported) - used)}; missing: {sorted(used - set(exported))}"
+
+
+# ---- the tracing core: no mixins calling each other back, classes and functions of a size a reader can hold ------
+
+TRACING = sorted((ROOT / "tracer" / "tracing").glob("*.py"))
+LARGEST_CLASS = 400  # lines
+MOST_PARAMETERS, LONGEST_FUNCTION = 8, 80  # beyond these a function's docstring says why ("The reason for ...")
+
+
+def _classes(paths: list[Path]) -> dict[str, tuple[str, ast.ClassDef]]:
+    """Every class of the modules, by name: (its module's file name, its definition)."""
+    found = {}
+    for path in paths:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ClassDef):
+                found[node.name] = (path.name, node)
+    return found
+
+
+def _own_and_inherited(name: str, classes: dict[str, tuple[str, ast.ClassDef]]) -> set[str]:
+    """The names a class defines (methods, class-level names) with those of its bases among the classes."""
+    _, node = classes[name]
+    names = {item.name for item in node.body if isinstance(item, ast.FunctionDef | ast.AsyncFunctionDef)}
+    names |= {item.target.id for item in node.body if isinstance(item, ast.AnnAssign) and hasattr(item.target, "id")}
+    for base in node.bases:
+        if isinstance(base, ast.Name) and base.id in classes:
+            names |= _own_and_inherited(base.id, classes)
+    return names
+
+
+def self_calls_outside_the_class(paths: list[Path]) -> list[str]:
+    """Each `self.name(...)` call in a class's methods whose name the class and its bases do not define: a mixin
+    calling back into the class that mixes it in (a circle of calls that no import line shows)."""
+    classes = _classes(paths)
+    problems = []
+    for name, (module, node) in classes.items():
+        known = _own_and_inherited(name, classes)
+        for call in ast.walk(node):
+            if (
+                isinstance(call, ast.Call)
+                and isinstance(call.func, ast.Attribute)
+                and isinstance(call.func.value, ast.Name)
+                and call.func.value.id == "self"
+                and call.func.attr not in known
+            ):
+                problems.append(f"{module}: {name} calls self.{call.func.attr}(), which it does not define")
+    return problems
+
+
+def test_the_self_call_guard_sees_a_mixin_calling_back(tmp_path):
+    mixin = tmp_path / "mixin.py"
+    mixin.write_text("class Shading:\n    def shade(self):\n        return self.shadow_through()\n")
+    host = tmp_path / "host.py"
+    host.write_text("class Prepared(Shading):\n    def shadow_through(self):\n        return self.shade()\n")
+    assert self_calls_outside_the_class([mixin, host]) == [
+        "mixin.py: Shading calls self.shadow_through(), which it does not define"
+    ]
+
+
+def test_no_tracing_class_calls_back_through_self_into_another():
+    assert self_calls_outside_the_class(TRACING) == []
+
+
+def test_the_largest_tracing_class_is_under_400_lines():
+    sizes = {
+        f"{module}: {name}": node.end_lineno - node.lineno + 1 for name, (module, node) in _classes(TRACING).items()
+    }
+    assert max(sizes.values()) < LARGEST_CLASS, sorted(sizes.items(), key=lambda item: -item[1])[:3]
+
+
+def test_long_tracing_functions_say_why():
+    unexplained = []
+    for path in TRACING:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, ast.FunctionDef):
+                continue
+            arguments = [a for a in (*node.args.args, *node.args.kwonlyargs) if a.arg not in ("self", "cls")]
+            lines = node.end_lineno - node.lineno + 1
+            large = len(arguments) > MOST_PARAMETERS or lines > LONGEST_FUNCTION
+            if large and "The reason for" not in (ast.get_docstring(node) or ""):
+                unexplained.append(f"{path.name}: {node.name} ({len(arguments)} parameters, {lines} lines)")
+    assert unexplained == []

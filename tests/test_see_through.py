@@ -407,7 +407,7 @@ def test_data_passes_show_the_first_surface_of_alpha_at_least_one_half(alpha: fl
 
 def _forced(scene: sc.Scene) -> TracedScene:
     """The scene prepared as if some material were see-through (every alpha 1, transmission 0): trace() takes
-    trace_see_through's way."""
+    see_through.py's stages."""
     prepared = TracedScene(scene)
     count = len(prepared.reflective)
     prepared.see_through = True
@@ -418,8 +418,9 @@ def _forced(scene: sc.Scene) -> TracedScene:
 
 @pytest.mark.parametrize("seed", [None, *range(8)])
 def test_the_see_through_way_with_nothing_see_through_is_the_documented_one(seed: int | None) -> None:
-    # trace_see_through with every alpha 1 and transmission 0 gives trace()'s bytes, passes and ray counts: the
-    # general wavefront reduces to the bounce loop (the default scene, and scenes with Blender's fields and passes)
+    # see_through.py's stages with every alpha 1 and transmission 0 give the Whitted stages' bytes, passes and ray
+    # counts: the general wavefront reduces to the mirror-only one (the default scene, and scenes with Blender's
+    # fields and passes)
     from tests.random_scenes import extended_scene_document
 
     if seed is None:

@@ -486,7 +486,7 @@ def _materials(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...]) -> 
     prepared.colored = any(m.specular_color is not None for m in table)
     prepared.two_sided = np.asarray([m.two_sided for m in table], dtype=bool)
     prepared.any_two_sided = bool(prepared.two_sided.any())
-    # glass and transparency (trace_see_through): only where some material has them, else nothing of it runs
+    # glass and transparency (see_through.py's stages): only where some material has them, else none of it runs
     prepared.see_through = any(m.see_through for m in table)
     prepared.shadow_alpha = any(m.alpha < 1.0 for m in table)  # shadow rays pass such surfaces (shadows.passing)
     if prepared.see_through:
