@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from tests.random_scenes import extended_scene_document
+from tests.random_scenes import extended_scene_document, see_through_scene_document
 from tracer.geometry import camera as cam
 from tracer.geometry import lightsamples
 from tracer.scene import passes as ps
@@ -70,7 +70,7 @@ def test_area_lights_sun_angles_and_shadow_samples_are_checked_with_clear_messag
     document = default_scene_dict()
     document["lights"].append({"type": "lamp", "intensity": 1})
     assert _problems(document) == [
-        'lights[3].type: must be one of "ambient", "point", "directional", "spot", "area", got "lamp"'
+        'lights[3].type: must be one of "ambient", "point", "directional", "spot", "area", "world", got "lamp"'
     ]
 
 
@@ -394,3 +394,79 @@ def test_a_large_background_picture_travels_to_the_workers_in_the_shared_file_no
     finally:
         shared.close()
     assert np.array_equal(render(scene, workers=2).image, render(scene, workers=1).image)
+
+
+# ---- the world as a light that objects shadow ------------------------------------------------------------------------
+
+
+def _world_lit_document(seed: int) -> dict:
+    """A random scene lit by a world light (its radiance the background's, or a colour of its own), with or without
+    its other lights, under any kind of background, glass and transparency included."""
+    rng = random.Random(30_000 + seed)
+    document = (see_through_scene_document if seed % 3 == 2 else extended_scene_document)(seed, width=16, height=12)
+    if seed % 2:
+        document["background"] = _world_document(seed)["background"]
+    elif seed % 4 == 0:
+        document["background"] = {"type": "sky", "horizon": [0.9, 0.8, 0.7], "zenith": [0.2, 0.4, 0.8]}
+    light = {"type": "world", "intensity": rng.choice([1.0, 0.7]), "samples": rng.choice([1, 7, 16])}
+    if seed % 5 == 1:
+        light.update(radiance="color", color=[0.9, 0.6, 0.3])
+    document["lights"] = [light] + (document["lights"] if seed % 3 else [])
+    return document
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_world_lit_scenes_match_the_reference(seed: int) -> None:
+    scene = scene_from_dict(_world_lit_document(seed))
+    expected = np.asarray(render_reference(scene))
+    image = _with_alpha(render(scene, workers=1))
+    np.testing.assert_allclose(image, expected, rtol=0, atol=1e-9)
+
+
+def _open_ground(objects: list[dict], samples: int = 64, **light: object) -> float:
+    """The ground's colour straight under a camera looking down at the origin, lit by a white world light only."""
+    document = {
+        "materials": {"white": {"color": [1.0, 1.0, 1.0], "specular": 0}},
+        "objects": [{"name": "ground", "type": "plane", "material": "white"}, *objects],
+        "lights": [{"type": "world", "intensity": 1.0, "samples": samples, **light}],
+        "camera": {"location": [0.0, 0.0, 50.0], "rotation": [0.0, 0.0, 0.0], "type": "ORTHO", "ortho_scale": 0.01},
+        "background": {"type": "solid", "color": [1.0, 1.0, 1.0]},
+        "render": {"width": 1, "height": 1, "depth": 0},
+    }
+    return float(render(scene_from_dict(document), workers=1).image[0, 0, 0])
+
+
+def test_the_world_light_on_open_ground_is_its_radiance_and_a_sphere_above_hides_its_cap() -> None:
+    """Open ground: the cosine-weighted mean of a uniform radiance 1 is 1 exactly (the directions' heights are the
+    midpoint rule). Under a sphere of radius 1 centred 1.2 above: the sky within its angular radius asin(1 / 1.2) of
+    the zenith is hidden, leaving 1 - (1 / 1.2)^2 of the light; the estimate is off by under one direction's
+    height step (2 / samples)."""
+    assert _open_ground([]) == pytest.approx(1.0, abs=1e-12)
+    assert _open_ground([], radiance="color", color=[0.5, 0.5, 0.5]) == pytest.approx(0.5, abs=1e-12)
+    sphere = {"name": "ball", "type": "sphere", "material": "white", "location": [0.0, 0.0, 1.2], "radius": 1.0}
+    sphere["visible_camera"] = False  # the camera sees the ground under it
+    for samples in (16, 64, 256):
+        under = _open_ground([sphere], samples)
+        assert under == pytest.approx(1.0 - (1.0 / 1.2) ** 2, abs=2.0 / samples), samples
+
+
+def test_world_light_samples_are_checked_with_clear_messages() -> None:
+    base = {"materials": {"m": {"color": [1, 1, 1]}}, "objects": [{"type": "sphere", "material": "m"}]}
+    for light, message in (
+        ({"type": "world", "intensity": 1, "samples": 0}, "lights[0].samples"),
+        ({"type": "world", "intensity": 1, "radiance": "sky"}, "lights[0].radiance"),
+        ({"type": "world", "intensity": -1}, "lights[0].intensity"),
+    ):
+        with pytest.raises(SceneError, match=message.replace("[", r"\[").replace("]", r"\]")):
+            scene_from_dict({**base, "lights": [light]})
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_world_light_keeps_the_passes_adding_up_and_workers_agree(seed: int) -> None:
+    document = _world_lit_document(seed)
+    document["render"].pop("border", None)
+    plain = scene_from_dict(document)
+    result = render(plain.with_render(passes=(*ps.WHITTED, "shadow")), workers=2)
+    assert np.array_equal(result.image, render(plain, workers=1).image)
+    total = sum(result.passes[name].astype(np.float64) for name in ps.WHITTED)
+    assert np.all(np.abs(total - result.image) <= 8 * np.finfo(np.float64).eps * np.maximum(1.0, np.abs(result.image)))

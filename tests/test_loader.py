@@ -97,7 +97,7 @@ MALFORMED = [
     (
         "lights/0/type",
         "lamp",
-        'lights[0].type: must be one of "ambient", "point", "directional", "spot", "area", got "lamp"',
+        'lights[0].type: must be one of "ambient", "point", "directional", "spot", "area", "world", got "lamp"',
     ),
     ("lights/1/intensity", -0.5, "lights[1].intensity: must be >= 0, got -0.5"),
     ("lights/1/location", DELETE, "lights[1].location: is required"),

@@ -1,22 +1,24 @@
-"""scene.world -> the tracer's background and an ambient light (docs/scene-format.md), and what it approximates.
+"""scene.world -> the tracer's background and a world light (docs/scene-format.md), and what it approximates.
 
 Cycles shows a uniform world of radiance W = Background Color x Strength to camera and mirror rays, and lights an
 unoccluded white diffuse surface to exactly W (measured in Cycles 5.0.1 and 3.4.1: a world (0.3, 0.5, 0.7) gives
 (0.3, 0.5, 0.7) on a white plane; tests/addon/test_shading_convert.py). So:
 
     background  {"type": "solid", "color": W}
-    ambient     {"type": "ambient", "intensity": 1, "color": W}     the documented ambient term, coloured; named,
-                because Cycles' world light is occluded (ambient occlusion) and the documented ambient is not
-                (a W above 1 becomes intensity max(W) and colour W / max(W), the same light; the background clips)
+    world light {"type": "world", "radiance": "color", "intensity": 1, "color": W, "samples": n}   shadowed by the
+                objects over n directions per point (Cycles with no bounces); a W above 1 becomes intensity max(W)
+                and colour W / max(W), the same light; the background clips
 
 An Environment Texture (equirectangular) is the background itself: {"type": "image", "pixels": (H, W, 3) linear
 float32, top row first, "strength": S, "rotation": a Mapping node's Z rotation in degrees} (docs/scene-format.md), its
 pixels read once per image (environment_pixels, kept) and handed to the tracer as an array (F12) or a .npy file
-(the Rendered view's and File > Export's documents, which are JSON); its mean (weighted by solid angle) times S is
-the ambient light, named. A mirror-ball projection, a Mapping the tracer cannot express (anything but a Z rotation)
-or an input between them other than a Mapping keep the mean colour as a solid background, named. A sky texture has
-no colour to read without rendering it: a clear-sky blue (SKY_MEAN) times its strength, named. No world is black with
-no ambient, as in Cycles. The add-on's own world (twin.py, "WV World") is the panel's background, lighting nothing.
+(the Rendered view's and File > Export's documents, which are JSON); it lights as it is seen: {"type": "world",
+"intensity": 1, "samples": n} (its mean, weighted by solid angle, times S where the camera does not see it). A
+mirror-ball projection, a Mapping the tracer cannot express (anything but a Z rotation) or an input between them other
+than a Mapping keep the mean colour as a solid background, named. A sky texture has no colour to read without
+rendering it: a clear-sky blue (SKY_MEAN) times its strength, named. No world is black with no world light, as in
+Cycles. The light's directions: the engine's Shadows samples, at least WORLD_SAMPLES. The add-on's own world
+(twin.py, "WV World") is the panel's background, lighting nothing.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from . import material_convert, node_tree
 OWN_WORLD = "WV World"  # twin.WORLD
 SKY_MEAN = (0.2, 0.35, 0.6)  # a clear day's sky, mean radiance at strength 1 (an estimate, named where used)
 BLACK = {"type": "solid", "color": [0.0, 0.0, 0.0]}
+WORLD_SAMPLES = 16  # the world light's directions per point at the least (a 4 x 4 grid over the hemisphere)
 
 _means: dict[tuple, tuple[float, float, float]] = {}
 
@@ -247,8 +250,21 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
         return background, None, notes
     if not any(c > 0.0 for c in color) or (visibility is not None and not visibility.diffuse):
         return background, None, notes
-    notes.append("world light: unshadowed ambient" + (" of the picture's mean colour" if picture is not None else ""))
-    # intensity 1 and colour W; a W above 1 (the format's colours lie in [0, 1]) puts its largest channel in the
-    # intensity: the same light
+    samples = world_samples(blender_scene)
+    shadowed = f"shadowed, {samples} directions per point, no bounces"
+    if picture is not None and background is picture:  # the picture lights as the camera sees it
+        notes.append(f"world light: the picture, {shadowed}")
+        return background, {"type": "world", "intensity": 1.0, "samples": samples}, notes
+    notes.append(f"world light: {shadowed}" + (", the picture's mean colour" if picture is not None else ""))
+    # a uniform radiance W: intensity 1 and colour W; a W above 1 (the format's colours lie in [0, 1]) puts its
+    # largest channel in the intensity: the same light
     brightest = max(1.0, max(color))
-    return background, {"type": "ambient", "intensity": brightest, "color": [c / brightest for c in color]}, notes
+    light = {"type": "world", "radiance": "color", "intensity": brightest, "samples": samples}
+    return background, {**light, "color": [c / brightest for c in color]}, notes
+
+
+def world_samples(blender_scene) -> int:
+    """The world light's directions per point: the engine's Shadows samples, at least WORLD_SAMPLES (a world of
+    one direction would be a sun)."""
+    settings = getattr(blender_scene, "weathervane", None)
+    return max(WORLD_SAMPLES, int(getattr(settings, "shadow_samples", "1")))

@@ -170,7 +170,7 @@ def test_an_equirectangular_world_is_the_background_cycles_shows(tmp_path: Path)
 
     background, _, notes = world_convert.convert_world(scene.world, blender_scene=scene)
     assert background["type"] == "image" and background["rotation"] == pytest.approx(40.0)
-    assert notes == ["world light: unshadowed ambient of the picture's mean colour"]
+    assert notes == ["world light: the picture, shadowed, 16 directions per point, no bounces"]
     cycles = _render(scene, "CYCLES", tmp_path / "cycles.exr")
     tracer = _render(scene, "WEATHERVANE_TRACER", tmp_path / "tracer.exr")
     error = np.mean((tracer - cycles) ** 2)

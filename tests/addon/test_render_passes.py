@@ -130,7 +130,8 @@ def test_ticked_passes_hold_the_scenes_distances_normals_indices_and_add_up_to_c
         total = sum(channels[f"ViewLayer.{name}.{letter}"].astype(np.float64) for name in WHITTED)
         assert np.allclose(total, channels[f"ViewLayer.Combined.{letter}"], atol=2e-6), letter
     transmitted = channels["ViewLayer.Transmission.G"]
-    assert (transmitted > 0.01).sum() > 10 and transmitted[24, 32] == 0.0  # the ball's pixels, not the cube's
+    # the ball's pixels, not the cube's; dim: the ground it shows is shadowed by the ball from the lamp and the world
+    assert (transmitted > 0.001).sum() > 10 and transmitted[24, 32] == 0.0
 
 
 def test_cryptomatte_picks_each_object_as_its_coverage(tmp_path: Path) -> None:

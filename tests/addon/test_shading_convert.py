@@ -316,7 +316,7 @@ def test_a_light_whose_type_changed_in_blender_converts_as_its_new_type() -> Non
 # --- world -----------------------------------------------------------------------------------------------------------
 
 
-def test_the_world_colour_is_the_background_and_a_coloured_ambient() -> None:
+def test_the_world_colour_is_the_background_and_a_shadowed_world_light() -> None:
     assert world_convert.convert_world(None) == ({"type": "solid", "color": [0.0, 0.0, 0.0]}, None, [])
     world = bpy.data.worlds.new("green")
     compat.enable_nodes(world)
@@ -326,18 +326,20 @@ def test_the_world_colour_is_the_background_and_a_coloured_ambient() -> None:
     color, ambient, notes = world_convert.convert_world(world)
     assert color == {"type": "solid", "color": pytest.approx([0.2, 1.0, 0.4])}  # the display's clip
     assert ambient == {
-        "type": "ambient",
+        "type": "world",
+        "radiance": "color",
         "intensity": pytest.approx(1.2),
+        "samples": 16,
         "color": pytest.approx([0.2 / 1.2, 1, 0.4 / 1.2]),
     }
     assert notes == [
         "world brighter than 1: background clipped at 1, as the display shows it",
-        "world light: unshadowed ambient",
+        "world light: shadowed, 16 directions per point, no bounces",
     ]
     background.inputs["Strength"].default_value = 1.0
     color, ambient, notes = world_convert.convert_world(world)
     assert color["color"] == ambient["color"] == pytest.approx([0.1, 0.6, 0.2]) and ambient["intensity"] == 1.0
-    assert notes == ["world light: unshadowed ambient"]
+    assert notes == ["world light: shadowed, 16 directions per point, no bounces"]
     sky = world.node_tree.nodes.new("ShaderNodeTexSky")
     world.node_tree.links.new(sky.outputs["Color"], background.inputs["Color"])
     color, _, notes = world_convert.convert_world(world)
@@ -603,7 +605,8 @@ def test_the_factory_startup_scene_converts_with_its_approximations_named() -> N
     assert background["color"] == pytest.approx([0.0508761] * 3, rel=1e-4) or background["color"] == pytest.approx(
         [0.05] * 3, rel=1e-4
     )
-    assert ambient["color"] == background["color"] and notes == ["world light: unshadowed ambient"]
+    assert ambient["color"] == background["color"]
+    assert notes == ["world light: shadowed, 16 directions per point, no bounces"]
     rows = conversion_report.scene_conversion(scene)
     assert [kind for kind, _, _ in rows] == ["MATERIAL", "LIGHT", "WORLD"]
     assert conversion_report.summary_line(rows) == "1 exact, 2 approximated (Light, World)"

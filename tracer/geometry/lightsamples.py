@@ -87,6 +87,24 @@ def sun_directions(light: sc.DirectionalLight, samples: int) -> list[sc.Vec3]:
     return directions
 
 
+GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))  # radians: successive directions turn by it (a Fibonacci spiral)
+
+
+def hemisphere_directions(samples: int) -> list[sc.Vec3]:
+    """The world light's directions in the frame of a point's normal (z along it): a Fibonacci spiral over the
+    hemisphere, z = (i + 0.5) / samples (Archimedes: uniform in z is uniform over the hemisphere's area) turning by
+    the golden angle, so that every direction has a height of its own (an occluder's edge is resolved to 1 / samples
+    in z, where a grid of the same count resolves 1 / sqrt(samples)). 2 / samples times the sum of z f over them
+    estimates the cosine-weighted mean of f (exactly, for f = 1: the midpoint rule on a linear function)."""
+    directions = []
+    for i in range(samples):
+        z = (i + 0.5) / samples
+        r = math.sqrt(max(0.0, 1.0 - z * z))
+        angle = i * GOLDEN_ANGLE
+        directions.append((r * math.cos(angle), r * math.sin(angle), z))
+    return directions
+
+
 def equirectangular(D: sc.Vec3, rotation: float) -> tuple[float, float]:
     """A direction -> Blender's equirectangular (u, v) in [0, 1] (Cycles' direction_to_equirectangular: u = 0.5 -
     atan2(y, x) / 2 pi, so +X is the picture's centre and +Y a quarter from its left; v = 0.5 + elevation / pi, 1 at

@@ -844,7 +844,7 @@ def _mesh_materials(
     return tuple(names), indices
 
 
-LIGHT_TYPES = ("ambient", "point", "directional", "spot", "area")
+LIGHT_TYPES = ("ambient", "point", "directional", "spot", "area", "world")
 
 
 def _light(reader: _Reader) -> sc.Light | None:
@@ -857,6 +857,10 @@ def _light(reader: _Reader) -> sc.Light | None:
     direction = {"nonzero": True, "low": -COORDINATE_LIMIT, "high": COORDINATE_LIMIT}
     if kind == "ambient":
         result = sc.AmbientLight(intensity=intensity, color=color)
+    elif kind == "world":
+        samples = reader.number("samples", sc.WorldLight.samples, low=1, high=1024, integer=True)
+        radiance = reader.choice("radiance", ("background", "color"), "background")
+        result = sc.WorldLight(intensity=intensity, color=color, samples=samples, radiance=radiance)
     elif kind == "point":
         result = sc.PointLight(
             location=reader.position("location"),

@@ -404,6 +404,21 @@ class AmbientLight:
 
 
 @dataclass(frozen=True)
+class WorldLight:
+    """The world as a light that objects shadow (beyond the documented model; Cycles' world light with no
+    bounces): a point's diffuse term is the mean of the world's radiance over the unblocked directions of its
+    hemisphere, weighted by their cosine, estimated over `samples` directions (a Fibonacci spiral over the
+    hemisphere, the same at every point, as a light of a size's samples are). The radiance along a direction:
+    intensity times color, times the background's colour along it where radiance is "background" (a picture, a
+    sky). No highlight."""
+
+    intensity: float = 1.0
+    color: Color = WHITE
+    samples: int = 16  # directions over the hemisphere (lightsamples.hemisphere_directions)
+    radiance: Literal["background", "color"] = "background"
+
+
+@dataclass(frozen=True)
 class PointLight:
     """falloff inverse_square: the diffuse and specular terms are divided by |L|^2 (L = location - P)."""
 
@@ -464,7 +479,7 @@ class AreaLight:
     color: Color = WHITE
 
 
-Light = AmbientLight | PointLight | DirectionalLight | SpotLight | AreaLight
+Light = AmbientLight | PointLight | DirectionalLight | SpotLight | AreaLight | WorldLight
 
 
 @dataclass(frozen=True)

@@ -34,6 +34,8 @@ class PreparedLight:
     weight: float = 1.0
 
     ambient: ClassVar[bool] = False  # no direction: its term is its intensity, it casts no shadow
+    highlight: ClassVar[bool] = True  # a Phong / Blinn-Phong highlight besides the diffuse term
+    world: ClassVar[bool] = False  # its colour at a point is the background's radiance along its vector there
 
 
 @dataclass
@@ -57,6 +59,11 @@ class DirectedLight(PreparedLight):
     def toward(self, P: np.ndarray) -> np.ndarray:
         """L (3, n) from the points P (3, n) toward the light (unnormalized; a shared column for a direction)."""
         raise NotImplementedError
+
+    def vector_at(self, P: np.ndarray, N: np.ndarray, shared: dict[int, tuple]) -> np.ndarray:
+        """L (3, n) toward this light or sample from the points P with normals N (3, n); shared: what the samples of
+        one scene light share at the points (by source), made by the first of them."""
+        return self.toward(P)
 
     def attenuation(self, L: np.ndarray, length_l: np.ndarray) -> np.ndarray | None:
         """The factor (n,) on its terms at the points L came from (None: 1 everywhere)."""
@@ -105,6 +112,17 @@ class PointSample(DirectedLight):
 
     def toward(self, P: np.ndarray) -> np.ndarray:
         return self.vector - P
+
+    def vector_at(self, P: np.ndarray, N: np.ndarray, shared: dict[int, tuple]) -> np.ndarray:
+        """toward(P), or for a sample on the disk of the light's radius its point on the disk that faces each point
+        (the disk's axes shared by the light's samples)."""
+        L = self.vector - P
+        if self.disk is None:
+            return L
+        if self.source not in shared:
+            shared[self.source] = facing_basis(L)
+        e1, e2 = shared[self.source]
+        return L + (self.disk[0] * e1 + self.disk[1] * e2).astype(L.dtype, copy=False)
 
     def attenuation(self, L: np.ndarray, length_l: np.ndarray) -> np.ndarray | None:
         """1 / |L|^2 for inverse_square falloff, times a spot light's spot_attenuation() or an area sample's
@@ -168,8 +186,8 @@ class DirectionalSample(DirectedLight):
 class LightTerm(NamedTuple):
     """One light's share of listing 3.2 at n points, before its shadow rays: the vector L (3, n) toward it (a shared
     column for a direction), N.L and |L| (n,), where its diffuse term (N.L > 0) and its highlight (the gates) may
-    count (n,) bool, the highlight's cosine (n,), the points (k,) that need a shadow ray, and its attenuation (n,;
-    None: 1)."""
+    count (n,) bool, the highlight's cosine (n,), the points (k,) that need a shadow ray, its attenuation (n,;
+    None: 1) and its colour there."""
 
     L: np.ndarray
     NL: np.ndarray
@@ -179,6 +197,40 @@ class LightTerm(NamedTuple):
     cosine: np.ndarray
     needed: np.ndarray
     factor: np.ndarray | None
+    color: np.ndarray  # (3, 1) the light's colour, or (3, n) the world's radiance along L at each point
+
+
+@dataclass
+class WorldSample(DirectedLight):
+    """One of the world light's directions over each point's hemisphere (lightsamples.hemisphere_directions):
+    local (x, y, z) in the frame of the point's normal, z along it. Its intensity is 2 / samples of the light's (the
+    uniform hemisphere's estimate of the cosine-weighted mean); its colour there is the background's radiance along
+    it; no highlight."""
+
+    local: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    world: bool = True  # the background's radiance along it times its colour; False: its colour alone
+    highlight: ClassVar[bool] = False
+
+    def toward(self, P: np.ndarray) -> np.ndarray:
+        raise ValueError("a world sample's direction depends on each point's normal: vector_at()")
+
+    def vector_at(self, P: np.ndarray, N: np.ndarray, shared: dict[int, tuple]) -> np.ndarray:
+        """The unit direction (3, n) at each point of the normals N: x e1 + y e2 + z n, with n = N / |N| and e1, e2
+        facing_basis(n) (float64, the reference's operations), shared by the light's samples."""
+        if self.source not in shared:
+            n = np.asarray(N, dtype=np.float64)
+            n = n / np.sqrt(x_y_z_squared(n))
+            shared[self.source] = (*facing_basis(n), n)
+        e1, e2, n = shared[self.source]
+        x, y, z = self.local
+        return (x * e1 + y * e2 + z * n).astype(P.dtype, copy=False)
+
+    @property
+    def view(self) -> View | None:
+        return None  # each point's own directions: the meshes' hierarchies are walked
+
+    def make_grid(self, kernels: list[int], lower: np.ndarray, upper: np.ndarray) -> CoverageGrid | None:
+        return None
 
 
 def prepare_lights(scene: sc.Scene, dtype: np.dtype) -> list[PreparedLight]:
@@ -194,6 +246,11 @@ def prepare_lights(scene: sc.Scene, dtype: np.dtype) -> list[PreparedLight]:
             made = _point_samples(light, color, samples, dtype)
         elif isinstance(light, sc.AreaLight):
             made = _area_samples(light, color, samples, dtype)
+        elif isinstance(light, sc.WorldLight):
+            directions = lightsamples.hemisphere_directions(light.samples)
+            share, weight = 2.0 * light.intensity / len(directions), 1.0 / len(directions)
+            world = light.radiance == "background"
+            made = [WorldSample(share, color, weight=weight, local=local, world=world) for local in directions]
         else:  # a sun of an angle: its samples' directions (one: the direction itself)
             directions = lightsamples.sun_directions(light, samples)
             share = light.intensity / len(directions) if len(directions) > 1 else light.intensity
@@ -258,3 +315,18 @@ def spot_attenuation(cosine: np.ndarray, spot: sc.SpotLight) -> np.ndarray:
         step = 3.0 * ff - 2.0 * ff * f
     attenuation = np.where(inside, cosine * step if spot.spot_model == "cycles3" else step, 0.0)
     return attenuation.astype(cosine.dtype, copy=False)
+
+
+def facing_basis(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """lightsamples.facing_basis of each column's direction (3, n) -> its two axes (3, n) each, float64 (the same
+    operations)."""
+    L = np.asarray(L, dtype=np.float64)
+    x, y, z = L / np.sqrt(x_y_z_squared(L))
+    sign = np.copysign(1.0, z)
+    a = -1.0 / (sign + z)
+    b = x * y * a
+    return np.stack((1.0 + sign * x * x * a, sign * b, -sign * x)), np.stack((b, sign + y * y * a, -y))
+
+
+def x_y_z_squared(L: np.ndarray) -> np.ndarray:
+    return L[0] * L[0] + L[1] * L[1] + L[2] * L[2]

@@ -146,7 +146,7 @@ class PreparedScene:
         self.colored = self.colored or any(
             light.color != sc.WHITE
             or getattr(light, "falloff", "none") != "none"
-            or isinstance(light, sc.SpotLight | sc.AreaLight)
+            or isinstance(light, sc.SpotLight | sc.AreaLight | sc.WorldLight)
             for light in self.scene.lights
         )
         background = self.scene.background

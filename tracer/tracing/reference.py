@@ -310,7 +310,7 @@ class ReferenceTracer:
         self.colored = any(m.specular_color is not None for m in scene.materials.values()) or any(
             light.color != sc.WHITE
             or getattr(light, "falloff", "none") != "none"
-            or isinstance(light, sc.SpotLight | sc.AreaLight)
+            or isinstance(light, sc.SpotLight | sc.AreaLight | sc.WorldLight)
             for light in scene.lights
         )
         self.lights = self._light_samples()
@@ -334,6 +334,10 @@ class ReferenceTracer:
                 directions = lightsamples.sun_directions(light, samples)
                 share = light.intensity / len(directions) if len(directions) > 1 else light.intensity
                 made.extend((light, direction, share, 1.0 / len(directions), None, None) for direction in directions)
+            elif isinstance(light, sc.WorldLight):  # directions in each point's normal frame
+                directions = lightsamples.hemisphere_directions(light.samples)
+                share = 2.0 * light.intensity / len(directions)
+                made.extend((light, local, share, 1.0 / len(directions), None, None) for local in directions)
             elif isinstance(light, sc.PointLight | sc.SpotLight) and light.radius > 0.0 and samples > 1:
                 offsets = lightsamples.disk_offsets(samples)
                 share = light.intensity / len(offsets)
@@ -434,6 +438,14 @@ class ReferenceTracer:
                 if light.falloff == "inverse_square":
                     falloff = 1.0 / dot(light_vector, light_vector)
                     factor = falloff if not isinstance(light, sc.SpotLight) else factor * falloff
+            elif isinstance(light, sc.WorldLight):  # a direction of P's hemisphere, the background's radiance along it
+                n = normalize(N)
+                e1, e2 = lightsamples.facing_basis(n)
+                light_vector = tuple(where[0] * e1[k] + where[1] * e2[k] + where[2] * n[k] for k in range(3))
+                t_max = INF
+                if light.radiance == "background":
+                    radiance = self.background(light_vector)
+                    color = tuple(radiance[c] * light.color[c] for c in range(3))
             elif emitter is not None:  # an area light's sample point: a one-sided cosine emitter, inverse square
                 light_vector = sub(where, P)
                 t_max = 1.0
@@ -461,7 +473,7 @@ class ReferenceTracer:
                 diffuse_sum += term
                 lights_diffuse = [lights_diffuse[c] + (term * factor) * color[c] for c in range(3)]
             term = None
-            if not (specular <= 0.0 or (self.settings.gate_specular and NL <= 0.0)):
+            if not (specular <= 0.0 or (self.settings.gate_specular and NL <= 0.0) or isinstance(light, sc.WorldLight)):
                 if self.settings.model == "phong":
                     R = reflect_ray(light_vector, N)
                     RV = dot(R, V)

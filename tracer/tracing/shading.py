@@ -9,7 +9,7 @@ import numpy as np
 
 from ..geometry.footprint import Footprint
 from ..geometry.kernels import dot, indices
-from . import shadows
+from . import shadows, surfaces
 from .batch import Hits
 from .lights import LightTerm, directed
 from .prepared import PreparedScene
@@ -95,19 +95,23 @@ def _light_terms(
     shiny = specular > 0.0
     terms: list[LightTerm | None] = []
     toward_eye = None  # V / |V|, the same for every light's half vector
-    facing: dict[int, tuple] = {}  # a light of a radius: the disk's axes at each point, by scene light
+    shared: dict[int, tuple] = {}  # what the samples of one light share at each point (a disk's, a hemisphere's axes)
     for light in scene.lights:
         if light.ambient:
             terms.append(None)
             continue
-        L = light.toward(P)  # a directional L broadcasts
-        if light.disk is not None:  # a sample on the disk of the light's radius that faces the point
-            if light.source not in facing:
-                facing[light.source] = facing_basis(L)
-            e1, e2 = facing[light.source]
-            L = L + (light.disk[0] * e1 + light.disk[1] * e2).astype(scene.dtype, copy=False)
+        L = light.vector_at(P, N, shared)  # a directional L broadcasts
         NL = dot(N, L)
         length_l = np.sqrt(dot(L, L))
+        color = light.color if not light.world else surfaces.background(scene, L, None) * light.color
+        if not light.highlight:  # the world's light: a diffuse term only
+            diffuse_gate = NL > 0.0
+            terms.append(
+                LightTerm(
+                    L, NL, length_l, diffuse_gate, np.zeros_like(diffuse_gate), NL, indices(diffuse_gate), None, color
+                )
+            )
+            continue
         gate = shiny.copy()
         if settings.gate_specular:
             gate &= NL > 0.0
@@ -129,7 +133,7 @@ def _light_terms(
         factor = light.attenuation(L, length_l)
         reaches = diffuse_gate | gate
         needed = indices(reaches & (factor > 0.0) if light.attenuated else reaches)
-        terms.append(LightTerm(L, NL, length_l, diffuse_gate, gate, cosine, needed, factor))
+        terms.append(LightTerm(L, NL, length_l, diffuse_gate, gate, cosine, needed, factor, color))
     return terms
 
 
@@ -224,37 +228,25 @@ def _colored(
             if split is not None:
                 ambient = ambient + light.intensity * light.color
             continue
-        _, NL, length_l, diffuse_gate, gate, cosine, _, factor = term
+        _, NL, length_l, diffuse_gate, gate, cosine, _, factor, color = term
         light_lit = next(shadow_rays)
         diffuse = light.intensity * NL / (length_n * length_l)
-        highlight = light.intensity * np.power(np.where(gate & light_lit, cosine, 1.0), exponent)
+        if light.highlight:
+            highlight = light.intensity * np.power(np.where(gate & light_lit, cosine, 1.0), exponent)
         if factor is not None:
             diffuse = diffuse * factor
             highlight = highlight * factor
         if passing is not None:
             through = next(passing)
             diffuse = diffuse * through
-            highlight = highlight * through
-        diffuse_sum = np.where(light_lit & diffuse_gate, diffuse_sum + diffuse * light.color, diffuse_sum)
+            highlight = highlight * through if light.highlight else None
+        diffuse_sum = np.where(light_lit & diffuse_gate, diffuse_sum + diffuse * color, diffuse_sum)
         if split is not None:
-            lights_diffuse = np.where(light_lit & diffuse_gate, lights_diffuse + diffuse * light.color, lights_diffuse)
+            lights_diffuse = np.where(light_lit & diffuse_gate, lights_diffuse + diffuse * color, lights_diffuse)
+        if not light.highlight:
+            continue
         gate &= light_lit
-        specular_sum = np.where(gate, specular_sum + highlight * light.color, specular_sum)
+        specular_sum = np.where(gate, specular_sum + highlight * color, specular_sum)
     if split is not None:
         split.update(ambient=ambient, diffuse=lights_diffuse, specular=specular_sum)
     return diffuse_sum, specular_sum
-
-
-def facing_basis(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """lightsamples.facing_basis of each column's direction (3, n) -> its two axes (3, n) each, float64 (the same
-    operations)."""
-    L = np.asarray(L, dtype=np.float64)
-    x, y, z = L / np.sqrt(x_y_z_squared(L))
-    sign = np.copysign(1.0, z)
-    a = -1.0 / (sign + z)
-    b = x * y * a
-    return np.stack((1.0 + sign * x * x * a, sign * b, -sign * x)), np.stack((b, sign + y * y * a, -y))
-
-
-def x_y_z_squared(L: np.ndarray) -> np.ndarray:
-    return L[0] * L[0] + L[1] * L[1] + L[2] * L[2]

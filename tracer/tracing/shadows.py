@@ -41,7 +41,8 @@ def reached(
     t_min = 0.0 if scene.robust else SHADOW_T_MIN
     shadows, origins, vectors, limits, bits, views, runs = [], [], [], [], [], [], []
     start = 0  # where the light's rays start in the query of all lights
-    for light, (L, *_, needed, _) in zip(lights, terms, strict=True):
+    for light, term in zip(lights, terms, strict=True):
+        L, needed = term.L, term.needed
         origin, vector = _shadow_rays(scene, light, L, needed, P, N, surface)
         if footprint is not None:  # the whole segment: a blocker that moves in could block it anywhere
             footprint.record(samples.take(needed), origin, vector, t_min, light.t_max, light=light.source)

@@ -1,0 +1,79 @@
+"""The world as a light that objects shadow, beside Cycles with no diffuse bounces: a cube on a ground under a
+uniform white world, no lamp, seen straight down. The ground in the open, beside the cube's faces (where the cube
+hides part of the sky) and the cube's top, each within 10% of Cycles' mean there; and the world light's note."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+import pytest
+
+from addon import compat
+from tests.addon.f12_images import f12_exr, looking_down
+
+SIZE = 8.0  # metres across the orthographic view
+PIXELS = 64
+
+
+def _world_scene(strength: float = 1.0) -> None:
+    """A 2 m cube (Diffuse BSDF 0.8) on a 20 m ground (Diffuse BSDF 0.8) under a white world of strength, no lamp."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    looking_down(10.0, SIZE, PIXELS)
+    scene = bpy.context.scene
+    material = bpy.data.materials.new("white")
+    compat.enable_nodes(material)
+    tree = material.node_tree
+    tree.nodes.clear()
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
+    bpy.ops.mesh.primitive_plane_add(size=20.0)
+    bpy.ops.mesh.primitive_cube_add(size=2.0, location=(0.0, 0.0, 1.0))
+    for obj in scene.objects:
+        if obj.type == "MESH":
+            obj.data.materials.append(material)
+    world = bpy.data.worlds.new("white")
+    compat.enable_nodes(world)
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = strength
+    scene.world = world
+    scene.cycles.samples = 256
+    scene.cycles.diffuse_bounces = 0
+
+
+def _regions() -> dict[str, np.ndarray]:
+    """Masks (PIXELS, PIXELS) by where a pixel's centre falls on the ground: the open (over 3 m from the cube's
+    axis), beside the cube (0.1-0.5 m from a face, off its corners' diagonal strips) and the cube's top."""
+    centre = (np.arange(PIXELS) + 0.5) / PIXELS * SIZE - SIZE / 2.0
+    x, y = np.meshgrid(centre, -centre)
+    reach = np.maximum(np.abs(x), np.abs(y))  # the cube's faces at 1 m
+    beside = (reach > 1.1) & (reach < 1.5) & (np.minimum(np.abs(x), np.abs(y)) < 0.8)
+    return {"open": np.hypot(x, y) > 3.0, "beside the cube": beside, "the cube's top": reach < 0.9}
+
+
+@pytest.mark.parametrize("strength", [1.0])
+def test_a_cube_shadows_the_world_light_as_in_cycles(tmp_path: Path, strength: float) -> None:
+    _world_scene(strength)
+    scene = bpy.context.scene
+    from addon.convert import world_convert
+
+    _, light, notes = world_convert.convert_world(scene.world, blender_scene=scene)
+    assert light["type"] == "world" and light["samples"] == world_convert.WORLD_SAMPLES
+    assert notes == [f"world light: shadowed, {world_convert.WORLD_SAMPLES} directions per point, no bounces"]
+    images, seconds = {}, {}
+    for engine in ("CYCLES", "WEATHERVANE_TRACER"):  # the masks are symmetric: rows from the bottom do
+        scene.render.engine = engine
+        started = time.perf_counter()
+        images[engine] = f12_exr(tmp_path / f"{engine}.exr")[..., 0]
+        seconds[engine] = time.perf_counter() - started
+    for name, mask in _regions().items():
+        cycles, tracer = images["CYCLES"][mask].mean(), images["WEATHERVANE_TRACER"][mask].mean()
+        print(f"world light, {name}: tracer {tracer:.4f}, Cycles {cycles:.4f}, ratio {tracer / cycles:.4f}")
+        assert tracer == pytest.approx(cycles, rel=0.10), name
+    print(f"seconds at {PIXELS}x{PIXELS}: " + ", ".join(f"{engine} {value:.2f}" for engine, value in seconds.items()))
+    beside = images["WEATHERVANE_TRACER"][_regions()["beside the cube"]].mean()
+    assert beside < 0.85 * images["WEATHERVANE_TRACER"][_regions()["open"]].mean()  # the cube's shadow is there
