@@ -58,6 +58,7 @@ if BUILT:
         Sphere,
         SpotLight,
         Texture,
+        WorldLight,
     )
     from weathervane_tracer.scene.wind import Gusts, Wind, WindKey
     from weathervane_tracer.tracing.cryptomatte import layer_header as cryptomatte_layer_header
@@ -97,6 +98,7 @@ else:  # the repository's package
         Sphere,
         SpotLight,
         Texture,
+        WorldLight,
     )
     from tracer.scene.wind import Gusts, Wind, WindKey
     from tracer.tracing.cryptomatte import layer_header as cryptomatte_layer_header
@@ -148,6 +150,7 @@ __all__ = [
     "Wind",
     "WindKey",
     "WorkerLostError",
+    "WorldLight",
     "atomic_path",
     "available_memory",
     "box_vertices",

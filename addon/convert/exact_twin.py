@@ -324,6 +324,8 @@ def apply(
     if document is None:
         document = export.scene_document(context)
     scene = tracer.scene_from_dict(json.loads(json.dumps(document)), "export")
+    if any(isinstance(light, tracer.WorldLight) for light in scene.lights):  # the twin's OSL traces point lights
+        raise RuntimeError("no exact twin: the world lights the scene (shadowed), which the twin's shader cannot trace")
     world = blender_scene.world
     twin.cycles(blender_scene, samples, seed)
     state = ExactTwin(scene=blender_scene, world=world, shading_system=blender_scene.cycles.shading_system)

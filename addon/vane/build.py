@@ -276,8 +276,10 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
     context.scene.camera = camera
     settings.lights.clear()
     for index, light in enumerate(scene.lights):
-        entry = settings.lights.add()
         kind = type(light).__name__
+        if kind == "WorldLight":  # the vane's world is the panel's background, lighting nothing (Build says so)
+            continue
+        entry = settings.lights.add()
         blender_kind = {"SpotLight": "SPOT", "AreaLight": "AREA"}.get(kind, _entry_kind(kind))
         made = lights.create_from_scene(light, lights.object_name(blender_kind, index), collection)
         if kind == "AmbientLight":

@@ -110,6 +110,8 @@ def _build_from(operator: bpy.types.Operator, context, path: str, reset: bool = 
             "settings (Reset Weathervane starts over)"
         )
     warnings = []
+    if any(isinstance(light, tracer.WorldLight) for light in scene.lights):
+        warnings.append("the file's world light is not built: the vane is lit by its Lights panel's lights")
     others = [obj.name for obj in other_lights(context.scene)]
     if others and not context.scene.weathervane.other_lights:
         warnings.append(f"not rendered by the tracer: {_names(others)} (Lights > Other Lights renders them)")

@@ -4,6 +4,7 @@ hides part of the sky) and the cube's top, each within 10% of Cycles' mean there
 
 from __future__ import annotations
 
+import json
 import time
 from pathlib import Path
 
@@ -77,3 +78,19 @@ def test_a_cube_shadows_the_world_light_as_in_cycles(tmp_path: Path, strength: f
     print(f"seconds at {PIXELS}x{PIXELS}: " + ", ".join(f"{engine} {value:.2f}" for engine, value in seconds.items()))
     beside = images["WEATHERVANE_TRACER"][_regions()["beside the cube"]].mean()
     assert beside < 0.85 * images["WEATHERVANE_TRACER"][_regions()["open"]].mean()  # the cube's shadow is there
+
+
+def test_build_from_a_file_with_a_world_light_leaves_it_out_and_says_so(tmp_path: Path) -> None:
+    from addon.vane import build, operators
+    from tracer.scene.loader import default_scene_dict
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    document = default_scene_dict()
+    document["lights"].append({"type": "world", "intensity": 1.0})
+    path = tmp_path / "world.json"
+    path.write_text(json.dumps(document))
+    assert bpy.ops.weathervane.build(filepath=str(path)) == {"FINISHED"}
+    line, kind = operators.result_line()
+    assert kind == "WARNING" and "the file's world light is not built" in line
+    assert len(bpy.context.scene.weathervane.lights) == len(document["lights"]) - 1
+    assert bpy.data.collections.get(build.COLLECTION) is not None
