@@ -10,9 +10,9 @@ scripts/corpus_scene.py in a process of its own (a crash or a hang is recorded, 
     right            coverage IoU >= 0.95, the covered pixels' mean colour within 10% per channel (of at least
                      0.02), and PSNR over them >= 25 dB (the texture's content, not only its mean)
     named            not right, and F12 says why: it refuses the scene with a message, or Scene Conversion names
-                     an approximation of a material or light, or the scene leaves something out; the world's
-                     unshadowed ambient light counts only where the world is the scene's only light (with lamps,
-                     it alone does not explain a difference)
+                     an approximation of a material or light, or the scene leaves something out; the world
+                     light's note (shadowed, no bounces) counts only where the world is the scene's only light (with
+                     lamps, it alone does not explain a difference)
     silently wrong   not right, and F12 says nothing
     crash            the engine raised, or the process died or hung
     skipped          the file does not open in this Blender (or Blender crashes reading it), Cycles crashes on it, or
@@ -67,7 +67,7 @@ def classify(record: dict) -> str:
     said = record.get("said")
     if error or said is None:  # a refusal; or an export that raised, recorded in its notes
         return "named" if error or record.get("notes") else "silently wrong"
-    world = [note for note in said["world"] if not note.startswith("world light: unshadowed ambient")]
+    world = [note for note in said["world"] if not note.startswith("world light: ")]
     explained = said["materials"] or said["lights"] or said["scene"] or world
     explained = explained or (said["world"] and record.get("lamps", 0) == 0)
     return "named" if explained else "silently wrong"

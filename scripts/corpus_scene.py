@@ -107,7 +107,7 @@ def _notes(scene, record: dict) -> None:
         "world": notes.world,
         "scene": [part for part in notes.line().split("; ") if not part.startswith("approximated: ")] + said,
     }
-    record["lamps"] = sum(light.get("type") != "ambient" for light in document.get("lights", []))
+    record["lamps"] = sum(light.get("type") not in ("ambient", "world") for light in document.get("lights", []))
 
 
 def measure(path: Path, folder: Path, out: Path) -> dict:
