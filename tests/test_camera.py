@@ -12,7 +12,7 @@ import pytest
 from tracer.geometry import camera as cam
 from tracer.geometry import transforms as tf
 from tracer.scene import scene as sc
-from tracer.scene.loader import default_scene
+from tracer.scene.loader import SceneError, default_scene, scene_from_dict
 from tracer.tracing.reference import render_reference
 from tracer.workers.parallel import render
 
@@ -259,3 +259,61 @@ def test_euler_angles_read_back_from_a_rotation_give_the_same_rotation(rotation)
     assert np.allclose(tf.euler_xyz_matrix(angles), tf.euler_xyz_matrix(rotation), atol=1e-12)
     if abs(rotation[1]) < 90.0:  # away from gimbal lock the angles themselves come back
         assert np.allclose(angles, rotation, atol=1e-9)
+
+
+# ---- depth of field: a thin lens ------------------------------------------------------------------------------------
+
+
+def _lens_document(seed: int) -> dict:
+    """A random scene seen through a thin lens: perspective or orthographic, clipped or not, 1 to 9 samples."""
+    from tests.random_scenes import extended_scene_document
+
+    rng = random.Random(40_000 + seed)
+    document = extended_scene_document(seed, width=14, height=10)
+    camera = document.setdefault("camera", {})
+    camera.update(aperture=rng.choice([0.05, 0.3]), focus_distance=rng.uniform(2.0, 9.0))
+    if seed % 3 == 1:
+        camera.update(type="ORTHO", ortho_scale=7.0)
+    if seed % 3 == 2:
+        camera.update(clip_start=0.5, clip_end=30.0)
+    document.setdefault("render", {})["samples"] = rng.choice([1, 4, 9])
+    return document
+
+
+@pytest.mark.parametrize("seed", range(9))
+def test_a_thin_lens_matches_the_reference(seed: int) -> None:
+    scene = scene_from_dict(_lens_document(seed))
+    expected = np.asarray(render_reference(scene))
+    image = render(scene, workers=1)
+    image = image.image if image.alpha is None else np.concatenate((image.image, image.alpha[..., None]), axis=2)
+    np.testing.assert_allclose(image, expected, rtol=0, atol=1e-9)
+
+
+def test_a_thin_lens_focuses_on_its_plane_and_blurs_off_it() -> None:
+    """Every lens ray of a pixel meets the pinhole ray on the focus plane; a lens of radius a spreads the rays of a
+    pixel over a disk of radius a at the lens, their origins within a of the camera."""
+    document = _lens_document(0)
+    document["camera"].update(aperture=0.25, focus_distance=4.0, type="PERSP")
+    for field in ("clip_start", "clip_end"):
+        document["camera"].pop(field, None)
+    document["render"]["samples"] = 16
+    scene = scene_from_dict(document)
+    settings, camera = scene.render, scene.camera
+    pixels = np.arange(settings.width * settings.height)
+    D = cam.pixel_directions(camera, settings, pixels)
+    O, far = cam.pixel_starts(camera, settings, pixels, D)
+    pinhole = cam.pixel_directions(replace(camera, aperture=0.0), settings, pixels)
+    axis = -np.asarray(tf.euler_xyz_matrix(camera.rotation))[:, 2]
+    location = np.asarray(camera.location)[:, None]
+    on_plane = O + D * ((4.0 - axis @ (O - location)) / (axis @ D))
+    through_pinhole = location + pinhole * (4.0 / (axis @ pinhole))
+    np.testing.assert_allclose(on_plane, through_pinhole, atol=1e-9)
+    offsets = np.linalg.norm(O - location, axis=0)
+    assert far is None and offsets.max() <= 0.25 + 1e-12 and offsets.max() > 0.2  # the whole lens is used
+
+
+def test_lens_fields_are_checked_with_clear_messages() -> None:
+    base = {"materials": {"m": {"color": [1, 1, 1]}}, "objects": [{"type": "sphere", "material": "m"}]}
+    for camera, field in (({"aperture": -0.1}, "camera.aperture"), ({"focus_distance": 0}, "camera.focus_distance")):
+        with pytest.raises(SceneError, match=field.replace(".", r"\.")):
+            scene_from_dict({**base, "camera": camera})

@@ -1,5 +1,6 @@
 """The tracer's camera -> a Blender camera object, and back: the models are the same (lens, sensor, fit, shift,
-perspective or orthographic, clipping); what the tracer cannot express is named by unsupported()."""
+perspective or orthographic, clipping, a thin lens's depth of field as Cycles sizes it); what the tracer cannot
+express is named by unsupported()."""
 
 from __future__ import annotations
 
@@ -49,7 +50,26 @@ def to_tracer(obj) -> dict:
         "shift_y": data.shift_y,
         "clip_start": data.clip_start,
         "clip_end": data.clip_end,
+        **depth_of_field(obj),
     }
+
+
+def depth_of_field(obj) -> dict:
+    """A camera object's depth of field as the scene file's thin lens ({} without): Cycles' aperture radius,
+    lens / 1000 / (2 f-stop) metres for a perspective camera and 1 / (2 f-stop) for an orthographic one
+    (intern/cycles/blender/camera.cpp), and its focus distance: the focus object's distance along the view axis
+    where there is one, else the Focus Distance."""
+    dof = obj.data.dof
+    if not dof.use_dof:
+        return {}
+    fstop = max(float(dof.aperture_fstop), 1e-5)
+    aperture = 1.0 / (2.0 * fstop) if obj.data.type == "ORTHO" else obj.data.lens * 1e-3 / (2.0 * fstop)
+    distance = float(dof.focus_distance)
+    if dof.focus_object is not None:
+        axis = obj.matrix_world.to_3x3().col[2].normalized()  # the camera looks along its -Z
+        offset = dof.focus_object.matrix_world.translation - obj.matrix_world.translation
+        distance = abs(offset.dot(axis))
+    return {"aperture": aperture, "focus_distance": max(distance, 1e-6)}
 
 
 def _moves(obj) -> bool:
@@ -72,8 +92,10 @@ def unsupported(blender_scene, exporting: bool = True) -> list[str]:
         data = obj.data
         if data.type == "PANO":
             problems.append("panoramic camera (rendered as perspective)")
-        if data.dof.use_dof:
-            problems.append("depth of field (rendered sharp)")
+        if data.dof.use_dof and data.dof.aperture_blades >= 3:
+            problems.append(f"aperture of {data.dof.aperture_blades} blades (a round one)")
+        if data.dof.use_dof and data.dof.aperture_ratio != 1.0:
+            problems.append("anamorphic aperture ratio (a round aperture)")
         if exporting and _moves(obj):
             problems.append(f"moving camera (exported as at frame {blender_scene.frame_current})")
     render = blender_scene.render

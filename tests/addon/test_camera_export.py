@@ -77,21 +77,21 @@ def test_export_names_what_the_tracer_does_not_render(tmp_path: Path, capfd: pyt
     path = tmp_path / "scene.json"
     assert bpy.ops.weathervane.export(filepath=str(path)) == {"FINISHED"}
     assert "does not render" not in capfd.readouterr().out
-    obj.data.dof.use_dof = True
+    obj.data.dof.use_dof, obj.data.dof.aperture_blades = True, 6
     scene.render.use_border = True
     obj.keyframe_insert("location", frame=1)
     assert unsupported(scene) == [
-        "depth of field (rendered sharp)",
+        "aperture of 6 blades (a round one)",
         f"moving camera (exported as at frame {scene.frame_current})",
         "render border (a scene file holds the whole frame; F12 renders only the border)",
     ]
-    assert unsupported(scene, exporting=False) == ["depth of field (rendered sharp)"]
+    assert unsupported(scene, exporting=False) == ["aperture of 6 blades (a round one)"]
     path.unlink()
     assert bpy.ops.weathervane.export(filepath=str(path)) == {"FINISHED"}
     assert path.exists()
     # one report line (the status bar's), naming each thing
     lines = [line for line in capfd.readouterr().out.splitlines() if "does not render" in line]
-    assert len(lines) == 1 and "depth of field" in lines[0] and "moving camera" in lines[0] and "border" in lines[0]
+    assert len(lines) == 1 and "6 blades" in lines[0] and "moving camera" in lines[0] and "border" in lines[0]
     obj.data.type = "PANO"
     assert unsupported(scene)[0] == "panoramic camera (rendered as perspective)"
     assert bpy.ops.weathervane.export(filepath=str(path)) == {"FINISHED"}

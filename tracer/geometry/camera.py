@@ -19,6 +19,7 @@ from collections import OrderedDict
 import numpy as np
 
 from ..scene import scene as sc
+from . import lightsamples
 from . import transforms as tf
 
 MASK64 = (1 << 64) - 1
@@ -100,6 +101,43 @@ def sample_position(settings: sc.RenderSettings, i: int, j: int, s: int) -> tupl
     return x, y
 
 
+LENS_SEED = 0x6C656E73  # the lens samples' own sequence: jitter(seed + LENS_SEED, sample index, 0 or 1)
+
+
+def lens_sample(settings: sc.RenderSettings, i: int, j: int, s: int) -> tuple[float, float]:
+    """The lens position (u, v) in [0, 1)^2 of sample s of pixel (i, j): a uniform pair of its own for each camera
+    sample (apart from its image position's jitter)."""
+    index = (j * settings.width + i) * settings.samples + s
+    seed = settings.seed + LENS_SEED
+    return jitter(seed, index, 0), jitter(seed, index, 1)
+
+
+def _lens_samples(settings: sc.RenderSettings, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """lens_sample of every sample of the flat pixels (P,), ordered pixel, sample (N,) each."""
+    samples = settings.samples
+    index = (
+        np.asarray(pixels, dtype=np.int64)[:, None] * samples + np.arange(samples, dtype=np.int64)[None, :]
+    ).ravel()
+    seed = settings.seed + LENS_SEED
+    return jitter_array(seed, index, 0), jitter_array(seed, index, 1)
+
+
+def _on_lens(camera: sc.Camera, u, v):
+    """A lens position (u, v) in [0, 1)^2 (floats or arrays) -> its offset (a, b) in the camera's x and y, metres:
+    Shirley and Chiu's concentric map of the square onto the disk of radius aperture (areas kept)."""
+    a, b = 2.0 * u - 1.0, 2.0 * v - 1.0
+    if isinstance(a, float):
+        a, b = lightsamples.concentric(a, b)
+        return camera.aperture * a, camera.aperture * b
+    wide = np.abs(a) > np.abs(b)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        radius = np.where(wide, a, b)
+        angle = np.where(wide, math.pi / 4.0 * (b / a), math.pi / 2.0 - math.pi / 4.0 * (a / b))
+    radius = np.where((a == 0.0) & (b == 0.0), 0.0, radius)
+    angle = np.where((a == 0.0) & (b == 0.0), 0.0, angle)
+    return camera.aperture * (radius * np.cos(angle)), camera.aperture * (radius * np.sin(angle))
+
+
 def _view_point(camera: sc.Camera, settings: sc.RenderSettings, x, y):
     """Image positions x, y in pixels (floats or arrays) -> view plane coordinates cx, cy, lens shift included."""
     extent_x, extent_y, side = view_extent(camera, settings)
@@ -122,11 +160,15 @@ def primary_direction(camera: sc.Camera, settings: sc.RenderSettings, x: float, 
     return wx / size, wy / size, wz / size
 
 
-def primary_ray(camera: sc.Camera, settings: sc.RenderSettings, x: float, y: float) -> tuple[sc.Vec3, sc.Vec3, float]:
+def primary_ray(
+    camera: sc.Camera, settings: sc.RenderSettings, x: float, y: float, lens: tuple[float, float] = (0.5, 0.5)
+) -> tuple[sc.Vec3, sc.Vec3, float]:
     """The camera ray through image position (x, y): (origin, unit direction, t_max), Python floats.
 
     It starts on the clip_start plane and ends on the clip_end plane (t_max infinite without one); with neither
-    and a perspective camera (the documented camera) the origin is the camera's location exactly."""
+    and a perspective camera (the documented camera) the origin is the camera's location exactly. With an aperture,
+    the ray leaves the lens at lens (u, v) (lens_sample; the centre by default) toward the point where the pinhole
+    ray meets the focus plane (a thin lens)."""
     D = primary_direction(camera, settings, x, y)
     r = tf.euler_xyz_matrix(camera.rotation)
     start = camera.location
@@ -134,12 +176,29 @@ def primary_ray(camera: sc.Camera, settings: sc.RenderSettings, x: float, y: flo
         depth_per_t = 1.0
         cx, cy = _view_point(camera, settings, x, y)
         start = tuple(camera.location[k] + r[k][0] * cx + r[k][1] * cy for k in range(3))
-    else:  # how much deeper in front of the camera a unit step along the ray goes
+    if camera.aperture > 0.0:
+        start, D = _through_lens(camera, r, start, D, *_on_lens(camera, *lens))
+    if camera.type != "ORTHO" or camera.aperture > 0.0:  # how much deeper in front of the camera a unit step goes
         depth_per_t = -(r[0][2] * D[0] + r[1][2] * D[1] + r[2][2] * D[2])
     if camera.clip_start:
         start = tuple(start[k] + D[k] * (camera.clip_start / depth_per_t) for k in range(3))
     t_max = math.inf if camera.clip_end is None else (camera.clip_end - camera.clip_start) / depth_per_t
     return start, D, t_max
+
+
+def _through_lens(camera: sc.Camera, r, start, D, a, b):
+    """The thin lens: the pinhole ray (start, unit D; floats or (3, N) arrays) -> the ray from the lens point offset
+    by (a, b) along the camera's x and y toward where the pinhole ray meets the focus plane, focus_distance in front
+    of the camera: (origin, unit direction)."""
+    along = 1.0 if camera.type == "ORTHO" else -(r[0][2] * D[0] + r[1][2] * D[1] + r[2][2] * D[2])
+    t = camera.focus_distance / along
+    origin = tuple(start[k] + r[k][0] * a + r[k][1] * b for k in range(3))
+    toward = tuple(start[k] + D[k] * t - origin[k] for k in range(3))
+    if isinstance(a, float):
+        size = math.sqrt(toward[0] * toward[0] + toward[1] * toward[1] + toward[2] * toward[2])
+        return origin, (toward[0] / size, toward[1] / size, toward[2] / size)
+    size = np.sqrt(toward[0] * toward[0] + toward[1] * toward[1] + toward[2] * toward[2])
+    return np.stack(origin), np.stack((toward[0] / size, toward[1] / size, toward[2] / size))
 
 
 def band_pixels(settings: sc.RenderSettings, rows: np.ndarray, columns: np.ndarray | None = None) -> np.ndarray:
@@ -171,8 +230,27 @@ def _sample_positions(settings: sc.RenderSettings, pixels: np.ndarray) -> tuple[
 def pixel_directions(camera: sc.Camera, settings: sc.RenderSettings, pixels: np.ndarray) -> np.ndarray:
     """Unit directions (3, N) float64 of every sample of the given flat pixels (P,), ordered pixel, sample.
 
-    The same operations in the same order as primary_direction, so each ray is bit-identical to the scalar one
-    (and to itself in any band or subset)."""
+    The same operations in the same order as primary_direction (and primary_ray's thin lens), so each ray is
+    bit-identical to the scalar one (and to itself in any band or subset)."""
+    D = _pinhole_directions(camera, settings, pixels)
+    return D if camera.aperture == 0.0 else _lens_rays(camera, settings, pixels, D)[1]
+
+
+def _lens_rays(
+    camera: sc.Camera, settings: sc.RenderSettings, pixels: np.ndarray, D: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The thin lens's rays (origins, unit directions; (3, N) each) of every sample of the pixels (P,), from their
+    pinhole directions D (3, N)."""
+    r = tf.euler_xyz_matrix(camera.rotation)
+    start = camera.location
+    if camera.type == "ORTHO":
+        cx, cy = _view_point(camera, settings, *_sample_positions(settings, pixels))
+        start = [camera.location[k] + r[k][0] * cx + r[k][1] * cy for k in range(3)]
+    return _through_lens(camera, r, start, D, *_on_lens(camera, *_lens_samples(settings, pixels)))
+
+
+def _pinhole_directions(camera: sc.Camera, settings: sc.RenderSettings, pixels: np.ndarray) -> np.ndarray:
+    """pixel_directions without a lens: the rays through the pinhole (the camera's location)."""
     x, y = _sample_positions(settings, pixels)
     r = tf.euler_xyz_matrix(camera.rotation)
     if camera.type == "ORTHO":
@@ -212,7 +290,7 @@ def border_window(settings: sc.RenderSettings) -> tuple[int, int, int, int] | No
 
 def shares_origin(camera: sc.Camera) -> bool:
     """Whether every camera ray starts at the camera's location and has no far limit (the documented camera)."""
-    return camera.type == "PERSP" and not camera.clip_start and camera.clip_end is None
+    return camera.type == "PERSP" and not camera.clip_start and camera.clip_end is None and camera.aperture == 0.0
 
 
 def pixel_starts(
@@ -222,7 +300,10 @@ def pixel_starts(
     (3, N) float64 and t_max (N,), or None where there is no far limit. directions: those rays (3, N)."""
     r = tf.euler_xyz_matrix(camera.rotation)
     D = np.asarray(directions, dtype=np.float64)
-    if camera.type == "ORTHO":
+    if camera.aperture > 0.0:
+        start, D = _lens_rays(camera, settings, pixels, _pinhole_directions(camera, settings, pixels))
+        depth_per_t = -(r[0][2] * D[0] + r[1][2] * D[1] + r[2][2] * D[2])
+    elif camera.type == "ORTHO":
         depth_per_t = 1.0
         cx, cy = _view_point(camera, settings, *_sample_positions(settings, pixels))
         start = np.stack([camera.location[k] + r[k][0] * cx + r[k][1] * cy for k in range(3)])

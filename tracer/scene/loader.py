@@ -967,6 +967,10 @@ def _camera(reader: _Reader | None) -> sc.Camera:
         shift_y=reader.number("shift_y", base.shift_y, **shift),
         clip_start=clip_start,
         clip_end=clip_end,
+        aperture=reader.number("aperture", base.aperture, low=0.0, high=LENGTH_RANGE[1]),
+        focus_distance=reader.number(
+            "focus_distance", base.focus_distance, low=0.0, low_open=True, least=LENGTH_RANGE[0], high=LENGTH_RANGE[1]
+        ),
     )
     reader.finish()
     return camera

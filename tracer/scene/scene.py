@@ -489,7 +489,9 @@ class Camera:
     type ORTHO: parallel rays from a view ortho_scale metres across (the fitted side), lens unused. shift_x, shift_y:
     Blender's lens shift, in units of the fitted side. clip_start, clip_end: camera rays start at the plane
     clip_start metres in front of the camera and stop at clip_end (planes, as Cycles does; None: no far limit);
-    the documented camera has neither (rays from the camera itself, t from 0 to infinity)."""
+    the documented camera has neither (rays from the camera itself, t from 0 to infinity). aperture: the radius in
+    metres of a thin lens (depth of field, beyond the documented model; 0: a pinhole), whose rays through a point
+    of the image meet on the plane focus_distance metres in front of the camera (camera.py)."""
 
     location: Vec3 = (7.36, -6.93, 4.96)
     rotation: Vec3 = (63.6, 0.0, 46.7)
@@ -503,6 +505,8 @@ class Camera:
     shift_y: float = 0.0
     clip_start: float = 0.0
     clip_end: float | None = None
+    aperture: float = 0.0
+    focus_distance: float = 10.0
 
 
 @dataclass(frozen=True)

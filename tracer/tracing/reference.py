@@ -313,40 +313,9 @@ class ReferenceTracer:
             or isinstance(light, sc.SpotLight | sc.AreaLight | sc.WorldLight)
             for light in scene.lights
         )
-        self.lights = self._light_samples()
+        self.lights = light_samples(scene)
         # shadow rays pass partly transparent surfaces (shadow_through) where some material has alpha < 1
         self.shadow_alpha = any(m.alpha < 1.0 for m in scene.materials.values())
-
-    def _light_samples(self) -> list[tuple]:
-        """Each light as find_intensities visits it: (light, where: a point light's location or a directional
-        light's direction, intensity, weight, emitter, disk), a light of a size once per sample (lightsamples.py)
-        with 1 / samples of its intensity and of its weight in the Shadow pass; emitter: an area light's unit
-        normal; disk: a point or spot light's sample offset (radius * (a, b)) on the disk facing each point."""
-        samples = self.settings.shadow_samples
-        made = []
-        for light in self.scene.lights:
-            if isinstance(light, sc.AreaLight):
-                points = lightsamples.area_points(light, samples)
-                normal = lightsamples.area_frame(light)[0]
-                share = light.intensity / len(points) if len(points) > 1 else light.intensity
-                made.extend((light, point, share, 1.0 / len(points), normal, None) for point in points)
-            elif isinstance(light, sc.DirectionalLight):
-                directions = lightsamples.sun_directions(light, samples)
-                share = light.intensity / len(directions) if len(directions) > 1 else light.intensity
-                made.extend((light, direction, share, 1.0 / len(directions), None, None) for direction in directions)
-            elif isinstance(light, sc.WorldLight):  # directions in each point's normal frame
-                directions = lightsamples.hemisphere_directions(light.samples)
-                share = 2.0 * light.intensity / len(directions)
-                made.extend((light, local, share, 1.0 / len(directions), None, None) for local in directions)
-            elif isinstance(light, sc.PointLight | sc.SpotLight) and light.radius > 0.0 and samples > 1:
-                offsets = lightsamples.disk_offsets(samples)
-                share = light.intensity / len(offsets)
-                for a, b in offsets:
-                    disk = (light.radius * a, light.radius * b)
-                    made.append((light, light.location, share, 1.0 / len(offsets), None, disk))
-            else:
-                made.append((light, getattr(light, "location", None), light.intensity, 1.0, None, None))
-        return made
 
     def material(self, index: int, part: int) -> sc.Material:
         """The material of object index's part (a mesh's triangle may have its own)."""
@@ -682,7 +651,8 @@ class ReferenceTracer:
         total = [0.0, 0.0, 0.0, 0.0]
         for s in range(self.settings.samples):
             x, y = cam.sample_position(self.settings, i, j, s)
-            O, D, t_max = cam.primary_ray(self.scene.camera, self.settings, x, y)
+            lens = cam.lens_sample(self.settings, i, j, s)
+            O, D, t_max = cam.primary_ray(self.scene.camera, self.settings, x, y, lens)
             self.rays["camera"] += 1
             color = self.trace_ray(O, D, CAMERA_T_MIN, t_max, self.settings.depth, camera=True)
             covered = self.coverage(O, D, CAMERA_T_MIN, t_max)
@@ -714,6 +684,38 @@ def glass_split(
     if refracted is None or not share > 0.0:
         return shaded, mirror, None, (0.0, 0.0, 0.0)
     return shaded, mirror, refracted, tuple(share * material.color[c] for c in range(3))
+
+
+def light_samples(scene: sc.Scene) -> list[tuple]:
+    """Each light as find_intensities visits it: (light, where: a point light's location or a directional
+    light's direction, intensity, weight, emitter, disk), a light of a size once per sample (lightsamples.py)
+    with 1 / samples of its intensity and of its weight in the Shadow pass; emitter: an area light's unit
+    normal; disk: a point or spot light's sample offset (radius * (a, b)) on the disk facing each point."""
+    samples = scene.render.shadow_samples
+    made = []
+    for light in scene.lights:
+        if isinstance(light, sc.AreaLight):
+            points = lightsamples.area_points(light, samples)
+            normal = lightsamples.area_frame(light)[0]
+            share = light.intensity / len(points) if len(points) > 1 else light.intensity
+            made.extend((light, point, share, 1.0 / len(points), normal, None) for point in points)
+        elif isinstance(light, sc.DirectionalLight):
+            directions = lightsamples.sun_directions(light, samples)
+            share = light.intensity / len(directions) if len(directions) > 1 else light.intensity
+            made.extend((light, direction, share, 1.0 / len(directions), None, None) for direction in directions)
+        elif isinstance(light, sc.WorldLight):  # directions in each point's normal frame
+            directions = lightsamples.hemisphere_directions(light.samples)
+            share = 2.0 * light.intensity / len(directions)
+            made.extend((light, local, share, 1.0 / len(directions), None, None) for local in directions)
+        elif isinstance(light, sc.PointLight | sc.SpotLight) and light.radius > 0.0 and samples > 1:
+            offsets = lightsamples.disk_offsets(samples)
+            share = light.intensity / len(offsets)
+            for a, b in offsets:
+                disk = (light.radius * a, light.radius * b)
+                made.append((light, light.location, share, 1.0 / len(offsets), None, disk))
+        else:
+            made.append((light, getattr(light, "location", None), light.intensity, 1.0, None, None))
+    return made
 
 
 def environment(background: sc.Background, D: sc.Vec3) -> sc.Color:

@@ -77,13 +77,13 @@ class PassTracer(ReferenceTracer):
 
     # ---- render passes, one camera sample at a time (docs/passes.md) ------------------------------------------
 
-    def sample_passes(self, x: float, y: float) -> SamplePasses:
-        """The passes of the camera sample through image position (x, y): what its ray meets first (data passes,
-        ids), the first hit's terms of listing 3.2 apart, and what its mirror rays' tree adds (reflection,
-        environment). The ray counts stay those of the image."""
+    def sample_passes(self, x: float, y: float, lens: tuple[float, float] = (0.5, 0.5)) -> SamplePasses:
+        """The passes of the camera sample through image position (x, y) (and lens position, cam.lens_sample): what
+        its ray meets first (data passes, ids), the first hit's terms of listing 3.2 apart, and what its mirror rays'
+        tree adds (reflection, environment). The ray counts stay those of the image."""
         counted = dict(self.rays)
         camera = self.scene.camera
-        O, D, t_max = cam.primary_ray(camera, self.settings, x, y)
+        O, D, t_max = cam.primary_ray(camera, self.settings, x, y, lens)
         out = SamplePasses()
         first, part, t = self.closest_intersection(O, D, CAMERA_T_MIN, t_max, "visible_camera")
         if first < 0:  # the background: far in depth, full mist, and the camera's view of the world
@@ -269,7 +269,8 @@ class PassTracer(ReferenceTracer):
         writes them from its first sample, on the centre); and the samples' own SamplePasses (their Cryptomatte
         names)."""
         samples = [
-            self.sample_passes(*cam.sample_position(self.settings, i, j, s)) for s in range(self.settings.samples)
+            self.sample_passes(*cam.sample_position(self.settings, i, j, s), cam.lens_sample(self.settings, i, j, s))
+            for s in range(self.settings.samples)
         ]
         values = {}
         for name in PASS_NAMES:
