@@ -255,3 +255,9 @@ def cycles_ramp_table() -> int:
     stop at 0.25 (n = 256); 4.2.23, 4.4.0, 4.5.15 and 5.0.1 at 0.25 for 0.25 and at 180/256 for 0.7 (n = 257), taken
     here for every 4.x (3.5-4.1 unmeasured)."""
     return 256 if VERSION < (4, 0, 0) else 257
+
+
+def panorama_settings(camera_data):
+    """Where a camera's panoramic settings (panorama_type, fisheye_fov, fisheye_lens, latitude_min...) live: on the
+    camera data from Blender 4.0, on its Cycles settings (camera.cycles) before."""
+    return camera_data if hasattr(camera_data, "panorama_type") else camera_data.cycles

@@ -317,3 +317,58 @@ def test_lens_fields_are_checked_with_clear_messages() -> None:
     for camera, field in (({"aperture": -0.1}, "camera.aperture"), ({"focus_distance": 0}, "camera.focus_distance")):
         with pytest.raises(SceneError, match=field.replace(".", r"\.")):
             scene_from_dict({**base, "camera": camera})
+
+
+# ---- panoramic cameras ----------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("kind", sc.PANORAMA_TYPES)
+@pytest.mark.parametrize("seed", range(2))
+def test_panoramic_cameras_match_the_reference(kind: str, seed: int) -> None:
+    from tests.random_scenes import extended_scene_document
+
+    document = extended_scene_document(seed, width=16, height=12)
+    document["camera"].update(type="PANO", panorama_type=kind, fisheye_fov=200.0 if seed else 180.0)
+    if seed:
+        document["camera"].update(clip_start=0.3, clip_end=12.0, latitude_min=-60.0, longitude_max=120.0)
+    document["render"].update(samples=4, film_transparent=True)
+    scene = scene_from_dict(document)
+    expected = np.asarray(render_reference(scene))
+    result = render(scene, workers=1)
+    image = np.concatenate((result.image, result.alpha[..., None]), axis=2)
+    np.testing.assert_allclose(image, expected, rtol=0, atol=1e-9)
+
+
+def test_a_panoramic_cameras_centre_looks_ahead_and_outside_its_lens_is_nothing() -> None:
+    """The image's centre looks along the camera's -Z for every panorama type; a fisheye's corners are outside its
+    circle: black, transparent, and no pass holds anything there but the background's depth and mist."""
+    base = {"location": [0.0, 0.0, 0.0], "rotation": [90.0, 0.0, 30.0], "type": "PANO"}
+    forward = -np.asarray(tf.euler_xyz_matrix((90.0, 0.0, 30.0)))[:, 2]
+    minimal = {"materials": {"m": {"color": [1, 1, 1]}}, "objects": [{"type": "sphere", "material": "m", "radius": 1}]}
+    for kind in sc.PANORAMA_TYPES:
+        camera = scene_from_dict({**minimal, "camera": {**base, "panorama_type": kind}}).camera
+        settings = sc.RenderSettings(width=8, height=8)
+        np.testing.assert_allclose(cam.primary_direction(camera, settings, 4.0, 4.0), forward, atol=1e-12)
+    document = {
+        "materials": {"m": {"color": [1.0, 1.0, 1.0]}},
+        "objects": [{"type": "sphere", "material": "m", "location": [0.0, 30.0, 0.0], "radius": 100.0}],
+        "lights": [{"type": "ambient", "intensity": 1.0}],
+        "camera": {**base, "panorama_type": "FISHEYE_EQUIDISTANT"},
+        "background": {"type": "solid", "color": [0.2, 0.4, 0.6]},
+        "render": {"width": 8, "height": 8, "film_transparent": True, "passes": ["environment", "normal"]},
+    }
+    result = render(scene_from_dict(document), workers=1)
+    assert np.all(result.image[0, 0] == 0.0) and result.alpha[0, 0] == 0.0  # a corner: outside the circle
+    assert result.passes["environment"][0, 0].tolist() == [0.0, 0.0, 0.0]
+    assert result.image[4, 4].sum() > 0.0 and result.alpha[4, 4] == 1.0
+
+
+def test_panorama_fields_are_checked_with_clear_messages() -> None:
+    base = {"materials": {"m": {"color": [1, 1, 1]}}, "objects": [{"type": "sphere", "material": "m"}]}
+    for camera, field in (
+        ({"type": "PANO", "panorama_type": "CUBEMAP"}, "camera.panorama_type"),
+        ({"type": "PANO", "latitude_min": -95}, "camera.latitude_min"),
+        ({"type": "PANO", "fisheye_fov": 0}, "camera.fisheye_fov"),
+    ):
+        with pytest.raises(SceneError, match=field.replace(".", r"\.")):
+            scene_from_dict({**base, "camera": camera})

@@ -8,6 +8,9 @@ import math
 
 import bpy
 
+from .. import compat
+
+PANORAMAS = ("EQUIRECTANGULAR", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID", "MIRRORBALL")  # the tracer's
 DEFAULT_CLIP = (0.01, 1000.0)  # metres: a built camera's clip_start and clip_end where the scene file has none
 
 
@@ -37,6 +40,7 @@ def to_tracer(obj) -> dict:
     location, rotation, _ = obj.matrix_world.decompose()
     euler = rotation.to_euler("XYZ")
     data = obj.data
+    panorama = _panorama(data)
     return {
         "location": list(location),
         "rotation": [math.degrees(angle) for angle in euler],
@@ -44,13 +48,33 @@ def to_tracer(obj) -> dict:
         "sensor_width": data.sensor_width,
         "sensor_height": data.sensor_height,
         "sensor_fit": data.sensor_fit,
-        "type": "ORTHO" if data.type == "ORTHO" else "PERSP",
+        "type": "ORTHO" if data.type == "ORTHO" else "PANO" if panorama else "PERSP",
         "ortho_scale": data.ortho_scale,
         "shift_x": data.shift_x,
         "shift_y": data.shift_y,
         "clip_start": data.clip_start,
         "clip_end": data.clip_end,
-        **depth_of_field(obj),
+        **(panorama or depth_of_field(obj)),
+    }
+
+
+def _panorama(data) -> dict:
+    """A panoramic camera's settings as the scene file's ({} for another camera, or a panorama type the tracer does
+    not have: unsupported() names it)."""
+    if data.type != "PANO":
+        return {}
+    settings = compat.panorama_settings(data)
+    if settings.panorama_type not in PANORAMAS:
+        return {}
+    return {
+        "panorama_type": settings.panorama_type,
+        "fisheye_fov": min(math.degrees(settings.fisheye_fov), 360.0),  # Blender keeps radians in float32
+        "fisheye_lens": settings.fisheye_lens,
+        **{
+            name: min(max(math.degrees(getattr(settings, name)), -90.0), 90.0)
+            for name in ("latitude_min", "latitude_max")
+        },
+        **{name: math.degrees(getattr(settings, name)) for name in ("longitude_min", "longitude_max")},
     }
 
 
@@ -90,8 +114,11 @@ def unsupported(blender_scene, exporting: bool = True) -> list[str]:
     problems = []
     if obj is not None:
         data = obj.data
-        if data.type == "PANO":
-            problems.append("panoramic camera (rendered as perspective)")
+        if data.type == "PANO" and compat.panorama_settings(data).panorama_type not in PANORAMAS:
+            kind = compat.panorama_settings(data).panorama_type.replace("_", " ").lower()
+            problems.append(f"panoramic camera, {kind} (rendered as perspective)")
+        if data.type == "PANO" and data.dof.use_dof:
+            problems.append("depth of field of a panoramic camera (rendered sharp)")
         if data.dof.use_dof and data.dof.aperture_blades >= 3:
             problems.append(f"aperture of {data.dof.aperture_blades} blades (a round one)")
         if data.dof.use_dof and data.dof.aperture_ratio != 1.0:

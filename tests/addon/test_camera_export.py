@@ -13,6 +13,7 @@ import pytest
 from bpy_extras.object_utils import world_to_camera_view
 from mathutils import Vector
 
+from addon import compat
 from addon.vane.camera import unsupported
 from tracer.geometry import camera as cam
 from tracer.scene.loader import scene_from_dict
@@ -93,9 +94,15 @@ def test_export_names_what_the_tracer_does_not_render(tmp_path: Path, capfd: pyt
     lines = [line for line in capfd.readouterr().out.splitlines() if "does not render" in line]
     assert len(lines) == 1 and "6 blades" in lines[0] and "moving camera" in lines[0] and "border" in lines[0]
     obj.data.type = "PANO"
-    assert unsupported(scene)[0] == "panoramic camera (rendered as perspective)"
+    compat.panorama_settings(obj.data).panorama_type = "FISHEYE_LENS_POLYNOMIAL"
+    assert unsupported(scene)[0] == "panoramic camera, fisheye lens polynomial (rendered as perspective)"
     assert bpy.ops.weathervane.export(filepath=str(path)) == {"FINISHED"}
     assert json.loads(path.read_text())["camera"]["type"] == "PERSP"
+    compat.panorama_settings(obj.data).panorama_type = "EQUIRECTANGULAR"
+    obj.data.update_tag()  # as an edit in the panel does (3.4 keeps the Cycles settings' old value evaluated)
+    assert bpy.ops.weathervane.export(filepath=str(path)) == {"FINISHED"}
+    camera = json.loads(path.read_text())["camera"]
+    assert camera["type"] == "PANO" and camera["panorama_type"] == "EQUIRECTANGULAR"
 
 
 def test_a_scene_files_camera_builds_and_exports_unchanged(tmp_path: Path) -> None:

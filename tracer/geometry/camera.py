@@ -146,13 +146,68 @@ def _view_point(camera: sc.Camera, settings: sc.RenderSettings, x, y):
     return cx, cy
 
 
+def panorama_direction(camera: sc.Camera, u, v):
+    """Cycles' panoramic cameras (kernel/camera/projection.h): an image position (u, v) in [0, 1]^2, u from the
+    left, v from the bottom (floats or (N,) arrays) -> the direction in the camera's own frame (x, y, z: Blender's
+    local axes, looking along -Z) and where it is outside the lens (False, or an (N,) mask): the direction in Cycles'
+    panorama space, turned as Cycles turns it into the camera's (blender/camera.cpp: the mirror ball's (x, z, y), the
+    others' (-y, z, -x))."""
+    array = not isinstance(u, float)
+    sin, cos, sqrt = (np.sin, np.cos, np.sqrt) if array else (math.sin, math.cos, math.sqrt)
+    kind = camera.panorama_type
+    outside = np.zeros(np.shape(u), dtype=bool) if array else False
+    if kind == "EQUIRECTANGULAR":
+        lon_min, lon_max = math.radians(camera.longitude_min), math.radians(camera.longitude_max)
+        lat_min, lat_max = math.radians(camera.latitude_min), math.radians(camera.latitude_max)
+        phi = (lon_min - lon_max) * u - lon_min
+        theta = (lat_min - lat_max) * v + (math.pi / 2.0 - lat_min)
+        x, y, z = sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta)
+    elif kind == "MIRRORBALL":
+        a, c = 2.0 * u - 1.0, 2.0 * v - 1.0
+        outside = a * a + c * c > 1.0
+        b = -sqrt(np.maximum(1.0 - a * a - c * c, 0.0) if array else max(1.0 - a * a - c * c, 0.0))
+        # the reflection of I = (0, -1, 0) about the ball's normal (a, b, c): 2 (n . I) n - I
+        x, y, z = -2.0 * b * a, -2.0 * b * b + 1.0, -2.0 * b * c
+        return (x, z, y), outside
+    else:  # the fisheyes: an angle theta off the view axis, around it by phi
+        if kind == "FISHEYE_EQUIDISTANT":
+            a, c = (u - 0.5) * 2.0, (v - 0.5) * 2.0
+        else:
+            a, c = (u - 0.5) * camera.sensor_width, (v - 0.5) * camera.sensor_height
+        r = sqrt(a * a + c * c)
+        if kind == "FISHEYE_EQUIDISTANT":
+            outside = r > 1.0
+            theta = r * math.radians(camera.fisheye_fov) * 0.5
+        else:
+            lens = camera.fisheye_lens
+            outside = r > 2.0 * lens * math.sin(math.radians(camera.fisheye_fov) * 0.25)
+            half = r / (2.0 * lens)
+            theta = 2.0 * (np.arcsin(np.minimum(half, 1.0)) if array else math.asin(min(half, 1.0)))
+        if array:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.where(r != 0.0, a / r, 0.0)
+            phi = np.arccos(np.clip(ratio, -1.0, 1.0))
+            phi = np.where(c < 0.0, -phi, phi)
+        else:
+            phi = math.acos(min(max(a / r if r != 0.0 else 0.0, -1.0), 1.0))
+            phi = -phi if c < 0.0 else phi
+        x, y, z = cos(theta), -cos(phi) * sin(theta), sin(phi) * sin(theta)
+    return (-y, z, -x), outside
+
+
 def primary_direction(camera: sc.Camera, settings: sc.RenderSettings, x: float, y: float) -> sc.Vec3:
-    """Unit world direction of the camera ray through image position (x, y) in pixels; Python floats."""
+    """Unit world direction of the camera ray through image position (x, y) in pixels; Python floats. A panoramic
+    camera's position outside its lens: (0, 0, 0)."""
     r = tf.euler_xyz_matrix(camera.rotation)
-    if camera.type == "ORTHO":
+    if camera.type == "PANO":
+        (cx, cy, cz), outside = panorama_direction(camera, x / settings.width, 1.0 - y / settings.height)
+        if outside:
+            return 0.0, 0.0, 0.0
+    elif camera.type == "ORTHO":
         return -r[0][2], -r[1][2], -r[2][2]
-    cx, cy = _view_point(camera, settings, x, y)
-    cz = -camera.lens
+    else:
+        cx, cy = _view_point(camera, settings, x, y)
+        cz = -camera.lens
     wx = r[0][0] * cx + r[0][1] * cy + r[0][2] * cz
     wy = r[1][0] * cx + r[1][1] * cy + r[1][2] * cz
     wz = r[2][0] * cx + r[2][1] * cy + r[2][2] * cz
@@ -170,6 +225,11 @@ def primary_ray(
     the ray leaves the lens at lens (u, v) (lens_sample; the centre by default) toward the point where the pinhole
     ray meets the focus plane (a thin lens)."""
     D = primary_direction(camera, settings, x, y)
+    if camera.type == "PANO":  # clipped by distance along the ray, as Cycles clips panoramic rays
+        if D == (0.0, 0.0, 0.0):  # outside the lens: a ray that sees nothing
+            return camera.location, (0.0, 0.0, 1.0), 0.0
+        start = tuple(camera.location[k] + D[k] * camera.clip_start for k in range(3))
+        return start, D, math.inf if camera.clip_end is None else camera.clip_end - camera.clip_start
     r = tf.euler_xyz_matrix(camera.rotation)
     start = camera.location
     if camera.type == "ORTHO":
@@ -232,8 +292,27 @@ def pixel_directions(camera: sc.Camera, settings: sc.RenderSettings, pixels: np.
 
     The same operations in the same order as primary_direction (and primary_ray's thin lens), so each ray is
     bit-identical to the scalar one (and to itself in any band or subset)."""
+    if camera.type == "PANO":
+        return _panorama_rays(camera, settings, pixels)[0]
     D = _pinhole_directions(camera, settings, pixels)
     return D if camera.aperture == 0.0 else _lens_rays(camera, settings, pixels, D)[1]
+
+
+def _panorama_rays(camera: sc.Camera, settings: sc.RenderSettings, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A panoramic camera's unit directions (3, N) of every sample of the pixels (P,), and which are outside its lens
+    (N,) (their direction +Z, never traced): the same operations as primary_direction."""
+    x, y = _sample_positions(settings, pixels)
+    (cx, cy, cz), outside = panorama_direction(camera, x / settings.width, 1.0 - y / settings.height)
+    r = tf.euler_xyz_matrix(camera.rotation)
+    wx = r[0][0] * cx + r[0][1] * cy + r[0][2] * cz
+    wy = r[1][0] * cx + r[1][1] * cy + r[1][2] * cz
+    wz = r[2][0] * cx + r[2][1] * cy + r[2][2] * cz
+    with np.errstate(divide="ignore", invalid="ignore"):
+        size = np.sqrt(wx * wx + wy * wy + wz * wz)
+        D = np.stack((wx / size, wy / size, wz / size))
+    if np.any(outside):
+        D[:, outside] = ((0.0,), (0.0,), (1.0,))
+    return D, np.broadcast_to(outside, (x.size,))
 
 
 def _lens_rays(
@@ -300,6 +379,13 @@ def pixel_starts(
     (3, N) float64 and t_max (N,), or None where there is no far limit. directions: those rays (3, N)."""
     r = tf.euler_xyz_matrix(camera.rotation)
     D = np.asarray(directions, dtype=np.float64)
+    if camera.type == "PANO":  # clipped by distance along the ray; outside the lens: nothing (t_max 0)
+        outside = _panorama_rays(camera, settings, pixels)[1]
+        start = np.asarray(camera.location, dtype=np.float64).reshape(3, 1) + D * camera.clip_start
+        length = math.inf if camera.clip_end is None else camera.clip_end - camera.clip_start
+        if camera.clip_end is None and not outside.any():
+            return start, None
+        return start, np.where(outside, 0.0, length)
     if camera.aperture > 0.0:
         start, D = _lens_rays(camera, settings, pixels, _pinhole_directions(camera, settings, pixels))
         depth_per_t = -(r[0][2] * D[0] + r[1][2] * D[1] + r[2][2] * D[2])

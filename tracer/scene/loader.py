@@ -943,12 +943,17 @@ def _camera(reader: _Reader | None) -> sc.Camera:
         # Blender's camera.angle: the fitted sensor side (height for VERTICAL, width otherwise) spans fov.
         sensor = sensor_height if sensor_fit == "VERTICAL" else sensor_width
         lens = sensor / 2.0 / math.tan(math.radians(fov) / 2.0)
-    if reader.data.get("type") == "PANO":
-        reader.raw("type")
-        reader.fail("type", 'panoramic cameras are not supported: use "PERSP" or "ORTHO"')
-        kind = base.type
-    else:
-        kind = reader.choice("type", sc.CAMERA_TYPES, base.type)
+    kind = reader.choice("type", sc.CAMERA_TYPES, base.type)
+    degrees = {"low": -360.0, "high": 360.0}
+    panorama = {
+        "panorama_type": reader.choice("panorama_type", sc.PANORAMA_TYPES, base.panorama_type),
+        "fisheye_fov": reader.number("fisheye_fov", base.fisheye_fov, low=0.0, low_open=True, high=360.0),
+        "fisheye_lens": reader.number("fisheye_lens", base.fisheye_lens, **millimetres),
+        "latitude_min": reader.number("latitude_min", base.latitude_min, low=-90.0, high=90.0),
+        "latitude_max": reader.number("latitude_max", base.latitude_max, low=-90.0, high=90.0),
+        "longitude_min": reader.number("longitude_min", base.longitude_min, **degrees),
+        "longitude_max": reader.number("longitude_max", base.longitude_max, **degrees),
+    }
     shift = {"low": -SHIFT_LIMIT, "high": SHIFT_LIMIT}
     clip_start = reader.number("clip_start", base.clip_start, low=0.0, high=LENGTH_RANGE[1])
     clip_end = reader.number("clip_end", None, low=0.0, low_open=True, high=LENGTH_RANGE[1])
@@ -967,6 +972,7 @@ def _camera(reader: _Reader | None) -> sc.Camera:
         shift_y=reader.number("shift_y", base.shift_y, **shift),
         clip_start=clip_start,
         clip_end=clip_end,
+        **panorama,
         aperture=reader.number("aperture", base.aperture, low=0.0, high=LENGTH_RANGE[1]),
         focus_distance=reader.number(
             "focus_distance", base.focus_distance, low=0.0, low_open=True, least=LENGTH_RANGE[0], high=LENGTH_RANGE[1]

@@ -22,7 +22,8 @@ BACKGROUNDS = ("solid", "sky", "documented", "none", "image")
 AREA_SHAPES = ("square", "rectangle", "disk", "ellipse")
 BACKGROUND_INTERPOLATIONS = ("linear", "closest")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
-CAMERA_TYPES = ("PERSP", "ORTHO")
+CAMERA_TYPES = ("PERSP", "ORTHO", "PANO")
+PANORAMA_TYPES = ("EQUIRECTANGULAR", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID", "MIRRORBALL")
 DTYPES = ("float32", "float64")
 NUMERICS = ("documented", "robust")
 FALLOFFS = ("none", "inverse_square")
@@ -507,6 +508,18 @@ class Camera:
     clip_end: float | None = None
     aperture: float = 0.0
     focus_distance: float = 10.0
+    # type PANO (Cycles' panoramic cameras, camera.py's panorama_direction): rays from the camera's location in the
+    # directions the panorama type maps each image position to; fisheye_fov and the latitudes and longitudes in
+    # degrees, fisheye_lens in millimetres (with the sensor's width and height, for the equisolid fisheye)
+    panorama_type: Literal["EQUIRECTANGULAR", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID", "MIRRORBALL"] = (
+        "FISHEYE_EQUISOLID"
+    )
+    fisheye_fov: float = 180.0
+    fisheye_lens: float = 10.5
+    latitude_min: float = -90.0
+    latitude_max: float = 90.0
+    longitude_min: float = -180.0
+    longitude_max: float = 180.0
 
 
 @dataclass(frozen=True)

@@ -315,7 +315,8 @@ def _opaque_shadows(prepared: PreparedScene, placed: _Placed, leaves: list[tuple
 
 def _screen(prepared: PreparedScene) -> None:
     """Which camera rays each bounded kernel can meet (ScreenRectangles), where that culls well."""
-    if prepared.camera_hierarchy.boxes is None or prepared.scene.camera.aperture > 0.0:  # a lens: rays from all over it
+    camera = prepared.scene.camera
+    if prepared.camera_hierarchy.boxes is None or camera.aperture > 0.0 or camera.type == "PANO":  # not a projection
         return
     settings = prepared.scene.render
     screen = ScreenRectangles.build(

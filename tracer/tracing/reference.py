@@ -654,6 +654,8 @@ class ReferenceTracer:
             lens = cam.lens_sample(self.settings, i, j, s)
             O, D, t_max = cam.primary_ray(self.scene.camera, self.settings, x, y, lens)
             self.rays["camera"] += 1
+            if t_max == 0.0:  # a panoramic camera's ray outside its lens: nothing, not even the background
+                continue
             color = self.trace_ray(O, D, CAMERA_T_MIN, t_max, self.settings.depth, camera=True)
             covered = self.coverage(O, D, CAMERA_T_MIN, t_max)
             total = [total[0] + color[0], total[1] + color[1], total[2] + color[2], total[3] + covered]

@@ -85,6 +85,8 @@ class PassTracer(ReferenceTracer):
         camera = self.scene.camera
         O, D, t_max = cam.primary_ray(camera, self.settings, x, y, lens)
         out = SamplePasses()
+        if t_max == 0.0:  # outside a panoramic camera's lens: nothing in any pass
+            return out
         first, part, t = self.closest_intersection(O, D, CAMERA_T_MIN, t_max, "visible_camera")
         if first < 0:  # the background: far in depth, full mist, and the camera's view of the world
             if not self.settings.film_transparent:

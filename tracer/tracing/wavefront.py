@@ -355,6 +355,13 @@ class TracedScene(PreparedScene):
                 frames,
                 recorder,
             )
+            if far is not None:  # a panoramic camera's rays outside its lens see nothing, as Cycles' (t_max 0)
+                outside = indices(far <= 0.0)
+                if outside.size:
+                    color[:, outside] = 0.0
+                    if alpha is not None:
+                        alpha[outside] = 0.0
+                    recorder.holdout(outside)
         if alpha is not None:
             color = np.concatenate((color, alpha[None]))
         samples = color.reshape(color.shape[0], -1, settings.samples)
