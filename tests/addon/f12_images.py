@@ -7,6 +7,13 @@ from pathlib import Path
 
 import bpy
 import numpy as np
+import pytest
+
+# A comparison with Cycles that the bars ask for in bpy 5.0.1 and Debian's 3.4.1 (the two ends of the supported
+# range): skipped in the 4.x wheels, whose conversion tests still run (the suite's time stays within make test's)
+AT_THE_ENDS = pytest.mark.skipif(
+    (4, 0, 0) <= bpy.app.version < (5, 0, 0), reason="beside Cycles in bpy 5.0.1 and Debian's 3.4.1"
+)
 
 
 def f12_exr(path: Path, color_mode: str = "RGB") -> np.ndarray:

@@ -15,7 +15,7 @@ import pytest
 
 from addon import compat
 from addon.vane.camera import depth_of_field
-from tests.addon.f12_images import f12_exr
+from tests.addon.f12_images import AT_THE_ENDS, f12_exr
 
 WIDTH, HEIGHT = 320, 64
 BARS = ((-0.35, 3.0, 0.15), (0.0, 5.0, 0.15), (0.9, 8.0, 0.25))  # (x, distance, width) metres
@@ -66,6 +66,7 @@ def _left_edge_widths(image: np.ndarray) -> list[float]:
     return widths
 
 
+@AT_THE_ENDS
 def test_the_blur_of_bars_out_of_focus_is_cycles(tmp_path: Path) -> None:
     _bars_scene()
     scene = bpy.context.scene

@@ -12,7 +12,7 @@ import bpy
 import pytest
 
 from addon import compat
-from tests.addon.f12_images import f12_exr
+from tests.addon.f12_images import AT_THE_ENDS, f12_exr
 
 CUBES = ((0.0, 4.0, 0.0), (3.0, 3.0, 1.0), (-4.0, 1.0, -1.0), (0.5, 1.0, 4.0), (1.0, -4.0, 0.5), (-1.5, 2.0, -3.0))
 # a pixel counts as covered where a cube shows over 70% of it: the mirror ball's rim is a circle of pixels half
@@ -57,6 +57,7 @@ def _scene(kind: str) -> None:
     scene.weathervane.samples = "16"
 
 
+@AT_THE_ENDS
 @pytest.mark.parametrize("kind", sorted(CASES))
 def test_each_panoramic_camera_covers_the_pixels_cycles_covers(tmp_path: Path, kind: str) -> None:
     _scene(kind)

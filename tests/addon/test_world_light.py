@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from addon import compat
-from tests.addon.f12_images import f12_exr, looking_down
+from tests.addon.f12_images import AT_THE_ENDS, f12_exr, looking_down
 
 SIZE = 8.0  # metres across the orthographic view
 PIXELS = 64
@@ -56,6 +56,7 @@ def _regions() -> dict[str, np.ndarray]:
     return {"open": np.hypot(x, y) > 3.0, "beside the cube": beside, "the cube's top": reach < 0.9}
 
 
+@AT_THE_ENDS
 @pytest.mark.parametrize("strength", [1.0])
 def test_a_cube_shadows_the_world_light_as_in_cycles(tmp_path: Path, strength: float) -> None:
     _world_scene(strength)
