@@ -48,3 +48,18 @@ def looking_down(height: float, ortho_scale: float, pixels: int = 8) -> None:
     scene.view_settings.view_transform = "Standard"
     scene.world = None
     scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 16, False
+
+
+def glowing_material(name: str = "glow") -> bpy.types.Material:
+    """A material whose surface is an Emission shader of strength 1, white: seen alike by every engine, with no
+    lamp, world or bounce (the tests that compare where things are)."""
+    from addon import compat
+
+    material = bpy.data.materials.new(name)
+    compat.enable_nodes(material)
+    tree = material.node_tree
+    tree.nodes.clear()
+    emission = tree.nodes.new("ShaderNodeEmission")
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(emission.outputs["Emission"], output.inputs["Surface"])
+    return material

@@ -13,9 +13,8 @@ import bpy
 import numpy as np
 import pytest
 
-from addon import compat
 from addon.vane.camera import depth_of_field
-from tests.addon.f12_images import AT_THE_ENDS, f12_exr
+from tests.addon.f12_images import AT_THE_ENDS, f12_exr, glowing_material
 
 WIDTH, HEIGHT = 320, 64
 BARS = ((-0.35, 3.0, 0.15), (0.0, 5.0, 0.15), (0.9, 8.0, 0.25))  # (x, distance, width) metres
@@ -25,13 +24,7 @@ FOCUS = 5.0
 def _bars_scene() -> None:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    material = bpy.data.materials.new("glow")
-    compat.enable_nodes(material)
-    tree = material.node_tree
-    tree.nodes.clear()
-    emission = tree.nodes.new("ShaderNodeEmission")
-    output = tree.nodes.new("ShaderNodeOutputMaterial")
-    tree.links.new(emission.outputs["Emission"], output.inputs["Surface"])
+    material = glowing_material()
     for x, distance, width in BARS:
         bpy.ops.mesh.primitive_cube_add(size=1.0, location=(x, distance, 0.0))
         bar = bpy.context.object

@@ -12,7 +12,7 @@ import bpy
 import pytest
 
 from addon import compat
-from tests.addon.f12_images import AT_THE_ENDS, f12_exr
+from tests.addon.f12_images import AT_THE_ENDS, f12_exr, glowing_material
 
 CUBES = ((0.0, 4.0, 0.0), (3.0, 3.0, 1.0), (-4.0, 1.0, -1.0), (0.5, 1.0, 4.0), (1.0, -4.0, 0.5), (-1.5, 2.0, -3.0))
 # a pixel counts as covered where a cube shows over 70% of it: the mirror ball's rim is a circle of pixels half
@@ -29,13 +29,7 @@ CASES = {  # panorama type: (settings, width, height)
 def _scene(kind: str) -> None:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    material = bpy.data.materials.new("glow")
-    compat.enable_nodes(material)
-    tree = material.node_tree
-    tree.nodes.clear()
-    emission = tree.nodes.new("ShaderNodeEmission")
-    output = tree.nodes.new("ShaderNodeOutputMaterial")
-    tree.links.new(emission.outputs["Emission"], output.inputs["Surface"])
+    material = glowing_material()
     for location in CUBES:
         bpy.ops.mesh.primitive_cube_add(size=1.2, location=location, rotation=(0.3, 0.2, 0.1))
         bpy.context.object.data.materials.append(material)
