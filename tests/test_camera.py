@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from tests.tracing import assert_matches_reference
 from tracer.geometry import camera as cam
 from tracer.geometry import transforms as tf
 from tracer.scene import scene as sc
@@ -283,10 +284,7 @@ def _lens_document(seed: int) -> dict:
 @pytest.mark.parametrize("seed", range(9))
 def test_a_thin_lens_matches_the_reference(seed: int) -> None:
     scene = scene_from_dict(_lens_document(seed))
-    expected = np.asarray(render_reference(scene))
-    image = render(scene, workers=1)
-    image = image.image if image.alpha is None else np.concatenate((image.image, image.alpha[..., None]), axis=2)
-    np.testing.assert_allclose(image, expected, rtol=0, atol=1e-9)
+    assert_matches_reference(scene)
 
 
 def test_a_thin_lens_focuses_on_its_plane_and_blurs_off_it() -> None:
@@ -333,10 +331,7 @@ def test_panoramic_cameras_match_the_reference(kind: str, seed: int) -> None:
         document["camera"].update(clip_start=0.3, clip_end=12.0, latitude_min=-60.0, longitude_max=120.0)
     document["render"].update(samples=4, film_transparent=True)
     scene = scene_from_dict(document)
-    expected = np.asarray(render_reference(scene))
-    result = render(scene, workers=1)
-    image = np.concatenate((result.image, result.alpha[..., None]), axis=2)
-    np.testing.assert_allclose(image, expected, rtol=0, atol=1e-9)
+    assert_matches_reference(scene)
 
 
 def test_a_panoramic_cameras_centre_looks_ahead_and_outside_its_lens_is_nothing() -> None:

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from tests.random_scenes import extended_scene_document, see_through_scene_document
+from tests.tracing import assert_matches_reference
 from tracer.geometry import camera as cam
 from tracer.geometry import lightsamples
 from tracer.scene import passes as ps
 from tracer.scene import scene as sc
 from tracer.scene.loader import SceneError, default_scene, default_scene_dict, scene_from_dict
-from tracer.tracing.reference import render_reference
 from tracer.tracing.surfaces import environment
 from tracer.workers.parallel import render
 
@@ -182,16 +182,9 @@ def _world_document(seed: int) -> dict:
     return document
 
 
-def _with_alpha(result) -> np.ndarray:
-    return result.image if result.alpha is None else np.concatenate((result.image, result.alpha[..., None]), axis=2)
-
-
 @pytest.mark.parametrize("seed", range(16))
 def test_image_backgrounds_match_the_reference(seed: int) -> None:
-    scene = scene_from_dict(_world_document(seed))
-    expected = np.asarray(render_reference(scene))
-    image = _with_alpha(render(scene, workers=1))
-    np.testing.assert_allclose(image, expected, rtol=0, atol=1e-9)
+    assert_matches_reference(scene_from_dict(_world_document(seed)))
 
 
 def test_an_image_background_is_seen_in_mirrors_and_travels_to_workers_once() -> None:
@@ -355,10 +348,17 @@ def _unit_random(rng: random.Random) -> list[float]:
 
 @pytest.mark.parametrize("seed", range(20))
 def test_area_lights_sun_angles_and_light_radii_match_the_reference(seed: int) -> None:
-    scene = scene_from_dict(_soft_document(seed))
-    expected = np.asarray(render_reference(scene))
-    image = _with_alpha(render(scene, workers=1))
-    np.testing.assert_allclose(image, expected, rtol=0, atol=1e-9)
+    assert_matches_reference(scene_from_dict(_soft_document(seed)))
+
+
+def _passes_add_up_and_workers_agree(scene: sc.Scene):
+    """The scene rendered with the Whitted passes and Shadow by 2 workers: the same image as 1 worker's, and the
+    passes adding up to it (to a few ULPs); -> that render."""
+    result = render(scene.with_render(passes=(*ps.WHITTED, "shadow")), workers=2)
+    assert np.array_equal(result.image, render(scene, workers=1).image)
+    total = sum(result.passes[name].astype(np.float64) for name in ps.WHITTED)
+    assert np.all(np.abs(total - result.image) <= 8 * np.finfo(np.float64).eps * np.maximum(1.0, np.abs(result.image)))
+    return result
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -366,11 +366,7 @@ def test_soft_lights_keep_the_passes_adding_up_and_workers_and_robust_numerics_a
     document = _soft_document(seed)
     document["render"].pop("border", None)
     plain = scene_from_dict(document)
-    result = render(plain.with_render(passes=(*ps.WHITTED, "shadow")), workers=2)
-    one = render(plain, workers=1)
-    assert np.array_equal(result.image, one.image)
-    total = sum(result.passes[name].astype(np.float64) for name in ps.WHITTED)
-    assert np.all(np.abs(total - result.image) <= 8 * np.finfo(np.float64).eps * np.maximum(1.0, np.abs(result.image)))
+    result = _passes_add_up_and_workers_agree(plain)
     shadow = result.passes["shadow"]
     assert np.all((shadow >= 0.0) & (shadow <= 1.0 + 1e-12))
     robust = render(plain.with_render(numerics="robust"), workers=1).image
@@ -417,10 +413,7 @@ def _world_lit_document(seed: int) -> dict:
 
 @pytest.mark.parametrize("seed", range(12))
 def test_world_lit_scenes_match_the_reference(seed: int) -> None:
-    scene = scene_from_dict(_world_lit_document(seed))
-    expected = np.asarray(render_reference(scene))
-    image = _with_alpha(render(scene, workers=1))
-    np.testing.assert_allclose(image, expected, rtol=0, atol=1e-9)
+    assert_matches_reference(scene_from_dict(_world_lit_document(seed)))
 
 
 def _open_ground(objects: list[dict], samples: int = 64, **light: object) -> float:
@@ -465,8 +458,4 @@ def test_world_light_samples_are_checked_with_clear_messages() -> None:
 def test_a_world_light_keeps_the_passes_adding_up_and_workers_agree(seed: int) -> None:
     document = _world_lit_document(seed)
     document["render"].pop("border", None)
-    plain = scene_from_dict(document)
-    result = render(plain.with_render(passes=(*ps.WHITTED, "shadow")), workers=2)
-    assert np.array_equal(result.image, render(plain, workers=1).image)
-    total = sum(result.passes[name].astype(np.float64) for name in ps.WHITTED)
-    assert np.all(np.abs(total - result.image) <= 8 * np.finfo(np.float64).eps * np.maximum(1.0, np.abs(result.image)))
+    _passes_add_up_and_workers_agree(scene_from_dict(document))
