@@ -146,6 +146,23 @@ def _view_point(camera: sc.Camera, settings: sc.RenderSettings, x, y):
     return cx, cy
 
 
+def panorama_outside(camera: sc.Camera, u, v):
+    """Where an image position (u, v) (floats or (N,) arrays, as panorama_direction takes them) is outside a
+    panoramic camera's lens: beyond a fisheye's circle or the mirror ball; never for the equirectangular."""
+    kind = camera.panorama_type
+    if kind == "EQUIRECTANGULAR":
+        return np.zeros(np.shape(u), dtype=bool) if not isinstance(u, float) else False
+    if kind == "MIRRORBALL":
+        a, c = 2.0 * u - 1.0, 2.0 * v - 1.0
+        return a * a + c * c > 1.0
+    if kind == "FISHEYE_EQUIDISTANT":
+        a, c = (u - 0.5) * 2.0, (v - 0.5) * 2.0
+        return np.sqrt(a * a + c * c) > 1.0 if not isinstance(u, float) else math.sqrt(a * a + c * c) > 1.0
+    a, c = (u - 0.5) * camera.sensor_width, (v - 0.5) * camera.sensor_height
+    r = np.sqrt(a * a + c * c) if not isinstance(u, float) else math.sqrt(a * a + c * c)
+    return r > 2.0 * camera.fisheye_lens * math.sin(math.radians(camera.fisheye_fov) * 0.25)
+
+
 def panorama_direction(camera: sc.Camera, u, v):
     """Cycles' panoramic cameras (kernel/camera/projection.h): an image position (u, v) in [0, 1]^2, u from the
     left, v from the bottom (floats or (N,) arrays) -> the direction in the camera's own frame (x, y, z: Blender's
@@ -155,7 +172,7 @@ def panorama_direction(camera: sc.Camera, u, v):
     array = not isinstance(u, float)
     sin, cos, sqrt = (np.sin, np.cos, np.sqrt) if array else (math.sin, math.cos, math.sqrt)
     kind = camera.panorama_type
-    outside = np.zeros(np.shape(u), dtype=bool) if array else False
+    outside = panorama_outside(camera, u, v)
     if kind == "EQUIRECTANGULAR":
         lon_min, lon_max = math.radians(camera.longitude_min), math.radians(camera.longitude_max)
         lat_min, lat_max = math.radians(camera.latitude_min), math.radians(camera.latitude_max)
@@ -164,7 +181,6 @@ def panorama_direction(camera: sc.Camera, u, v):
         x, y, z = sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta)
     elif kind == "MIRRORBALL":
         a, c = 2.0 * u - 1.0, 2.0 * v - 1.0
-        outside = a * a + c * c > 1.0
         b = -sqrt(np.maximum(1.0 - a * a - c * c, 0.0) if array else max(1.0 - a * a - c * c, 0.0))
         # the reflection of I = (0, -1, 0) about the ball's normal (a, b, c): 2 (n . I) n - I
         x, y, z = -2.0 * b * a, -2.0 * b * b + 1.0, -2.0 * b * c
@@ -176,12 +192,9 @@ def panorama_direction(camera: sc.Camera, u, v):
             a, c = (u - 0.5) * camera.sensor_width, (v - 0.5) * camera.sensor_height
         r = sqrt(a * a + c * c)
         if kind == "FISHEYE_EQUIDISTANT":
-            outside = r > 1.0
             theta = r * math.radians(camera.fisheye_fov) * 0.5
         else:
-            lens = camera.fisheye_lens
-            outside = r > 2.0 * lens * math.sin(math.radians(camera.fisheye_fov) * 0.25)
-            half = r / (2.0 * lens)
+            half = r / (2.0 * camera.fisheye_lens)
             theta = 2.0 * (np.arcsin(np.minimum(half, 1.0)) if array else math.asin(min(half, 1.0)))
         if array:
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -321,11 +334,29 @@ def _lens_rays(
     """The thin lens's rays (origins, unit directions; (3, N) each) of every sample of the pixels (P,), from their
     pinhole directions D (3, N)."""
     r = tf.euler_xyz_matrix(camera.rotation)
-    start = camera.location
-    if camera.type == "ORTHO":
-        cx, cy = _view_point(camera, settings, *_sample_positions(settings, pixels))
-        start = [camera.location[k] + r[k][0] * cx + r[k][1] * cy for k in range(3)]
-    return _through_lens(camera, r, start, D, *_on_lens(camera, *_lens_samples(settings, pixels)))
+    return _through_lens(
+        camera, r, _pinhole_starts(camera, settings, pixels, r), D, *_lens_offsets(camera, settings, pixels)
+    )
+
+
+def _pinhole_starts(camera: sc.Camera, settings: sc.RenderSettings, pixels: np.ndarray, r):
+    """Where the pinhole rays of the pixels' samples start: the camera's location, or an orthographic camera's
+    view-plane points (a list of 3 (N,) arrays)."""
+    if camera.type != "ORTHO":
+        return camera.location
+    cx, cy = _view_point(camera, settings, *_sample_positions(settings, pixels))
+    return [camera.location[k] + r[k][0] * cx + r[k][1] * cy for k in range(3)]
+
+
+def _lens_offsets(camera: sc.Camera, settings: sc.RenderSettings, pixels: np.ndarray):
+    """Each sample's point on the lens (a, b) (N,) each, along the camera's x and y."""
+    return _on_lens(camera, *_lens_samples(settings, pixels))
+
+
+def _lens_origins(camera: sc.Camera, settings: sc.RenderSettings, pixels: np.ndarray, r) -> np.ndarray:
+    """The lens rays' origins (3, N): _through_lens's, without their directions."""
+    start, (a, b) = _pinhole_starts(camera, settings, pixels, r), _lens_offsets(camera, settings, pixels)
+    return np.stack(tuple(start[k] + r[k][0] * a + r[k][1] * b for k in range(3)))
 
 
 def _pinhole_directions(camera: sc.Camera, settings: sc.RenderSettings, pixels: np.ndarray) -> np.ndarray:
@@ -380,14 +411,15 @@ def pixel_starts(
     r = tf.euler_xyz_matrix(camera.rotation)
     D = np.asarray(directions, dtype=np.float64)
     if camera.type == "PANO":  # clipped by distance along the ray; outside the lens: nothing (t_max 0)
-        outside = _panorama_rays(camera, settings, pixels)[1]
+        x, y = _sample_positions(settings, pixels)
+        outside = np.broadcast_to(panorama_outside(camera, x / settings.width, 1.0 - y / settings.height), (x.size,))
         start = np.asarray(camera.location, dtype=np.float64).reshape(3, 1) + D * camera.clip_start
         length = math.inf if camera.clip_end is None else camera.clip_end - camera.clip_start
         if camera.clip_end is None and not outside.any():
             return start, None
         return start, np.where(outside, 0.0, length)
-    if camera.aperture > 0.0:
-        start, D = _lens_rays(camera, settings, pixels, _pinhole_directions(camera, settings, pixels))
+    if camera.aperture > 0.0:  # the lens points; the directions (pixel_directions') are the lens rays already
+        start = _lens_origins(camera, settings, pixels, r)
         depth_per_t = -(r[0][2] * D[0] + r[1][2] * D[1] + r[2][2] * D[2])
     elif camera.type == "ORTHO":
         depth_per_t = 1.0
