@@ -250,17 +250,21 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
         return background, None, notes
     if not any(c > 0.0 for c in color) or (visibility is not None and not visibility.diffuse):
         return background, None, notes
+    # a uniform radiance W as intensity 1 and colour W; a W above 1 (the format's colours lie in [0, 1]) puts its
+    # largest channel in the intensity: the same light
+    brightest = max(1.0, max(color))
+    uniform = {"intensity": brightest, "color": [c / brightest for c in color]}
+    settings = getattr(blender_scene, "weathervane", None)
+    if getattr(settings, "world_light", "SHADOWED") == "AMBIENT":  # the user picked speed over the shadows
+        notes.append("world light: unshadowed ambient (Render Properties > World Light)")
+        return background, {"type": "ambient", **uniform}, notes
     samples = world_samples(blender_scene)
     shadowed = f"shadowed, {samples} directions per point, no bounces"
     if picture is not None and background is picture:  # the picture lights as the camera sees it
         notes.append(f"world light: the picture, {shadowed}")
         return background, {"type": "world", "intensity": 1.0, "samples": samples}, notes
     notes.append(f"world light: {shadowed}" + (", the picture's mean colour" if picture is not None else ""))
-    # a uniform radiance W: intensity 1 and colour W; a W above 1 (the format's colours lie in [0, 1]) puts its
-    # largest channel in the intensity: the same light
-    brightest = max(1.0, max(color))
-    light = {"type": "world", "radiance": "color", "intensity": brightest, "samples": samples}
-    return background, {**light, "color": [c / brightest for c in color]}, notes
+    return background, {"type": "world", "radiance": "color", "samples": samples, **uniform}, notes
 
 
 def world_samples(blender_scene) -> int:

@@ -350,6 +350,15 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         items=_square_counts("The light's centre alone: hard shadows", " over the light"),
         default="1",
     )
+    world_light: EnumProperty(
+        name="World Light",
+        description="How the world lights a scene the add-on did not build",
+        items=(
+            ("SHADOWED", "Shadowed", "Objects shadow the world's light, as in Cycles (16 shadow rays a point or more)"),
+            ("AMBIENT", "Ambient", "The world's mean light everywhere, unshadowed: faster, flatter"),
+        ),
+        default="SHADOWED",
+    )
 
 
 class WEATHERVANE_PG_view_layer(bpy.types.PropertyGroup):

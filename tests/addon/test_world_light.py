@@ -95,3 +95,20 @@ def test_build_from_a_file_with_a_world_light_leaves_it_out_and_says_so(tmp_path
     assert kind == "WARNING" and "the file's world light is not built" in line
     assert len(bpy.context.scene.weathervane.lights) == len(document["lights"]) - 1
     assert bpy.data.collections.get(build.COLLECTION) is not None
+
+
+def test_the_ambient_world_light_is_the_users_pick_for_speed(tmp_path: Path) -> None:
+    """Render Properties > World Light: Ambient gives the world's light everywhere, unshadowed (named): the ground
+    beside the cube as bright as in the open."""
+    _world_scene()
+    scene = bpy.context.scene
+    scene.weathervane.world_light = "AMBIENT"
+    from addon.convert import world_convert
+
+    _, light, notes = world_convert.convert_world(scene.world, blender_scene=scene)
+    assert light == {"type": "ambient", "intensity": 1.0, "color": [1.0, 1.0, 1.0]}
+    assert notes == ["world light: unshadowed ambient (Render Properties > World Light)"]
+    scene.render.engine = "WEATHERVANE_TRACER"
+    image = f12_exr(tmp_path / "ambient.exr")[..., 0]
+    regions = _regions()
+    assert image[regions["beside the cube"]].mean() == pytest.approx(image[regions["open"]].mean(), rel=1e-6)
