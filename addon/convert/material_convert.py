@@ -134,6 +134,11 @@ class _Lobes:
         # the mean weight of specular lobes too rough for a mirror: what reflects the scene and world blurred in
         # Cycles, here only the lights' highlight (named where it is large: a rough metal, not a dielectric's 4%)
         self.rough = 0.0
+        # rough specular lobes of a real weight (a metal, a Glossy BSDF): the format's glossy lobe (GGX), their
+        # colour weights summed, their roughness weighted by mean weight; Fresnel and energy as their shaders'
+        self.glossy = [0.0, 0.0, 0.0]
+        self.glossy_roughness = 0.0  # sum of roughness times mean weight
+        self.glossy_kinds: set[tuple[str, str]] = set()  # (fresnel, energy) of each lobe
 
     def scaled(self, k: float) -> _Lobes:
         out = _Lobes()
@@ -145,6 +150,9 @@ class _Lobes:
         out.glass, out.glass_ior, out.clear = self.glass * k, self.glass_ior * k, self.clear * k
         out.glass_tint = [c * k for c in self.glass_tint]
         out.rough = self.rough * k
+        out.glossy = [c * k for c in self.glossy]
+        out.glossy_roughness = self.glossy_roughness * k
+        out.glossy_kinds = set(self.glossy_kinds) if k > 0.0 else set()
         out.iors = set(self.iors) if k > 0.0 else set()
         for name in ("texture", "emission_texture"):
             texture = getattr(self, name)
@@ -166,6 +174,9 @@ class _Lobes:
         out.iors = self.iors | other.iors
         out.clear = self.clear + other.clear
         out.rough = self.rough + other.rough
+        out.glossy = [a + b for a, b in zip(self.glossy, other.glossy, strict=True)]
+        out.glossy_roughness = self.glossy_roughness + other.glossy_roughness
+        out.glossy_kinds = self.glossy_kinds | other.glossy_kinds
         out.textures_dropped = self.textures_dropped + other.textures_dropped
         for name in ("texture", "emission_texture"):
             mine, theirs = getattr(self, name), getattr(other, name)
@@ -182,8 +193,16 @@ class _Lobes:
         if weight > 0.0:
             self.iors.add(ior)
 
-    def add_specular(self, weight, roughness: float) -> None:
-        """A specular lobe of colour weight and roughness: mirror, highlight, or diffuse where it is that wide."""
+    def add_specular(self, weight, roughness: float, fresnel: str = "constant", energy: str = "multiscatter") -> None:
+        """A specular lobe of colour weight and roughness: a mirror up to ROUGH_MIRROR; above it, a glossy lobe
+        (GGX) where its mean weight passes ROUGH_NAMED (a metal, a Glossy BSDF), else (a dielectric's few percent)
+        the documented model's mirror share and highlight, or diffuse where it is that wide."""
+        mean = sum(weight) / 3.0
+        if roughness > ROUGH_MIRROR and mean > ROUGH_NAMED:
+            self.glossy = [g + c for g, c in zip(self.glossy, weight, strict=True)]
+            self.glossy_roughness += roughness * mean
+            self.glossy_kinds.add((fresnel, energy))
+            return
         share = mirror_share(roughness)
         self.mirror = [m + share * c for m, c in zip(self.mirror, weight, strict=True)]
         rest = [(1.0 - share) * c for c in weight]
@@ -734,7 +753,7 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
         lobes.texture = (texture[0], base, [weight] * 3, *texture[1:])
         if metallic > 0.0:
             notes.append("metallic texture: its highlight of the texture's mean colour")
-    lobes.add_specular([metallic * c + dielectric * f0 for c in base], roughness)
+    lobes.add_specular([metallic * c + dielectric * f0 for c in base], roughness, "schlick", _energy(node, notes))
     if glass > 0.0:
         ior = value_input(node.inputs["IOR"], "IOR", notes)
         lobes.add_glass(glass, compat.principled_transmission_tint(base), ior)
@@ -825,11 +844,23 @@ def _glossy(node, material, notes: list[str]) -> _Lobes:
     roughness = min(1.0, max(0.0, value_input(node.inputs["Roughness"], "Roughness", notes)))
     if getattr(node, "distribution", "") == "SHARP":  # 3.x: a perfect mirror whatever the roughness
         roughness = 0.0
-    lobes.add_specular(list(color), roughness)
+    lobes.add_specular(list(color), roughness, "constant", _energy(node, notes))
     anisotropy = node.inputs.get("Anisotropy")
     if anisotropy is not None and (anisotropy.is_linked or float(anisotropy.default_value) != 0.0):
         notes.append("anisotropy: an isotropic highlight")
     return lobes
+
+
+def _energy(node, notes: list[str]) -> str:
+    """The glossy lobe's energy for a shader's microfacet distribution: Multiscatter GGX keeps what single
+    scattering loses; GGX does not; Beckmann and Ashikhmin-Shirley are drawn as GGX of the same roughness
+    (named)."""
+    distribution = getattr(node, "distribution", "GGX")
+    if distribution == "MULTI_GGX":
+        return "multiscatter"
+    if distribution in ("BECKMANN", "ASHIKHMIN_SHIRLEY"):
+        notes.append(f"{distribution.replace('_', '-').title()} distribution: GGX")
+    return "single"
 
 
 def _diffuse(node, material, notes: list[str]) -> _Lobes:
@@ -1087,6 +1118,8 @@ def _opaque_document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -
     if lobes.rough > ROUGH_NAMED:
         notes.append("rough reflection: sharp mirror share, lights' highlight; no blurred scene or world")
     document = {"color": [min(1.0, max(0.0, c)) for c in color], "specular": 0, "reflective": reflective}
+    if any(c > 0.0 for c in lobes.glossy):
+        _glossy_document(document, lobes, notes)
     if lobes.texture is not None:
         document["texture"] = _texture_document(lobes.texture, lobes.diffuse, local)
     if lobes.textures_dropped:
@@ -1113,6 +1146,24 @@ def _opaque_document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -
         if "attribute" in (glow[5] or {}) and _texture_clipped(glow, lobes.emission, MAX_COLOR):
             notes.append("emission by a colour attribute above 1: clipped at 1")  # the format clamps it as a colour
     return document
+
+
+def _glossy_document(document: dict, lobes: _Lobes, notes: list[str]) -> None:
+    """The format's glossy lobe: the lobes' summed colour (clipped at 1, named), their mean roughness (weighted by
+    weight; several roughnesses named) and their Fresnel and energy (several kinds: the first's, named)."""
+    weight = sum(lobes.glossy) / 3.0
+    if max(lobes.glossy) > 1.0 + 1e-6:
+        notes.append("glossy colour above 1: clipped at 1")
+    document["glossy"] = [min(1.0, max(0.0, c)) for c in lobes.glossy]
+    document["roughness"] = min(1.0, max(1e-4, lobes.glossy_roughness / weight))
+    kinds = sorted(lobes.glossy_kinds)
+    fresnel, energy = kinds[0]
+    if len(kinds) > 1:
+        notes.append("glossy shaders of several kinds: one lobe, the first kind's Fresnel and energy")
+    if fresnel != "constant":
+        document["glossy_fresnel"] = fresnel
+    if energy != "multiscatter":
+        document["glossy_energy"] = energy
 
 
 def _texture_values(texture: tuple, base, local: float) -> np.ndarray:

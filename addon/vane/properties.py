@@ -350,6 +350,13 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         items=_square_counts("The light's centre alone: hard shadows", " over the light"),
         default="1",
     )
+    glossy_samples: EnumProperty(
+        name="Glossy",
+        description="Glossy samples: reflection rays from each point of a rough metal or Glossy BSDF at a path's "
+        "first glossy surface (render.glossy_samples); more rays, a smoother blurred reflection and a longer render",
+        items=[(str(n), str(n), f"{n} reflection rays a point") for n in (4, 16, 64, 256)],
+        default="16",
+    )
     world_light: EnumProperty(
         name="World Light",
         description="How the world lights a scene the add-on did not build",

@@ -88,6 +88,7 @@ def sun_directions(light: sc.DirectionalLight, samples: int) -> list[sc.Vec3]:
 
 
 GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))  # radians: successive directions turn by it (a Fibonacci spiral)
+GOLDEN_TURN = (3.0 - math.sqrt(5.0)) / 2.0  # the golden angle as a fraction of a turn
 
 
 def hemisphere_directions(samples: int) -> list[sc.Vec3]:
@@ -133,3 +134,10 @@ def facing_basis(w: sc.Vec3) -> tuple[sc.Vec3, sc.Vec3]:
     a = -1.0 / (sign + z)
     b = x * y * a
     return (1.0 + sign * x * x * a, sign * b, -sign * x), (b, sign + y * y * a, -y)
+
+
+def glossy_pairs(samples: int) -> list[tuple[float, float]]:
+    """A glossy lobe's sample numbers (u1, u2) in [0, 1)^2, the same at every hit: u1 = (i + 0.5) / samples (the
+    radius of Heitz's disk of visible normals, stratified) and u2 = i times the golden angle's fraction of a turn,
+    mod 1 (its angle, turning as hemisphere_directions' do)."""
+    return [((i + 0.5) / samples, (i * GOLDEN_TURN) % 1.0) for i in range(samples)]

@@ -280,6 +280,10 @@ def _material(reader: _Reader, base: Path | None = None) -> sc.Material:
         transmission=reader.number("transmission", 0.0, low=0.0, high=1.0),
         ior=reader.number("ior", 1.45, low=0.0, low_open=True, high=IOR_MAX),
         alpha=reader.number("alpha", 1.0, low=0.0, high=1.0),
+        glossy=reader.color("glossy", sc.BLACK),
+        roughness=reader.number("roughness", 0.5, low=0.0, low_open=True, high=1.0),
+        glossy_fresnel=reader.choice("glossy_fresnel", ("constant", "schlick"), "constant"),
+        glossy_energy=reader.choice("glossy_energy", ("multiscatter", "single"), "multiscatter"),
     )
     reader.finish()
     return material
@@ -1112,6 +1116,7 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         mist_depth=reader.number("mist_depth", base.mist_depth, low=0.0, high=COORDINATE_LIMIT),
         mist_falloff=reader.choice("mist_falloff", MIST_FALLOFFS, base.mist_falloff),
         shadow_samples=reader.number("shadow_samples", base.shadow_samples, low=1, high=1024, integer=True),
+        glossy_samples=reader.number("glossy_samples", base.glossy_samples, low=1, high=1024, integer=True),
     )
     border = settings.border
     if border is not None and all(isinstance(x, float) for x in border):

@@ -53,6 +53,11 @@ class Material:
     air): Fresnel-weighted mirror and refracted rays (the refracted tinted by color); its shadow is opaque.
     alpha: a in [0, 1], coverage: 1 - a of every ray (camera, mirror, refracted, shadow) passes straight through.
     The defaults (t = 0, a = 1) are the documented model (docs/algorithm.md, "Glass and transparency").
+    glossy: the colour of a rough specular lobe added to the local colour (GGX microfacets of Cycles' roughness;
+    render.glossy_samples reflection rays per hit): glossy_fresnel "constant" (the colour at every angle, Cycles'
+    Glossy BSDF) or "schlick" (the colour at normal incidence, white at grazing: a Principled metal);
+    glossy_energy "multiscatter" (Cycles' Multiscatter GGX: the energy single scattering loses added back) or
+    "single". The default (black) is the documented model (docs/algorithm.md, "Glossy reflection").
     """
 
     color: Color = (0.8, 0.8, 0.8)
@@ -69,6 +74,15 @@ class Material:
     transmission: float = 0.0
     ior: float = 1.45
     alpha: float = 1.0
+    glossy: Color = BLACK
+    roughness: float = 0.5
+    glossy_fresnel: Literal["constant", "schlick"] = "constant"
+    glossy_energy: Literal["multiscatter", "single"] = "multiscatter"
+
+    @property
+    def is_glossy(self) -> bool:
+        """Whether the surface has a rough specular lobe (glossy not black)."""
+        return self.glossy != BLACK
 
     @property
     def see_through(self) -> bool:
@@ -603,6 +617,9 @@ class RenderSettings:
     # sample points per light of a size (area lights, a sun's angle), a perfect square: a stratified grid over the
     # light; 1 = its centre alone (a hard shadow)
     shadow_samples: int = 1
+    # reflection rays a glossy material sends from each hit of a path's first glossy surface (one from the glossy
+    # surfaces after it): the lobe's fixed stratified samples (lightsamples.glossy_pairs)
+    glossy_samples: int = 16
 
 
 @dataclass(frozen=True)

@@ -34,7 +34,9 @@ class RayBatch:
     straight continuations through partly transparent surfaces; layers (n,), straight continuations on the path;
     tag (n,) int8, the pass a ray adds to (0 the camera ray's own hit, 1 under a mirror ray, 2 under a refracted or
     straight one: Transmission); clear (n,), a camera ray's product of 1 - alpha so far (the film's alpha);
-    pending (n,) bool, camera rays whose data passes are not written yet."""
+    pending (n,) bool, camera rays whose data passes are not written yet. sample (n,), in scenes with glossy
+    surfaces: the glossy sample pair a ray's path took at its first glossy surface (-1: none yet), the one pair a
+    glossy surface after it sends its ray by (glossy.sample_rays)."""
 
     pixel: np.ndarray
     origin: np.ndarray
@@ -47,6 +49,7 @@ class RayBatch:
     tag: np.ndarray | None = None
     clear: np.ndarray | None = None
     pending: np.ndarray | None = None
+    sample: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -61,7 +64,10 @@ class RayBatch:
             take(self.direction, rows),
             _columns(self.weight, rows),
             left,
-            *(_columns(getattr(self, name), rows) for name in ("reach", "camera", "layers", "tag", "clear", "pending")),
+            *(
+                _columns(getattr(self, name), rows)
+                for name in ("reach", "camera", "layers", "tag", "clear", "pending", "sample")
+            ),
         )
 
     def with_rays(self, **changes: object) -> RayBatch:

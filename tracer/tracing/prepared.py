@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..geometry import camera as cam
+from ..geometry import lightsamples
 from ..geometry import transforms as tf
 from ..geometry.bvh import Hierarchy
 from ..geometry.cull import ScreenRectangles
@@ -97,6 +98,15 @@ class PreparedScene:
     alpha: np.ndarray | None = field(init=False, default=None)  # (rows,), where some material is see-through
     transmission: np.ndarray | None = field(init=False, default=None)
     ior: np.ndarray | None = field(init=False, default=None)
+    # glossy lobes (glossy.py): which rows have one, their colours (3, rows), roughness, Fresnel and energy, and the
+    # sample pairs (m, 2) every glossy hit uses; any_glossy false: none of it exists
+    any_glossy: bool = field(init=False)
+    glossy_rows: np.ndarray | None = field(init=False, default=None)
+    glossy: np.ndarray | None = field(init=False, default=None)
+    roughness: np.ndarray | None = field(init=False, default=None)
+    glossy_schlick: np.ndarray | None = field(init=False, default=None)
+    glossy_multiscatter: np.ndarray | None = field(init=False, default=None)
+    glossy_pairs: np.ndarray | None = field(init=False, default=None)
     colored: bool = field(init=False)  # lights or materials with colours: the terms as (3, n) colours
     emissive: bool = field(init=False)
     any_two_sided: bool = field(init=False)
@@ -487,8 +497,20 @@ def _materials(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...]) -> 
     prepared.colored = any(m.specular_color is not None for m in table)
     prepared.two_sided = np.asarray([m.two_sided for m in table], dtype=bool)
     prepared.any_two_sided = bool(prepared.two_sided.any())
+    # a glossy lobe's rays (glossy.py): several per camera sample, as glass's, so its scenes trace see-through
+    prepared.any_glossy = any(m.is_glossy for m in table)
+    if prepared.any_glossy:
+        prepared.glossy_rows = np.asarray([m.is_glossy for m in table], dtype=bool)
+        prepared.glossy = as_columns([m.glossy for m in table])
+        prepared.roughness = np.asarray([m.roughness for m in table], dtype=np.float64)
+        prepared.glossy_schlick = np.asarray([m.glossy_fresnel == "schlick" for m in table], dtype=bool)
+        prepared.glossy_multiscatter = np.asarray([m.glossy_energy == "multiscatter" for m in table], dtype=bool)
+        prepared.glossy_pairs = np.asarray(
+            lightsamples.glossy_pairs(prepared.scene.render.glossy_samples), dtype=np.float64
+        )
+        prepared.colored = True
     # glass and transparency (see_through.py's stages): only where some material has them, else none of it runs
-    prepared.see_through = any(m.see_through for m in table)
+    prepared.see_through = any(m.see_through for m in table) or prepared.any_glossy
     prepared.shadow_alpha = any(m.alpha < 1.0 for m in table)  # shadow rays pass such surfaces (shadows.passing)
     if prepared.see_through:
         prepared.alpha = np.asarray([m.alpha for m in table], dtype=prepared.dtype)

@@ -198,8 +198,11 @@ class PassRecorder:
         for name in ("ambient", "diffuse", "specular"):  # each product in the order of the image's local term
             if name not in self.rows:
                 continue
-            if prepared.colored:  # term (3, n) x colour x (1 - r)
-                self._put(name, pixel, split[name] * (specular_colors if name == "specular" else colors) * keep)
+            if prepared.colored:  # term (3, n) x colour x (1 - r); a glossy lobe's light is a highlight too
+                value = split[name] * (specular_colors if name == "specular" else colors) * keep
+                if name == "specular" and "glossy" in split:
+                    value = value + split["glossy"]
+                self._put(name, pixel, value)
             else:  # (term x (1 - r)) x colour
                 self._put(name, pixel, (split[name] * keep) * colors)
         if prepared.emissive:

@@ -16,6 +16,7 @@ from ..geometry import lightsamples
 from ..geometry import transforms as tf
 from ..geometry.transforms import add, cross, dot, length, scale, sub
 from ..scene import scene as sc
+from . import reference_glossy
 
 INF = math.inf
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0, hits behind the camera are dropped
@@ -307,13 +308,15 @@ class ReferenceTracer:
             obj.normals.tolist() if isinstance(obj, sc.MeshInstances) and obj.normals is not None else None
             for obj in scene.objects
         ]
-        self.colored = any(m.specular_color is not None for m in scene.materials.values()) or any(
+        materials = scene.materials.values()
+        self.colored = any(m.specular_color is not None or m.is_glossy for m in materials) or any(
             light.color != sc.WHITE
             or getattr(light, "falloff", "none") != "none"
             or isinstance(light, sc.SpotLight | sc.AreaLight | sc.WorldLight)
             for light in scene.lights
         )
         self.lights = light_samples(scene)
+        self.glossy_pairs = lightsamples.glossy_pairs(scene.render.glossy_samples)
         # shadow rays pass partly transparent surfaces (shadow_through) where some material has alpha < 1
         self.shadow_alpha = any(m.alpha < 1.0 for m in scene.materials.values())
 
@@ -364,7 +367,13 @@ class ReferenceTracer:
         return self.find_intensities(P, N, V, specular)[0][0]
 
     def find_intensities(
-        self, P: sc.Vec3, N: sc.Vec3, V: sc.Vec3, specular: float, split: dict | None = None
+        self,
+        P: sc.Vec3,
+        N: sc.Vec3,
+        V: sc.Vec3,
+        specular: float,
+        split: dict | None = None,
+        lobe: reference_glossy.Lobe | None = None,
     ) -> tuple[list[float], list[float]]:
         """Listing 3.2 with each light's colour and attenuation. Documented mode (self.colored false): the whole
         intensity, summed in the listing's order, in every channel of the first list. Else the (ambient + diffuse,
@@ -375,7 +384,10 @@ class ReferenceTracer:
         (each a list of 3: per channel where coloured, else the documented scalar sum in every channel) and "shadow",
         the share of the lights other than ambient that reach P: its shadow ray is not blocked, the light's factor
         is above 0 (a spot light's cone), and P faces the light (N.L > 0) or gets its highlight. 1 without such
-        lights."""
+        lights.
+
+        lobe: a glossy surface's lobe at P, whose light (r, g, b) is set to what the lights (not ambient, not the
+        world's directions) that reach P add through it."""
         total = 0.0
         diffuse = [0.0, 0.0, 0.0]
         highlight = [0.0, 0.0, 0.0]
@@ -384,6 +396,7 @@ class ReferenceTracer:
         ambient_sum, diffuse_sum, highlight_sum = 0.0, 0.0, 0.0  # the documented mode's terms apart (split)
         ambient, lights_diffuse = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]  # the coloured mode's terms apart (split)
         lights, reached = 0, 0
+        shine = [0.0, 0.0, 0.0]  # through the glossy lobe
         for light, where, intensity, weight, emitter, disk in self.lights:
             color = light.color
             if isinstance(light, sc.AmbientLight):
@@ -434,6 +447,9 @@ class ReferenceTracer:
                 shadow_object, _, _ = self.closest_intersection(P, light_vector, SHADOW_T_MIN, t_max, "visible_shadow")
                 if shadow_object >= 0:
                     continue
+            if lobe is not None and not isinstance(light, sc.WorldLight):
+                through_lobe = lobe.light(light_vector)
+                shine = [shine[c] + (intensity * through_lobe[c]) * factor * color[c] for c in range(3)]
             NL = dot(N, light_vector)
             if NL > 0.0:
                 term = intensity * NL / (length_n * length(light_vector))
@@ -459,6 +475,8 @@ class ReferenceTracer:
                 highlight_sum += term
             if (NL > 0.0 or term is not None) and factor > 0.0:
                 reached += weight * through
+        if lobe is not None:
+            lobe.shine = tuple(shine)
         if split is not None:
             split["shadow"] = reached / lights if lights else 1.0
             if self.colored:
@@ -529,47 +547,26 @@ class ReferenceTracer:
 
         changes = {}
         for field, texture in (("color", material.texture), ("emission", material.emission_texture)):
-            value = self._texture_value(texture, index, part, P)
+            value = texture_value(self, texture, index, part, P)
             if value is not None:
                 changes[field] = value
         return replace(material, **changes)
 
-    def _texture_value(
-        self, texture: sc.Texture | None, index: int, part: int, P: sc.Vec3
-    ) -> tuple[float, float, float] | None:
-        """A texture's colour at a hit on object index's part: an "attribute" texture's from the corner colours, the
-        others' from the corner UVs, weighted by P's barycentric coordinates (as smooth normals'; an instance's in its
-        own space); None where the object has not what the texture reads."""
-        from .texturing import attribute_one, sample_one
-
-        if texture is None:
-            return None
-        key = "colors" if texture.kind == "attribute" else "uvs"
-        obj = self.scene.objects[index]
-        if getattr(obj, key, None) is None:
-            return None
-        kept = self.__dict__.setdefault(f"_{key}_corners", {})
-        if index not in kept:  # each corner's (u, v, 0) or (r, g, b): _interpolated's three components
-            values = getattr(obj, key).tolist()
-            kept[index] = values if key == "colors" else [[(u, v, 0.0) for u, v in c] for c in values]
-        corners = kept[index]
-        primitive = self.primitives[index]
-        if isinstance(obj, sc.MeshInstances):
-            instance, triangle = divmod(part, len(primitive.mesh.triangles))
-            local = _affine(primitive.inverses[instance], P, True)
-            found = _interpolated(primitive.mesh.triangles[triangle], corners[triangle], local)
-        else:
-            found = _interpolated(primitive.triangles[part], corners[part], P)
-        if texture.kind == "attribute":
-            return attribute_one(texture, found)
-        return sample_one(texture, found[0], found[1])
-
     def trace_ray(
-        self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, depth: int, camera: bool = False, layers: int = 0
+        self,
+        O: sc.Vec3,
+        D: sc.Vec3,
+        t_min: float,
+        t_max: float,
+        depth: int,
+        camera: bool = False,
+        layers: int = 0,
+        sample: int = -1,
     ) -> sc.Color:
         """Listing 3.1. camera: the camera ray (it sees the visible_camera objects, and nothing through a
         transparent film), or its straight continuation through partly transparent surfaces; the others are mirror
-        (and refracted) rays. layers: the straight continuations on the path so far (sc.TRANSPARENT_BOUNCES)."""
+        (and refracted) rays. layers: the straight continuations on the path so far (sc.TRANSPARENT_BOUNCES).
+        sample: the glossy pair the path took at its first glossy surface (-1: none yet)."""
         seen_by = "visible_camera" if camera else "visible_reflection"
         closest_object, part, closest_t = self.closest_intersection(O, D, t_min, t_max, seen_by)
         if closest_object < 0:
@@ -582,8 +579,9 @@ class ReferenceTracer:
         V = (-D[0], -D[1], -D[2])
         S = self.shading_normal(closest_object, part, P, V, material)
         if material.transmission > 0.0 or material.alpha < 1.0:
-            return self.see_through(P, D, S, (closest_object, part), t_max - closest_t, depth, camera, layers, material)
-        return self.today(P, V, S, material, depth, layers)
+            hit = (closest_object, part)
+            return self.see_through(P, D, S, hit, t_max - closest_t, depth, camera, layers, material, sample)
+        return self.today(P, V, S, material, depth, layers, sample)
 
     def see_through(
         self,
@@ -596,17 +594,19 @@ class ReferenceTracer:
         camera: bool,
         layers: int,
         material: sc.Material,
+        sample: int = -1,
     ) -> sc.Color:
         """A hit on a surface with transmission t or alpha a (docs/algorithm.md, "Glass and transparency"):
         (1 - a) straight on + a ((1 - t) today's colour + t (F mirror + (1 - F) colour refracted)), with F the
         dielectric Fresnel reflectance (1 beyond the critical angle) and the mirror ray traced once for both shares.
-        t_max: what is left of a camera ray's range beyond P (its clip_end). The reason for 9 parameters: the
-        ray's whole state, as TraceRay's recursion carries it from call to call."""
+        t_max: what is left of a camera ray's range beyond P (its clip_end); a glossy lobe's rays weighted by the
+        shaded share a (1 - t). The reason for 10 parameters: the ray's whole state, as TraceRay's recursion
+        carries it from call to call."""
         a = material.alpha
         out = [0.0, 0.0, 0.0]
         V = (-D[0], -D[1], -D[2])
         if a < 1.0 and layers < sc.TRANSPARENT_BOUNCES:
-            beyond = self.trace_ray(P, D, REFLECTION_T_MIN, t_max, depth, camera, layers + 1)
+            beyond = self.trace_ray(P, D, REFLECTION_T_MIN, t_max, depth, camera, layers + 1, sample)
             out = [(1.0 - a) * beyond[c] for c in range(3)]
         if a <= 0.0:
             return tuple(out)
@@ -616,18 +616,27 @@ class ReferenceTracer:
             out = [out[c] + shaded * local[c] for c in range(3)]
         if refracted is not None and depth > 0:
             self.rays["reflection"] += 1
-            seen = self.trace_ray(P, refracted, REFLECTION_T_MIN, INF, depth - 1, False, layers)
+            seen = self.trace_ray(P, refracted, REFLECTION_T_MIN, INF, depth - 1, False, layers, sample)
             out = [out[c] + weight[c] * seen[c] for c in range(3)]
         if depth > 0 and mirror > 0.0:
             self.rays["reflection"] += 1
-            seen = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers)
+            seen = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers, sample)
             out = [out[c] + mirror * seen[c] for c in range(3)]
+        if depth > 0 and shaded > 0.0 and material.is_glossy:
+            seen = reference_glossy.rays(self, P, V, S, material, depth, layers, sample)
+            out = [out[c] + shaded * seen[c] for c in range(3)]
         return tuple(out)
 
-    def today(self, P: sc.Vec3, V: sc.Vec3, S: sc.Vec3, material: sc.Material, depth: int, layers: int = 0) -> sc.Color:
-        """Listing 3.1's colour of an opaque hit at P: local = intensity * colour * (1 - r) (+ emission), plus r times
-        the mirror ray's while depth lasts (depth < 0: the local colour alone)."""
-        diffuse, highlight = self.find_intensities(P, S, V, material.specular)
+    def today(
+        self, P: sc.Vec3, V: sc.Vec3, S: sc.Vec3, material: sc.Material, depth: int, layers: int = 0, sample: int = -1
+    ) -> sc.Color:
+        """Listing 3.1's colour of an opaque hit at P: local = intensity * colour * (1 - r) (+ emission) (+ the
+        lights through a glossy lobe), plus r times the mirror ray's and the glossy rays' while depth lasts (depth <
+        0: the local colour alone)."""
+        lobe = None
+        if material.is_glossy:
+            lobe = reference_glossy.lobe_at(material, S, V, self.glossy_pairs)
+        diffuse, highlight = self.find_intensities(P, S, V, material.specular, None, lobe)
         color = material.color
         if self.colored:
             tint = color if material.specular_color is None else material.specular_color
@@ -639,12 +648,19 @@ class ReferenceTracer:
             local = (weight * color[0], weight * color[1], weight * color[2])
         if material.emission != sc.BLACK:
             local = tuple(local[c] + material.emission[c] for c in range(3))
-        if depth <= 0 or material.reflective <= 0.0:
+        if lobe is not None:
+            local = tuple(local[c] + lobe.shine[c] for c in range(3))
+        if depth <= 0:
             return local
-        self.rays["reflection"] += 1
-        reflected = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers)
-        r = material.reflective
-        return (local[0] + reflected[0] * r, local[1] + reflected[1] * r, local[2] + reflected[2] * r)
+        if material.reflective > 0.0:
+            self.rays["reflection"] += 1
+            reflected = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers, sample)
+            r = material.reflective
+            local = (local[0] + reflected[0] * r, local[1] + reflected[1] * r, local[2] + reflected[2] * r)
+        if lobe is not None:
+            seen = reference_glossy.rays(self, P, V, S, material, depth, layers, sample, lobe)
+            local = (local[0] + seen[0], local[1] + seen[1], local[2] + seen[2])
+        return local
 
     def pixel(self, i: int, j: int) -> sc.Color:
         """The box-filtered mean of the pixel's samples (r, g, b), and alpha where the scene has one."""
@@ -663,6 +679,37 @@ class ReferenceTracer:
         if self.scene.has_alpha:
             return (total[0] / n, total[1] / n, total[2] / n, total[3] / n)
         return (total[0] / n, total[1] / n, total[2] / n)
+
+
+def texture_value(
+    tracer: ReferenceTracer, texture: sc.Texture | None, index: int, part: int, P: sc.Vec3
+) -> tuple[float, float, float] | None:
+    """A texture's colour at a hit on the tracer's object index's part: an "attribute" texture's from the corner
+    colours, the others' from the corner UVs, weighted by P's barycentric coordinates (as smooth normals'; an
+    instance's in its own space); None where the object has not what the texture reads."""
+    from .texturing import attribute_one, sample_one
+
+    if texture is None:
+        return None
+    key = "colors" if texture.kind == "attribute" else "uvs"
+    obj = tracer.scene.objects[index]
+    if getattr(obj, key, None) is None:
+        return None
+    kept = tracer.__dict__.setdefault(f"_{key}_corners", {})
+    if index not in kept:  # each corner's (u, v, 0) or (r, g, b): _interpolated's three components
+        values = getattr(obj, key).tolist()
+        kept[index] = values if key == "colors" else [[(u, v, 0.0) for u, v in c] for c in values]
+    corners = kept[index]
+    primitive = tracer.primitives[index]
+    if isinstance(obj, sc.MeshInstances):
+        instance, triangle = divmod(part, len(primitive.mesh.triangles))
+        local = _affine(primitive.inverses[instance], P, True)
+        found = _interpolated(primitive.mesh.triangles[triangle], corners[triangle], local)
+    else:
+        found = _interpolated(primitive.triangles[part], corners[part], P)
+    if texture.kind == "attribute":
+        return attribute_one(texture, found)
+    return sample_one(texture, found[0], found[1])
 
 
 def glass_split(

@@ -11,7 +11,7 @@ from ..geometry.kernels import dot, indices, take
 from ..geometry.rayframes import RayFrames
 from ..geometry.robust import offset_origins
 from ..scene import scene as sc
-from . import shading, surfaces
+from . import glossy, shading, surfaces
 from .batch import Hits, RayBatch
 from .prepared import PreparedScene
 from .rays import RayCounts, accumulate
@@ -19,11 +19,13 @@ from .raystore import RayStore
 from .recorder import NoPasses, PassRecorder
 
 
-def camera_batch(batch: RayBatch, dtype: np.dtype) -> RayBatch:
+def camera_batch(batch: RayBatch, dtype: np.dtype, glossy_surfaces: bool = False) -> RayBatch:
     """The camera rays' batch with the fields a see-through wavefront carries: every ray a camera ray with no
-    straight layer yet, tagged 0 (its own hit), clear (alpha not yet covered) and its data passes pending."""
+    straight layer yet, tagged 0 (its own hit), clear (alpha not yet covered) and its data passes pending; with
+    glossy_surfaces, no glossy sample taken yet (-1)."""
     total = batch.size
     return batch.with_rays(
+        sample=np.full(total, -1, dtype=np.int64) if glossy_surfaces else None,
         left=np.full(total, batch.left),
         camera=np.ones(total, dtype=bool),
         layers=np.zeros(total, dtype=np.int64),
@@ -150,6 +152,8 @@ def add_local(
     if first:
         if split is not None:  # the terms times (1 - r) a (1 - t): a reflectivity of 1 - (1 - r) a (1 - t)
             glow = None if mine.emission is None else mine.emission * share
+            if "glossy" in split:
+                split["glossy"] = split["glossy"] * share
             paints = (mine.colors, mine.specular_colors, glow)
             recorder.terms(pixel, split, mine.material, 1.0 - (1.0 - reflective) * share, paints)
     else:
@@ -187,9 +191,34 @@ def continuing(scene: PreparedScene, hits: Hits, batch: RayBatch) -> RayBatch | 
             (straight_rows, take(D, straight_rows), take(base, straight_rows) * through,
              batch.left.take(straight_rows), True, 2)
         )  # fmt: skip
-    if not children:
+    made = [_child(scene, hits, batch, a, *child) for child in children]
+    if scene.any_glossy:
+        rays = _glossy_rays(scene, hits, batch, go, a * (1.0 - transmission), base)
+        if rays is not None:
+            made.append(rays)
+    if not made:
         return None
-    return RayBatch.joined([_child(scene, hits, batch, a, *child) for child in children])
+    return RayBatch.joined(made)
+
+
+def _glossy_rays(
+    scene: PreparedScene, hits: Hits, batch: RayBatch, go: np.ndarray, shaded: np.ndarray, base: np.ndarray
+) -> RayBatch | None:
+    """The reflection rays of the glossy hits that go on (go (n,)) with a shaded share a (1 - t) (n,) > 0: every
+    sample pair at a path's first glossy surface, its pair after (glossy.sample_rays), weighted by the share."""
+    lobes = glossy.lobes_at(scene, hits)
+    if lobes is None:
+        return None
+    lobes = lobes.take(indices(go.take(lobes.rows) & (shaded.take(lobes.rows) > 0.0) & lobes.facing))
+    if not lobes.rows.size:
+        return None
+    lobe, pair, D, weight = glossy.sample_rays(scene, lobes, batch.sample.take(lobes.rows))
+    if not lobe.size:
+        return None
+    rows = lobes.rows.take(lobe)
+    weight = take(base, rows) * (weight * shaded.take(rows)).astype(scene.dtype, copy=False)
+    D = D.astype(scene.dtype, copy=False)
+    return _child(scene, hits, batch, shaded, rows, D, weight, batch.left.take(rows) - 1, False, 1, pair)
 
 
 def _child(
@@ -203,11 +232,13 @@ def _child(
     left: np.ndarray,
     straight: bool,
     kind: int,
+    sample: np.ndarray | None = None,
 ) -> RayBatch:
     """The rays (k,) that the hits rows (k,) send in directions D (3, k) with weights (3, k) and bounces left (k,):
     a straight continuation keeps its camera ray's kind, reach and pending passes and covers 1 - a more of its
-    alpha; a mirror or refracted ray (kind 1 or 2 for the passes' tag) is a new path. The reason for 10 parameters:
-    the four that vary by child come with the six every child shares."""
+    alpha; a mirror or refracted ray (kind 1 or 2 for the passes' tag) is a new path. sample: a glossy ray's pair
+    (k,) (None: the rays keep their path's). The reason for 11 parameters: the five that vary by child come with
+    the six every child shares."""
     P = take(hits.P, rows)
     O = P
     if scene.robust:
@@ -226,7 +257,9 @@ def _child(
         clear = np.zeros(rows.size, dtype=scene.dtype)
         reach = None if batch.reach is None else np.full(rows.size, np.inf)
         pending = np.zeros(rows.size, dtype=bool)
-    return RayBatch(batch.pixel.take(rows), O, D, weight, left, reach, camera, layers, tag, clear, pending)
+    if sample is None and batch.sample is not None:
+        sample = batch.sample.take(rows)
+    return RayBatch(batch.pixel.take(rows), O, D, weight, left, reach, camera, layers, tag, clear, pending, sample)
 
 
 def _refract(

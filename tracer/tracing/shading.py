@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.footprint import Footprint
-from ..geometry.kernels import dot, indices
-from . import shadows, surfaces
+from ..geometry.kernels import dot, indices, take
+from . import glossy, shadows, surfaces
 from .batch import Hits
 from .lights import LightTerm, directed
 from .prepared import PreparedScene
@@ -31,7 +31,8 @@ def local_colors(
     find_intensity takes them (frames: where each frame's samples start)."""
     specular = scene.specular.take(hits.material)
     points = None if frames is None else np.searchsorted(pixel, frames)  # where each frame's points start
-    intensity = find_intensity(scene, hits, specular, pixel, counts, footprint, points, split)
+    lobes = glossy.lobes_at(scene, hits) if scene.any_glossy else None
+    intensity = find_intensity(scene, hits, specular, pixel, counts, footprint, points, split, lobes)
     reflective = scene.reflective.take(hits.material)
     if scene.colored:
         diffuse, highlight = intensity
@@ -40,6 +41,12 @@ def local_colors(
         local = (intensity * (1.0 - reflective)) * hits.colors
     if scene.emissive:
         local = local + hits.emission
+    if lobes is not None:  # the lights through the glossy lobes, beside the documented local colour
+        shine = np.zeros_like(local)
+        shine[:, lobes.rows] = lobes.light
+        local = local + shine
+        if split is not None:
+            split["glossy"] = shine
     return local, reflective
 
 
@@ -52,6 +59,7 @@ def find_intensity(
     footprint: Footprint | None = None,
     frames: np.ndarray | None = None,
     split: dict[str, np.ndarray] | None = None,
+    lobes: glossy.Lobes | None = None,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Listing 3.2 for every hit at once (its points P, shading normals S and V (3, n)), specular exponents (n,) ->
     intensity (n,); where lights or materials have colours (scene.colored) the (ambient + diffuse, specular)
@@ -65,7 +73,12 @@ def find_intensity(
 
     split: a dict to fill with the same sums term by term for the passes: "ambient", "diffuse", "specular" ((n,)
     each, (3, n) where coloured) and "shadow" (n,), the share of the lights (not ambient) that reach each point
-    (face it and are not blocked); the intensity returned is the same bytes either way."""
+    (face it and are not blocked); the intensity returned is the same bytes either way.
+
+    lobes: the glossy hits' lobes (glossy.lobes_at), whose light (3, k) is set to what the lights (not ambient, not
+    the world's directions) add through them, shadowed as the diffuse terms are (the scene is then coloured).
+    The reason for 9 parameters: the hits, the bookkeeping every stage carries (samples, counts, footprint, frames), and
+    the three things a caller may ask for beside the intensity (the exponents, the split, the glossy lobes)."""
     P, N, V = hits.P, hits.S, hits.V
     count = P.shape[1]
     length_n = np.sqrt(dot(N, N))
@@ -81,6 +94,8 @@ def find_intensity(
         split["shadow"] = _shadow_share(scene, own, lit, throughs, count)
     settings = scene.scene.render
     exponent = specular * settings.coef if settings.model == "blinn-phong" else specular
+    if lobes is not None:
+        lobes.light = _glossy_light(scene, terms, lit, throughs, lobes)
     if scene.colored:
         return _colored(scene, terms, lit, count, length_n, exponent, split, throughs)
     return _plain(scene, terms, lit, count, length_n, exponent, split, throughs)
@@ -135,6 +150,42 @@ def _light_terms(
         needed = indices(reaches & (factor > 0.0) if light.attenuated else reaches)
         terms.append(LightTerm(L, NL, length_l, diffuse_gate, gate, cosine, needed, factor, color))
     return terms
+
+
+def _glossy_light(
+    scene: PreparedScene,
+    terms: list[LightTerm | None],
+    lit: list[np.ndarray],
+    throughs: list[np.ndarray] | None,
+    lobes: glossy.Lobes,
+) -> np.ndarray:
+    """The lights' sum through the glossy lobes (3, k): each light's intensity, attenuation, colour and share that
+    passes (glossy.light_factor per unit of intensity), where its shadow ray reached the point."""
+    rows = lobes.rows
+    total = np.zeros((3, rows.size), dtype=np.float64)
+    shadow_rays = iter(lit)
+    passing = None if throughs is None else iter(throughs)
+    for light, term in zip(scene.lights, terms, strict=True):
+        if term is None:
+            continue
+        light_lit = next(shadow_rays).take(rows)
+        through = None if passing is None else next(passing).take(rows)
+        if not light.highlight:
+            continue
+        L = term.L if term.L.shape[1] == 1 else take(term.L, rows)
+        value = light.intensity * glossy.light_factor(lobes, L)
+        if term.factor is not None:
+            value = value * (term.factor if np.ndim(term.factor) == 0 else _columns(term.factor, rows))
+        if through is not None:
+            value = value * through
+        color = term.color if term.color.shape[-1] == 1 else take(term.color, rows)
+        total = np.where(light_lit, total + value * color, total)
+    return total.astype(scene.dtype, copy=False)
+
+
+def _columns(values: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """values (n,) or (1,) at rows: a shared one stays."""
+    return values if values.size == 1 else values.take(rows)
 
 
 def _shadow_share(

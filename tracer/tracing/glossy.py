@@ -1,0 +1,192 @@
+"""Hits on glossy surfaces (a material's glossy colour not black) -> their rough specular lobe over arrays: GGX
+microfacets of Cycles' roughness (alpha = roughness^2, Smith's height-correlated masking-shadowing), the lights'
+terms through it, and the reflection rays it sends (Heitz 2018's sampling of the visible normals, at the fixed
+stratified pairs of lightsamples.glossy_pairs). docs/algorithm.md, "Glossy reflection"; the per-pixel reference
+(reference.py's glossy_* functions) does the same one hit at a time."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry import lightsamples
+from ..geometry.kernels import indices, take
+from .batch import Hits
+from .lights import facing_basis, x_y_z_squared
+from .prepared import PreparedScene
+
+SCHLICK_MEAN = 1.0 / 21.0  # the hemispherical mean of (1 - cos)^5 weighted by the cosine: Schlick's F_avg
+
+
+@dataclass
+class Lobes:
+    """The glossy lobes of some hits (k of them), float64 in each point's frame (z along the shading normal).
+
+    rows (k,): which hits; e1, e2, n (3, k): the frame; v (3, k): toward the viewer, local and unit; alpha (k,);
+    color (3, k): the lobe's colour (F0 under Schlick's Fresnel); schlick (k,) bool; boost (3, k): the multiscatter
+    gain 1 + F_avg (1 - E) / E (ones for single scattering), E the lobe's albedo along v estimated from its samples;
+    facing (k,) bool: the viewer is above the shading normal's horizon (else the lobe adds nothing); light (3, k):
+    what the lights add through the lobes (shading.find_intensity sets it)."""
+
+    rows: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+    n: np.ndarray
+    v: np.ndarray
+    alpha: np.ndarray
+    color: np.ndarray
+    schlick: np.ndarray
+    boost: np.ndarray
+    facing: np.ndarray
+    light: np.ndarray | None = None
+
+    def take(self, keep: np.ndarray) -> Lobes:
+        """The lobes keep (j,) of these (their light left out)."""
+        return Lobes(
+            self.rows.take(keep),
+            *(take(array, keep) for array in (self.e1, self.e2, self.n, self.v)),
+            self.alpha.take(keep),
+            take(self.color, keep),
+            self.schlick.take(keep),
+            take(self.boost, keep),
+            self.facing.take(keep),
+        )
+
+
+def lobes_at(scene: PreparedScene, hits: Hits) -> Lobes | None:
+    """The lobes of the hits whose material is glossy, None where none is."""
+    rows = indices(scene.glossy_rows.take(hits.material))
+    if not rows.size:
+        return None
+    material = hits.material.take(rows)
+    S = np.asarray(take(hits.S, rows), dtype=np.float64)
+    n = S / np.sqrt(x_y_z_squared(S))
+    e1, e2 = facing_basis(n)
+    V = np.asarray(take(hits.V, rows), dtype=np.float64)
+    V = V / np.sqrt(x_y_z_squared(V))
+    v = np.stack((_dot(V, e1), _dot(V, e2), _dot(V, n)))
+    roughness = scene.roughness.take(material).astype(np.float64)
+    alpha = roughness * roughness
+    color = scene.glossy.take(material, axis=1).astype(np.float64)
+    schlick = scene.glossy_schlick.take(material)
+    facing = v[2] > 0.0
+    lobes = Lobes(rows, e1, e2, n, v, alpha, color, schlick, np.ones_like(color), facing)
+    multiscatter = scene.glossy_multiscatter.take(material)
+    if multiscatter.any():
+        pairs = scene.glossy_pairs
+        _, weights = samples(lobes, pairs[:, :1], pairs[:, 1:])  # (S, k): each sample's G2 / G1(v)
+        albedo = weights.mean(axis=0)
+        mean_fresnel = np.where(schlick, color + (1.0 - color) * SCHLICK_MEAN, color)
+        gain = 1.0 + mean_fresnel * ((1.0 - albedo) / np.where(albedo > 0.0, albedo, 1.0))
+        lobes.boost = np.where(multiscatter & (albedo > 0.0), gain, 1.0)
+    return lobes
+
+
+def light_factor(lobes: Lobes, L: np.ndarray) -> np.ndarray:
+    """What the lobes reflect toward the viewer of a light along L (3, k) (world, any length), per unit of the
+    light's intensity as the diffuse term counts it: pi F D G2 / (4 v.z) times the boost (3, k); 0 below either
+    horizon. (Cycles' diffuse is the albedo / pi: the tracer's intensity is the irradiance / pi.)"""
+    L = np.asarray(L, dtype=np.float64)
+    length = np.sqrt(x_y_z_squared(L))
+    lx, ly, lz = _dot(L, lobes.e1) / length, _dot(L, lobes.e2) / length, _dot(L, lobes.n) / length
+    vx, vy, vz = lobes.v
+    hx, hy, hz = lx + vx, ly + vy, lz + vz
+    h_length = np.sqrt(hx * hx + hy * hy + hz * hz)
+    above = (lz > 0.0) & lobes.facing & (h_length > 0.0)
+    safe = np.where(h_length > 0.0, h_length, 1.0)
+    cos_h = hz / safe
+    a2 = lobes.alpha * lobes.alpha
+    d = cos_h * cos_h * (a2 - 1.0) + 1.0
+    D = a2 / (math.pi * d * d)
+    lambda_v = _smith_lambda(np.where(lobes.facing, vz, 1.0), a2)
+    G2 = 1.0 / (1.0 + lambda_v + _smith_lambda(np.where(above, lz, 1.0), a2))
+    VH = (vx * hx + vy * hy + vz * hz) / safe
+    F = fresnel(lobes, VH)
+    value = F * (math.pi * D * G2 / (4.0 * np.where(lobes.facing, vz, 1.0))) * lobes.boost
+    return np.where(above, value, 0.0)
+
+
+def samples(lobes: Lobes, u1: np.ndarray, u2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The lobes' reflected directions for the numbers u1, u2 in [0, 1) ((k,), or (m, 1) for m pairs at every
+    lobe) -> local directions (3, ...) and the estimator's weights G2 / G1(v) (...) (0 below the horizon, and where
+    the viewer is), by sampling the visible normals (Heitz 2018, "Sampling the GGX distribution of visible
+    normals")."""
+    vx, vy, vz = lobes.v
+    alpha = lobes.alpha
+    hx, hy, hz = alpha * vx, alpha * vy, vz  # the view in the hemisphere's configuration
+    h_length = np.sqrt(hx * hx + hy * hy + hz * hz)
+    hx, hy, hz = hx / h_length, hy / h_length, hz / h_length
+    lensq = hx * hx + hy * hy
+    flat = lensq > 0.0
+    inverse = np.where(flat, 1.0 / np.sqrt(np.where(flat, lensq, 1.0)), 0.0)
+    t1x, t1y = np.where(flat, -hy * inverse, 1.0), np.where(flat, hx * inverse, 0.0)
+    t2x, t2y, t2z = -hz * t1y, hz * t1x, hx * t1y - hy * t1x
+    r = np.sqrt(u1)
+    phi = 2.0 * math.pi * u2
+    p1, p2 = r * np.cos(phi), r * np.sin(phi)
+    s = 0.5 * (1.0 + hz)
+    p2 = (1.0 - s) * np.sqrt(1.0 - p1 * p1) + s * p2
+    p3 = np.sqrt(np.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))
+    nx, ny, nz = p1 * t1x + p2 * t2x + p3 * hx, p1 * t1y + p2 * t2y + p3 * hy, p2 * t2z + p3 * hz
+    mx, my, mz = alpha * nx, alpha * ny, np.maximum(0.0, nz)  # back to the ellipsoid: the microfacet normal
+    m_length = np.sqrt(mx * mx + my * my + mz * mz)
+    mx, my, mz = mx / m_length, my / m_length, mz / m_length
+    k = 2.0 * (vx * mx + vy * my + vz * mz)
+    lx, ly, lz = k * mx - vx, k * my - vy, k * mz - vz
+    a2 = alpha * alpha
+    above = (lz > 0.0) & lobes.facing
+    lambda_v = _smith_lambda(np.where(lobes.facing, vz, 1.0), a2)
+    weight = (1.0 + lambda_v) / (1.0 + lambda_v + _smith_lambda(np.where(above, lz, 1.0), a2))
+    return np.stack((lx, ly, lz)), np.where(above, weight, 0.0)
+
+
+def sample_rays(
+    scene: PreparedScene, lobes: Lobes, chosen: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The reflection rays of the lobes: every pair of scene.glossy_pairs at a hit whose chosen (k,) is -1 (a path's
+    first glossy surface), the chosen pair alone elsewhere -> the rays' lobes (j,) (indices into the lobes), their
+    pairs (j,), unit world directions (3, j) and weights (3, j): F G2 / G1(v) times the boost, divided by the
+    number of rays the hit sends; only rays of weight > 0."""
+    pairs = scene.glossy_pairs
+    count = len(pairs)
+    fresh = chosen < 0
+    lobe = np.concatenate((np.repeat(indices(fresh), count), indices(~fresh)))
+    pair = np.concatenate((np.tile(np.arange(count), int(fresh.sum())), chosen.take(indices(~fresh))))
+    order = np.argsort(lobe, kind="stable")  # a hit's rays together, in pair order
+    lobe, pair = lobe.take(order), pair.take(order)
+    one = lobes.take(lobe)
+    directions, weight = samples(one, pairs[:, 0].take(pair), pairs[:, 1].take(pair))
+    lx, ly, lz = directions
+    D = lx * one.e1 + ly * one.e2 + lz * one.n
+    vx, vy, vz = one.v
+    hx, hy, hz = lx + vx, ly + vy, lz + vz
+    h_length = np.sqrt(hx * hx + hy * hy + hz * hz)
+    VH = (vx * hx + vy * hy + vz * hz) / np.where(h_length > 0.0, h_length, 1.0)
+    share = np.where(fresh.take(lobe), 1.0 / count, 1.0)
+    value = fresnel(one, VH) * (weight * share) * one.boost
+    keep = indices((weight > 0.0) & np.any(value > 0.0, axis=0))
+    return lobe.take(keep), pair.take(keep), take(D, keep), take(value, keep)
+
+
+def fresnel(lobes: Lobes, cosine: np.ndarray) -> np.ndarray:
+    """The lobes' Fresnel reflectance (3, k) at the cosines (k,) between the view and the microfacet normal: the
+    colour (constant), or Schlick's F0 + (1 - F0) (1 - cos)^5."""
+    grazing = (1.0 - np.clip(cosine, 0.0, 1.0)) ** 5
+    return np.where(lobes.schlick, lobes.color + (1.0 - lobes.color) * grazing, lobes.color)
+
+
+def pairs_array(samples_count: int) -> np.ndarray:
+    """lightsamples.glossy_pairs as an (m, 2) float64 array."""
+    return np.asarray(lightsamples.glossy_pairs(samples_count), dtype=np.float64).reshape(-1, 2)
+
+
+def _smith_lambda(cosine: np.ndarray, a2: np.ndarray) -> np.ndarray:
+    """Smith's Lambda of GGX at cosines > 0 to the normal: (sqrt(1 + a^2 tan^2) - 1) / 2."""
+    c2 = cosine * cosine
+    return 0.5 * (np.sqrt(1.0 + a2 * (1.0 - c2) / c2) - 1.0)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]

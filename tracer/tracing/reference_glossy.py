@@ -1,0 +1,178 @@
+"""One hit on a glossy surface -> its rough specular lobe, one number at a time: the per-pixel reference's side of
+glossy.py (GGX of Cycles' roughness, Smith's height-correlated masking-shadowing, Heitz 2018's sampling of the
+visible normals at lightsamples.glossy_pairs, Cycles' multiscatter gain), written from the formulas, not from the
+arrays."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+from ..geometry import lightsamples
+from ..scene import scene as sc
+
+
+class Tracing(Protocol):
+    """What rays() needs of the reference tracer: its pairs, its ray counts and TraceRay."""
+
+    glossy_pairs: list[tuple[float, float]]
+    rays: dict[str, int]
+
+    def trace_ray(
+        self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, depth: int, camera: bool, layers: int, sample: int
+    ) -> sc.Color: ...
+
+
+REFLECTION_T_MIN = 0.01  # listing 3.1, as the reference's mirror rays
+
+SCHLICK_MEAN = 1.0 / 21.0
+
+
+def _dot(a: sc.Vec3, b: sc.Vec3) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _unit(a: sc.Vec3) -> sc.Vec3:
+    n = math.sqrt(_dot(a, a))
+    return (a[0] / n, a[1] / n, a[2] / n)
+
+
+def smith_lambda(cosine: float, a2: float) -> float:
+    c2 = cosine * cosine
+    return 0.5 * (math.sqrt(1.0 + a2 * (1.0 - c2) / c2) - 1.0)
+
+
+@dataclass
+class Lobe:
+    """A glossy material's lobe at one hit: its frame (e1, e2, n), the unit view v in it, alpha, colour, Fresnel
+    (schlick) and multiscatter gain per channel."""
+
+    e1: sc.Vec3
+    e2: sc.Vec3
+    n: sc.Vec3
+    v: sc.Vec3
+    alpha: float
+    color: sc.Color
+    schlick: bool
+    gain: sc.Color = (1.0, 1.0, 1.0)
+    shine: sc.Color = (0.0, 0.0, 0.0)  # the lights through it (ReferenceTracer.find_intensities sets it)
+
+    def fresnel(self, cosine: float) -> sc.Color:
+        if not self.schlick:
+            return self.color
+        grazing = (1.0 - min(max(cosine, 0.0), 1.0)) ** 5
+        return tuple(c + (1.0 - c) * grazing for c in self.color)
+
+    def sample(self, u1: float, u2: float) -> tuple[sc.Vec3, float]:
+        """The reflected direction (local) for the numbers u1, u2 and its weight G2 / G1(v) (0 below the horizon)."""
+        vx, vy, vz = self.v
+        a = self.alpha
+        h = _unit((a * vx, a * vy, vz))
+        lensq = h[0] * h[0] + h[1] * h[1]
+        root = math.sqrt(lensq)
+        t1 = (-h[1] / root, h[0] / root, 0.0) if lensq > 0.0 else (1.0, 0.0, 0.0)
+        t2 = (h[1] * t1[2] - h[2] * t1[1], h[2] * t1[0] - h[0] * t1[2], h[0] * t1[1] - h[1] * t1[0])
+        r, phi = math.sqrt(u1), 2.0 * math.pi * u2
+        p1, p2 = r * math.cos(phi), r * math.sin(phi)
+        s = 0.5 * (1.0 + h[2])
+        p2 = (1.0 - s) * math.sqrt(1.0 - p1 * p1) + s * p2
+        p3 = math.sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2))
+        normal = tuple(p1 * t1[k] + p2 * t2[k] + p3 * h[k] for k in range(3))
+        m = _unit((a * normal[0], a * normal[1], max(0.0, normal[2])))
+        k = 2.0 * _dot(self.v, m)
+        out = (k * m[0] - vx, k * m[1] - vy, k * m[2] - vz)
+        if not (out[2] > 0.0 and vz > 0.0):
+            return out, 0.0
+        a2 = a * a
+        lambda_v = smith_lambda(vz, a2)
+        return out, (1.0 + lambda_v) / (1.0 + lambda_v + smith_lambda(out[2], a2))
+
+    def world(self, local: sc.Vec3) -> sc.Vec3:
+        return tuple(local[0] * self.e1[k] + local[1] * self.e2[k] + local[2] * self.n[k] for k in range(3))
+
+    def light(self, L: sc.Vec3) -> sc.Color:
+        """pi F D G2 / (4 v.z) times the gain, for a light along L (world): glossy.light_factor."""
+        length = math.sqrt(_dot(L, L))
+        lz = _dot(L, self.n) / length
+        vz = self.v[2]
+        if not (lz > 0.0 and vz > 0.0):
+            return (0.0, 0.0, 0.0)
+        local = (_dot(L, self.e1) / length, _dot(L, self.e2) / length, lz)
+        half = tuple(local[k] + self.v[k] for k in range(3))
+        h_length = math.sqrt(_dot(half, half))
+        if not h_length > 0.0:
+            return (0.0, 0.0, 0.0)
+        cos_h = half[2] / h_length
+        a2 = self.alpha * self.alpha
+        d = cos_h * cos_h * (a2 - 1.0) + 1.0
+        D = a2 / (math.pi * d * d)
+        G2 = 1.0 / (1.0 + smith_lambda(vz, a2) + smith_lambda(lz, a2))
+        F = self.fresnel(_dot(self.v, half) / h_length)
+        shape = math.pi * D * G2 / (4.0 * vz)
+        return tuple(F[c] * shape * self.gain[c] for c in range(3))
+
+
+def lobe_at(material: sc.Material, S: sc.Vec3, V: sc.Vec3, pairs: list[tuple[float, float]]) -> Lobe:
+    """The material's lobe at a hit of shading normal S seen from V (toward the viewer), its multiscatter gain 1 +
+    F_avg (1 - E) / E from E, the mean weight of its samples at the pairs."""
+    n = _unit(S)
+    e1, e2 = lightsamples.facing_basis(n)
+    u = _unit(V)
+    v = (_dot(u, e1), _dot(u, e2), _dot(u, n))
+    lobe = Lobe(e1, e2, n, v, material.roughness * material.roughness, material.glossy,
+                material.glossy_fresnel == "schlick")  # fmt: skip
+    if material.glossy_energy == "multiscatter" and v[2] > 0.0:
+        albedo = sum(lobe.sample(u1, u2)[1] for u1, u2 in pairs) / len(pairs)
+        if albedo > 0.0:
+            mean = [c + (1.0 - c) * SCHLICK_MEAN if lobe.schlick else c for c in lobe.color]
+            lobe.gain = tuple(1.0 + f * ((1.0 - albedo) / albedo) for f in mean)
+    return lobe
+
+
+def ray(lobe: Lobe, u1: float, u2: float, share: float) -> tuple[sc.Vec3, sc.Color] | None:
+    """One reflection ray of the lobe: its world direction and weight F G2 / G1(v) times the gain and share (the
+    hit's 1 / rays); None where the weight is 0."""
+    local, weight = lobe.sample(u1, u2)
+    if not weight > 0.0:
+        return None
+    half = tuple(local[k] + lobe.v[k] for k in range(3))
+    h_length = math.sqrt(_dot(half, half))
+    F = lobe.fresnel(_dot(lobe.v, half) / h_length if h_length > 0.0 else 0.0)
+    value = tuple(F[c] * (weight * share) * lobe.gain[c] for c in range(3))
+    if not any(c > 0.0 for c in value):
+        return None
+    return lobe.world(local), value
+
+
+def rays(
+    tracer: Tracing,
+    P: sc.Vec3,
+    V: sc.Vec3,
+    S: sc.Vec3,
+    material: sc.Material,
+    depth: int,
+    layers: int,
+    sample: int,
+    lobe: Lobe | None = None,
+) -> sc.Color:
+    """What a glossy lobe's reflection rays bring back: every pair at a path's first glossy surface (sample
+    -1), each ray then carrying its pair, else the path's pair alone (ray()'s weights).
+    The reason for 9 parameters: the tracer, the hit and the ray's state as trace_ray carries them."""
+    if lobe is None:
+        lobe = lobe_at(material, S, V, tracer.glossy_pairs)
+    if lobe.v[2] <= 0.0:
+        return (0.0, 0.0, 0.0)
+    pairs = tracer.glossy_pairs
+    chosen = range(len(pairs)) if sample < 0 else (sample,)
+    share = 1.0 / len(pairs) if sample < 0 else 1.0
+    out = [0.0, 0.0, 0.0]
+    for index in chosen:
+        found = ray(lobe, *pairs[index], share)
+        if found is None:
+            continue
+        direction, weight = found
+        tracer.rays["reflection"] += 1
+        seen = tracer.trace_ray(P, direction, REFLECTION_T_MIN, math.inf, depth - 1, False, layers, index)
+        out = [out[c] + weight[c] * seen[c] for c in range(3)]
+    return tuple(out)
