@@ -1041,13 +1041,58 @@ def convert_material(
         notes.append("Transparent Shadows off: its shadow lets 1 - alpha through")
     if two_sided is not False:
         document["two_sided"] = True
+    _name_back_faces(material, document, notes, blender_scene, two_sided)
     return document, list(dict.fromkeys(notes))
+
+
+# --- back faces (Geometry > Backfacing) -----------------------------------------------------------------------------
+
+
+def _name_back_faces(material, document: dict, notes: list[str], blender_scene, two_sided) -> None:
+    """The tree is read for front faces (Backfacing 0: what a camera sees of a closed mesh from outside); where it
+    reads Geometry > Backfacing and converts to another material for back faces, what Cycles shows there is named."""
+    if node_tree.facing_back() or not node_tree.reads_backfacing(material.node_tree):
+        return
+    with node_tree.back_faces():
+        back, _ = convert_material(material, blender_scene=blender_scene, two_sided=two_sided)
+    differs = _differences(document, back)
+    if differs:
+        notes.append(f"Backfacing: back faces shaded as the front (Cycles: {differs})")
+
+
+def _differences(front: dict, back: dict) -> str:
+    """What a material document for back faces has otherwise than the front's, in a few words ("" where nothing)."""
+    if back.get("alpha", 1.0) <= SHARE_EPSILON and front.get("alpha", 1.0) > SHARE_EPSILON:
+        return "transparent"
+    words = []
+    for key in sorted(set(front) | set(back)):
+        a, b = front.get(key), back.get(key)
+        if _same(a, b):
+            continue
+        try:
+            shown = ", ".join(f"{float(v):.3g}" for v in np.atleast_1d(np.asarray(b, float)))
+        except (TypeError, ValueError):  # a texture's fields
+            shown = "another"
+        words.append(f"{key.replace('_', ' ')} {'none' if b is None else shown}")
+    return "; ".join(words)
+
+
+def _same(a, b) -> bool:
+    """Whether two values of material documents are equal (numbers within 1e-6, textures field by field)."""
+    if isinstance(a, dict) or isinstance(b, dict):
+        both = isinstance(a, dict) and isinstance(b, dict) and a.keys() == b.keys()
+        return both and all(_same(a[key], b[key]) for key in a)
+    try:
+        x, y = np.asarray(a, float), np.asarray(b, float)
+    except (TypeError, ValueError):
+        return a == b
+    return x.shape == y.shape and bool(np.allclose(x, y, atol=1e-6))
 
 
 def _name_normal_maps(tree, notes: list[str]) -> None:
     for node in node_tree.nodes(tree):
         normal = node.inputs.get("Normal") if node.bl_idname.startswith("ShaderNodeBsdf") else None
-        if normal is not None and normal.is_linked:
+        if normal is not None and normal.is_linked and not node_tree.own_normal(normal):
             notes.append("normal or bump map: the surface's own normal")
             return
 

@@ -12,12 +12,24 @@ holds its own value. The conversions read the tree the same way through this mod
 - `source(socket)`: the node and output that feed an input, through groups, reroutes and muted nodes.
 - `constant(socket)`: an input's value where it does not depend on the shading point: its own, or what Value, RGB,
   Math, Vector Math, Map Range, Clamp, Invert, Mix, Separate / Combine (RGB, XYZ, Color), Color Ramp, RGB Curves,
-  Gamma, Bright/Contrast and Hue/Saturation/Value make of constant inputs, with Blender's conversions between
-  socket types (a colour read as a number is its luminance, a number read as a colour is grey).
+  Gamma, Bright/Contrast, Hue/Saturation/Value and RGB to BW make of constant inputs, with Blender's conversions
+  between socket types (a colour read as a number is its luminance, a number read as a colour is grey). A product
+  with a constant 0 is 0 whatever the other factor (Math Multiply, Multiply Add's product, Vector Math Multiply,
+  Scale, Dot and Cross Product, a Mix in Multiply blend of a black A, or of a black B at factor 1): Cycles' arithmetic
+  gives exactly 0 for any finite factor (its constant folding does the same, scene/constant_fold.cpp).
+- Geometry > Backfacing is a constant too: 0, as front faces (what a camera sees of a closed mesh from outside), or
+  1 inside `back_faces()`; a conversion that finds `reads_backfacing(tree)` reads the tree both ways and names what
+  differs.
+- `own_normal(socket)`: whether a shader's Normal input is the surface's own shading normal as Cycles computes it
+  (unlinked; Geometry > Normal; a flat Normal Map: tangent-space colour (0.5, 0.5, 1) or Strength <= 0; a Bump of
+  Strength <= 0 or a constant Height, its own Normal input passed on; and linear arithmetic on these that leaves a
+  positive multiple of the normal, e.g. glTF's Separate XYZ, x NormalScale 1, Combine XYZ, Normalize).
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 from collections.abc import Iterator
 
@@ -27,6 +39,8 @@ LUMINANCE = (0.2126, 0.7152, 0.0722)  # Cycles' colour -> number (the default Op
 MAX_DEPTH = 64  # links followed for one input: more is a cycle (Blender refuses them, a corrupt file may not)
 PASS_THROUGH = ("NodeReroute",)
 GROUP_NODES = ("ShaderNodeGroup", "NodeGroup")
+# Geometry > Backfacing as the walker reads it: 0 (front faces) unless inside back_faces()
+_BACK_FACES: contextvars.ContextVar[bool] = contextvars.ContextVar("back_faces", default=False)
 
 
 class Socket:
@@ -296,11 +310,39 @@ def _inputs(node: Node, depth: int, *names) -> list:
     return [constant(node.inputs[name], depth) for name in names]
 
 
+@contextlib.contextmanager
+def back_faces() -> Iterator[None]:
+    """Inside: Geometry > Backfacing reads 1, the tree as Cycles evaluates it on a face seen from behind."""
+    token = _BACK_FACES.set(True)
+    try:
+        yield
+    finally:
+        _BACK_FACES.reset(token)
+
+
+def facing_back() -> bool:
+    """Whether the walker now reads the tree for back faces (inside back_faces())."""
+    return _BACK_FACES.get()
+
+
+def reads_backfacing(tree) -> bool:
+    """Whether a Geometry node's Backfacing output feeds anything in the tree or its groups (then the tree may shade
+    back faces otherwise than front faces)."""
+    for node in nodes(tree) if tree is not None else ():
+        if node.bl_idname == "ShaderNodeNewGeometry":
+            output = node.bpy.outputs.get("Backfacing")
+            if output is not None and output.is_linked:
+                return True
+    return False
+
+
 def _fold(node: Node, output: Socket, depth: int):
     """A node's output from constant inputs, or None."""
     kind = node.bl_idname
     if kind in ("ShaderNodeValue", "ShaderNodeRGB"):
         return _own(output)
+    if kind == "ShaderNodeNewGeometry":
+        return (1.0 if _BACK_FACES.get() else 0.0) if output.identifier == "Backfacing" else None
     folder = _FOLDERS.get(kind)
     return None if folder is None else folder(node, output, depth)
 
@@ -312,12 +354,23 @@ def _by_id(node: Node) -> dict:
 def _fold_math(node: Node, output: Socket, depth: int) -> float | None:
     values = [constant(socket, depth) for socket in node.inputs if socket.enabled]
     if any(value is None for value in values):
-        return None
-    numbers = [as_number(value) for value in values] + [0.0, 0.0, 0.0]
-    result = math_operation(node.operation, *numbers[:3])
+        result = _absorbed(node.operation, [as_number(value) for value in values])
+    else:
+        numbers = [as_number(value) for value in values] + [0.0, 0.0, 0.0]
+        result = math_operation(node.operation, *numbers[:3])
     if result is None:
         return None
     return min(1.0, max(0.0, result)) if node.use_clamp else result
+
+
+def _absorbed(operation: str, numbers: list) -> float | None:
+    """A Math node's output where an input varies (None) but a constant 0 factor decides it: a x 0 = 0, and
+    Multiply Add's a x 0 + c = c (Cycles' arithmetic for any finite a); None otherwise."""
+    if operation == "MULTIPLY" and 0.0 in numbers[:2]:
+        return 0.0
+    if operation == "MULTIPLY_ADD" and len(numbers) == 3 and 0.0 in numbers[:2] and numbers[2] is not None:
+        return numbers[2]
+    return None
 
 
 def math_operation(operation: str, a: float, b: float, c: float) -> float | None:
@@ -406,7 +459,7 @@ def _fold_vector_math(node: Node, output: Socket, depth: int):
     by_id = _by_id(node)
     values = {key: constant(socket, depth) for key, socket in by_id.items()}
     if any(value is None for value in values.values()):
-        return None
+        return _vector_absorbed(node.operation, values)
     a, b, c = (as_color(values.get(key, (0.0, 0.0, 0.0))) for key in ("Vector", "Vector_001", "Vector_002"))
     scale = as_number(values.get("Scale", 1.0))
     operation = node.operation
@@ -440,6 +493,24 @@ def _fold_vector_math(node: Node, output: Socket, depth: int):
     if operation == "CROSS_PRODUCT":
         return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
     return None
+
+
+def _vector_absorbed(operation: str, values: dict):
+    """A Vector Math node's output where an input varies but a constant zero factor decides it (Multiply or Dot or
+    Cross Product by the zero vector, Scale of it or by 0): zero, as Cycles computes it for finite inputs."""
+    zero = [key for key, value in values.items() if value is not None and not any(as_color(value))]
+    if operation in ("MULTIPLY", "CROSS_PRODUCT") and {"Vector", "Vector_001"} & set(zero):
+        return (0.0, 0.0, 0.0)
+    if operation == "DOT_PRODUCT" and {"Vector", "Vector_001"} & set(zero):
+        return 0.0
+    if operation == "SCALE" and {"Vector", "Scale"} & set(zero):
+        return (0.0, 0.0, 0.0)
+    return None
+
+
+def _fold_rgb_to_bw(node: Node, output: Socket, depth: int) -> float | None:
+    """RGB to BW: the colour's luminance (Cycles' linear_rgb_to_gray, the scene-linear space's Y weights)."""
+    return as_number(as_color(constant(node.inputs["Color"], depth)))
 
 
 def _fold_clamp(node: Node, output: Socket, depth: int) -> float | None:
@@ -504,7 +575,7 @@ def _fold_mix(node: Node, output: Socket, depth: int):
         clamp_result = data_type == "RGBA" and node.clamp_result
     values = [constant(socket, depth) for socket in (factor, first, second)]
     if any(value is None for value in values):
-        return None
+        return _mix_absorbed(data_type, blend, clamp_factor, *values)
     t, a, b = values
     if data_type == "FLOAT":
         t, a, b = as_number(t), as_number(a), as_number(b)
@@ -519,6 +590,19 @@ def _fold_mix(node: Node, output: Socket, depth: int):
     if mixed is None:
         return None
     return tuple(min(1.0, max(0.0, c)) for c in mixed) if clamp_result else mixed
+
+
+def _mix_absorbed(data_type: str, blend: str, clamp_factor: bool, t, a, b) -> tuple | None:
+    """A colour Mix in Multiply blend, a x (1 - t + t b), where an input varies but a black factor decides it: a
+    black A whatever t and B, a black B at factor 1: black (Cycles' svm_mix for finite inputs); None otherwise."""
+    if data_type != "RGBA" or blend != "MULTIPLY":
+        return None
+    t = as_number(t) if t is not None and not isinstance(t, tuple) else None
+    if t is not None and clamp_factor:
+        t = min(1.0, max(0.0, t))
+    if (a is not None and not any(as_color(a))) or (b is not None and not any(as_color(b)) and t == 1.0):
+        return (0.0, 0.0, 0.0)
+    return None
 
 
 def blend_colors(blend: str, t: float, a, b) -> tuple | None:
@@ -656,4 +740,109 @@ _FOLDERS = {
     "ShaderNodeGamma": _fold_gamma,
     "ShaderNodeBrightContrast": _fold_bright_contrast,
     "ShaderNodeHueSaturation": _fold_hsv,
+    "ShaderNodeRGBToBW": _fold_rgb_to_bw,
 }
+
+
+# --- the shading normal --------------------------------------------------------------------------------------------
+
+FLAT_NORMAL_COLOR = (0.5, 0.5, 1.0)  # a tangent-space normal map's colour for the unperturbed normal
+
+
+def own_normal(socket) -> bool:
+    """Whether a shader's Normal input (a bpy socket or a Socket) is the surface's own shading normal N as Cycles
+    computes it: unlinked, or a positive multiple of N (a BSDF normalises its Normal) by _normal_form."""
+    socket = wrap(socket)
+    if not socket.is_linked:
+        return True
+    form = _normal_form(socket, 0)
+    if form is None or form.shape != (3, 4) or np.any(np.abs(form[:, 3]) > 1e-6):
+        return False
+    scale = form[0, 0]
+    return scale > 0.0 and bool(np.allclose(form[:, :3], scale * np.eye(3), rtol=1e-6, atol=1e-6 * scale))
+
+
+def _normal_form(socket: Socket, depth: int) -> np.ndarray | None:
+    """An input's value as a linear function of the shading normal N, the matrix F of v = F (N, 1): (3, 4) for a
+    vector, (1, 4) for a number; None where it is not one the walker knows (a texture, a real normal map)."""
+    if depth > MAX_DEPTH:
+        return None
+    vector = getattr(socket.bpy, "type", "VALUE") in ("VECTOR", "RGBA")
+    value = constant(socket, depth + 1)
+    if value is not None:
+        column = np.asarray(as_color(value) if vector else (as_number(value),), dtype=np.float64)
+        return np.concatenate([np.zeros((column.size, 3)), column[:, None]], axis=1)
+    node, output = source(socket)
+    if node is None:
+        return None
+    form = _node_normal_form(node, output, depth + 1)
+    if form is None:
+        return None
+    if vector and form.shape[0] == 1:  # a number read as a vector: repeated
+        return np.repeat(form, 3, axis=0)
+    return form if (form.shape[0] == 3) == vector else None
+
+
+def _identity() -> np.ndarray:
+    return np.concatenate([np.eye(3), np.zeros((3, 1))], axis=1)
+
+
+def _node_normal_form(node: Node, output: Socket, depth: int) -> np.ndarray | None:
+    kind = node.bl_idname
+    if kind == "ShaderNodeNewGeometry":
+        return _identity() if output.identifier == "Normal" else None
+    if kind == "ShaderNodeNormalMap":  # Cycles' svm_node_normal_map: N where the map says no change
+        strength = constant_number(node.inputs["Strength"])
+        color = constant_color(node.inputs["Color"])
+        flat = color is not None and np.allclose(color, FLAT_NORMAL_COLOR, atol=1e-6) and node.space == "TANGENT"
+        return _identity() if flat or (strength is not None and strength <= 0.0) else None
+    if kind == "ShaderNodeBump":  # svm_node_set_bump: its Normal input where the height cannot tilt it
+        strength = constant_number(node.inputs["Strength"])
+        still = constant(node.inputs["Height"], depth) is not None
+        if not still and (strength is None or strength > 0.0):
+            return None
+        normal = node.inputs["Normal"]  # unlinked: N (Cycles links a Normal input that nothing feeds to N)
+        return _normal_form(normal, depth) if normal.is_linked else _identity()
+    if kind == "ShaderNodeSeparateXYZ":
+        form = _normal_form(node.inputs[0], depth)
+        index = [socket.identifier for socket in node.outputs].index(output.identifier)
+        return None if form is None or index > 2 else form[index : index + 1]
+    if kind == "ShaderNodeCombineXYZ":
+        rows = [_normal_form(socket, depth) for socket in list(node.inputs)[:3]]
+        return None if any(row is None for row in rows) else np.concatenate(rows, axis=0)
+    if kind == "ShaderNodeMath" and not node.use_clamp:
+        return _linear(node.operation, [_normal_form(s, depth) for s in node.inputs if s.enabled], False)
+    if kind == "ShaderNodeVectorMath":
+        by_id = _by_id(node)
+        forms = [_normal_form(by_id[key], depth) for key in ("Vector", "Vector_001", "Scale") if key in by_id]
+        return _linear(node.operation, forms, True)
+    return None
+
+
+def _linear(operation: str, forms: list, vector: bool) -> np.ndarray | None:
+    """A Math or Vector Math node's output form where it is linear in N: sums, differences, products and quotients
+    by constants, and Normalize of a multiple of N (N is a unit vector)."""
+    if any(form is None for form in forms):
+        return None
+
+    def constant_part(form):  # the form's value where it does not depend on N, else None
+        return form[:, 3] if not np.any(form[:, :3]) else None
+
+    if operation in ("ADD", "SUBTRACT") and len(forms) >= 2:
+        return forms[0] + forms[1] if operation == "ADD" else forms[0] - forms[1]
+    if operation in ("MULTIPLY", "SCALE", "DIVIDE") and len(forms) >= 2:
+        first, second = forms[0], forms[1]
+        if operation == "DIVIDE":
+            divisor = constant_part(second)
+            return None if divisor is None or np.any(divisor == 0.0) else first / divisor[:, None]
+        if constant_part(second) is not None:
+            return first * constant_part(second)[:, None]
+        if constant_part(first) is not None and operation == "MULTIPLY":
+            return second * constant_part(first)[:, None]
+        return None
+    if operation == "NORMALIZE" and vector and forms:
+        form = forms[0]
+        scale = form[0, 0]
+        if scale != 0.0 and not np.any(form[:, 3]) and np.allclose(form[:, :3], scale * np.eye(3)):
+            return _identity() * math.copysign(1.0, scale)
+    return None
