@@ -1,15 +1,19 @@
-"""A tracer scene -> Blender objects inside the add-on's own collection; nothing outside it is touched.
+"""A tracer scene -> Blender objects inside the add-on's own collection; outside it, only the scene settings that
+apply_scene_settings sets (where the user has not changed them) and the active camera, each named in the result line.
 
 Analytic primitives become meshes with the fewest segments that keep the silhouette within half a pixel at the
-scene's render resolution and camera distance: an n-gon of radius r misses the circle by r (1 - cos(pi / n)),
-which the camera shows as f_px r (1 - cos(pi / n)) / d pixels at distance d. Boxes and pyramids use exactly the
-tracer's triangles. The vane's parts hang under a pivot (aligned with the vane's axis) and a turning empty whose
-local Z rotation is the heading.
+resolution the Blender scene has after the Build (the file's, or the user's own that it keeps) and the camera's
+distance: an n-gon of radius r misses the circle by r (1 - cos(pi / n)), which the camera shows as
+f_px r (1 - cos(pi / n)) / d pixels at distance d. Boxes and pyramids use exactly the tracer's triangles. The vane's
+parts hang under a pivot (aligned with the vane's axis) and a turning empty whose local Z rotation is the heading.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
+from dataclasses import dataclass, replace
 
 import bmesh
 import bpy
@@ -115,9 +119,6 @@ def primitive_mesh(scene, obj, world):
 
 def _record(blender_object, obj) -> None:
     """Keep the tracer description on the object, so that export maps it back exactly."""
-    import dataclasses
-    import json
-
     # a mesh's arrays as nested lists (the scene file's form; asdict would copy them and json cannot write them)
     fields = {
         field.name: value.tolist() if hasattr(value, "tolist") else value
@@ -193,13 +194,176 @@ def kept_for_rebuild(context, source: str) -> bool:
     return own_collection(context, create=False) is not None and settings.built_from == source
 
 
-def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Collection:
+@dataclass
+class Built:
+    """What a Build did to the scene's own settings (not the add-on's), one phrase each for its result line."""
+
+    changed: list[str] = dataclasses.field(default_factory=list)  # "resolution 1920x1080 -> 640x480"
+    kept: list[str] = dataclasses.field(default_factory=list)  # "resolution 1280x720 (the file's: 640x480)"
+
+
+# The scene's own settings (Output and Color Management, not the add-on's) that a Build sets: each one's name in the
+# result line, how it reads and writes, and how it shows. The colour settings are one: a user who changed any of
+# them chose a look, and keeps all of it.
+def _resolution(blender_scene) -> tuple[int, int]:
+    return blender_scene.render.resolution_x, blender_scene.render.resolution_y
+
+
+def _set_resolution(blender_scene, value) -> None:
+    blender_scene.render.resolution_x, blender_scene.render.resolution_y = value
+
+
+def _percentage(blender_scene) -> int:
+    return blender_scene.render.resolution_percentage
+
+
+def _set_percentage(blender_scene, value) -> None:
+    blender_scene.render.resolution_percentage = value
+
+
+def _frame_rate(blender_scene) -> float:
+    return blender_scene.render.fps / blender_scene.render.fps_base
+
+
+def _set_frame_rate(blender_scene, fps: float) -> None:
+    blender_scene.render.fps = max(1, round(fps))
+    blender_scene.render.fps_base = blender_scene.render.fps / fps
+
+
+def _colour(blender_scene) -> tuple[str, str, float, float]:
+    view = blender_scene.view_settings
+    return view.view_transform, view.look, view.exposure, view.gamma
+
+
+def _set_colour(blender_scene, value) -> None:
+    view = blender_scene.view_settings
+    view.view_transform, view.look, view.exposure, view.gamma = value
+
+
+def _dither(blender_scene) -> float:
+    return blender_scene.render.dither_intensity
+
+
+def _set_dither(blender_scene, value) -> None:
+    blender_scene.render.dither_intensity = value
+
+
+def _show_colour(value) -> str:
+    transform, look, exposure, gamma = value
+    extras = [f"look {look}"] if look != "None" else []
+    extras += [f"exposure {exposure:.4g}"] if not _same(exposure, 0.0) else []
+    extras += [f"gamma {gamma:.4g}"] if not _same(gamma, 1.0) else []
+    return ", ".join([transform, *extras])
+
+
+SCENE_SETTINGS = {  # name: (read, write, show)
+    "resolution": (_resolution, _set_resolution, lambda value: f"{value[0]}x{value[1]}"),
+    "resolution scale": (_percentage, _set_percentage, lambda value: f"{value}%"),
+    "frame rate": (_frame_rate, _set_frame_rate, lambda value: f"{value:.4g} fps"),
+    "view transform": (_colour, _set_colour, _show_colour),
+    "dither": (_dither, _set_dither, lambda value: f"{value:.4g}"),
+}
+DISPLAY_AS_THE_TRACER = ("Standard", "None", 0.0, 1.0)  # the tracer's values as they are (`render --srgb`)
+THE_TRACERS = ("view transform", "dither")  # what the tracer asks, not the file
+
+
+def _same(a, b) -> bool:
+    """Whether two settings' values are equal (floats as Blender keeps them, in single precision)."""
+    if isinstance(a, (tuple, list)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, float) or isinstance(b, float):
+        return math.isclose(a, b, rel_tol=1e-6, abs_tol=1e-6)
+    return a == b
+
+
+def file_settings(scene) -> dict:
+    """What a tracer scene asks of the Blender scene's settings: its resolution at 100%, its motion's frame rate,
+    and Standard colour management without dither, so that Blender shows the tracer's values as they are."""
+    wanted = {
+        "resolution": (scene.render.width, scene.render.height),
+        "resolution scale": 100,
+        "view transform": DISPLAY_AS_THE_TRACER,
+        "dither": 0.0,
+    }
+    if scene.motion is not None:
+        wanted["frame rate"] = scene.motion.fps
+    return wanted
+
+
+def factory_settings() -> dict[str, list]:
+    """Each setting's values in a scene nobody changed: the factory startup file's (1920x1080 at 100%, 24 fps, AgX
+    in 4+ and Filmic in 3.x, no look, exposure 0, gamma 1, dither 1, in every Blender the add-on supports) and a new
+    scene's in this Blender (read from one made and removed at once: 4.2 gives a new scene Filmic)."""
+    startup = {
+        "resolution": (1920, 1080),
+        "resolution scale": 100,
+        "frame rate": 24.0,
+        "view transform": ("AgX" if compat.VERSION >= (4, 0, 0) else "Filmic", "None", 0.0, 1.0),
+        "dither": 1.0,
+    }
+    probe = bpy.data.scenes.new("WV factory settings")
+    try:
+        return {name: [startup[name], read(probe)] for name, (read, _, _) in SCENE_SETTINGS.items()}
+    finally:
+        bpy.data.scenes.remove(probe)
+
+
+def apply_scene_settings(blender_scene, scene, overwrite: bool = False) -> Built:
+    """Set the scene's settings to what the tracer scene asks (file_settings), each only where the user has not
+    changed it: where it holds this Blender's factory value or the value the last Build set (overwrite: everywhere,
+    as Reset). What changed and what was kept, one phrase each; the values set are remembered on the scene."""
+    result = Built()
+    factory = factory_settings()
+    settings = blender_scene.weathervane
+    try:
+        set_before = json.loads(settings.scene_settings_set or "{}")
+    except ValueError:
+        set_before = {}
+    set_now = {}
+    for name, wanted in file_settings(scene).items():
+        read, write, show = SCENE_SETTINGS[name]
+        value = read(blender_scene)
+        if _same(value, wanted):
+            set_now[name] = wanted
+            continue
+        untouched = any(_same(value, known) for known in factory[name]) or (
+            name in set_before and _same(value, set_before[name])
+        )
+        if overwrite or untouched:
+            write(blender_scene, wanted)
+            set_now[name] = wanted
+            result.changed.append(f"{name} {show(value)} -> {show(wanted)}")
+        else:
+            whose = "the tracer's" if name in THE_TRACERS else "the file's"
+            result.kept.append(f"{name} {show(value)} ({whose}: {show(wanted)})")
+    settings.scene_settings_set = json.dumps(set_now)
+    return result
+
+
+def _users_camera(context) -> str | None:
+    """The name of the scene's active camera where it is not the vane's own (which a Build makes again)."""
+    camera = context.scene.camera
+    collection = own_collection(context, create=False)
+    if camera is None or (collection is not None and camera.name in collection.all_objects):
+        return None
+    return camera.name
+
+
+def build(context, scene, source: str = "", keep: bool = False, overwrite: bool = False) -> Built:
     """Build a tracer Scene into the add-on's collection (replacing only it) and fill the panel's settings.
 
     keep (a rebuild): the geometry is made again from the scene; the panel's settings (materials, wind and its keys,
-    motion, the tracer's settings, the render percentage), the lights, the camera and the baked motion stay as the
-    user left them."""
+    motion, the tracer's settings), the scene's settings, the lights, the camera and the baked motion stay as the user
+    left them. Otherwise the scene's own settings that the vane needs (file_settings) become the file's where the
+    user had not changed them, or everywhere with overwrite (Reset); the result says what changed and what was kept.
+    Curved parts are segmented for the resolution the scene renders at after it."""
     settings = context.scene.weathervane
+    result = Built()
+    if not keep:
+        result = apply_scene_settings(context.scene, scene, overwrite)
+    users_camera = _users_camera(context)
+    render = context.scene.render
+    sized = replace(scene, render=replace(scene.render, width=render.resolution_x, height=render.resolution_y))
     kept_objects = frozenset()
     baked = None
     if keep:
@@ -254,7 +418,7 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
     context.view_layer.update()
     for obj in scene.objects:
         world = tracer.world_primitive(obj, None)
-        mesh = primitive_mesh(scene, obj, world)
+        mesh = primitive_mesh(sized, obj, world)
         blender_object = bpy.data.objects.new(f"WV {obj.name}", mesh)
         blender_object.data.materials.append(made_materials[obj.material])
         blender_object.pass_index = obj.pass_index  # Object > Relations > Pass Index
@@ -271,9 +435,11 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
             blender_object.matrix_parent_inverse = pivot.matrix_world.inverted()
             blender_object.matrix_basis = heading_zero
     if keep:
-        return collection
+        return result
     camera = camera_module.create(scene.camera, collection)
     context.scene.camera = camera
+    if users_camera is not None:  # the vane is seen through its file's camera; the user's stays in the file
+        result.changed.append(f"active camera {users_camera} -> {camera.name}")
     settings.lights.clear()
     for index, light in enumerate(scene.lights):
         kind = type(light).__name__
@@ -296,7 +462,7 @@ def build(context, scene, source: str = "", keep: bool = False) -> bpy.types.Col
             obj = lights.create("DIRECTIONAL", light.intensity, name, collection, light.direction)
             entry.kind, entry.intensity, entry.object_name = "DIRECTIONAL", light.intensity, obj.name
     _fill_settings(context, scene)
-    return collection
+    return result
 
 
 def _entry_kind(kind: str) -> str:
@@ -325,9 +491,6 @@ def _with_kept_materials(scene, kept: dict):
 
 def _fill_settings(context, scene) -> None:
     settings = context.scene.weathervane
-    render = context.scene.render
-    render.resolution_x, render.resolution_y = scene.render.width, scene.render.height
-    render.resolution_percentage = 100
     settings.depth, settings.model, settings.coef = scene.render.depth, scene.render.model, scene.render.coef
     settings.background, settings.workers = scene.background.type, scene.render.workers
     settings.numerics, settings.precision = scene.render.numerics, scene.render.dtype
@@ -345,7 +508,8 @@ def _fill_settings(context, scene) -> None:
     if motion is not None:
         wind = motion.wind
         first = sorted(wind.keys, key=lambda key: key.time)[0]
-        fps = motion.fps
+        # the file's times in seconds, at the frame rate the scene keeps (the file's, or the user's own)
+        fps = motion.fps if _same(_frame_rate(context.scene), motion.fps) else _frame_rate(context.scene)
         settings.mode = motion.mode.upper()
         settings.damping, settings.wavelength = motion.damping, motion.wavelength
         settings.threshold, settings.friction_time = motion.threshold, motion.friction_time
@@ -360,8 +524,6 @@ def _fill_settings(context, scene) -> None:
             settings.stop_frame = 1 + round(wind.stop * fps)
         settings.spin_direction, settings.spin_speed = motion.spin.direction, motion.spin.speed
         settings.spin_smoothness = motion.spin.smoothness
-        context.scene.render.fps = max(1, round(fps))
-        context.scene.render.fps_base = context.scene.render.fps / fps
         if len(wind.keys) > 1:
             _key_wind(context.scene, wind, fps)
 

@@ -98,12 +98,11 @@ def _build_from(operator: bpy.types.Operator, context, path: str, reset: bool = 
             report(operator, {"ERROR"}, f"{path or 'default scene'}: {problem}")
         return {"CANCELLED"}
     keep = not reset and build.kept_for_rebuild(context, path)
-    build.build(context, scene, path, keep)
+    result = build.build(context, scene, path, keep, overwrite=reset)
     built = f"Built {len(scene.objects)} parts in the '{build.COLLECTION}' collection"
     if scene.motion is not None and len(scene.motion.wind.keys) > 1:
         built += f"; the wind follows the file's {len(scene.motion.wind.keys)} keys (Wind panel)"
-    if not keep:
-        built += _display_as_the_tracer(context.scene)
+    built += _scene_settings_line(result)
     if keep:
         built = (
             f"Rebuilt the {len(scene.objects)} parts; kept your materials, wind, motion, lights, camera and render "
@@ -141,7 +140,7 @@ def _other_renderables(blender_scene) -> list[str]:
 class WEATHERVANE_OT_reset(bpy.types.Operator):
     bl_description = (
         "Build the weathervane afresh from its scene file: its materials, wind, motion, lights, camera and render "
-        "settings go back to the file's (asks first)"
+        "settings, and the scene's resolution, frame rate and colour management, go back to the file's (asks first)"
     )
     bl_idname = "weathervane.reset"
     bl_label = "Reset Weathervane"
@@ -156,7 +155,8 @@ class WEATHERVANE_OT_reset(bpy.types.Operator):
         column.label(text="Build again from " + bpy.path.basename(source), icon="LOOP_BACK")
         column.label(text="and discard your edits to its")
         column.label(text="materials, wind, motion, lights,")
-        column.label(text="camera and render settings?")
+        column.label(text="camera, render settings and the")
+        column.label(text="scene's resolution and colours?")
 
     @reports_errors
     def execute(self, context):
@@ -200,16 +200,14 @@ class WEATHERVANE_OT_scene_file_browse(bpy.types.Operator, JsonFileBrowser):
         return {"FINISHED"}
 
 
-def _display_as_the_tracer(blender_scene) -> str:
-    """Colour management that shows the tracer's values as they are (the Standard view transform, no look, exposure
-    or gamma, no dither), as `python -m tracer render --srgb` writes them; what changed, for the report."""
-    view = blender_scene.view_settings
-    before = view.view_transform
-    view.view_transform = "Standard"
-    view.look = "None"
-    view.exposure, view.gamma = 0.0, 1.0
-    blender_scene.render.dither_intensity = 0.0
-    return "" if before == "Standard" else f"; view transform Standard (was {before}), as the tracer shows colours"
+def _scene_settings_line(result) -> str:
+    """The scene settings a Build changed and those it kept (the user's own), for its result line."""
+    line = ""
+    if result.changed:
+        line += "; changed " + ", ".join(result.changed)
+    if result.kept:
+        line += "; kept your " + ", ".join(result.kept) + " (Reset sets these)"
+    return line
 
 
 class WEATHERVANE_OT_import(bpy.types.Operator, JsonFileBrowser):

@@ -234,6 +234,13 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     built_from: StringProperty(
         name="Built From", default="", description="The scene file the vane was built from (empty: the default)"
     )
+    scene_settings_set: StringProperty(
+        name="Scene Settings Set",
+        default="",
+        description="The scene settings the last Build set (JSON): a later Build from another file changes only "
+        "those still at these values or Blender's factory values",
+        options={"HIDDEN"},
+    )
     other_lights: BoolProperty(
         name="Other Lights",
         default=False,
