@@ -31,6 +31,7 @@ def _glossy_document(seed: int) -> dict:
             material["roughness"] = rng.choice([0.05, 0.3, 0.6, 1.0, rng.uniform(0.01, 1.0)])
             material["glossy_fresnel"] = rng.choice(["constant", "schlick"])
             material["glossy_energy"] = rng.choice(["multiscatter", "single"])
+            material["glossy_source"] = rng.choice(["traced", "traced", "world"])
             if rng.random() < 0.4:
                 material["color"] = [0.0, 0.0, 0.0]
     document["render"]["glossy_samples"] = rng.choice([1, 3, 8])
@@ -50,10 +51,11 @@ def test_glossy_scenes_keep_the_passes_adding_up_and_workers_agree(seed: int) ->
     _passes_add_up_and_workers_agree(scene_from_dict(document))
 
 
-def _furnace(view_degrees: float, roughness: float, energy: str, samples: int = 64) -> float:
+def _furnace(view_degrees: float, roughness: float, energy: str, samples: int = 64, source: str = "traced") -> float:
     """A white glossy plane (no diffuse) under a uniform white background, no lamp, seen at view_degrees from its
-    normal by an orthographic camera: what its lobe reflects."""
+    normal by an orthographic camera: what its lobe reflects (by rays, or of the world alone)."""
     white = {"color": [0, 0, 0], "glossy": [1, 1, 1], "roughness": roughness, "glossy_energy": energy}
+    white["glossy_source"] = source
     angle = math.radians(view_degrees)
     document = {
         "materials": {"white": white},
@@ -103,10 +105,14 @@ def test_the_white_furnace_single_scattering_is_the_lobes_albedo_and_multiscatte
     view_degrees: float, roughness: float
 ) -> None:
     """Single scattering loses what the microfacets shadow: the pixel is the lobe's albedo, within 1.5% at 64
-    samples (an independent quadrature); Cycles' multiscatter gain gives it back: 1 to rounding."""
+    samples (an independent quadrature); Cycles' multiscatter gain gives it back: 1 to rounding. A lobe of the world
+    alone (no rays: nothing here to block them; at most 4 pairs) the same as a traced lobe at 4 samples."""
     albedo = _ggx_albedo(view_degrees, roughness)
     assert _furnace(view_degrees, roughness, "single") == pytest.approx(albedo, rel=0.015)
+    four = _furnace(view_degrees, roughness, "single", samples=4)
+    assert _furnace(view_degrees, roughness, "single", source="world") == pytest.approx(four, abs=1e-12)
     assert _furnace(view_degrees, roughness, "multiscatter") == pytest.approx(1.0, abs=1e-12)
+    assert _furnace(view_degrees, roughness, "multiscatter", source="world") == pytest.approx(1.0, abs=1e-12)
 
 
 def test_glossy_fields_are_checked_with_clear_messages() -> None:

@@ -17,6 +17,7 @@ from .scene import scene as sc
 from .scene.loader import SceneError, check_samples, default_scene, load_scene
 from .scene.passes import parse as parse_passes
 from .tracing.images import SUFFIXES, sweep_stale_temporaries, write_image
+from .workers import adaptive
 from .workers.parallel import Renderer, worker_count
 from .workers.pool import TaskFailedError, WorkerLostError
 from .workers.resources import (
@@ -74,6 +75,16 @@ def _positive_number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
     if not value > 0.0 or value == float("inf"):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def _threshold(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be a number from 0 to 1, got {text}")
     return value
 
 
@@ -172,6 +183,13 @@ def _settings_parser() -> argparse.ArgumentParser:
         type=_integer(1, 1024, check_samples),
         help="samples per pixel, a perfect square: stratified n x n grid, box filter",
     )
+    settings.add_argument(
+        "--adaptive",
+        type=_threshold,
+        metavar="THRESHOLD",
+        help="adaptive sampling: every pixel at a few samples first, --samples only where neighbouring pixels differ "
+        "by more than THRESHOLD (linear; 0.005 keeps the default frame's error; 0: off)",
+    )
     settings.add_argument("--workers", type=_integer(0, 256), help="worker processes over bands of rows; 0: all cores")
     settings.add_argument("--dtype", choices=sc.DTYPES, help="floating-point precision of the tracing")
     settings.add_argument(
@@ -237,6 +255,8 @@ def _apply_flags(scene: sc.Scene, args: argparse.Namespace) -> sc.Scene:
     changes = {name: getattr(args, name) for name in names if getattr(args, name) is not None}
     if changes:
         scene = scene.with_render(**changes)
+    if getattr(args, "adaptive", None) is not None:
+        scene = scene.with_render(adaptive_threshold=args.adaptive)
     if getattr(args, "passes", None):
         scene = scene.with_render(passes=args.passes)
     if args.background is not None:
@@ -248,8 +268,12 @@ def _apply_flags(scene: sc.Scene, args: argparse.Namespace) -> sc.Scene:
 
 def _summary(output: Path, scene: sc.Scene, workers: int, result, swept: int) -> str:
     settings, rays = scene.render, result.rays
+    spp = f"{settings.samples} spp"
+    if getattr(result, "adaptive", None) is not None:
+        spp = f"{settings.samples} spp where neighbours differ by > {settings.adaptive_threshold:g} "
+        spp += f"({result.adaptive:.1%} of pixels), {adaptive.base_samples(settings.samples)} elsewhere"
     return (
-        f"{output}: {settings.width}x{settings.height}, {settings.samples} spp, depth {settings.depth}, "
+        f"{output}: {settings.width}x{settings.height}, {spp}, depth {settings.depth}, "
         f"{settings.model}, {settings.dtype}, {workers} workers: {result.seconds * 1000:.1f} ms, "
         f"rays {rays.camera} camera + {rays.shadow} shadow + {rays.reflection} reflection = {rays.total}, "
         f"{result.mrays_per_second:.2f} Mrays/s" + _swept(swept)

@@ -139,6 +139,10 @@ class _Lobes:
         self.glossy = [0.0, 0.0, 0.0]
         self.glossy_roughness = 0.0  # sum of roughness times mean weight
         self.glossy_kinds: set[tuple[str, str]] = set()  # (fresnel, energy) of each lobe
+        # a dielectric's rough specular (a few percent, its lights in the documented highlight): what it reflects
+        # of the world, a glossy lobe of the world alone (glossy_source "world"), its roughness weighted as above
+        self.sheen = [0.0, 0.0, 0.0]
+        self.sheen_roughness = 0.0
 
     def scaled(self, k: float) -> _Lobes:
         out = _Lobes()
@@ -153,6 +157,8 @@ class _Lobes:
         out.glossy = [c * k for c in self.glossy]
         out.glossy_roughness = self.glossy_roughness * k
         out.glossy_kinds = set(self.glossy_kinds) if k > 0.0 else set()
+        out.sheen = [c * k for c in self.sheen]
+        out.sheen_roughness = self.sheen_roughness * k
         out.iors = set(self.iors) if k > 0.0 else set()
         for name in ("texture", "emission_texture"):
             texture = getattr(self, name)
@@ -177,6 +183,8 @@ class _Lobes:
         out.glossy = [a + b for a, b in zip(self.glossy, other.glossy, strict=True)]
         out.glossy_roughness = self.glossy_roughness + other.glossy_roughness
         out.glossy_kinds = self.glossy_kinds | other.glossy_kinds
+        out.sheen = [a + b for a, b in zip(self.sheen, other.sheen, strict=True)]
+        out.sheen_roughness = self.sheen_roughness + other.sheen_roughness
         out.textures_dropped = self.textures_dropped + other.textures_dropped
         for name in ("texture", "emission_texture"):
             mine, theirs = getattr(self, name), getattr(other, name)
@@ -215,6 +223,9 @@ class _Lobes:
             self.given = [d + c for d, c in zip(self.given, rest, strict=True)]
         else:
             self.highlights.append((rest, exponent))
+            if fresnel == "schlick":  # Cycles' dielectric reflects the world at every roughness, brighter at grazing
+                self.sheen = [g + c for g, c in zip(self.sheen, rest, strict=True)]
+                self.sheen_roughness += roughness * sum(rest) / 3.0
 
 
 # --- inputs ----------------------------------------------------------------------------------------------------------
@@ -1165,6 +1176,10 @@ def _opaque_document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -
     document = {"color": [min(1.0, max(0.0, c)) for c in color], "specular": 0, "reflective": reflective}
     if any(c > 0.0 for c in lobes.glossy):
         _glossy_document(document, lobes, notes)
+    elif any(c > 0.0 for c in lobes.sheen):
+        document["glossy"] = [min(1.0, max(0.0, c)) for c in lobes.sheen]
+        document["roughness"] = min(1.0, max(1e-4, lobes.sheen_roughness / (sum(lobes.sheen) / 3.0)))
+        document["glossy_fresnel"], document["glossy_source"] = "schlick", "world"
     if lobes.texture is not None:
         document["texture"] = _texture_document(lobes.texture, lobes.diffuse, local)
     if lobes.textures_dropped:

@@ -284,6 +284,7 @@ def _material(reader: _Reader, base: Path | None = None) -> sc.Material:
         roughness=reader.number("roughness", 0.5, low=0.0, low_open=True, high=1.0),
         glossy_fresnel=reader.choice("glossy_fresnel", ("constant", "schlick"), "constant"),
         glossy_energy=reader.choice("glossy_energy", ("multiscatter", "single"), "multiscatter"),
+        glossy_source=reader.choice("glossy_source", ("traced", "world"), "traced"),
     )
     reader.finish()
     return material
@@ -1117,6 +1118,7 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         mist_falloff=reader.choice("mist_falloff", MIST_FALLOFFS, base.mist_falloff),
         shadow_samples=reader.number("shadow_samples", base.shadow_samples, low=1, high=1024, integer=True),
         glossy_samples=reader.number("glossy_samples", base.glossy_samples, low=1, high=1024, integer=True),
+        adaptive_threshold=reader.number("adaptive_threshold", base.adaptive_threshold, low=0.0, high=1.0),
     )
     border = settings.border
     if border is not None and all(isinstance(x, float) for x in border):

@@ -57,7 +57,10 @@ class Material:
     render.glossy_samples reflection rays per hit): glossy_fresnel "constant" (the colour at every angle, Cycles'
     Glossy BSDF) or "schlick" (the colour at normal incidence, white at grazing: a Principled metal);
     glossy_energy "multiscatter" (Cycles' Multiscatter GGX: the energy single scattering loses added back) or
-    "single". The default (black) is the documented model (docs/algorithm.md, "Glossy reflection").
+    "single"; glossy_source "traced" (the lights through the lobe and its reflection rays) or "world" (the
+    background along the lobe's sampled directions, unshadowed and untraced: a dielectric's few percent, whose
+    lights the documented highlight already has). The default (black) is the documented model (docs/algorithm.md,
+    "Glossy reflection").
     """
 
     color: Color = (0.8, 0.8, 0.8)
@@ -78,11 +81,17 @@ class Material:
     roughness: float = 0.5
     glossy_fresnel: Literal["constant", "schlick"] = "constant"
     glossy_energy: Literal["multiscatter", "single"] = "multiscatter"
+    glossy_source: Literal["traced", "world"] = "traced"
 
     @property
     def is_glossy(self) -> bool:
         """Whether the surface has a rough specular lobe (glossy not black)."""
         return self.glossy != BLACK
+
+    @property
+    def traces_glossy(self) -> bool:
+        """Whether its glossy lobe sends reflection rays (and takes the lights): glossy_source "traced"."""
+        return self.is_glossy and self.glossy_source == "traced"
 
     @property
     def see_through(self) -> bool:
@@ -620,6 +629,9 @@ class RenderSettings:
     # reflection rays a glossy material sends from each hit of a path's first glossy surface (one from the glossy
     # surfaces after it): the lobe's fixed stratified samples (lightsamples.glossy_pairs)
     glossy_samples: int = 16
+    # adaptive sampling (tracer/workers/adaptive.py): 0 every pixel at `samples`; above 0, every pixel at a quarter
+    # of them first and the full count again where neighbouring pixels differ by more than this (linear units)
+    adaptive_threshold: float = 0.0
 
 
 @dataclass(frozen=True)

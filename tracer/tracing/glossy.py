@@ -13,6 +13,7 @@ import numpy as np
 
 from ..geometry import lightsamples
 from ..geometry.kernels import indices, take
+from . import surfaces
 from .batch import Hits
 from .lights import facing_basis, x_y_z_squared
 from .prepared import PreparedScene
@@ -27,8 +28,9 @@ class Lobes:
     rows (k,): which hits; e1, e2, n (3, k): the frame; v (3, k): toward the viewer, local and unit; alpha (k,);
     color (3, k): the lobe's colour (F0 under Schlick's Fresnel); schlick (k,) bool; boost (3, k): the multiscatter
     gain 1 + F_avg (1 - E) / E (ones for single scattering), E the lobe's albedo along v estimated from its samples;
-    facing (k,) bool: the viewer is above the shading normal's horizon (else the lobe adds nothing); light (3, k):
-    what the lights add through the lobes (shading.find_intensity sets it)."""
+    facing (k,) bool: the viewer is above the shading normal's horizon (else the lobe adds nothing); traced (k,)
+    bool: the lobe takes the lights and sends rays (else it reflects the background alone, environment()); light
+    (3, k): what the lights (or the background) add through the lobes (shading.find_intensity sets it)."""
 
     rows: np.ndarray
     e1: np.ndarray
@@ -40,7 +42,10 @@ class Lobes:
     schlick: np.ndarray
     boost: np.ndarray
     facing: np.ndarray
+    traced: np.ndarray
     light: np.ndarray | None = None
+    multiscatter: np.ndarray | None = None  # (k,) bool: the lobe's energy is multiscatter
+    sampled: tuple[np.ndarray, np.ndarray] | None = None  # samples() at every pair: (3, m, k) and (m, k)
 
     def take(self, keep: np.ndarray) -> Lobes:
         """The lobes keep (j,) of these (their light left out)."""
@@ -52,6 +57,10 @@ class Lobes:
             self.schlick.take(keep),
             take(self.boost, keep),
             self.facing.take(keep),
+            self.traced.take(keep),
+            None,
+            None if self.multiscatter is None else self.multiscatter.take(keep),
+            None if self.sampled is None else (self.sampled[0][:, :, keep], self.sampled[1][:, keep]),
         )
 
 
@@ -72,16 +81,24 @@ def lobes_at(scene: PreparedScene, hits: Hits) -> Lobes | None:
     color = scene.glossy.take(material, axis=1).astype(np.float64)
     schlick = scene.glossy_schlick.take(material)
     facing = v[2] > 0.0
-    lobes = Lobes(rows, e1, e2, n, v, alpha, color, schlick, np.ones_like(color), facing)
-    multiscatter = scene.glossy_multiscatter.take(material)
-    if multiscatter.any():
-        pairs = scene.glossy_pairs
-        _, weights = samples(lobes, pairs[:, :1], pairs[:, 1:])  # (S, k): each sample's G2 / G1(v)
-        albedo = weights.mean(axis=0)
-        mean_fresnel = np.where(schlick, color + (1.0 - color) * SCHLICK_MEAN, color)
-        gain = 1.0 + mean_fresnel * ((1.0 - albedo) / np.where(albedo > 0.0, albedo, 1.0))
-        lobes.boost = np.where(multiscatter & (albedo > 0.0), gain, 1.0)
+    traced = scene.glossy_traced.take(material)
+    lobes = Lobes(rows, e1, e2, n, v, alpha, color, schlick, np.ones_like(color), facing, traced)
+    lobes.multiscatter = scene.glossy_multiscatter.take(material)
+    if (lobes.multiscatter & traced).any():  # the lobes of the world alone: environment() at its own pairs
+        ones = lobes.take(indices(traced))
+        ones.multiscatter = lobes.multiscatter.take(indices(traced))
+        lobes.boost[:, indices(traced)] = _boost(ones, scene.glossy_pairs)
     return lobes
+
+
+def _boost(lobes: Lobes, pairs: np.ndarray) -> np.ndarray:
+    """The lobes' multiscatter gain (3, k) from their samples at the pairs (m, 2), kept in lobes.sampled: 1 + F_avg
+    (1 - E) / E, E the mean weight (the albedo along v); 1 for single scattering or E = 0."""
+    lobes.sampled = samples(lobes, pairs[:, :1], pairs[:, 1:])
+    albedo = lobes.sampled[1].mean(axis=0)
+    mean_fresnel = np.where(lobes.schlick, lobes.color + (1.0 - lobes.color) * SCHLICK_MEAN, lobes.color)
+    gain = 1.0 + mean_fresnel * ((1.0 - albedo) / np.where(albedo > 0.0, albedo, 1.0))
+    return np.where(lobes.multiscatter & (albedo > 0.0), gain, 1.0)
 
 
 def light_factor(lobes: Lobes, L: np.ndarray) -> np.ndarray:
@@ -168,6 +185,30 @@ def sample_rays(
     value = fresnel(one, VH) * (weight * share) * one.boost
     keep = indices((weight > 0.0) & np.any(value > 0.0, axis=0))
     return lobe.take(keep), pair.take(keep), take(D, keep), take(value, keep)
+
+
+def environment(scene: PreparedScene, lobes: Lobes) -> np.ndarray:
+    """What lobes of glossy_source "world" reflect of the background (3, k): the mean over scene.world_pairs of F
+    G2 / G1(v) times the background along each sampled direction (no ray traced: nothing blocks it), times the
+    multiscatter gain from the same samples; 0 where the viewer is below the horizon."""
+    lobes.boost = _boost(lobes, scene.world_pairs)
+    local, weight = lobes.sampled  # (3, m, k), (m, k)
+    lx, ly, lz = local
+    vx, vy, vz = lobes.v
+    hx, hy, hz = lx + vx, ly + vy, lz + vz
+    h_length = np.sqrt(hx * hx + hy * hy + hz * hz)
+    VH = (vx * hx + vy * hy + vz * hz) / np.where(h_length > 0.0, h_length, 1.0)
+    count, size = weight.shape
+    grazing = (1.0 - np.clip(VH, 0.0, 1.0)) ** 5  # (m, k)
+    color = lobes.color[:, None]
+    F = np.where(lobes.schlick, color + (1.0 - color) * grazing, color)  # (3, m, k)
+    if scene.scene.background.type in ("solid", "documented", "none"):  # one radiance in every direction
+        sky = surfaces.background(scene, lobes.n[:, :1], None).astype(np.float64)  # (3, 1)
+        return (F * weight).mean(axis=1) * sky * lobes.boost
+    D = lx[None] * lobes.e1[:, None] + ly[None] * lobes.e2[:, None] + lz[None] * lobes.n[:, None]  # (3, m, k)
+    D = np.where(weight > 0.0, D, lobes.n[:, None])  # a sample of weight 0 looks up nothing of its own
+    sky = surfaces.background(scene, D.reshape(3, -1), None).reshape(3, count, size).astype(np.float64)
+    return (F * weight * sky).mean(axis=1) * lobes.boost
 
 
 def fresnel(lobes: Lobes, cosine: np.ndarray) -> np.ndarray:

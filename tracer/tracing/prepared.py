@@ -40,7 +40,10 @@ from .recorder import view_axis
 # triangles as one mesh, walking the scene's hierarchy node by node in Python. Below it (the default vane's 13
 # objects) a leaf per object, as the small scenes' benchmarks were tuned
 MERGE_MESHES_FROM = 64
-MERGE_SIZE_FACTOR = 8.0  # merged: meshes at most this many times the group's median size (their boxes' longest side)
+MERGE_SIZE_FACTOR = 8.0
+# a glossy lobe of the world alone (a dielectric's few percent) samples at most this many pairs: its untraced
+# lookups of a smooth world need few, and 16 made the factory cube's frame 1.4x its time without the lobe
+WORLD_GLOSSY_PAIRS = 4  # merged: meshes at most this many times the group's median size (their boxes' longest side)
 
 
 @dataclass(frozen=True)
@@ -98,15 +101,19 @@ class PreparedScene:
     alpha: np.ndarray | None = field(init=False, default=None)  # (rows,), where some material is see-through
     transmission: np.ndarray | None = field(init=False, default=None)
     ior: np.ndarray | None = field(init=False, default=None)
-    # glossy lobes (glossy.py): which rows have one, their colours (3, rows), roughness, Fresnel and energy, and the
-    # sample pairs (m, 2) every glossy hit uses; any_glossy false: none of it exists
+    # glossy lobes (glossy.py): which rows have one (and which of them trace it), their colours (3, rows),
+    # roughness, Fresnel and energy, and the sample pairs (m, 2) every glossy hit uses; any_glossy false: none of it
+    # exists; traced_glossy: some lobe sends reflection rays
     any_glossy: bool = field(init=False)
+    traced_glossy: bool = field(init=False, default=False)
     glossy_rows: np.ndarray | None = field(init=False, default=None)
+    glossy_traced: np.ndarray | None = field(init=False, default=None)
     glossy: np.ndarray | None = field(init=False, default=None)
     roughness: np.ndarray | None = field(init=False, default=None)
     glossy_schlick: np.ndarray | None = field(init=False, default=None)
     glossy_multiscatter: np.ndarray | None = field(init=False, default=None)
     glossy_pairs: np.ndarray | None = field(init=False, default=None)
+    world_pairs: np.ndarray | None = field(init=False, default=None)  # a lobe of the world alone: fewer
     colored: bool = field(init=False)  # lights or materials with colours: the terms as (3, n) colours
     emissive: bool = field(init=False)
     any_two_sided: bool = field(init=False)
@@ -497,10 +504,15 @@ def _materials(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...]) -> 
     prepared.colored = any(m.specular_color is not None for m in table)
     prepared.two_sided = np.asarray([m.two_sided for m in table], dtype=bool)
     prepared.any_two_sided = bool(prepared.two_sided.any())
-    # a glossy lobe's rays (glossy.py): several per camera sample, as glass's, so its scenes trace see-through
-    prepared.any_glossy = any(m.is_glossy for m in table)
+    # a glossy lobe's rays (glossy.py): several per camera sample, as glass's, so its scenes trace see-through (a
+    # lobe of the world alone sends none: the Whitted wavefront)
+    # a lobe of the world alone under no background (type none) adds nothing: left out
+    seen = [m.is_glossy and (m.traces_glossy or prepared.scene.background.type != "none") for m in table]
+    prepared.any_glossy = any(seen)
     if prepared.any_glossy:
-        prepared.glossy_rows = np.asarray([m.is_glossy for m in table], dtype=bool)
+        prepared.glossy_rows = np.asarray(seen, dtype=bool)
+        prepared.glossy_traced = np.asarray([m.traces_glossy for m in table], dtype=bool)
+        prepared.traced_glossy = bool(prepared.glossy_traced.any())
         prepared.glossy = as_columns([m.glossy for m in table])
         prepared.roughness = np.asarray([m.roughness for m in table], dtype=np.float64)
         prepared.glossy_schlick = np.asarray([m.glossy_fresnel == "schlick" for m in table], dtype=bool)
@@ -508,9 +520,12 @@ def _materials(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...]) -> 
         prepared.glossy_pairs = np.asarray(
             lightsamples.glossy_pairs(prepared.scene.render.glossy_samples), dtype=np.float64
         )
+        prepared.world_pairs = np.asarray(
+            lightsamples.glossy_pairs(min(WORLD_GLOSSY_PAIRS, prepared.scene.render.glossy_samples)), dtype=np.float64
+        )
         prepared.colored = True
     # glass and transparency (see_through.py's stages): only where some material has them, else none of it runs
-    prepared.see_through = any(m.see_through for m in table) or prepared.any_glossy
+    prepared.see_through = any(m.see_through for m in table) or prepared.traced_glossy
     prepared.shadow_alpha = any(m.alpha < 1.0 for m in table)  # shadow rays pass such surfaces (shadows.passing)
     if prepared.see_through:
         prepared.alpha = np.asarray([m.alpha for m in table], dtype=prepared.dtype)

@@ -317,6 +317,7 @@ class ReferenceTracer:
         )
         self.lights = light_samples(scene)
         self.glossy_pairs = lightsamples.glossy_pairs(scene.render.glossy_samples)
+        self.world_pairs = lightsamples.glossy_pairs(min(4, scene.render.glossy_samples))  # a lobe of the world
         # shadow rays pass partly transparent surfaces (shadow_through) where some material has alpha < 1
         self.shadow_alpha = any(m.alpha < 1.0 for m in scene.materials.values())
 
@@ -447,7 +448,7 @@ class ReferenceTracer:
                 shadow_object, _, _ = self.closest_intersection(P, light_vector, SHADOW_T_MIN, t_max, "visible_shadow")
                 if shadow_object >= 0:
                     continue
-            if lobe is not None and not isinstance(light, sc.WorldLight):
+            if lobe is not None and lobe.traced and not isinstance(light, sc.WorldLight):
                 through_lobe = lobe.light(light_vector)
                 shine = [shine[c] + (intensity * through_lobe[c]) * factor * color[c] for c in range(3)]
             NL = dot(N, light_vector)
@@ -622,7 +623,7 @@ class ReferenceTracer:
             self.rays["reflection"] += 1
             seen = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers, sample)
             out = [out[c] + mirror * seen[c] for c in range(3)]
-        if depth > 0 and shaded > 0.0 and material.is_glossy:
+        if depth > 0 and shaded > 0.0 and material.traces_glossy:
             seen = reference_glossy.rays(self, P, V, S, material, depth, layers, sample)
             out = [out[c] + shaded * seen[c] for c in range(3)]
         return tuple(out)
@@ -635,7 +636,9 @@ class ReferenceTracer:
         0: the local colour alone)."""
         lobe = None
         if material.is_glossy:
-            lobe = reference_glossy.lobe_at(material, S, V, self.glossy_pairs)
+            pairs = self.glossy_pairs if material.traces_glossy else self.world_pairs
+            lobe = reference_glossy.lobe_at(material, S, V, pairs)
+            lobe.traced = material.traces_glossy
         diffuse, highlight = self.find_intensities(P, S, V, material.specular, None, lobe)
         color = material.color
         if self.colored:
@@ -649,6 +652,8 @@ class ReferenceTracer:
         if material.emission != sc.BLACK:
             local = tuple(local[c] + material.emission[c] for c in range(3))
         if lobe is not None:
+            if not lobe.traced:  # the background along its samples, untraced
+                lobe.shine = reference_glossy.environment(lobe, self.world_pairs, self.background)
             local = tuple(local[c] + lobe.shine[c] for c in range(3))
         if depth <= 0:
             return local
@@ -657,7 +662,7 @@ class ReferenceTracer:
             reflected = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers, sample)
             r = material.reflective
             local = (local[0] + reflected[0] * r, local[1] + reflected[1] * r, local[2] + reflected[2] * r)
-        if lobe is not None:
+        if lobe is not None and lobe.traced:
             seen = reference_glossy.rays(self, P, V, S, material, depth, layers, sample, lobe)
             local = (local[0] + seen[0], local[1] + seen[1], local[2] + seen[2])
         return local

@@ -57,6 +57,7 @@ class Lobe:
     schlick: bool
     gain: sc.Color = (1.0, 1.0, 1.0)
     shine: sc.Color = (0.0, 0.0, 0.0)  # the lights through it (ReferenceTracer.find_intensities sets it)
+    traced: bool = True  # glossy_source "traced"; else the background alone (environment())
 
     def fresnel(self, cosine: float) -> sc.Color:
         if not self.schlick:
@@ -128,6 +129,24 @@ def lobe_at(material: sc.Material, S: sc.Vec3, V: sc.Vec3, pairs: list[tuple[flo
             mean = [c + (1.0 - c) * SCHLICK_MEAN if lobe.schlick else c for c in lobe.color]
             lobe.gain = tuple(1.0 + f * ((1.0 - albedo) / albedo) for f in mean)
     return lobe
+
+
+def environment(lobe: Lobe, pairs: list[tuple[float, float]], background) -> sc.Color:
+    """A lobe of glossy_source "world": the mean over the pairs of F G2 / G1(v) times background(direction) along
+    each sampled direction (nothing traced), times the gain."""
+    total = [0.0, 0.0, 0.0]
+    if lobe.v[2] <= 0.0:
+        return (0.0, 0.0, 0.0)
+    for u1, u2 in pairs:
+        local, weight = lobe.sample(u1, u2)
+        if not weight > 0.0:
+            continue
+        half = tuple(local[k] + lobe.v[k] for k in range(3))
+        h_length = math.sqrt(_dot(half, half))
+        F = lobe.fresnel(_dot(lobe.v, half) / h_length if h_length > 0.0 else 0.0)
+        sky = background(lobe.world(local))
+        total = [total[c] + F[c] * weight * sky[c] for c in range(3)]
+    return tuple(total[c] / len(pairs) * lobe.gain[c] for c in range(3))
 
 
 def ray(lobe: Lobe, u1: float, u2: float, share: float) -> tuple[sc.Vec3, sc.Color] | None:

@@ -192,7 +192,7 @@ def continuing(scene: PreparedScene, hits: Hits, batch: RayBatch) -> RayBatch | 
              batch.left.take(straight_rows), True, 2)
         )  # fmt: skip
     made = [_child(scene, hits, batch, a, *child) for child in children]
-    if scene.any_glossy:
+    if scene.traced_glossy:
         rays = _glossy_rays(scene, hits, batch, go, a * (1.0 - transmission), base)
         if rays is not None:
             made.append(rays)
@@ -209,7 +209,8 @@ def _glossy_rays(
     lobes = glossy.lobes_at(scene, hits)
     if lobes is None:
         return None
-    lobes = lobes.take(indices(go.take(lobes.rows) & (shaded.take(lobes.rows) > 0.0) & lobes.facing))
+    traced = scene.glossy_traced.take(hits.material.take(lobes.rows))
+    lobes = lobes.take(indices(traced & go.take(lobes.rows) & (shaded.take(lobes.rows) > 0.0) & lobes.facing))
     if not lobes.rows.size:
         return None
     lobe, pair, D, weight = glossy.sample_rays(scene, lobes, batch.sample.take(lobes.rows))

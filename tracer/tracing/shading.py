@@ -159,10 +159,15 @@ def _glossy_light(
     throughs: list[np.ndarray] | None,
     lobes: glossy.Lobes,
 ) -> np.ndarray:
-    """The lights' sum through the glossy lobes (3, k): each light's intensity, attenuation, colour and share that
-    passes (glossy.light_factor per unit of intensity), where its shadow ray reached the point."""
+    """The lights' sum through the traced glossy lobes (3, k): each light's intensity, attenuation, colour and share
+    that passes (glossy.light_factor per unit of intensity), where its shadow ray reached the point; the background
+    through the lobes of the world alone (glossy.environment)."""
     rows = lobes.rows
     total = np.zeros((3, rows.size), dtype=np.float64)
+    traced = lobes.traced
+    if not traced.all():  # lobes of the world alone: the background along their samples
+        world = indices(~traced)
+        total[:, world] = glossy.environment(scene, lobes.take(world))
     shadow_rays = iter(lit)
     passing = None if throughs is None else iter(throughs)
     for light, term in zip(scene.lights, terms, strict=True):
@@ -179,7 +184,7 @@ def _glossy_light(
         if through is not None:
             value = value * through
         color = term.color if term.color.shape[-1] == 1 else take(term.color, rows)
-        total = np.where(light_lit, total + value * color, total)
+        total = np.where(light_lit & traced, total + value * color, total)
     return total.astype(scene.dtype, copy=False)
 
 

@@ -30,6 +30,7 @@ from ..geometry.footprint import Volume
 from ..scene import scene as sc
 from ..tracing.recorder import plane_dtype, plane_shape
 from ..tracing.wavefront import RayCounts, TracedScene
+from . import adaptive
 from .pool import PoolClosedError, Task, WorkerPool
 from .resources import band_samples, check_resources
 
@@ -91,6 +92,7 @@ class RenderResult:
     # pass name -> (height, width, channels) for the settings' passes (tracer/scene/passes.py), in the scene's dtype
     # (Cryptomatte's in float32): views of planar arrays, each channel a contiguous (height, width) plane
     passes: dict[str, np.ndarray] | None = None
+    adaptive: float | None = None  # adaptive sampling: the share of pixels traced at the full count (else None)
 
     @property
     def mrays_per_second(self) -> float:
@@ -360,7 +362,16 @@ class Renderer:
         rows) with the image so far (a display that draws bands as they come). volume: also tell which pixels' ray
         trees meet it (RenderResult.touched; footprint.py).
 
-        An exception from progress (a cancelled render) stops the frame; the pool stays usable."""
+        An exception from progress (a cancelled render) stops the frame; the pool stays usable. With adaptive
+        sampling (render.adaptive_threshold) the frame is adaptive.render's two passes (volume: not recorded)."""
+        if adaptive.applies(scene.render) and volume is None:
+            started = time.perf_counter()
+            image, rays, share = adaptive.render(
+                lambda first: self.render(first, progress, None, band_done), self.render_pixels, scene
+            )
+            result = _result(image, rays, time.perf_counter() - started)
+            result.adaptive = share
+            return result
         check_resources(scene.render, self.workers)
         if self.workers > 1:
             self._start_pool()

@@ -1,0 +1,80 @@
+"""A scene with adaptive sampling (render.adaptive_threshold > 0) -> its image in two passes: every pixel at a few
+samples (base_samples), then, where that image's neighbouring pixels differ by more than the threshold (edges,
+texture detail, penumbrae, blur; and their neighbours), the full count, which replaces the first pass's there
+(those pixels are then the uniform render's, to the byte). Whitted's (1980) adaptive supersampling, by pixels:
+flat areas cost their first pass only."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from ..scene import scene as sc
+from ..tracing.rays import RayCounts
+
+
+def applies(settings: sc.RenderSettings) -> bool:
+    """Whether the settings render adaptively: a threshold, more than one sample, and neither passes nor a render
+    border (those render every pixel at the full count)."""
+    return (
+        settings.adaptive_threshold > 0.0 and settings.samples > 1 and not settings.passes and settings.border is None
+    )
+
+
+def base_samples(samples: int) -> int:
+    """The first pass's samples for a perfect square n x n: the (n // 4)^2 grid, at least 1 (1 up to 49, 4 for 64,
+    16 for 256). On the default frame at 16 samples a first pass of 1 found the same pixels to trace again as one
+    of 4 (its error against 256 samples the same), at 12% of the uniform rays instead of 32%."""
+    quarter = max(1, math.isqrt(samples) // 4)
+    return quarter * quarter
+
+
+def disagreeing(image: np.ndarray, threshold: float) -> np.ndarray:
+    """(height, width) bool: the pixels of an image (height, width, channels) that differ from one of their eight
+    neighbours by more than threshold in some channel (alpha included): both sides of an edge."""
+    height, width = image.shape[:2]
+    padded = np.pad(image, ((1, 1), (1, 1), (0, 0)), mode="edge")  # the image's edge compares with itself
+    flagged = np.zeros((height, width), dtype=bool)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            if dy or dx:
+                neighbour = padded[1 + dy : 1 + dy + height, 1 + dx : 1 + dx + width]
+                flagged |= np.abs(image - neighbour).max(axis=-1) > threshold
+    return flagged
+
+
+def grown(flagged: np.ndarray) -> np.ndarray:
+    """The flagged pixels (height, width) and their eight neighbours: a thin feature (a pole narrower than a pixel)
+    that the first pass's one sample per pixel saw in some pixels and missed in the next. On the default frame at
+    160x120 the error against 256 samples was 2.8% above uniform 16's without it, the same with it."""
+    height, width = flagged.shape
+    padded = np.pad(flagged, 1)
+    out = flagged.copy()
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            out |= padded[1 + dy : 1 + dy + height, 1 + dx : 1 + dx + width]
+    return out
+
+
+def render(whole: Callable, again: Callable, scene: sc.Scene) -> tuple[np.ndarray, RayCounts, float]:
+    """The scene's image by adaptive sampling (applies() holds): the whole image at base_samples (whole(scene) ->
+    a RenderResult), then the disagreeing pixels at render.samples (again(scene, pixels, base): Renderer.
+    render_pixels), their colour and alpha then the uniform render's -> the image (height, width, 3 or 4 with
+    alpha), both passes' rays, and the share of pixels traced again. The same bytes for any number of workers
+    (each pass is)."""
+    settings = scene.render
+    first_count = base_samples(settings.samples)
+    first = whole(scene.with_render(samples=first_count, adaptive_threshold=0.0))
+    base = first.image if first.alpha is None else np.concatenate((first.image, first.alpha[..., None]), axis=2)
+    flagged = grown(disagreeing(base, settings.adaptive_threshold))
+    pixels = np.flatnonzero(flagged)
+    full = scene.with_render(adaptive_threshold=0.0)
+    second = again(full, pixels, base)
+    traced = second.image if second.alpha is None else np.concatenate((second.image, second.alpha[..., None]), axis=2)
+    image = base.copy()
+    flat, again = image.reshape(-1, image.shape[-1]), traced.reshape(-1, traced.shape[-1])
+    flat[pixels] = again[pixels]
+    first.rays.add(second.rays)
+    return image, first.rays, float(pixels.size / max(1, flagged.size))
