@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
 SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
-.PHONY: demo test test-slow lint bench bench-compare bench-peers bench-animation bench-stages bench-meshes bench-reliability bench-viewport bench-scenes bench-cluster corpus docs study addon system-deps blender-wheels clean
+.PHONY: demo test test-slow lint bench bench-adaptive bench-compare bench-peers bench-animation bench-stages bench-meshes bench-reliability bench-viewport bench-scenes bench-cluster corpus docs study addon system-deps blender-wheels clean
 
 # Blender versions as bpy wheels besides 5.0.1 (tests/addon/wheels.txt): one virtual environment each
 BPY_WHEELS := $(shell sed -e 's/\#.*//' tests/addon/wheels.txt)
@@ -58,6 +58,10 @@ test-slow: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_tracer.py
+
+# adaptive sampling against uniform on the default frame: error against 256 samples and time (docs/adaptive-sampling)
+bench-adaptive: $(STAMP)
+	$(BIN)/python scripts/bench_adaptive.py --rounds 5
 
 # same-run comparison of the working tree with a commit (REF=<commit>, default HEAD), alternating processes
 REF ?= HEAD
