@@ -18,7 +18,8 @@ from tracer.workers.parallel import render
 
 def _glossy_document(seed: int) -> dict:
     """A random scene (glass, transparency, world light and lamps included by seed) whose materials are glossy at
-    random: colour, roughness from near-mirror to 1, Fresnel and energy of each kind, a diffuse colour or none."""
+    random: colour, roughness from near-mirror to 1, Fresnel, energy and source of each kind, a diffuse colour or
+    none; its glass sharp or rough."""
     rng = random.Random(40_000 + seed)
     if seed % 3 == 0:
         document = _world_lit_document(seed)
@@ -34,6 +35,8 @@ def _glossy_document(seed: int) -> dict:
             material["glossy_source"] = rng.choice(["traced", "traced", "world"])
             if rng.random() < 0.4:
                 material["color"] = [0.0, 0.0, 0.0]
+        if material.get("transmission", 0.0) > 0.0:
+            material["transmission_roughness"] = rng.choice([0.0, 0.2, 0.6, 1.0])
     document["render"]["glossy_samples"] = rng.choice([1, 3, 8])
     document["render"]["depth"] = rng.choice([1, 2, 3])
     return document

@@ -930,7 +930,7 @@ def scene_document(
             notes.approximated.append("Film > Transparent Glass: glass opaque in the alpha")
     if int(settings.shadow_samples) > 1:  # lights of a size sampled over their surface (1: the default, not written)
         document["render"]["shadow_samples"] = int(settings.shadow_samples)
-    if any("glossy" in material for material in materials.values()):
+    if any("glossy" in material or "transmission_roughness" in material for material in materials.values()):
         document["render"]["glossy_samples"] = int(getattr(settings, "glossy_samples", "16"))
     if notes.line():
         document["comment"] = notes.line()

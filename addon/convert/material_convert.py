@@ -129,6 +129,7 @@ class _Lobes:
         self.glass = 0.0
         self.glass_tint = [0.0, 0.0, 0.0]
         self.glass_ior = 0.0
+        self.glass_roughness = 0.0  # the glass lobes' roughness times their weight (above ROUGH_MIRROR: rough)
         self.iors: set[float] = set()  # the IORs of the glass lobes (several: one, their weighted mean, named)
         self.clear = 0.0
         # the mean weight of specular lobes too rough for a mirror: what reflects the scene and world blurred in
@@ -152,6 +153,7 @@ class _Lobes:
         out.highlights = [([c * k for c in weight], n) for weight, n in self.highlights]
         out.emission = [c * k for c in self.emission]
         out.glass, out.glass_ior, out.clear = self.glass * k, self.glass_ior * k, self.clear * k
+        out.glass_roughness = self.glass_roughness * k
         out.glass_tint = [c * k for c in self.glass_tint]
         out.rough = self.rough * k
         out.glossy = [c * k for c in self.glossy]
@@ -176,6 +178,7 @@ class _Lobes:
         out.highlights = self.highlights + other.highlights
         out.emission = [a + b for a, b in zip(self.emission, other.emission, strict=True)]
         out.glass, out.glass_ior = self.glass + other.glass, self.glass_ior + other.glass_ior
+        out.glass_roughness = self.glass_roughness + other.glass_roughness
         out.glass_tint = [a + b for a, b in zip(self.glass_tint, other.glass_tint, strict=True)]
         out.iors = self.iors | other.iors
         out.clear = self.clear + other.clear
@@ -192,12 +195,13 @@ class _Lobes:
             out.textures_dropped += int(mine is not None and theirs is not None)
         return out
 
-    def add_glass(self, weight: float, tint, ior: float) -> None:
+    def add_glass(self, weight: float, tint, ior: float, roughness: float = 0.0) -> None:
         """A clear dielectric lobe of this weight, tint (linear RGB) and index of refraction."""
         ior = min(IOR_MAX, max(IOR_MIN, ior))
         self.glass += weight
         self.glass_tint = [g + weight * c for g, c in zip(self.glass_tint, tint, strict=True)]
         self.glass_ior += weight * ior
+        self.glass_roughness += weight * roughness
         if weight > 0.0:
             self.iors.add(ior)
 
@@ -767,8 +771,9 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
     lobes.add_specular([metallic * c + dielectric * f0 for c in base], roughness, "schlick", _energy(node, notes))
     if glass > 0.0:
         ior = value_input(node.inputs["IOR"], "IOR", notes)
-        lobes.add_glass(glass, compat.principled_transmission_tint(base), ior)
-        if compat.principled_transmission_roughness(node, roughness) > 0.0:
+        rough = compat.principled_transmission_roughness(node, roughness)
+        lobes.add_glass(glass, compat.principled_transmission_tint(base), ior, rough)
+        if 0.0 < rough <= ROUGH_MIRROR:
             notes.append("rough transmission: sharp")
         if "Specular IOR Level" in node.inputs and abs(level - 0.5) > 1e-6:  # 4.0+: it scales the glass's Fresnel too
             notes.append("Specular IOR Level on transmission: the IOR's own reflection")
@@ -826,9 +831,11 @@ def _glass(node, material, notes: list[str]) -> _Lobes:
     lobes = _Lobes()
     color = color_input(node.inputs["Color"], material, f"{node.name} Color", notes)
     ior = value_input(node.inputs["IOR"], f"{node.name} IOR", notes)
-    lobes.add_glass(1.0, color, ior)
     roughness = value_input(node.inputs["Roughness"], f"{node.name} Roughness", notes)
-    if roughness > 0.0 and getattr(node, "distribution", "") != "SHARP":  # 3.4's Sharp ignores the roughness
+    if getattr(node, "distribution", "") == "SHARP":  # 3.4's Sharp ignores the roughness
+        roughness = 0.0
+    lobes.add_glass(1.0, color, ior, min(1.0, max(0.0, roughness)))
+    if 0.0 < roughness <= ROUGH_MIRROR:
         notes.append(f"rough {node.bl_label}: sharp")
     if node.bl_idname == "ShaderNodeBsdfRefraction":
         notes.append("Refraction BSDF: glass, its reflection added")
@@ -1150,10 +1157,13 @@ def _glass_color(document: dict, rest: _Lobes, tint: list[float], notes: list[st
 
 
 def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
+    rough = lobes.glass_roughness / lobes.glass if lobes.glass > 0.0 else 0.0  # the glass lobes' weighted mean
     lobes, alpha, transmission, ior, tint = _shares(lobes, notes)
     document = _opaque_document(lobes, model, coef, notes)
     if transmission > 0.0:
         document["transmission"], document["ior"] = transmission, ior
+        if rough > ROUGH_MIRROR:  # sampled microfacets (GGX, single scattering); a near-mirror stays sharp (named)
+            document["transmission_roughness"] = min(1.0, rough)
         _glass_color(document, lobes, tint, notes)
     if alpha < 1.0:
         document["alpha"] = alpha

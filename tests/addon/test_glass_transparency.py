@@ -78,7 +78,11 @@ def test_a_glass_bsdf_is_all_transmission_of_its_ior_tinted_by_its_colour() -> N
     node.inputs["Roughness"].default_value = 0.3
     document, notes = material_convert.convert_material(material)
     assert document["color"] == pytest.approx([0.9, 0.5, 0.2]) and document["transmission"] == 1.0
-    assert notes == ["rough Glass BSDF: sharp", "Glass BSDF colour: tints the refraction only"]
+    assert document["transmission_roughness"] == pytest.approx(0.3)  # rough glass, sampled
+    assert notes == ["Glass BSDF colour: tints the refraction only"]
+    node.inputs["Roughness"].default_value = 0.05  # a near-mirror stays sharp, named
+    document, notes = material_convert.convert_material(material)
+    assert "transmission_roughness" not in document and notes[0] == "rough Glass BSDF: sharp"
     if "SHARP" in [item.identifier for item in node.bl_rna.properties["distribution"].enum_items]:
         node.distribution = "SHARP"  # 3.x: a sharp glass whatever its Roughness
         assert material_convert.convert_material(material)[1] == ["Glass BSDF colour: tints the refraction only"]
@@ -120,6 +124,8 @@ def test_principled_transmission_is_the_glass_share_of_what_metallic_leaves(meta
         tint = compat.principled_transmission_tint((0.2, 0.8, 0.4))
         assert document["color"] == pytest.approx(tint, rel=1e-6) and notes == []
     node.inputs["Roughness"].default_value = 0.5
+    assert material_convert.convert_material(material)[0]["transmission_roughness"] == pytest.approx(0.5)
+    node.inputs["Roughness"].default_value = 0.05
     assert "rough transmission: sharp" in material_convert.convert_material(material)[1]
     if "Specular IOR Level" in node.inputs:  # 4.0+: the level scales the glass's reflection too
         node.inputs["Specular IOR Level"].default_value = 0.8
@@ -515,7 +521,7 @@ def test_the_scene_document_carries_the_fields_the_tracer_loads() -> None:
     notes = export.ExportNotes()
     scene = scene_from_dict(export.scene_document(bpy.context, notes=notes))
     assert notes.line() == ""
-    sphere.data.materials[0].node_tree.nodes["Glass BSDF"].inputs["Roughness"].default_value = 0.2
+    sphere.data.materials[0].node_tree.nodes["Glass BSDF"].inputs["Roughness"].default_value = 0.05  # sharp, named
     notes = export.ExportNotes()
     export.scene_document(bpy.context, notes=notes)
     assert notes.line() == "approximated: 1 material (Render Properties > Scene Conversion says how)"

@@ -82,6 +82,9 @@ class Material:
     glossy_fresnel: Literal["constant", "schlick"] = "constant"
     glossy_energy: Literal["multiscatter", "single"] = "multiscatter"
     glossy_source: Literal["traced", "world"] = "traced"
+    # rough glass: the roughness (Cycles') of the glass share's reflection and refraction, sampled by GGX microfacets
+    # at render.glossy_samples pairs; 0: the documented sharp glass
+    transmission_roughness: float = 0.0
 
     @property
     def is_glossy(self) -> bool:

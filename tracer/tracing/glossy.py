@@ -132,24 +132,7 @@ def samples(lobes: Lobes, u1: np.ndarray, u2: np.ndarray) -> tuple[np.ndarray, n
     normals")."""
     vx, vy, vz = lobes.v
     alpha = lobes.alpha
-    hx, hy, hz = alpha * vx, alpha * vy, vz  # the view in the hemisphere's configuration
-    h_length = np.sqrt(hx * hx + hy * hy + hz * hz)
-    hx, hy, hz = hx / h_length, hy / h_length, hz / h_length
-    lensq = hx * hx + hy * hy
-    flat = lensq > 0.0
-    inverse = np.where(flat, 1.0 / np.sqrt(np.where(flat, lensq, 1.0)), 0.0)
-    t1x, t1y = np.where(flat, -hy * inverse, 1.0), np.where(flat, hx * inverse, 0.0)
-    t2x, t2y, t2z = -hz * t1y, hz * t1x, hx * t1y - hy * t1x
-    r = np.sqrt(u1)
-    phi = 2.0 * math.pi * u2
-    p1, p2 = r * np.cos(phi), r * np.sin(phi)
-    s = 0.5 * (1.0 + hz)
-    p2 = (1.0 - s) * np.sqrt(1.0 - p1 * p1) + s * p2
-    p3 = np.sqrt(np.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))
-    nx, ny, nz = p1 * t1x + p2 * t2x + p3 * hx, p1 * t1y + p2 * t2y + p3 * hy, p2 * t2z + p3 * hz
-    mx, my, mz = alpha * nx, alpha * ny, np.maximum(0.0, nz)  # back to the ellipsoid: the microfacet normal
-    m_length = np.sqrt(mx * mx + my * my + mz * mz)
-    mx, my, mz = mx / m_length, my / m_length, mz / m_length
+    mx, my, mz = _visible_normal(vx, vy, vz, alpha, u1, u2)
     k = 2.0 * (vx * mx + vy * my + vz * mz)
     lx, ly, lz = k * mx - vx, k * my - vy, k * mz - vz
     a2 = alpha * alpha
@@ -209,6 +192,113 @@ def environment(scene: PreparedScene, lobes: Lobes) -> np.ndarray:
     D = np.where(weight > 0.0, D, lobes.n[:, None])  # a sample of weight 0 looks up nothing of its own
     sky = surfaces.background(scene, D.reshape(3, -1), None).reshape(3, count, size).astype(np.float64)
     return (F * weight * sky).mean(axis=1) * lobes.boost
+
+
+def glass_rays(
+    scene: PreparedScene, hits: Hits, rows: np.ndarray, D: np.ndarray, chosen: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The rays of rough glass hits rows (k,) met along D (3, k): for every pair at a path's first glossy surface
+    (chosen -1), else the path's pair, a microfacet normal m sampled about the shading normal turned to face the
+    ray (as the sharp glass bends by it), then a reflected ray of weight F G2 / G1(v) and a refracted one of weight
+    (1 - F) G2 / G1(v) (Walter et al. 2007; F the dielectric Fresnel at v.m, eta = ior entering by the geometric
+    normal, 1 / ior leaving), each divided by the hit's number of pairs, and for multiscatter energy by E, the mean
+    of both weights over every pair (what single scattering keeps: Cycles' Multiscatter GGX glass loses nothing); a
+    ray on the wrong side of the surface, or refracted in total internal reflection, is dropped -> the rays' hits
+    (j,) (indices into rows), pairs (j,), unit directions (3, j), weights (j,) and whether each is refracted (j,)."""
+    material = hits.material.take(rows)
+    N, S = np.asarray(take(hits.N, rows), np.float64), np.asarray(take(hits.S, rows), np.float64)
+    d = np.asarray(D, np.float64)
+    d = d / np.sqrt(x_y_z_squared(d))
+    facing = np.where(_dot(S, d) < 0.0, S, -S)
+    n = facing / np.sqrt(x_y_z_squared(facing))
+    ior = scene.ior.take(material).astype(np.float64)
+    eta = np.where(_dot(N, d) < 0.0, ior, 1.0 / ior)
+    e1, e2 = facing_basis(n)
+    v = np.stack((-_dot(d, e1), -_dot(d, e2), -_dot(d, n)))
+    alpha = scene.transmission_roughness.take(material) ** 2
+    pairs = scene.glossy_pairs
+    count = len(pairs)
+    gain = np.ones(rows.size)
+    multiscatter = scene.glossy_multiscatter.take(material)
+    if multiscatter.any():
+        _, _, weight_r, weight_t = _glass_split(v, eta, alpha, pairs[:, :1], pairs[:, 1:])  # (m, k)
+        albedo = (weight_r + weight_t).mean(axis=0)
+        gain = np.where(multiscatter & (albedo > 0.0), 1.0 / np.where(albedo > 0.0, albedo, 1.0), 1.0)
+    fresh = chosen < 0
+    hit = np.concatenate((np.repeat(indices(fresh), count), indices(~fresh)))
+    pair = np.concatenate((np.tile(np.arange(count), int(fresh.sum())), chosen.take(indices(~fresh))))
+    order = np.argsort(hit, kind="stable")
+    hit, pair = hit.take(order), pair.take(order)
+    u1, u2 = pairs[:, 0].take(pair), pairs[:, 1].take(pair)
+    reflected, T, weight_r, weight_t = _glass_split(v[:, hit], eta.take(hit), alpha.take(hit), u1, u2)
+    scale = np.where(fresh.take(hit), 1.0 / count, 1.0) * gain.take(hit)
+    weight_r, weight_t = weight_r * scale, weight_t * scale
+    world = lambda local: (  # noqa: E731
+        local[0] * e1[:, hit] + local[1] * e2[:, hit] + local[2] * n[:, hit]
+    )
+    keep_r, keep_t = indices(weight_r > 0.0), indices(weight_t > 0.0)
+    directions = np.concatenate((take(world(reflected), keep_r), take(world(T), keep_t)), axis=1)
+    both = np.concatenate((keep_r, keep_t))
+    refracted = np.concatenate((np.zeros(keep_r.size, dtype=bool), np.ones(keep_t.size, dtype=bool)))
+    weights = np.concatenate((weight_r.take(keep_r), weight_t.take(keep_t)))
+    order = np.lexsort((refracted, both))  # a hit's rays together: by pair, the reflected before the refracted
+    hit, pair = hit.take(both.take(order)), pair.take(both.take(order))
+    return hit, pair, take(directions, order), weights.take(order), refracted.take(order)
+
+
+def _glass_split(
+    v: np.ndarray, eta: np.ndarray, alpha: np.ndarray, u1: np.ndarray, u2: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rough glass seen from v (3, k) (local, z the normal facing the viewer) with eta and alpha (k,), at the numbers
+    u1, u2 ((k,), or (m, 1) for m pairs at every hit) -> the reflected and refracted local directions (3, ...) and
+    their weights F G2 / G1(v) and (1 - F) G2 / G1(v) (...) (0 where a direction is on the wrong side, or in total
+    internal reflection)."""
+    vx, vy, vz = v
+    m = _visible_normal(vx, vy, vz, alpha, u1, u2)
+    mx, my, mz = m
+    c = vx * mx + vy * my + vz * mz
+    g2 = eta * eta - 1.0 + c * c
+    inside = g2 > 0.0  # else total internal reflection at this microfacet: F = 1
+    g = np.sqrt(np.where(inside, g2, 1.0))
+    A = (g - c) / (g + c)
+    B = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+    F = np.where(inside, 0.5 * A * A * (1.0 + B * B), 1.0)
+    a2 = alpha * alpha
+    lambda_v = _smith_lambda(np.where(vz > 0.0, vz, 1.0), a2)
+    reflected = np.stack((2.0 * c * mx - vx, 2.0 * c * my - vy, 2.0 * c * mz - vz))
+    up = reflected[2] > 0.0
+    weight_r = np.where(up, F / (1.0 + lambda_v + _smith_lambda(np.where(up, reflected[2], 1.0), a2)), 0.0)
+    # through m: T = (-v + (c - g) m) / eta, the sharp glass's rule with m for the normal
+    T = np.stack(((c - g) * mx - vx, (c - g) * my - vy, (c - g) * mz - vz)) / eta
+    T = T / np.sqrt(x_y_z_squared(T))
+    down = inside & (T[2] < 0.0)
+    weight_t = np.where(down, (1.0 - F) / (1.0 + lambda_v + _smith_lambda(np.where(down, -T[2], 1.0), a2)), 0.0)
+    seen = (1.0 + lambda_v) * (vz > 0.0)
+    return reflected, T, weight_r * seen, weight_t * seen
+
+
+def _visible_normal(
+    vx: np.ndarray, vy: np.ndarray, vz: np.ndarray, alpha: np.ndarray, u1: np.ndarray, u2: np.ndarray
+) -> np.ndarray:
+    """A microfacet normal (3, n) sampled among those visible from v (local, z up; Heitz 2018) at u1, u2."""
+    hx, hy, hz = alpha * vx, alpha * vy, vz
+    h_length = np.sqrt(hx * hx + hy * hy + hz * hz)
+    hx, hy, hz = hx / h_length, hy / h_length, hz / h_length
+    lensq = hx * hx + hy * hy
+    flat = lensq > 0.0
+    inverse = np.where(flat, 1.0 / np.sqrt(np.where(flat, lensq, 1.0)), 0.0)
+    t1x, t1y = np.where(flat, -hy * inverse, 1.0), np.where(flat, hx * inverse, 0.0)
+    t2x, t2y, t2z = -hz * t1y, hz * t1x, hx * t1y - hy * t1x
+    r = np.sqrt(u1)
+    phi = 2.0 * math.pi * u2
+    p1, p2 = r * np.cos(phi), r * np.sin(phi)
+    s = 0.5 * (1.0 + hz)
+    p2 = (1.0 - s) * np.sqrt(1.0 - p1 * p1) + s * p2
+    p3 = np.sqrt(np.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))
+    nx, ny, nz = p1 * t1x + p2 * t2x + p3 * hx, p1 * t1y + p2 * t2y + p3 * hy, p2 * t2z + p3 * hz
+    mx, my, mz = alpha * nx, alpha * ny, np.maximum(0.0, nz)
+    m_length = np.sqrt(mx * mx + my * my + mz * mz)
+    return np.stack((mx / m_length, my / m_length, mz / m_length))
 
 
 def fresnel(lobes: Lobes, cosine: np.ndarray) -> np.ndarray:

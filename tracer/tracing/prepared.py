@@ -114,6 +114,8 @@ class PreparedScene:
     glossy_multiscatter: np.ndarray | None = field(init=False, default=None)
     glossy_pairs: np.ndarray | None = field(init=False, default=None)
     world_pairs: np.ndarray | None = field(init=False, default=None)  # a lobe of the world alone: fewer
+    rough_glass: bool = field(init=False, default=False)  # some glass has a roughness (glossy.glass_rays)
+    transmission_roughness: np.ndarray | None = field(init=False, default=None)  # (rows,) float64
     colored: bool = field(init=False)  # lights or materials with colours: the terms as (3, n) colours
     emissive: bool = field(init=False)
     any_two_sided: bool = field(init=False)
@@ -527,6 +529,15 @@ def _materials(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...]) -> 
     # glass and transparency (see_through.py's stages): only where some material has them, else none of it runs
     prepared.see_through = any(m.see_through for m in table) or prepared.traced_glossy
     prepared.shadow_alpha = any(m.alpha < 1.0 for m in table)  # shadow rays pass such surfaces (shadows.passing)
+    # rough glass (glossy.glass_rays): sampled reflection and refraction, several rays per hit as a glossy lobe's
+    prepared.rough_glass = any(m.transmission > 0.0 and m.transmission_roughness > 0.0 for m in table)
+    if prepared.rough_glass:
+        prepared.transmission_roughness = np.asarray([m.transmission_roughness for m in table], dtype=np.float64)
+        if prepared.glossy_pairs is None:
+            prepared.glossy_pairs = np.asarray(
+                lightsamples.glossy_pairs(prepared.scene.render.glossy_samples), dtype=np.float64
+            )
+            prepared.glossy_multiscatter = np.asarray([m.glossy_energy == "multiscatter" for m in table], dtype=bool)
     if prepared.see_through:
         prepared.alpha = np.asarray([m.alpha for m in table], dtype=prepared.dtype)
         prepared.transmission = np.asarray([m.transmission for m in table], dtype=prepared.dtype)

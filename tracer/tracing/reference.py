@@ -623,6 +623,10 @@ class ReferenceTracer:
             self.rays["reflection"] += 1
             seen = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers, sample)
             out = [out[c] + mirror * seen[c] for c in range(3)]
+        if depth > 0 and material.transmission > 0.0 and material.transmission_roughness > 0.0:
+            normal = find_normal(self.primitives[hit[0]], hit[1], P)
+            seen = reference_glossy.glass(self, P, D, normal, S, material, depth, layers, sample)
+            out = [out[c] + a * material.transmission * seen[c] for c in range(3)]
         if depth > 0 and shaded > 0.0 and material.traces_glossy:
             seen = reference_glossy.rays(self, P, V, S, material, depth, layers, sample)
             out = [out[c] + shaded * seen[c] for c in range(3)]
@@ -727,7 +731,7 @@ def glass_split(
     a, t = material.alpha, material.transmission
     shaded = a * (1.0 - t)
     mirror = shaded * material.reflective
-    if not t > 0.0:
+    if not t > 0.0 or material.transmission_roughness > 0.0:  # rough glass: its own rays (reference_glossy.glass)
         return shaded, mirror, None, (0.0, 0.0, 0.0)
     N = normalize(normal)
     eta = material.ior if dot(N, D) < 0.0 else 1.0 / material.ior

@@ -69,18 +69,7 @@ class Lobe:
         """The reflected direction (local) for the numbers u1, u2 and its weight G2 / G1(v) (0 below the horizon)."""
         vx, vy, vz = self.v
         a = self.alpha
-        h = _unit((a * vx, a * vy, vz))
-        lensq = h[0] * h[0] + h[1] * h[1]
-        root = math.sqrt(lensq)
-        t1 = (-h[1] / root, h[0] / root, 0.0) if lensq > 0.0 else (1.0, 0.0, 0.0)
-        t2 = (h[1] * t1[2] - h[2] * t1[1], h[2] * t1[0] - h[0] * t1[2], h[0] * t1[1] - h[1] * t1[0])
-        r, phi = math.sqrt(u1), 2.0 * math.pi * u2
-        p1, p2 = r * math.cos(phi), r * math.sin(phi)
-        s = 0.5 * (1.0 + h[2])
-        p2 = (1.0 - s) * math.sqrt(1.0 - p1 * p1) + s * p2
-        p3 = math.sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2))
-        normal = tuple(p1 * t1[k] + p2 * t2[k] + p3 * h[k] for k in range(3))
-        m = _unit((a * normal[0], a * normal[1], max(0.0, normal[2])))
+        m = visible_normal(self.v, a, u1, u2)
         k = 2.0 * _dot(self.v, m)
         out = (k * m[0] - vx, k * m[1] - vy, k * m[2] - vz)
         if not (out[2] > 0.0 and vz > 0.0):
@@ -112,6 +101,96 @@ class Lobe:
         F = self.fresnel(_dot(self.v, half) / h_length)
         shape = math.pi * D * G2 / (4.0 * vz)
         return tuple(F[c] * shape * self.gain[c] for c in range(3))
+
+
+def visible_normal(v: sc.Vec3, a: float, u1: float, u2: float) -> sc.Vec3:
+    """A microfacet normal among those visible from v (local, z up), Heitz 2018's sampling at u1, u2."""
+    h = _unit((a * v[0], a * v[1], v[2]))
+    lensq = h[0] * h[0] + h[1] * h[1]
+    root = math.sqrt(lensq)
+    t1 = (-h[1] / root, h[0] / root, 0.0) if lensq > 0.0 else (1.0, 0.0, 0.0)
+    t2 = (h[1] * t1[2] - h[2] * t1[1], h[2] * t1[0] - h[0] * t1[2], h[0] * t1[1] - h[1] * t1[0])
+    r, phi = math.sqrt(u1), 2.0 * math.pi * u2
+    p1, p2 = r * math.cos(phi), r * math.sin(phi)
+    s = 0.5 * (1.0 + h[2])
+    p2 = (1.0 - s) * math.sqrt(1.0 - p1 * p1) + s * p2
+    p3 = math.sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2))
+    normal = tuple(p1 * t1[k] + p2 * t2[k] + p3 * h[k] for k in range(3))
+    return _unit((a * normal[0], a * normal[1], max(0.0, normal[2])))
+
+
+def glass(
+    tracer: Tracing,
+    P: sc.Vec3,
+    D: sc.Vec3,
+    N: sc.Vec3,
+    S: sc.Vec3,
+    material: sc.Material,
+    depth: int,
+    layers: int,
+    sample: int,
+) -> sc.Color:
+    """What a rough glass hit's sampled rays bring back, before its glass share a t (glossy.glass_rays, one ray at
+    a time): per pair (all at a path's first glossy surface, else the path's), a visible microfacet normal m about
+    S turned to face D, a reflected ray of weight F G2 / G1(v) and a refracted one of (1 - F) G2 / G1(v) times the
+    colour. The reason for 9 parameters: the tracer, the hit and the ray's state as trace_ray carries them."""
+    d = _unit(D)
+    n = _unit(S if _dot(S, d) < 0.0 else (-S[0], -S[1], -S[2]))
+    eta = material.ior if _dot(N, d) < 0.0 else 1.0 / material.ior
+    e1, e2 = lightsamples.facing_basis(n)
+    v = (-_dot(d, e1), -_dot(d, e2), -_dot(d, n))
+    if not v[2] > 0.0:
+        return (0.0, 0.0, 0.0)
+    a = material.transmission_roughness * material.transmission_roughness
+    pairs = tracer.glossy_pairs
+    chosen = range(len(pairs)) if sample < 0 else (sample,)
+    share = 1.0 / len(pairs) if sample < 0 else 1.0
+    splits = [_glass_split(v, eta, a, u1, u2) for u1, u2 in pairs]
+    gain = 1.0
+    if material.glossy_energy == "multiscatter":  # 1 / E, E both weights' mean over every pair
+        albedo = sum(weight_r + weight_t for _, _, weight_r, weight_t in splits) / len(pairs)
+        gain = 1.0 / albedo if albedo > 0.0 else 1.0
+
+    def world(local: sc.Vec3) -> sc.Vec3:
+        return tuple(local[0] * e1[k] + local[1] * e2[k] + local[2] * n[k] for k in range(3))
+
+    out = [0.0, 0.0, 0.0]
+    for index in chosen:
+        reflected, T, weight_r, weight_t = splits[index]
+        for direction, weight, tint in ((reflected, weight_r, (1.0, 1.0, 1.0)), (T, weight_t, material.color)):
+            weight = weight * share * gain
+            if weight > 0.0:
+                tracer.rays["reflection"] += 1
+                seen = tracer.trace_ray(
+                    P, world(direction), REFLECTION_T_MIN, math.inf, depth - 1, False, layers, index
+                )
+                out = [out[k] + weight * tint[k] * seen[k] for k in range(3)]
+    return tuple(out)
+
+
+def _glass_split(v: sc.Vec3, eta: float, a: float, u1: float, u2: float) -> tuple[sc.Vec3, sc.Vec3, float, float]:
+    """The reflected and refracted local directions at the numbers u1, u2 and their weights F G2 / G1(v) and
+    (1 - F) G2 / G1(v) (0 on the wrong side, or refracted in total internal reflection)."""
+    a2 = a * a
+    lambda_v = smith_lambda(v[2], a2)
+    m = visible_normal(v, a, u1, u2)
+    c = _dot(v, m)
+    g2 = eta * eta - 1.0 + c * c
+    F, g = 1.0, 1.0
+    if g2 > 0.0:
+        g = math.sqrt(g2)
+        A, B = (g - c) / (g + c), (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+        F = 0.5 * A * A * (1.0 + B * B)
+    reflected = tuple(2.0 * c * m[k] - v[k] for k in range(3))
+    weight_r = 0.0
+    if reflected[2] > 0.0:
+        weight_r = F / (1.0 + lambda_v + smith_lambda(reflected[2], a2)) * (1.0 + lambda_v)
+    T, weight_t = (0.0, 0.0, -1.0), 0.0
+    if g2 > 0.0:
+        T = _unit(tuple((-v[k] + (c - g) * m[k]) / eta for k in range(3)))
+        if T[2] < 0.0:
+            weight_t = (1.0 - F) / (1.0 + lambda_v + smith_lambda(-T[2], a2)) * (1.0 + lambda_v)
+    return reflected, T, weight_r, weight_t
 
 
 def lobe_at(material: sc.Material, S: sc.Vec3, V: sc.Vec3, pairs: list[tuple[float, float]]) -> Lobe:

@@ -196,8 +196,39 @@ def continuing(scene: PreparedScene, hits: Hits, batch: RayBatch) -> RayBatch | 
         rays = _glossy_rays(scene, hits, batch, go, a * (1.0 - transmission), base)
         if rays is not None:
             made.append(rays)
+    if scene.rough_glass:
+        rays = _rough_glass_rays(scene, hits, batch, go, a * transmission, base)
+        if rays is not None:
+            made.append(rays)
     if not made:
         return None
+    return RayBatch.joined(made)
+
+
+def _rough_glass_rays(
+    scene: PreparedScene, hits: Hits, batch: RayBatch, go: np.ndarray, glass: np.ndarray, base: np.ndarray
+) -> RayBatch | None:
+    """The sampled reflected and refracted rays (glossy.glass_rays) of the rough glass hits that go on (go (n,))
+    with a glass share a t (n,) > 0, weighted by it (the refracted ones also by the hit's colour)."""
+    rough = scene.transmission_roughness.take(hits.material) > 0.0
+    rows = indices(go & rough & (glass > 0.0))
+    if not rows.size:
+        return None
+    hit, pair, D, weight, refracted = glossy.glass_rays(
+        scene, hits, rows, take(batch.direction, rows), batch.sample.take(rows)
+    )
+    if not hit.size:
+        return None
+    rows = rows.take(hit)
+    tint = np.where(refracted, take(hits.colors, rows), 1.0)
+    weight = take(base, rows) * tint * (weight * glass.take(rows)).astype(scene.dtype, copy=False)
+    D = D.astype(scene.dtype, copy=False)
+    kind = np.where(refracted, 2, 1)  # the passes' tag: Transmission for the refracted, Reflection for the others
+    made = [
+        _child(scene, hits, batch, glass, rows.take(part), take(D, part), take(weight, part),
+               batch.left.take(rows.take(part)) - 1, False, tag, pair.take(part))
+        for tag in (1, 2) if (part := indices(kind == tag)).size
+    ]  # fmt: skip
     return RayBatch.joined(made)
 
 
@@ -277,7 +308,10 @@ def _refract(
     gives the rows (k,) that refract, their unit directions (3, k) and weights a t (1 - F) colour (3, k) (the
     reference's glass_split: eta = ior entering by the geometric normal N, 1 / ior leaving; the shading normal S
     turned to face D bends the ray; Cycles' fresnel_dielectric_cos)."""
-    rows = indices(go & (transmission > 0.0) & (a > 0.0))
+    sharp = transmission > 0.0
+    if scene.rough_glass:  # rough glass sends its own sampled rays (_rough_glass_rays)
+        sharp &= scene.transmission_roughness.take(material) <= 0.0
+    rows = indices(go & sharp & (a > 0.0))
     if not rows.size:
         return rows, None, None
     N_, S_, D_ = take(hits.N, rows), take(hits.S, rows), take(D, rows)
