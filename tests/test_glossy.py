@@ -19,7 +19,7 @@ from tracer.workers.parallel import render
 def _glossy_document(seed: int) -> dict:
     """A random scene (glass, transparency, world light and lamps included by seed) whose materials are glossy at
     random: colour, roughness from near-mirror to 1, Fresnel, energy and source of each kind, a diffuse colour or
-    none; its glass sharp or rough."""
+    none; its glass sharp or rough; diffuse bounces 0, 1 or 2."""
     rng = random.Random(40_000 + seed)
     if seed % 3 == 0:
         document = _world_lit_document(seed)
@@ -38,6 +38,7 @@ def _glossy_document(seed: int) -> dict:
         if material.get("transmission", 0.0) > 0.0:
             material["transmission_roughness"] = rng.choice([0.0, 0.2, 0.6, 1.0])
     document["render"]["glossy_samples"] = rng.choice([1, 3, 8])
+    document["render"]["diffuse_bounces"] = rng.choice([0, 0, 1, 2])
     document["render"]["depth"] = rng.choice([1, 2, 3])
     return document
 
@@ -130,3 +131,34 @@ def test_glossy_fields_are_checked_with_clear_messages() -> None:
         document = {**base, "materials": {"m": {"color": [1, 1, 1], **material}}, "render": render_settings}
         with pytest.raises(SceneError, match=field):
             scene_from_dict(document)
+
+
+@pytest.mark.parametrize("bounces", [0, 1, 2, 3])
+def test_diffuse_bounces_inside_a_glowing_sphere_add_the_geometric_series(bounces: int) -> None:
+    """Inside a closed sphere whose surface has albedo 0.5 and emission 0.1, no light: every bounce ray meets the
+    same surface, so N bounces give 0.1 (1 + 0.5 + ... + 0.5^N) exactly, whatever the sample directions."""
+    document = {
+        "materials": {"inside": {"color": [0.5, 0.5, 0.5], "emission": [0.1, 0.1, 0.1], "two_sided": True}},
+        "objects": [{"name": "room", "type": "sphere", "material": "inside", "radius": 5.0}],
+        "lights": [{"type": "ambient", "intensity": 0.0}],
+        "camera": {"location": [0.0, 0.0, 0.0], "rotation": [90.0, 0.0, 0.0]},
+        "render": {"width": 2, "height": 2, "depth": 4, "diffuse_bounces": bounces, "glossy_samples": 4},
+    }
+    image = render(scene_from_dict(document), workers=1).image
+    expected = 0.1 * sum(0.5**k for k in range(bounces + 1))
+    np.testing.assert_allclose(image, expected, rtol=1e-12)
+
+
+def test_a_diffuse_bounces_miss_adds_nothing_the_world_light_has_the_sky() -> None:
+    """Open ground under a uniform sky lit by the world light: its bounce rays all miss, and add nothing."""
+    document = {
+        "materials": {"white": {"color": [0.8, 0.8, 0.8]}},
+        "objects": [{"name": "ground", "type": "plane", "material": "white"}],
+        "lights": [{"type": "world", "intensity": 1.0, "samples": 16}],
+        "camera": {"location": [0.0, 0.0, 5.0], "rotation": [0.0, 0.0, 0.0], "type": "ORTHO", "ortho_scale": 0.01},
+        "background": {"type": "solid", "color": [1.0, 1.0, 1.0]},
+        "render": {"width": 1, "height": 1, "diffuse_bounces": 2},
+    }
+    bounced = render(scene_from_dict(document), workers=1).image
+    document["render"]["diffuse_bounces"] = 0
+    assert np.array_equal(bounced, render(scene_from_dict(document), workers=1).image)

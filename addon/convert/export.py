@@ -930,7 +930,10 @@ def scene_document(
             notes.approximated.append("Film > Transparent Glass: glass opaque in the alpha")
     if int(settings.shadow_samples) > 1:  # lights of a size sampled over their surface (1: the default, not written)
         document["render"]["shadow_samples"] = int(settings.shadow_samples)
-    if any("glossy" in material or "transmission_roughness" in material for material in materials.values()):
+    bounces = int(getattr(settings, "diffuse_bounces", 0))
+    if bounces:  # indirect light between surfaces (0: the documented model, not written)
+        document["render"]["diffuse_bounces"] = bounces
+    if bounces or any("glossy" in material or "transmission_roughness" in material for material in materials.values()):
         document["render"]["glossy_samples"] = int(getattr(settings, "glossy_samples", "16"))
     if notes.line():
         document["comment"] = notes.line()

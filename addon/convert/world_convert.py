@@ -259,7 +259,10 @@ def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list
         notes.append("world light: unshadowed ambient (Render Properties > World Light)")
         return background, {"type": "ambient", **uniform}, notes
     samples = world_samples(blender_scene)
-    shadowed = f"shadowed, {samples} directions per point, no bounces"
+    bounces = int(getattr(settings, "diffuse_bounces", 0))
+    shadowed = f"shadowed, {samples} directions per point, " + (
+        f"{bounces} diffuse bounce{'s' if bounces > 1 else ''}" if bounces else "no bounces"
+    )
     if picture is not None and background is picture:  # the picture lights as the camera sees it
         notes.append(f"world light: the picture, {shadowed}")
         return background, {"type": "world", "intensity": 1.0, "samples": samples}, notes

@@ -119,6 +119,7 @@ class WEATHERVANE_RENDER_PT_tracer(TracerPanel, bpy.types.Panel):
         layout.prop(settings, "samples")
         layout.prop(settings, "shadow_samples")
         layout.prop(settings, "glossy_samples")
+        layout.prop(settings, "diffuse_bounces")
         layout.prop(settings, "world_light")
         draw_processes(layout, settings)
         layout.prop(settings, "numerics")

@@ -364,6 +364,15 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         items=[(str(n), str(n), f"{n} reflection rays a point") for n in (4, 16, 64, 256)],
         default="16",
     )
+    diffuse_bounces: IntProperty(
+        name="Diffuse Bounces",
+        description="Indirect light between surfaces (render.diffuse_bounces): the diffuse bounces a path may take, "
+        "as Cycles' Light Paths > Diffuse; 0 (the default) is the documented model's direct light only; each bounce "
+        "sends Glossy rays from a path's first surface",
+        min=0,
+        max=8,
+        default=0,
+    )
     world_light: EnumProperty(
         name="World Light",
         description="How the world lights a scene the add-on did not build",

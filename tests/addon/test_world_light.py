@@ -81,6 +81,35 @@ def test_a_cube_shadows_the_world_light_as_in_cycles(tmp_path: Path, strength: f
     assert beside < 0.85 * images["WEATHERVANE_TRACER"][_regions()["open"]].mean()  # the cube's shadow is there
 
 
+@AT_THE_ENDS
+def test_with_a_diffuse_bounce_the_ground_beside_the_cube_gets_its_light_as_in_cycles(tmp_path: Path) -> None:
+    """Render Properties > Diffuse Bounces 1 beside Cycles' Light Paths > Diffuse 1: each region within 10% of
+    Cycles' mean, and the ground beside the cube brighter than without the bounce (the cube's lit faces light it)."""
+    _world_scene()
+    scene = bpy.context.scene
+    scene.cycles.diffuse_bounces = 1
+    scene.weathervane.diffuse_bounces = 1
+    from addon.convert import world_convert
+
+    _, _, notes = world_convert.convert_world(scene.world, blender_scene=scene)
+    assert notes == [f"world light: shadowed, {world_convert.WORLD_SAMPLES} directions per point, 1 diffuse bounce"]
+    images, seconds = {}, {}
+    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
+        scene.render.engine = engine
+        started = time.perf_counter()
+        images[engine] = f12_exr(tmp_path / f"{engine}.exr")[..., 0]
+        seconds[engine] = time.perf_counter() - started
+    for name, mask in _regions().items():
+        cycles, tracer = images["CYCLES"][mask].mean(), images["WEATHERVANE_TRACER"][mask].mean()
+        print(f"1 diffuse bounce, {name}: tracer {tracer:.4f}, Cycles {cycles:.4f}, ratio {tracer / cycles:.4f}")
+        assert tracer == pytest.approx(cycles, rel=0.10), name
+    print(f"seconds at {PIXELS}x{PIXELS}: " + ", ".join(f"{engine} {value:.2f}" for engine, value in seconds.items()))
+    scene.weathervane.diffuse_bounces = 0
+    direct = f12_exr(tmp_path / "direct.exr")[..., 0]
+    beside = _regions()["beside the cube"]
+    assert images["WEATHERVANE_TRACER"][beside].mean() > 1.02 * direct[beside].mean()
+
+
 def test_build_from_a_file_with_a_world_light_leaves_it_out_and_says_so(tmp_path: Path) -> None:
     from addon.vane import build, operators
     from tracer.scene.loader import default_scene_dict

@@ -1119,6 +1119,7 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         mist_falloff=reader.choice("mist_falloff", MIST_FALLOFFS, base.mist_falloff),
         shadow_samples=reader.number("shadow_samples", base.shadow_samples, low=1, high=1024, integer=True),
         glossy_samples=reader.number("glossy_samples", base.glossy_samples, low=1, high=1024, integer=True),
+        diffuse_bounces=reader.number("diffuse_bounces", base.diffuse_bounces, low=0, high=64, integer=True),
         adaptive_threshold=reader.number("adaptive_threshold", base.adaptive_threshold, low=0.0, high=1.0),
     )
     border = settings.border

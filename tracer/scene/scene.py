@@ -632,6 +632,9 @@ class RenderSettings:
     # reflection rays a glossy material sends from each hit of a path's first glossy surface (one from the glossy
     # surfaces after it): the lobe's fixed stratified samples (lightsamples.glossy_pairs)
     glossy_samples: int = 16
+    # indirect light between surfaces: the diffuse bounces a path may take (Cycles' Light Paths > Diffuse), each
+    # hit's bounce by cosine-weighted rays at the glossy pairs; 0: none (the documented model)
+    diffuse_bounces: int = 0
     # adaptive sampling (tracer/workers/adaptive.py): 0 every pixel at `samples`; above 0, every pixel at a quarter
     # of them first and the full count again where neighbouring pixels differ by more than this (linear units)
     adaptive_threshold: float = 0.0

@@ -36,7 +36,9 @@ class RayBatch:
     straight one: Transmission); clear (n,), a camera ray's product of 1 - alpha so far (the film's alpha);
     pending (n,) bool, camera rays whose data passes are not written yet. sample (n,), in scenes with glossy
     surfaces: the glossy sample pair a ray's path took at its first glossy surface (-1: none yet), the one pair a
-    glossy surface after it sends its ray by (glossy.sample_rays)."""
+    glossy surface after it sends its ray by (glossy.sample_rays). bounces (n,) and diffuse (n,) bool, in scenes with
+    diffuse bounces: the diffuse bounces on the path so far, and whether the ray is one (its miss adds nothing: the
+    world's light is the world light's)."""
 
     pixel: np.ndarray
     origin: np.ndarray
@@ -50,6 +52,8 @@ class RayBatch:
     clear: np.ndarray | None = None
     pending: np.ndarray | None = None
     sample: np.ndarray | None = None
+    bounces: np.ndarray | None = None
+    diffuse: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -66,7 +70,7 @@ class RayBatch:
             left,
             *(
                 _columns(getattr(self, name), rows)
-                for name in ("reach", "camera", "layers", "tag", "clear", "pending", "sample")
+                for name in ("reach", "camera", "layers", "tag", "clear", "pending", "sample", "bounces", "diffuse")
             ),
         )
 

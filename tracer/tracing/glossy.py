@@ -11,7 +11,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry import lightsamples
 from ..geometry.kernels import indices, take
 from . import surfaces
 from .batch import Hits
@@ -194,6 +193,33 @@ def environment(scene: PreparedScene, lobes: Lobes) -> np.ndarray:
     return (F * weight * sky).mean(axis=1) * lobes.boost
 
 
+def diffuse_rays(
+    scene: PreparedScene, hits: Hits, rows: np.ndarray, chosen: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The diffuse bounce rays of hits rows (k,): for every pair at a path's first glossy or diffuse bounce (chosen
+    -1), else the path's pair, the cosine-weighted direction (sqrt(u1) cos 2 pi u2, sqrt(u1) sin 2 pi u2,
+    sqrt(1 - u1)) about the shading normal turned toward the viewer (the albedo times the mean of what they bring
+    is the indirect light: Lambert's 1 / pi and the cosine cancel the density) -> the rays' hits (j,) (indices into
+    rows), pairs (j,), unit directions (3, j) and shares (j,) (1 / pairs, or 1)."""
+    S = np.asarray(take(hits.S, rows), np.float64)
+    V = np.asarray(take(hits.V, rows), np.float64)
+    n = np.where(_dot(S, V) < 0.0, -S, S)
+    n = n / np.sqrt(x_y_z_squared(n))
+    e1, e2 = facing_basis(n)
+    pairs = scene.glossy_pairs
+    count = len(pairs)
+    fresh = chosen < 0
+    hit = np.concatenate((np.repeat(indices(fresh), count), indices(~fresh)))
+    pair = np.concatenate((np.tile(np.arange(count), int(fresh.sum())), chosen.take(indices(~fresh))))
+    order = np.argsort(hit, kind="stable")
+    hit, pair = hit.take(order), pair.take(order)
+    u1, u2 = pairs[:, 0].take(pair), pairs[:, 1].take(pair)
+    r, phi = np.sqrt(u1), 2.0 * math.pi * u2
+    x, y, z = r * np.cos(phi), r * np.sin(phi), np.sqrt(1.0 - u1)
+    D = x * e1[:, hit] + y * e2[:, hit] + z * n[:, hit]
+    return hit, pair, D, np.where(fresh.take(hit), 1.0 / count, 1.0)
+
+
 def glass_rays(
     scene: PreparedScene, hits: Hits, rows: np.ndarray, D: np.ndarray, chosen: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -306,11 +332,6 @@ def fresnel(lobes: Lobes, cosine: np.ndarray) -> np.ndarray:
     colour (constant), or Schlick's F0 + (1 - F0) (1 - cos)^5."""
     grazing = (1.0 - np.clip(cosine, 0.0, 1.0)) ** 5
     return np.where(lobes.schlick, lobes.color + (1.0 - lobes.color) * grazing, lobes.color)
-
-
-def pairs_array(samples_count: int) -> np.ndarray:
-    """lightsamples.glossy_pairs as an (m, 2) float64 array."""
-    return np.asarray(lightsamples.glossy_pairs(samples_count), dtype=np.float64).reshape(-1, 2)
 
 
 def _smith_lambda(cosine: np.ndarray, a2: np.ndarray) -> np.ndarray:

@@ -115,6 +115,7 @@ class PreparedScene:
     glossy_pairs: np.ndarray | None = field(init=False, default=None)
     world_pairs: np.ndarray | None = field(init=False, default=None)  # a lobe of the world alone: fewer
     rough_glass: bool = field(init=False, default=False)  # some glass has a roughness (glossy.glass_rays)
+    diffuse_bounces: int = field(init=False, default=0)  # render.diffuse_bounces (glossy.diffuse_rays)
     transmission_roughness: np.ndarray | None = field(init=False, default=None)  # (rows,) float64
     colored: bool = field(init=False)  # lights or materials with colours: the terms as (3, n) colours
     emissive: bool = field(init=False)
@@ -526,8 +527,14 @@ def _materials(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...]) -> 
             lightsamples.glossy_pairs(min(WORLD_GLOSSY_PAIRS, prepared.scene.render.glossy_samples)), dtype=np.float64
         )
         prepared.colored = True
+    # diffuse bounces (glossy.diffuse_rays): several rays per camera sample, at the glossy pairs
+    prepared.diffuse_bounces = prepared.scene.render.diffuse_bounces
+    if prepared.diffuse_bounces and prepared.glossy_pairs is None:
+        prepared.glossy_pairs = np.asarray(
+            lightsamples.glossy_pairs(prepared.scene.render.glossy_samples), dtype=np.float64
+        )
     # glass and transparency (see_through.py's stages): only where some material has them, else none of it runs
-    prepared.see_through = any(m.see_through for m in table) or prepared.traced_glossy
+    prepared.see_through = any(m.see_through for m in table) or prepared.traced_glossy or bool(prepared.diffuse_bounces)
     prepared.shadow_alpha = any(m.alpha < 1.0 for m in table)  # shadow rays pass such surfaces (shadows.passing)
     # rough glass (glossy.glass_rays): sampled reflection and refraction, several rays per hit as a glossy lobe's
     prepared.rough_glass = any(m.transmission > 0.0 and m.transmission_roughness > 0.0 for m in table)

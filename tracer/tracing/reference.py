@@ -22,6 +22,7 @@ INF = math.inf
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0, hits behind the camera are dropped
 SHADOW_T_MIN = 0.001  # listing 3.2
 REFLECTION_T_MIN = 0.01  # listing 3.1
+NEW_PATH = (-1, 0, False)  # trace_ray's path: no glossy pair yet, no diffuse bounce, not a diffuse ray
 
 
 def normalize(v: sc.Vec3) -> sc.Vec3:
@@ -439,7 +440,7 @@ class ReferenceTracer:
                 t_max = INF
             through = 1.0  # the share of the light that passes partly transparent surfaces (alpha < 1)
             if self.shadow_alpha:
-                through = self.shadow_through(P, light_vector, t_max)
+                through = shadow_through(self, P, light_vector, t_max)
                 if through <= 0.0:
                     continue
                 intensity = intensity * through  # every term of this light
@@ -488,38 +489,6 @@ class ReferenceTracer:
             return [total, total, total], [0.0, 0.0, 0.0]
         return diffuse, highlight
 
-    def shadow_through(self, P: sc.Vec3, L: sc.Vec3, t_max: float) -> float:
-        """The share of a light that reaches P along L (t in (0.001, t_max)): the product of 1 - alpha over the
-        surfaces the shadow ray meets, each met by the nearest hit and passed by a new segment from it along the same
-        L (what is left of t_max); 0 at an opaque surface (alpha 1, glass included: Cycles' caustics off) or at the
-        (TRANSPARENT_BOUNCES + 1)-th partly transparent one. Each segment counts as a shadow ray."""
-        through, layers = 1.0, 0
-        while True:
-            self.rays["shadow"] += 1
-            index, part, t = self.closest_intersection(P, L, SHADOW_T_MIN, t_max, "visible_shadow")
-            if index < 0:
-                return through
-            alpha = self.material(index, part).alpha
-            if alpha >= 1.0 or layers >= sc.TRANSPARENT_BOUNCES:
-                return 0.0
-            through *= 1.0 - alpha
-            P, t_max, layers = add(P, scale(L, t)), t_max - t, layers + 1
-
-    def coverage(self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, layers: int = 0) -> float:
-        """A camera ray's share of the film's alpha: 0 for nothing met under a transparent film or a holdout, 1 for
-        nothing met otherwise or an opaque surface; alpha + (1 - alpha) * the straight continuation's for a partly
-        transparent one (1 beyond TRANSPARENT_BOUNCES: the path ends there, black and opaque)."""
-        first, part, t = self.closest_intersection(O, D, t_min, t_max, "visible_camera")
-        if first < 0:
-            return 0.0 if self.settings.film_transparent else 1.0
-        if self.scene.objects[first].holdout:
-            return 0.0
-        alpha = self.material(first, part).alpha
-        if alpha >= 1.0 or layers >= sc.TRANSPARENT_BOUNCES:
-            return 1.0
-        beyond = self.coverage(add(O, scale(D, t)), D, REFLECTION_T_MIN, t_max - t, layers + 1)
-        return alpha + (1.0 - alpha) * beyond
-
     def shading_normal(self, index: int, part: int, P: sc.Vec3, V: sc.Vec3, material: sc.Material) -> sc.Vec3:
         """The unit normal a hit at P on object index's part is shaded with: the surface's own, or the corner
         normals interpolated (smooth meshes and instances), flipped on the back of a two-sided material."""
@@ -562,15 +531,19 @@ class ReferenceTracer:
         depth: int,
         camera: bool = False,
         layers: int = 0,
-        sample: int = -1,
+        path: tuple[int, int, bool] = NEW_PATH,
     ) -> sc.Color:
         """Listing 3.1. camera: the camera ray (it sees the visible_camera objects, and nothing through a
         transparent film), or its straight continuation through partly transparent surfaces; the others are mirror
         (and refracted) rays. layers: the straight continuations on the path so far (sc.TRANSPARENT_BOUNCES).
-        sample: the glossy pair the path took at its first glossy surface (-1: none yet)."""
+        path: the pair the path took at its first glossy surface or diffuse bounce (-1: none yet), its diffuse
+        bounces so far, and whether this ray is one (its miss adds nothing: the world's light is the world
+        light's). The reason for 8 parameters: the ray and its path's whole state."""
         seen_by = "visible_camera" if camera else "visible_reflection"
         closest_object, part, closest_t = self.closest_intersection(O, D, t_min, t_max, seen_by)
         if closest_object < 0:
+            if path[2]:
+                return (0.0, 0.0, 0.0)
             return (0.0, 0.0, 0.0) if camera and self.settings.film_transparent else self.background(D)
         if self.scene.objects[closest_object].holdout:
             return (0.0, 0.0, 0.0)
@@ -581,8 +554,8 @@ class ReferenceTracer:
         S = self.shading_normal(closest_object, part, P, V, material)
         if material.transmission > 0.0 or material.alpha < 1.0:
             hit = (closest_object, part)
-            return self.see_through(P, D, S, hit, t_max - closest_t, depth, camera, layers, material, sample)
-        return self.today(P, V, S, material, depth, layers, sample)
+            return self.see_through(P, D, S, hit, t_max - closest_t, depth, camera, layers, material, path)
+        return self.today(P, V, S, material, depth, layers, path)
 
     def see_through(
         self,
@@ -595,7 +568,7 @@ class ReferenceTracer:
         camera: bool,
         layers: int,
         material: sc.Material,
-        sample: int = -1,
+        path: tuple[int, int, bool] = NEW_PATH,
     ) -> sc.Color:
         """A hit on a surface with transmission t or alpha a (docs/algorithm.md, "Glass and transparency"):
         (1 - a) straight on + a ((1 - t) today's colour + t (F mirror + (1 - F) colour refracted)), with F the
@@ -607,7 +580,7 @@ class ReferenceTracer:
         out = [0.0, 0.0, 0.0]
         V = (-D[0], -D[1], -D[2])
         if a < 1.0 and layers < sc.TRANSPARENT_BOUNCES:
-            beyond = self.trace_ray(P, D, REFLECTION_T_MIN, t_max, depth, camera, layers + 1, sample)
+            beyond = self.trace_ray(P, D, REFLECTION_T_MIN, t_max, depth, camera, layers + 1, path)
             out = [(1.0 - a) * beyond[c] for c in range(3)]
         if a <= 0.0:
             return tuple(out)
@@ -615,25 +588,37 @@ class ReferenceTracer:
         if shaded > 0.0:  # today's local colour (its own mirror ray below, shared with the glass's)
             local = self.today(P, V, S, material, -1)
             out = [out[c] + shaded * local[c] for c in range(3)]
+        child = (path[0], path[1], False)
         if refracted is not None and depth > 0:
             self.rays["reflection"] += 1
-            seen = self.trace_ray(P, refracted, REFLECTION_T_MIN, INF, depth - 1, False, layers, sample)
+            seen = self.trace_ray(P, refracted, REFLECTION_T_MIN, INF, depth - 1, False, layers, child)
             out = [out[c] + weight[c] * seen[c] for c in range(3)]
         if depth > 0 and mirror > 0.0:
             self.rays["reflection"] += 1
-            seen = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers, sample)
+            seen = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers, child)
             out = [out[c] + mirror * seen[c] for c in range(3)]
         if depth > 0 and material.transmission > 0.0 and material.transmission_roughness > 0.0:
             normal = find_normal(self.primitives[hit[0]], hit[1], P)
-            seen = reference_glossy.glass(self, P, D, normal, S, material, depth, layers, sample)
+            seen = reference_glossy.glass(self, P, D, normal, S, material, depth, layers, path)
             out = [out[c] + a * material.transmission * seen[c] for c in range(3)]
         if depth > 0 and shaded > 0.0 and material.traces_glossy:
-            seen = reference_glossy.rays(self, P, V, S, material, depth, layers, sample)
+            seen = reference_glossy.rays(self, P, V, S, material, depth, layers, path)
             out = [out[c] + shaded * seen[c] for c in range(3)]
+        if depth > 0 and shaded > 0.0 and path[1] < self.settings.diffuse_bounces:
+            albedo = tuple(shaded * c * (1.0 - material.reflective) for c in material.color)
+            seen = reference_glossy.diffuse(self, P, V, S, albedo, depth, layers, path)
+            out = [out[c] + seen[c] for c in range(3)]
         return tuple(out)
 
     def today(
-        self, P: sc.Vec3, V: sc.Vec3, S: sc.Vec3, material: sc.Material, depth: int, layers: int = 0, sample: int = -1
+        self,
+        P: sc.Vec3,
+        V: sc.Vec3,
+        S: sc.Vec3,
+        material: sc.Material,
+        depth: int,
+        layers: int = 0,
+        path: tuple[int, int, bool] = NEW_PATH,
     ) -> sc.Color:
         """Listing 3.1's colour of an opaque hit at P: local = intensity * colour * (1 - r) (+ emission) (+ the
         lights through a glossy lobe), plus r times the mirror ray's and the glossy rays' while depth lasts (depth <
@@ -663,11 +648,16 @@ class ReferenceTracer:
             return local
         if material.reflective > 0.0:
             self.rays["reflection"] += 1
-            reflected = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers, sample)
+            child = (path[0], path[1], False)
+            reflected = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers, child)
             r = material.reflective
             local = (local[0] + reflected[0] * r, local[1] + reflected[1] * r, local[2] + reflected[2] * r)
         if lobe is not None and lobe.traced:
-            seen = reference_glossy.rays(self, P, V, S, material, depth, layers, sample, lobe)
+            seen = reference_glossy.rays(self, P, V, S, material, depth, layers, path, lobe)
+            local = (local[0] + seen[0], local[1] + seen[1], local[2] + seen[2])
+        if path[1] < self.settings.diffuse_bounces:
+            albedo = tuple(c * (1.0 - material.reflective) for c in color)
+            seen = reference_glossy.diffuse(self, P, V, S, albedo, depth, layers, path)
             local = (local[0] + seen[0], local[1] + seen[1], local[2] + seen[2])
         return local
 
@@ -682,12 +672,47 @@ class ReferenceTracer:
             if t_max == 0.0:  # a panoramic camera's ray outside its lens: nothing, not even the background
                 continue
             color = self.trace_ray(O, D, CAMERA_T_MIN, t_max, self.settings.depth, camera=True)
-            covered = self.coverage(O, D, CAMERA_T_MIN, t_max)
+            covered = coverage(self, O, D, CAMERA_T_MIN, t_max)
             total = [total[0] + color[0], total[1] + color[1], total[2] + color[2], total[3] + covered]
         n = self.settings.samples
         if self.scene.has_alpha:
             return (total[0] / n, total[1] / n, total[2] / n, total[3] / n)
         return (total[0] / n, total[1] / n, total[2] / n)
+
+
+def shadow_through(tracer: ReferenceTracer, P: sc.Vec3, L: sc.Vec3, t_max: float) -> float:
+    """The share of a light that reaches P along L (t in (0.001, t_max)): the product of 1 - alpha over the
+    surfaces the shadow ray meets, each met by the nearest hit and passed by a new segment from it along the same
+    L (what is left of t_max); 0 at an opaque surface (alpha 1, glass included: Cycles' caustics off) or at the
+    (TRANSPARENT_BOUNCES + 1)-th partly transparent one. Each segment counts as a shadow ray."""
+    through, layers = 1.0, 0
+    while True:
+        tracer.rays["shadow"] += 1
+        index, part, t = tracer.closest_intersection(P, L, SHADOW_T_MIN, t_max, "visible_shadow")
+        if index < 0:
+            return through
+        alpha = tracer.material(index, part).alpha
+        if alpha >= 1.0 or layers >= sc.TRANSPARENT_BOUNCES:
+            return 0.0
+        through *= 1.0 - alpha
+        P, t_max, layers = add(P, scale(L, t)), t_max - t, layers + 1
+
+
+def coverage(tracer: ReferenceTracer, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, layers: int = 0) -> float:
+    """A camera ray's share of the film's alpha in the tracer's scene: 0 for nothing met under a transparent film
+    or a holdout, 1 for nothing met otherwise or an opaque surface; alpha + (1 - alpha) * the straight
+    continuation's for a partly transparent one (1 beyond TRANSPARENT_BOUNCES: the path ends there, black and
+    opaque)."""
+    first, part, t = tracer.closest_intersection(O, D, t_min, t_max, "visible_camera")
+    if first < 0:
+        return 0.0 if tracer.settings.film_transparent else 1.0
+    if tracer.scene.objects[first].holdout:
+        return 0.0
+    alpha = tracer.material(first, part).alpha
+    if alpha >= 1.0 or layers >= sc.TRANSPARENT_BOUNCES:
+        return 1.0
+    beyond = coverage(tracer, add(O, scale(D, t)), D, REFLECTION_T_MIN, t_max - t, layers + 1)
+    return alpha + (1.0 - alpha) * beyond
 
 
 def texture_value(

@@ -14,13 +14,22 @@ from ..scene import scene as sc
 
 
 class Tracing(Protocol):
-    """What rays() needs of the reference tracer: its pairs, its ray counts and TraceRay."""
+    """What rays(), glass() and diffuse() need of the reference tracer: its pairs, its ray counts and TraceRay (path:
+    its (pair, diffuse bounces, a diffuse ray) triple)."""
 
     glossy_pairs: list[tuple[float, float]]
     rays: dict[str, int]
 
     def trace_ray(
-        self, O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float, depth: int, camera: bool, layers: int, sample: int
+        self,
+        O: sc.Vec3,
+        D: sc.Vec3,
+        t_min: float,
+        t_max: float,
+        depth: int,
+        camera: bool,
+        layers: int,
+        path: tuple[int, int, bool],
     ) -> sc.Color: ...
 
 
@@ -128,7 +137,7 @@ def glass(
     material: sc.Material,
     depth: int,
     layers: int,
-    sample: int,
+    path: tuple[int, int, bool],
 ) -> sc.Color:
     """What a rough glass hit's sampled rays bring back, before its glass share a t (glossy.glass_rays, one ray at
     a time): per pair (all at a path's first glossy surface, else the path's), a visible microfacet normal m about
@@ -143,8 +152,8 @@ def glass(
         return (0.0, 0.0, 0.0)
     a = material.transmission_roughness * material.transmission_roughness
     pairs = tracer.glossy_pairs
-    chosen = range(len(pairs)) if sample < 0 else (sample,)
-    share = 1.0 / len(pairs) if sample < 0 else 1.0
+    chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
+    share = 1.0 / len(pairs) if path[0] < 0 else 1.0
     splits = [_glass_split(v, eta, a, u1, u2) for u1, u2 in pairs]
     gain = 1.0
     if material.glossy_energy == "multiscatter":  # 1 / E, E both weights' mean over every pair
@@ -161,8 +170,9 @@ def glass(
             weight = weight * share * gain
             if weight > 0.0:
                 tracer.rays["reflection"] += 1
+                child = (index, path[1], False)
                 seen = tracer.trace_ray(
-                    P, world(direction), REFLECTION_T_MIN, math.inf, depth - 1, False, layers, index
+                    P, world(direction), REFLECTION_T_MIN, math.inf, depth - 1, False, layers, child
                 )
                 out = [out[k] + weight * tint[k] * seen[k] for k in range(3)]
     return tuple(out)
@@ -251,10 +261,10 @@ def rays(
     material: sc.Material,
     depth: int,
     layers: int,
-    sample: int,
+    path: tuple[int, int, bool],
     lobe: Lobe | None = None,
 ) -> sc.Color:
-    """What a glossy lobe's reflection rays bring back: every pair at a path's first glossy surface (sample
+    """What a glossy lobe's reflection rays bring back: every pair at a path's first glossy surface (its pair
     -1), each ray then carrying its pair, else the path's pair alone (ray()'s weights).
     The reason for 9 parameters: the tracer, the hit and the ray's state as trace_ray carries them."""
     if lobe is None:
@@ -262,8 +272,8 @@ def rays(
     if lobe.v[2] <= 0.0:
         return (0.0, 0.0, 0.0)
     pairs = tracer.glossy_pairs
-    chosen = range(len(pairs)) if sample < 0 else (sample,)
-    share = 1.0 / len(pairs) if sample < 0 else 1.0
+    chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
+    share = 1.0 / len(pairs) if path[0] < 0 else 1.0
     out = [0.0, 0.0, 0.0]
     for index in chosen:
         found = ray(lobe, *pairs[index], share)
@@ -271,6 +281,43 @@ def rays(
             continue
         direction, weight = found
         tracer.rays["reflection"] += 1
-        seen = tracer.trace_ray(P, direction, REFLECTION_T_MIN, math.inf, depth - 1, False, layers, index)
+        seen = tracer.trace_ray(
+            P, direction, REFLECTION_T_MIN, math.inf, depth - 1, False, layers, (index, path[1], False)
+        )
         out = [out[c] + weight[c] * seen[c] for c in range(3)]
+    return tuple(out)
+
+
+def diffuse(
+    tracer: Tracing,
+    P: sc.Vec3,
+    V: sc.Vec3,
+    S: sc.Vec3,
+    albedo: sc.Color,
+    depth: int,
+    layers: int,
+    path: tuple[int, int, bool],
+) -> sc.Color:
+    """What a hit's diffuse bounce rays bring back times its albedo (glossy.diffuse_rays, one ray at a time): per
+    pair (all at a path's first glossy surface or bounce, else the path's), the cosine-weighted direction about S
+    turned toward V, each a diffuse ray of the next bounce; their mean. The reason for 8 parameters: the tracer, the
+    hit and the ray's state as trace_ray carries them."""
+    if depth <= 0 or not any(c > 0.0 for c in albedo):
+        return (0.0, 0.0, 0.0)
+    n = _unit(S if _dot(S, V) >= 0.0 else (-S[0], -S[1], -S[2]))
+    e1, e2 = lightsamples.facing_basis(n)
+    pairs = tracer.glossy_pairs
+    chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
+    share = 1.0 / len(pairs) if path[0] < 0 else 1.0
+    out = [0.0, 0.0, 0.0]
+    for index in chosen:
+        u1, u2 = pairs[index]
+        r, phi = math.sqrt(u1), 2.0 * math.pi * u2
+        local = (r * math.cos(phi), r * math.sin(phi), math.sqrt(1.0 - u1))
+        direction = tuple(local[0] * e1[k] + local[1] * e2[k] + local[2] * n[k] for k in range(3))
+        tracer.rays["reflection"] += 1
+        seen = tracer.trace_ray(
+            P, direction, REFLECTION_T_MIN, math.inf, depth - 1, False, layers, (index, path[1] + 1, True)
+        )
+        out = [out[k] + albedo[k] * share * seen[k] for k in range(3)]
     return tuple(out)

@@ -19,13 +19,15 @@ from .raystore import RayStore
 from .recorder import NoPasses, PassRecorder
 
 
-def camera_batch(batch: RayBatch, dtype: np.dtype, glossy_surfaces: bool = False) -> RayBatch:
+def camera_batch(batch: RayBatch, dtype: np.dtype, glossy_surfaces: bool = False, bounces: bool = False) -> RayBatch:
     """The camera rays' batch with the fields a see-through wavefront carries: every ray a camera ray with no
     straight layer yet, tagged 0 (its own hit), clear (alpha not yet covered) and its data passes pending; with
-    glossy_surfaces, no glossy sample taken yet (-1)."""
+    glossy_surfaces (or bounces), no glossy sample taken yet (-1); with bounces, no diffuse bounce yet."""
     total = batch.size
     return batch.with_rays(
-        sample=np.full(total, -1, dtype=np.int64) if glossy_surfaces else None,
+        sample=np.full(total, -1, dtype=np.int64) if glossy_surfaces or bounces else None,
+        bounces=np.zeros(total, dtype=np.int64) if bounces else None,
+        diffuse=np.zeros(total, dtype=bool) if bounces else None,
         left=np.full(total, batch.left),
         camera=np.ones(total, dtype=bool),
         layers=np.zeros(total, dtype=np.int64),
@@ -77,6 +79,8 @@ def add_misses(
     miss = indices(obj < 0)
     if not miss.size:
         return
+    if batch.diffuse is not None:  # a diffuse bounce's miss: the world's light is the world light's
+        miss = miss.take(indices(~batch.diffuse.take(miss)))
     seen = miss
     if scene.scene.render.film_transparent:
         film = batch.camera.take(miss)
@@ -200,9 +204,30 @@ def continuing(scene: PreparedScene, hits: Hits, batch: RayBatch) -> RayBatch | 
         rays = _rough_glass_rays(scene, hits, batch, go, a * transmission, base)
         if rays is not None:
             made.append(rays)
+    if scene.diffuse_bounces:
+        rays = _diffuse_rays(scene, hits, batch, go, a * (1.0 - transmission), base)
+        if rays is not None:
+            made.append(rays)
     if not made:
         return None
     return RayBatch.joined(made)
+
+
+def _diffuse_rays(
+    scene: PreparedScene, hits: Hits, batch: RayBatch, go: np.ndarray, shaded: np.ndarray, base: np.ndarray
+) -> RayBatch | None:
+    """The diffuse bounce rays (glossy.diffuse_rays) of the hits that go on (go (n,)) with bounces left on their
+    path and a shaded share a (1 - t) (n,) > 0, weighted by the albedo colour (1 - r) and the share."""
+    albedo = hits.colors * (1.0 - scene.reflective.take(hits.material)) * shaded
+    rows = indices(go & (batch.bounces < scene.diffuse_bounces) & np.any(albedo > 0.0, axis=0))
+    if not rows.size:
+        return None
+    hit, pair, D, share = glossy.diffuse_rays(scene, hits, rows, batch.sample.take(rows))
+    rows = rows.take(hit)
+    weight = take(base, rows) * take(albedo, rows) * share.astype(scene.dtype, copy=False)
+    rays = _child(scene, hits, batch, shaded, rows, D.astype(scene.dtype, copy=False), weight,
+                  batch.left.take(rows) - 1, False, 1, pair)  # fmt: skip
+    return rays.with_rays(bounces=rays.bounces + 1, diffuse=np.ones(rows.size, dtype=bool))
 
 
 def _rough_glass_rays(
@@ -291,7 +316,13 @@ def _child(
         pending = np.zeros(rows.size, dtype=bool)
     if sample is None and batch.sample is not None:
         sample = batch.sample.take(rows)
-    return RayBatch(batch.pixel.take(rows), O, D, weight, left, reach, camera, layers, tag, clear, pending, sample)
+    bounces = None if batch.bounces is None else batch.bounces.take(rows)
+    diffuse = None  # a straight continuation is still the ray it was (a diffuse one's miss adds nothing)
+    if batch.diffuse is not None:
+        diffuse = batch.diffuse.take(rows) if straight else np.zeros(rows.size, dtype=bool)
+    return RayBatch(
+        batch.pixel.take(rows), O, D, weight, left, reach, camera, layers, tag, clear, pending, sample, bounces, diffuse
+    )
 
 
 def _refract(

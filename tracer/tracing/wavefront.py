@@ -83,7 +83,9 @@ class TracedScene(PreparedScene):
         origin = self.origin if origins is None else origins
         batch = RayBatch(np.arange(total), origin, D, left=settings.depth, reach=far)
         if glass:
-            batch = see_through.camera_batch(batch, self.dtype, self.traced_glossy or self.rough_glass)
+            batch = see_through.camera_batch(
+                batch, self.dtype, self.traced_glossy or self.rough_glass, bool(self.diffuse_bounces)
+            )
         culling = _Culling(self, rows, pixels, frames, total)
         first = True
         while batch.size:
