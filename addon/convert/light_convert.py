@@ -73,6 +73,8 @@ def _area_document(obj, light, power: float, notes: list[str]) -> dict:
         "shape": shape,
         "size": size[0] if shape in ("square", "disk") else size,
         "intensity": power / AREA_WATTS_PER_UNIT * factor,
+        # Object > Visibility > Ray Visibility > Glossy (on by default): mirrors and glass show the light's shape
+        "seen_in_mirrors": bool(getattr(obj, "visible_glossy", True)),
     }
 
 

@@ -124,6 +124,8 @@ def _shape_area(obj, light) -> None:
     x = Vector(light.x_axis)
     x = (x - z * x.dot(z)).normalized()
     obj.matrix_world = Matrix.Translation(light.location) @ Matrix((x, z.cross(x), z)).transposed().to_4x4()
+    if hasattr(obj, "visible_glossy"):  # the file's light is seen in mirrors, or not, in Cycles too
+        obj.visible_glossy = light.seen_in_mirrors
 
 
 def apply(entry) -> None:

@@ -200,3 +200,51 @@ SHORT = pytest.mark.xfail(strict=True, reason="rough glass 0.6: PSNR 21.8 dB aga
 @pytest.mark.parametrize("roughness", [0.1, 0.3, pytest.param(0.6, marks=SHORT)])
 def test_rough_glass_at_1024_cycles_samples(tmp_path: Path, roughness: float) -> None:
     _compare_glass(tmp_path, roughness, 1024)
+
+
+@AT_THE_ENDS
+def test_a_mirror_shows_an_area_lights_shape_and_brightness_as_cycles_does(tmp_path: Path) -> None:
+    """A 2 x 1 m area light of 300 W, 2 m over a mirror floor (Principled Metallic 1, Roughness 0), seen in the
+    mirror by a camera at 30 degrees: where Cycles shows the light's reflection (above half its brightest) the
+    engine's coverage IoU >= 0.9 and mean within 10%; with the light's Glossy visibility off, neither shows it."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    mirror = bpy.data.materials.new("mirror")
+    compat.enable_nodes(mirror)
+    principled = mirror.node_tree.nodes["Principled BSDF"]
+    principled.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    principled.inputs["Metallic"].default_value = 1.0
+    principled.inputs["Roughness"].default_value = 0.0
+    bpy.ops.mesh.primitive_plane_add(size=20.0)
+    bpy.context.object.data.materials.append(mirror)
+    light = bpy.data.lights.new("panel", type="AREA")
+    light.shape, light.size, light.size_y, light.energy = "RECTANGLE", 2.0, 1.0, 300.0
+    lamp = bpy.data.objects.new("panel", light)
+    lamp.location = (0.0, 2.0, 2.0)
+    scene.collection.objects.link(lamp)
+    camera = bpy.data.cameras.new("camera")
+    scene.camera = bpy.data.objects.new("camera", camera)
+    scene.collection.objects.link(scene.camera)
+    scene.camera.location = (0.0, -4.0, 2.5)
+    scene.camera.rotation_euler = (math.radians(60.0), 0.0, 0.0)
+    scene.world = None
+    render = scene.render
+    render.resolution_x, render.resolution_y, render.resolution_percentage = WIDTH, HEIGHT, 100
+    scene.view_settings.view_transform = "Standard"
+    scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 16, False
+    scene.cycles.filter_width = 0.01  # each pixel sampled at its centre, as the tracer's one sample is: sharp edges
+    images = {}
+    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
+        scene.render.engine = engine
+        images[engine] = f12_exr(tmp_path / f"{engine}.exr")[..., 0]
+    cycles, tracer = images["CYCLES"], images["WEATHERVANE_TRACER"]
+    shown_c, shown_t = cycles > 0.5 * cycles.max(), tracer > 0.5 * cycles.max()
+    iou = (shown_c & shown_t).sum() / (shown_c | shown_t).sum()
+    both = shown_c & shown_t
+    print(f"the light in the mirror: IoU {iou:.3f}, tracer {tracer[both].mean():.3f}, Cycles {cycles[both].mean():.3f}")
+    assert shown_c.sum() > 20 and iou >= 0.9
+    assert tracer[both].mean() == pytest.approx(cycles[both].mean(), rel=0.10)
+    lamp.visible_glossy = False
+    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
+        scene.render.engine = engine
+        assert f12_exr(tmp_path / f"{engine}-hidden.exr")[..., 0].max() < 0.5 * cycles.max(), engine

@@ -930,6 +930,7 @@ def _area_light(reader: _Reader, intensity: float, color: sc.Color, direction: d
         size=size,
         intensity=intensity,
         color=color,
+        seen_in_mirrors=reader.boolean("seen_in_mirrors", False),
     )
 
 

@@ -504,6 +504,9 @@ class AreaLight:
     size: tuple[float, float] = (1.0, 1.0)
     intensity: float = 1.0
     color: Color = WHITE
+    # mirror and refracted rays that meet its front see its radiance (tracing/emitters.py), as Cycles' reflections
+    # show a light's shape; False: the documented model (lights are points of light, seen only in highlights)
+    seen_in_mirrors: bool = False
 
 
 Light = AmbientLight | PointLight | DirectionalLight | SpotLight | AreaLight | WorldLight

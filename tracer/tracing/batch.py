@@ -38,7 +38,8 @@ class RayBatch:
     surfaces: the glossy sample pair a ray's path took at its first glossy surface (-1: none yet), the one pair a
     glossy surface after it sends its ray by (glossy.sample_rays). bounces (n,) and diffuse (n,) bool, in scenes with
     diffuse bounces: the diffuse bounces on the path so far, and whether the ray is one (its miss adds nothing: the
-    world's light is the world light's)."""
+    world's light is the world light's). lamps (n,) bool, in scenes with area lights seen in mirrors: the ray sees
+    them (mirror, refracted and rough glass rays; not camera, glossy or diffuse ones)."""
 
     pixel: np.ndarray
     origin: np.ndarray
@@ -54,6 +55,7 @@ class RayBatch:
     sample: np.ndarray | None = None
     bounces: np.ndarray | None = None
     diffuse: np.ndarray | None = None
+    lamps: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -70,7 +72,18 @@ class RayBatch:
             left,
             *(
                 _columns(getattr(self, name), rows)
-                for name in ("reach", "camera", "layers", "tag", "clear", "pending", "sample", "bounces", "diffuse")
+                for name in (
+                    "reach",
+                    "camera",
+                    "layers",
+                    "tag",
+                    "clear",
+                    "pending",
+                    "sample",
+                    "bounces",
+                    "diffuse",
+                    "lamps",
+                )
             ),
         )
 

@@ -31,6 +31,7 @@ from ..geometry.kernels import (
 from ..geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MergedMember, MergedMeshKernel, MeshKernel
 from ..geometry.robust import make_robust_kernel
 from ..scene import scene as sc
+from . import emitters
 from .lights import DirectedLight, PreparedLight, directed, prepare_lights
 from .rays import CAMERA_T_MIN
 from .recorder import view_axis
@@ -130,6 +131,7 @@ class PreparedScene:
     channels: int = field(init=False)  # a traced pixel's: colour, and alpha where the scene has one
     # lights, camera, background
     lights: list[PreparedLight] = field(init=False)
+    seen_lights: list = field(init=False, default_factory=list)  # area lights mirror rays see (emitters.py)
     origin: np.ndarray = field(init=False)  # (3, 1) the camera's location
     screen: ScreenRectangles | None = field(init=False, default=None)  # which camera rays each kernel can meet
     mirrors: dict[int, ScreenRectangles] = field(init=False, default_factory=dict)  # the same for reflective planes
@@ -162,6 +164,7 @@ class PreparedScene:
         _smooth_normals(self, objects, placed.primitives, placed.vanes)
         _textures(self, objects, placed.primitives)
         self.lights = prepare_lights(self.scene, self.dtype)
+        self.seen_lights = emitters.prepare(self.scene, self.dtype)
         # the documented arithmetic (one intensity per point) unless a light or a material needs colours
         self.colored = self.colored or any(
             light.color != sc.WHITE

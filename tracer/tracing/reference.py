@@ -22,7 +22,8 @@ INF = math.inf
 CAMERA_T_MIN = 0.0  # seed 2.10: t >= 0, hits behind the camera are dropped
 SHADOW_T_MIN = 0.001  # listing 3.2
 REFLECTION_T_MIN = 0.01  # listing 3.1
-NEW_PATH = (-1, 0, False)  # trace_ray's path: no glossy pair yet, no diffuse bounce, not a diffuse ray
+MIRROR, GLOSSY, DIFFUSE = 0, 1, 2  # what kind of ray a path's last one is (camera rays: trace_ray's camera)
+NEW_PATH = (-1, 0, MIRROR)  # trace_ray's path: no glossy pair yet, no diffuse bounce
 
 
 def normalize(v: sc.Vec3) -> sc.Vec3:
@@ -318,6 +319,9 @@ class ReferenceTracer:
         )
         self.lights = light_samples(scene)
         self.glossy_pairs = lightsamples.glossy_pairs(scene.render.glossy_samples)
+        self.seen_lights = [
+            light for light in scene.lights if isinstance(light, sc.AreaLight) and light.seen_in_mirrors
+        ]
         self.world_pairs = lightsamples.glossy_pairs(min(4, scene.render.glossy_samples))  # a lobe of the world
         # shadow rays pass partly transparent surfaces (shadow_through) where some material has alpha < 1
         self.shadow_alpha = any(m.alpha < 1.0 for m in scene.materials.values())
@@ -531,18 +535,23 @@ class ReferenceTracer:
         depth: int,
         camera: bool = False,
         layers: int = 0,
-        path: tuple[int, int, bool] = NEW_PATH,
+        path: tuple[int, int, int] = NEW_PATH,
     ) -> sc.Color:
         """Listing 3.1. camera: the camera ray (it sees the visible_camera objects, and nothing through a
         transparent film), or its straight continuation through partly transparent surfaces; the others are mirror
         (and refracted) rays. layers: the straight continuations on the path so far (sc.TRANSPARENT_BOUNCES).
         path: the pair the path took at its first glossy surface or diffuse bounce (-1: none yet), its diffuse
-        bounces so far, and whether this ray is one (its miss adds nothing: the world's light is the world
-        light's). The reason for 8 parameters: the ray and its path's whole state."""
+        bounces so far, and the kind of ray this one is: MIRROR (mirror, refracted, rough glass: it sees the area
+        lights seen in mirrors), GLOSSY (a glossy lobe's), DIFFUSE (a bounce: its miss adds nothing, the world's
+        light is the world light's). The reason for 8 parameters: the ray and its path's whole state."""
         seen_by = "visible_camera" if camera else "visible_reflection"
         closest_object, part, closest_t = self.closest_intersection(O, D, t_min, t_max, seen_by)
+        if not camera and path[2] == MIRROR and self.seen_lights:
+            lamp = seen_light(self.seen_lights, O, D, t_min, closest_t if closest_object >= 0 else INF)
+            if lamp is not None:
+                return lamp
         if closest_object < 0:
-            if path[2]:
+            if path[2] == DIFFUSE:
                 return (0.0, 0.0, 0.0)
             return (0.0, 0.0, 0.0) if camera and self.settings.film_transparent else self.background(D)
         if self.scene.objects[closest_object].holdout:
@@ -568,7 +577,7 @@ class ReferenceTracer:
         camera: bool,
         layers: int,
         material: sc.Material,
-        path: tuple[int, int, bool] = NEW_PATH,
+        path: tuple[int, int, int] = NEW_PATH,
     ) -> sc.Color:
         """A hit on a surface with transmission t or alpha a (docs/algorithm.md, "Glass and transparency"):
         (1 - a) straight on + a ((1 - t) today's colour + t (F mirror + (1 - F) colour refracted)), with F the
@@ -588,7 +597,7 @@ class ReferenceTracer:
         if shaded > 0.0:  # today's local colour (its own mirror ray below, shared with the glass's)
             local = self.today(P, V, S, material, -1)
             out = [out[c] + shaded * local[c] for c in range(3)]
-        child = (path[0], path[1], False)
+        child = (path[0], path[1], MIRROR)
         if refracted is not None and depth > 0:
             self.rays["reflection"] += 1
             seen = self.trace_ray(P, refracted, REFLECTION_T_MIN, INF, depth - 1, False, layers, child)
@@ -618,7 +627,7 @@ class ReferenceTracer:
         material: sc.Material,
         depth: int,
         layers: int = 0,
-        path: tuple[int, int, bool] = NEW_PATH,
+        path: tuple[int, int, int] = NEW_PATH,
     ) -> sc.Color:
         """Listing 3.1's colour of an opaque hit at P: local = intensity * colour * (1 - r) (+ emission) (+ the
         lights through a glossy lobe), plus r times the mirror ray's and the glossy rays' while depth lasts (depth <
@@ -648,7 +657,7 @@ class ReferenceTracer:
             return local
         if material.reflective > 0.0:
             self.rays["reflection"] += 1
-            child = (path[0], path[1], False)
+            child = (path[0], path[1], MIRROR)
             reflected = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers, child)
             r = material.reflective
             local = (local[0] + reflected[0] * r, local[1] + reflected[1] * r, local[2] + reflected[2] * r)
@@ -744,6 +753,27 @@ def texture_value(
     if texture.kind == "attribute":
         return attribute_one(texture, found)
     return sample_one(texture, found[0], found[1])
+
+
+def seen_light(lights: list[sc.AreaLight], O: sc.Vec3, D: sc.Vec3, t_min: float, t_max: float) -> sc.Color | None:
+    """The radiance (pi intensity / area times the colour) of the nearest of the area lights whose front the ray
+    meets with t_min < t < t_max, None where it meets none (emitters.meet, one ray at a time)."""
+    found, nearest = None, t_max
+    for light in lights:
+        normal, x_axis, y_axis = lightsamples.area_frame(light)
+        facing = dot(D, normal)
+        if not facing < 0.0:
+            continue
+        t = dot(sub(light.location, O), normal) / facing
+        if not t_min < t < nearest:
+            continue
+        offset = sub(add(O, scale(D, t)), light.location)
+        x, y = dot(offset, x_axis) / (light.size[0] / 2.0), dot(offset, y_axis) / (light.size[1] / 2.0)
+        round_shape = light.shape in ("disk", "ellipse")
+        if (x * x + y * y <= 1.0) if round_shape else (abs(x) <= 1.0 and abs(y) <= 1.0):
+            area = light.size[0] * light.size[1] * (math.pi / 4.0 if round_shape else 1.0)
+            found, nearest = tuple(math.pi * light.intensity / area * c for c in light.color), t
+    return found
 
 
 def glass_split(

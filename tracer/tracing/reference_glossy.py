@@ -15,7 +15,7 @@ from ..scene import scene as sc
 
 class Tracing(Protocol):
     """What rays(), glass() and diffuse() need of the reference tracer: its pairs, its ray counts and TraceRay (path:
-    its (pair, diffuse bounces, a diffuse ray) triple)."""
+    its (pair, diffuse bounces, kind: 0 mirror, 1 glossy, 2 diffuse) triple)."""
 
     glossy_pairs: list[tuple[float, float]]
     rays: dict[str, int]
@@ -29,7 +29,7 @@ class Tracing(Protocol):
         depth: int,
         camera: bool,
         layers: int,
-        path: tuple[int, int, bool],
+        path: tuple[int, int, int],
     ) -> sc.Color: ...
 
 
@@ -137,7 +137,7 @@ def glass(
     material: sc.Material,
     depth: int,
     layers: int,
-    path: tuple[int, int, bool],
+    path: tuple[int, int, int],
 ) -> sc.Color:
     """What a rough glass hit's sampled rays bring back, before its glass share a t (glossy.glass_rays, one ray at
     a time): per pair (all at a path's first glossy surface, else the path's), a visible microfacet normal m about
@@ -170,7 +170,7 @@ def glass(
             weight = weight * share * gain
             if weight > 0.0:
                 tracer.rays["reflection"] += 1
-                child = (index, path[1], False)
+                child = (index, path[1], 0)  # a mirror-like ray: it sees the lights seen in mirrors
                 seen = tracer.trace_ray(
                     P, world(direction), REFLECTION_T_MIN, math.inf, depth - 1, False, layers, child
                 )
@@ -261,7 +261,7 @@ def rays(
     material: sc.Material,
     depth: int,
     layers: int,
-    path: tuple[int, int, bool],
+    path: tuple[int, int, int],
     lobe: Lobe | None = None,
 ) -> sc.Color:
     """What a glossy lobe's reflection rays bring back: every pair at a path's first glossy surface (its pair
@@ -281,9 +281,7 @@ def rays(
             continue
         direction, weight = found
         tracer.rays["reflection"] += 1
-        seen = tracer.trace_ray(
-            P, direction, REFLECTION_T_MIN, math.inf, depth - 1, False, layers, (index, path[1], False)
-        )
+        seen = tracer.trace_ray(P, direction, REFLECTION_T_MIN, math.inf, depth - 1, False, layers, (index, path[1], 1))
         out = [out[c] + weight[c] * seen[c] for c in range(3)]
     return tuple(out)
 
@@ -296,7 +294,7 @@ def diffuse(
     albedo: sc.Color,
     depth: int,
     layers: int,
-    path: tuple[int, int, bool],
+    path: tuple[int, int, int],
 ) -> sc.Color:
     """What a hit's diffuse bounce rays bring back times its albedo (glossy.diffuse_rays, one ray at a time): per
     pair (all at a path's first glossy surface or bounce, else the path's), the cosine-weighted direction about S
@@ -317,7 +315,7 @@ def diffuse(
         direction = tuple(local[0] * e1[k] + local[1] * e2[k] + local[2] * n[k] for k in range(3))
         tracer.rays["reflection"] += 1
         seen = tracer.trace_ray(
-            P, direction, REFLECTION_T_MIN, math.inf, depth - 1, False, layers, (index, path[1] + 1, True)
+            P, direction, REFLECTION_T_MIN, math.inf, depth - 1, False, layers, (index, path[1] + 1, 2)
         )
         out = [out[k] + albedo[k] * share * seen[k] for k in range(3)]
     return tuple(out)

@@ -19,15 +19,19 @@ from .raystore import RayStore
 from .recorder import NoPasses, PassRecorder
 
 
-def camera_batch(batch: RayBatch, dtype: np.dtype, glossy_surfaces: bool = False, bounces: bool = False) -> RayBatch:
+def camera_batch(
+    batch: RayBatch, dtype: np.dtype, glossy_surfaces: bool = False, bounces: bool = False, lamps: bool = False
+) -> RayBatch:
     """The camera rays' batch with the fields a see-through wavefront carries: every ray a camera ray with no
     straight layer yet, tagged 0 (its own hit), clear (alpha not yet covered) and its data passes pending; with
-    glossy_surfaces (or bounces), no glossy sample taken yet (-1); with bounces, no diffuse bounce yet."""
+    glossy_surfaces (or bounces), no glossy sample taken yet (-1); with bounces, no diffuse bounce yet; with lamps,
+    none sees the lights seen in mirrors (camera rays do not)."""
     total = batch.size
     return batch.with_rays(
         sample=np.full(total, -1, dtype=np.int64) if glossy_surfaces or bounces else None,
         bounces=np.zeros(total, dtype=np.int64) if bounces else None,
         diffuse=np.zeros(total, dtype=bool) if bounces else None,
+        lamps=np.zeros(total, dtype=bool) if lamps else None,
         left=np.full(total, batch.left),
         camera=np.ones(total, dtype=bool),
         layers=np.zeros(total, dtype=np.int64),
@@ -227,7 +231,8 @@ def _diffuse_rays(
     weight = take(base, rows) * take(albedo, rows) * share.astype(scene.dtype, copy=False)
     rays = _child(scene, hits, batch, shaded, rows, D.astype(scene.dtype, copy=False), weight,
                   batch.left.take(rows) - 1, False, 1, pair)  # fmt: skip
-    return rays.with_rays(bounces=rays.bounces + 1, diffuse=np.ones(rows.size, dtype=bool))
+    lamps = None if rays.lamps is None else np.zeros(rows.size, dtype=bool)  # the shadow rays had the lights
+    return rays.with_rays(bounces=rays.bounces + 1, diffuse=np.ones(rows.size, dtype=bool), lamps=lamps)
 
 
 def _rough_glass_rays(
@@ -275,7 +280,8 @@ def _glossy_rays(
     rows = lobes.rows.take(lobe)
     weight = take(base, rows) * (weight * shaded.take(rows)).astype(scene.dtype, copy=False)
     D = D.astype(scene.dtype, copy=False)
-    return _child(scene, hits, batch, shaded, rows, D, weight, batch.left.take(rows) - 1, False, 1, pair)
+    rays = _child(scene, hits, batch, shaded, rows, D, weight, batch.left.take(rows) - 1, False, 1, pair)
+    return rays if rays.lamps is None else rays.with_rays(lamps=np.zeros(rows.size, dtype=bool))  # the lobe had them
 
 
 def _child(
@@ -317,12 +323,15 @@ def _child(
     if sample is None and batch.sample is not None:
         sample = batch.sample.take(rows)
     bounces = None if batch.bounces is None else batch.bounces.take(rows)
-    diffuse = None  # a straight continuation is still the ray it was (a diffuse one's miss adds nothing)
+    diffuse = lamps = None  # a straight continuation is still the ray it was (a diffuse one's miss adds nothing)
     if batch.diffuse is not None:
         diffuse = batch.diffuse.take(rows) if straight else np.zeros(rows.size, dtype=bool)
+    if batch.lamps is not None:  # mirror, refracted and rough glass rays see lights (glossy, diffuse: not)
+        lamps = batch.lamps.take(rows) if straight else np.ones(rows.size, dtype=bool)
     return RayBatch(
-        batch.pixel.take(rows), O, D, weight, left, reach, camera, layers, tag, clear, pending, sample, bounces, diffuse
-    )
+        batch.pixel.take(rows), O, D, weight, left, reach, camera, layers, tag, clear, pending, sample, bounces,
+        diffuse, lamps,
+    )  # fmt: skip
 
 
 def _refract(

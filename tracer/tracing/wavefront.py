@@ -14,9 +14,9 @@ import numpy as np
 
 from ..geometry import camera as cam
 from ..geometry.footprint import Footprint, Volume
-from ..geometry.kernels import indices, quiet
+from ..geometry.kernels import indices, quiet, take
 from ..geometry.rayframes import RayFrames
-from . import see_through, surfaces, whitted
+from . import emitters, see_through, surfaces, whitted
 from .batch import RayBatch
 from .prepared import PreparedScene
 from .rays import CAMERA_T_MIN, REFLECTION_T_MIN, RayCounts, tally
@@ -83,9 +83,8 @@ class TracedScene(PreparedScene):
         origin = self.origin if origins is None else origins
         batch = RayBatch(np.arange(total), origin, D, left=settings.depth, reach=far)
         if glass:
-            batch = see_through.camera_batch(
-                batch, self.dtype, self.traced_glossy or self.rough_glass, bool(self.diffuse_bounces)
-            )
+            glossy, lamps = self.traced_glossy or self.rough_glass, bool(self.seen_lights)
+            batch = see_through.camera_batch(batch, self.dtype, glossy, bool(self.diffuse_bounces), lamps)
         culling = _Culling(self, rows, pixels, frames, total)
         first = True
         while batch.size:
@@ -93,6 +92,8 @@ class TracedScene(PreparedScene):
             t, obj, part = self._intersect(batch, t_min, first, culling, frames)
             if batch.reach is not None:  # beyond the camera's clip_end: the nearest hit is, so all are
                 obj[t >= batch.reach] = -1
+            if self.seen_lights and not first:  # mirror rays that meet a light's front before any surface end there
+                batch, t, obj, part = self._meet_lights(color, batch, t, obj, part, t_min, recorder)
             if footprint is not None:  # each ray up to its hit; a miss to its end
                 end = np.where(obj >= 0, t, np.inf if batch.reach is None else batch.reach)
                 footprint.record(batch.pixel, batch.origin, batch.direction, t_min, end, hit=obj)
@@ -125,6 +126,39 @@ class TracedScene(PreparedScene):
                 break
             tally(counts, "reflection", batch.size, None if frames is None else RayFrames.of(batch.pixel, frames))
         return color
+
+    def _meet_lights(
+        self,
+        color: np.ndarray,
+        batch: RayBatch,
+        t: np.ndarray,
+        obj: np.ndarray,
+        part: np.ndarray,
+        t_min: float,
+        recorder: PassRecorder | NoPasses,
+    ) -> tuple[RayBatch, np.ndarray, np.ndarray, np.ndarray]:
+        """The rays that see lights (a Whitted wavefront's all, a see-through one's with lamps) and meet a light's
+        front before their surface (emitters.meet): its radiance times their weights into their samples and the
+        Reflection pass, and those rays dropped from the wavefront."""
+        rays = np.arange(batch.size) if batch.lamps is None else indices(batch.lamps)
+        surface = np.where(obj >= 0, t, np.inf)
+        met, radiance = emitters.meet(self.seen_lights, batch.origin, batch.direction, surface, t_min, rays)
+        if not met.size:
+            return batch, t, obj, part
+        weight = batch.weight
+        if weight is not None:  # (n,) on mirror paths, (3, n) where glass tints them
+            radiance = (weight.take(met) if weight.ndim == 1 else take(weight, met)) * radiance
+        value = radiance.astype(self.dtype, copy=False)
+        pixel = batch.pixel.take(met)
+        see_through.add_at(color, pixel, value, batch.camera is None)
+        if batch.tag is None:
+            recorder.reflection(pixel, value)
+        else:
+            recorder.tagged("reflection", batch.tag, met, pixel, value)
+        keep = np.ones(batch.size, dtype=bool)
+        keep[met] = False
+        keep = indices(keep)
+        return batch.take(keep), t.take(keep), obj.take(keep), part.take(keep)
 
     def _intersect(
         self, batch: RayBatch, t_min: float, first: bool, culling: _Culling, frames: np.ndarray | None
