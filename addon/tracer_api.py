@@ -43,7 +43,7 @@ if BUILT:
         scene_from_dict,
     )
     from weathervane_tracer.scene.motion import Motion, Spin, simulate
-    from weathervane_tracer.scene.passes import CRYPTOMATTE_RANKS, PASSES
+    from weathervane_tracer.scene.passes import CRYPTOMATTE_LEVELS, PASSES, cryptomatte_layers
     from weathervane_tracer.scene.scene import (
         AmbientLight,
         AreaLight,
@@ -62,6 +62,7 @@ if BUILT:
     )
     from weathervane_tracer.scene.wind import Gusts, Wind, WindKey
     from weathervane_tracer.tracing.cryptomatte import layer_header as cryptomatte_layer_header
+    from weathervane_tracer.tracing.cryptomatte import matte_names as cryptomatte_matte_names
     from weathervane_tracer.tracing.images import atomic_path, sweep_stale_temporaries
     from weathervane_tracer.tracing.texturing import sample as sample_texture
     from weathervane_tracer.workers.parallel import Renderer, worker_count
@@ -83,7 +84,7 @@ else:  # the repository's package
     from tracer.scene.keyframes import reduce_keys
     from tracer.scene.loader import MATRIX_MIN_DETERMINANT, SceneError, default_scene, load_scene, scene_from_dict
     from tracer.scene.motion import Motion, Spin, simulate
-    from tracer.scene.passes import CRYPTOMATTE_RANKS, PASSES
+    from tracer.scene.passes import CRYPTOMATTE_LEVELS, PASSES, cryptomatte_layers
     from tracer.scene.scene import (
         AmbientLight,
         AreaLight,
@@ -102,6 +103,7 @@ else:  # the repository's package
     )
     from tracer.scene.wind import Gusts, Wind, WindKey
     from tracer.tracing.cryptomatte import layer_header as cryptomatte_layer_header
+    from tracer.tracing.cryptomatte import matte_names as cryptomatte_matte_names
     from tracer.tracing.images import atomic_path, sweep_stale_temporaries
     from tracer.tracing.texturing import sample as sample_texture
     from tracer.workers.parallel import Renderer, worker_count
@@ -118,7 +120,7 @@ if sys.modules.get("__mp_main__") is sys.modules.get("__main__"):
 
 __all__ = [
     "BOX_TRIANGLES",
-    "CRYPTOMATTE_RANKS",
+    "CRYPTOMATTE_LEVELS",
     "EDITABLE_SAMPLES",
     "KEPT_BYTES_PER_SAMPLE",
     "MATRIX_MIN_DETERMINANT",
@@ -156,6 +158,8 @@ __all__ = [
     "box_vertices",
     "check_resources",
     "cryptomatte_layer_header",
+    "cryptomatte_layers",
+    "cryptomatte_matte_names",
     "default_scene",
     "documented_background_direction",
     "euler_xyz_from_matrix",

@@ -13,6 +13,7 @@ import subprocess
 import numpy as np
 import pytest
 
+from tracer.scene import passes as ps
 from tracer.tracing import cryptomatte
 from tracer.tracing.cryptomatte import (
     channel_names,
@@ -22,6 +23,7 @@ from tracer.tracing.cryptomatte import (
     manifest,
     murmurhash3_32,
     name_hash,
+    rank_layers,
     ranks,
 )
 from tracer.tracing.exr import read_exr_channels, write_multilayer_exr
@@ -169,21 +171,29 @@ def test_layer_header_holds_the_four_attributes() -> None:
         layer_header("ViewLayer.CryptoObject", [], kind="mesh")
 
 
-def test_channel_names_are_rgba_layers_of_two_ranks() -> None:
+def test_channel_names_are_rgba_layers_of_two_ranks_in_lower_case_as_cycles_writes_them() -> None:
     assert channel_names("CryptoObject", 4) == [
-        "CryptoObject00.R",
-        "CryptoObject00.G",
-        "CryptoObject00.B",
-        "CryptoObject00.A",
-        "CryptoObject01.R",
-        "CryptoObject01.G",
-        "CryptoObject01.B",
-        "CryptoObject01.A",
+        "CryptoObject00.r",
+        "CryptoObject00.g",
+        "CryptoObject00.b",
+        "CryptoObject00.a",
+        "CryptoObject01.r",
+        "CryptoObject01.g",
+        "CryptoObject01.b",
+        "CryptoObject01.a",
     ]
     assert channel_names("ViewLayer.CryptoMaterial", 3) == channel_names("ViewLayer.CryptoMaterial", 4)
     assert len(channel_names("X", 6)) == 12
     with pytest.raises(ValueError):
         channel_names("X", 0)
+
+
+@pytest.mark.parametrize(("levels", "layers"), [(1, 1), (2, 1), (6, 3), (7, 4), (10, 5), (16, 8), (20, 8)])
+def test_levels_give_cycles_layers_at_most_sixteen_ranks(levels: int, layers: int) -> None:
+    """Cycles' `(min(16, levels) + 1) // 2` RGBA layers (intern/cycles/blender/addon/engine.py, 3.4 to 5.0)."""
+    assert rank_layers(levels) == layers == ps.cryptomatte_layers(levels)
+    assert channel_names("L", levels)[-1] == f"L{layers - 1:02d}.a"
+    assert ps.width("cryptomatte_object", levels) == 4 * layers
 
 
 def reference_ranks(sample_ids: np.ndarray, hashes: np.ndarray, levels: int) -> np.ndarray:
@@ -285,7 +295,7 @@ def read_mattes(path, layer_name: str, names: list[str]) -> dict[str, np.ndarray
     for name in names:
         matte = np.zeros(next(iter(channels.values())).shape, dtype=np.float32)
         for layer in layers:
-            for id_channel, coverage_channel in (("R", "G"), ("B", "A")):
+            for id_channel, coverage_channel in (("r", "g"), ("b", "a")):
                 rank_ids = channels[f"{layer_name}{layer}.{id_channel}"]
                 matte += np.where(rank_ids == ids[name], channels[f"{layer_name}{layer}.{coverage_channel}"], 0)
         mattes[name] = matte
@@ -373,3 +383,59 @@ def test_blenders_cryptomatte_node_picks_the_same_matte_from_the_file(tmp_path) 
     expected = (hits.astype(np.float32) / np.float32(samples)).reshape(height, width)
     assert expected.any() and not expected.all()
     assert np.array_equal(matte, expected)
+
+
+@pytest.mark.parametrize("levels", [2, 6, 10])
+def test_a_scene_files_levels_give_cycles_layers_in_the_render_and_its_exr(levels: int) -> None:
+    """render.cryptomatte_levels: the ranks each pixel keeps, in (levels + 1) // 2 layers of the render's passes and
+    of the command line's EXR (ViewLayer.CryptoObject00.r ...), at 1 sample (written straight) and at 4 (ranked)."""
+    from tracer.scene.loader import default_scene_dict, scene_from_dict
+    from tracer.tracing.pass_files import exr_channels
+    from tracer.workers.parallel import render
+
+    document = default_scene_dict()
+    document["render"].update(width=12, height=9, passes=["cryptomatte_object"], cryptomatte_levels=levels)
+    layers = (levels + 1) // 2
+    for samples in (1, 4):
+        document["render"]["samples"] = samples
+        scene = scene_from_dict(document)
+        result = render(scene, workers=1)
+        assert result.passes["cryptomatte_object"].shape == (9, 12, 4 * layers)
+        channels, _ = exr_channels(scene, result.image, None, result.passes)
+        crypto = sorted(name for name in channels if "Crypto" in name)
+        assert crypto == sorted(channel_names("ViewLayer.CryptoObject", levels)), crypto
+        assert crypto[-1] == f"ViewLayer.CryptoObject{layers - 1:02d}.r"  # sorted: a, b, g, r
+
+
+def test_cryptomatte_names_rename_the_ids_and_the_manifest_and_bad_ones_are_refused() -> None:
+    """render.cryptomatte_names: the IDs and the manifest under the names given (a Blender export's: its objects' and
+    materials' Blender names, as Cycles hashes them); the scene's own where none is given; a name for nothing, an
+    empty name or levels out of Blender's 1-16 are one line each."""
+    from tracer.scene.loader import SceneError, default_scene_dict, scene_from_dict
+    from tracer.tracing.pass_files import exr_channels
+    from tracer.workers.parallel import render
+
+    document = default_scene_dict()
+    obj, material = document["objects"][0]["name"], next(iter(document["materials"]))
+    document["render"].update(width=12, height=9, samples=4, passes=["cryptomatte_object", "cryptomatte_material"])
+    document["render"]["cryptomatte_names"] = {"objects": {obj: "WV " + obj}, "materials": {material: "Brass"}}
+    scene = scene_from_dict(document)
+    assert scene.render.cryptomatte_names == (("material", material, "Brass"), ("object", obj, "WV " + obj))
+    result = render(scene, workers=1)
+    _, header = exr_channels(scene, result.image, None, result.passes)
+    manifests = [json.loads(value) for key, value in header.items() if key.endswith("/manifest")]
+    listed = set().union(*manifests)
+    assert {"WV " + obj, "Brass"} <= listed and not {obj, material} & listed
+    for name, kind in (("WV " + obj, "cryptomatte_object"), ("Brass", "cryptomatte_material")):
+        ids = result.passes[kind][..., 0::2]
+        assert (ids == np.float32(name_hash(name)[1])).any(), name
+    for field, value, message in (
+        ("cryptomatte_names", {"objects": {"nothing": "x"}}, "names no object of the scene"),
+        ("cryptomatte_names", {"materials": {material: ""}}, "must map names to non-empty names"),
+        ("cryptomatte_levels", 0, "must be >= 1"),
+        ("cryptomatte_levels", 17, "must be <= 16"),
+    ):
+        bad = default_scene_dict()
+        bad["render"][field] = value
+        with pytest.raises(SceneError, match=message):
+            scene_from_dict(bad)

@@ -96,7 +96,11 @@ def whole_image_passes(scene: sc.Scene, max_samples: int | None) -> dict[str, np
 
     settings = scene.render
     planes = {
-        name: np.full(plane_shape(name, settings.height, settings.width), np.nan, plane_dtype(name, settings.dtype))
+        name: np.full(
+            plane_shape(name, settings.height, settings.width, settings.cryptomatte_levels),
+            np.nan,
+            plane_dtype(name, settings.dtype),
+        )
         for name in settings.passes
     }
     prepared = TracedScene(scene)
@@ -302,7 +306,8 @@ def test_the_command_line_writes_every_pass_into_a_multilayer_exr(tmp_path) -> N
     expected = {f"ViewLayer.Combined.{c}" for c in "RGBA"}
     for definition in ps.PASSES.values():
         if definition.combine == "ranks":
-            expected |= {f"ViewLayer.{definition.blender}0{k}.{c}" for k in range(2) for c in "RGBA"}
+            # Cycles' layout at the default levels (6): three RGBA layers, channels in lower case
+            expected |= {f"ViewLayer.{definition.blender}0{k}.{c}" for k in range(3) for c in "rgba"}
         else:
             expected |= {f"ViewLayer.{definition.blender}.{c}" for c in definition.channels}
     assert set(channels) == expected

@@ -107,7 +107,7 @@ def check_against_reference(scene: sc.Scene) -> tuple[rf.ReferencePasses, Any]:
         [[-1 if n is None else number[n] for n in (samples or blank)] for row in expected.objects for samples in row]
     ).reshape(-1, scene.render.samples)
     hashes = np.asarray([name_hash(obj.name)[1] for obj in scene.objects], dtype=np.float32)
-    ranked = ranks(ids, hashes, levels=ps.CRYPTOMATTE_RANKS).reshape((*result.image.shape[:2], -1))
+    ranked = ranks(ids, hashes, levels=scene.render.cryptomatte_levels).reshape((*result.image.shape[:2], -1))
     outside = np.asarray([[not samples for samples in row] for row in expected.objects])  # a border's blank pixels
     np.testing.assert_array_equal(result.passes["cryptomatte_object"][~outside], ranked[~outside])
     if scene.render.samples == 1:  # one sample: its own id in rank 0, with coverage 1

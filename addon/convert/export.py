@@ -42,7 +42,7 @@ from ..vane import build
 from ..vane import camera as camera_module
 from ..vane import materials as vane_materials
 from ..vane.animation import motion_for
-from . import light_convert, material_convert, mesh_export, world_convert
+from . import light_convert, material_convert, mesh_export, pass_map, world_convert
 
 
 def _transform(matrix) -> dict:
@@ -264,6 +264,7 @@ class _Item:
     stem: str = ""  # its name, before it is made unique; "" for the add-on's objects (named already)
     owner: str = ""  # a world-space instance's instancer: named "owner/object#n", n counted per owner
     dropped: int = 0  # zero-area triangles left out (or the triangles of instances that flatten)
+    blender: str = ""  # the Blender object's name, as Cycles' Cryptomatte names it (an instance's: the instanced)
 
 
 def _turned_by(obj, turn) -> bool:
@@ -328,6 +329,7 @@ class _Collected:
     meshes: dict = field(default_factory=dict)  # the document's meshes table
     materials: dict = field(default_factory=dict)  # the document's materials (whether a mesh entry needs UVs)
     arrays: bool = False  # large meshes' fields as arrays (mesh_export.Placed.fields)
+    blender_names: dict = field(default_factory=dict)  # object name in the document -> its Blender object's name
 
 
 class MemoryBudget:
@@ -500,7 +502,7 @@ def _collect(
                 source.done = True
                 body = json.loads(original["weathervane_object"])
                 body.update(_transform(_unturned(original, turn)))
-                items.append(_Item(order, body))
+                items.append(_Item(order, body, blender=original.name))
                 if turn is not None and original.parent == turn:
                     collected.parts.append(body["name"])
             continue
@@ -542,9 +544,10 @@ def _placed_items(geometry: _Geometry, export: _Export, collected: _Collected) -
         placed = mesh_export.CACHE.placed(geometry.entry, matrix)
         body = _mesh_object(placed, source, export) if len(placed.triangles) else None
         if source.owner is None or source.generated:  # an object's own geometry, or a text's mesh: its name
-            item = _Item(order, body, source.original.name, dropped=placed.dropped)
+            item = _Item(order, body, source.original.name, dropped=placed.dropped, blender=source.original.name)
         else:
-            item = _Item(order, body, source.original.name, owner=source.owner.name, dropped=placed.dropped)
+            owner = source.owner.name
+            item = _Item(order, body, source.original.name, owner, placed.dropped, blender=source.original.name)
         items.append(item)
     if shared:
         items += _instance_groups(geometry, shared, export, collected)
@@ -643,7 +646,7 @@ def _instance_groups(geometry: _Geometry, placements: list, export: _Export, col
         if materials[0] == "one":
             body["material"] = materials[1]
         body.update(dict(flags))
-        items.append(_Item(order, body, stem, dropped=dropped))
+        items.append(_Item(order, body, stem, dropped=dropped, blender=first.original.name))
     return items
 
 
@@ -742,6 +745,7 @@ def _name(items: list[_Item], collected: _Collected, notes: ExportNotes) -> None
     for item in sorted(items, key=lambda item: item.order):
         if not item.stem:  # the add-on's own objects
             collected.objects.append(item.body)
+            collected.blender_names[item.body["name"]] = item.blender
             continue
         name = item.stem
         if item.owner:
@@ -757,6 +761,7 @@ def _name(items: list[_Item], collected: _Collected, notes: ExportNotes) -> None
         if item.body is not None:
             item.body["name"] = name
             collected.objects.append(item.body)
+            collected.blender_names[name] = item.blender
 
 
 def other_lights(blender_scene) -> list:
@@ -928,6 +933,11 @@ def scene_document(
         document["render"]["film_transparent"] = True
         if glass and getattr(cycles, "film_transparent_glass", False):
             notes.approximated.append("Film > Transparent Glass: glass opaque in the alpha")
+    view_layer = depsgraph.view_layer
+    if view_layer.use_pass_cryptomatte_object or view_layer.use_pass_cryptomatte_material:
+        # Cryptomatte under the Blender names Cycles writes, at the view layer's levels (the passes are the engine's)
+        names = pass_map.blender_names(materials, collected.blender_names, vane_materials.material_name)
+        document["render"].update(pass_map.cryptomatte(view_layer), **({"cryptomatte_names": names} if names else {}))
     if int(settings.shadow_samples) > 1:  # lights of a size sampled over their surface (1: the default, not written)
         document["render"]["shadow_samples"] = int(settings.shadow_samples)
     bounces = int(getattr(settings, "diffuse_bounces", 0))

@@ -1,7 +1,12 @@
 """View Layer > Passes -> the tracer's passes to trace, Blender's passes to register, and the traced passes written
 into a render result (Blender's names: Depth, Mist, Normal, Position, IndexOB, IndexMA, DiffDir, GlossDir, Emit,
 Env, Shadow, CryptoObject00..., CryptoMaterial00...; from Blender 5.0 its new ones: Object Index, Material Index,
-Diffuse Direct, Glossy Direct, Emission, Environment; Ambient, Reflection and Transmission as the engine's own)."""
+Diffuse Direct, Glossy Direct, Emission, Environment; Ambient, Reflection and Transmission as the engine's own).
+
+Cryptomatte as Cycles writes it in each Blender: the view layer's Levels (pass_cryptomatte_depth) in
+`(min(16, levels) + 1) // 2` RGBA layers per pass whose channels are "r", "g", "b", "a" (Cycles registers them so),
+the IDs and manifests under Blender's names (the objects', the instanced objects', the materials', Cycles'
+"default_surface" for a face without one), and the manifest of materials with Cycles' own shaders as it lists them."""
 
 from __future__ import annotations
 
@@ -41,8 +46,9 @@ PASSES = (
     BlenderPass("environment", "use_pass_environment", "Env", "RGB", "COLOR"),
     BlenderPass("transmission", "use_pass_transmission", "Transmission", "RGB", "COLOR", own=True),
     BlenderPass("shadow", "use_pass_shadow", "Shadow", "RGB", "COLOR"),  # EEVEE's is RGB: the share, grey
-    BlenderPass("cryptomatte_object", "use_pass_cryptomatte_object", "CryptoObject", "RGBA", "COLOR"),
-    BlenderPass("cryptomatte_material", "use_pass_cryptomatte_material", "CryptoMaterial", "RGBA", "COLOR"),
+    # one RGBA layer's channels, lower case as Cycles registers them; a layer per two of the view layer's levels
+    BlenderPass("cryptomatte_object", "use_pass_cryptomatte_object", "CryptoObject", "rgba", "COLOR"),
+    BlenderPass("cryptomatte_material", "use_pass_cryptomatte_material", "CryptoMaterial", "rgba", "COLOR"),
 )
 # Blender 5.0 renamed its passes (Cycles' and EEVEE's results, the compositor's Render Layers sockets, multilayer
 # files): the engine's take the same names there, so a compositor made with Cycles reads them
@@ -90,13 +96,27 @@ def not_made(view_layer) -> list[str]:
     return [f"{label} pass" for flag, label in NOT_MADE.items() if getattr(view_layer, flag, False)]
 
 
-def layer_names(entry: BlenderPass) -> list[str]:
+# the shaders Cycles lists in every material manifest beside the scene's materials, in its order (3.4 to 5.0)
+CYCLES_SHADERS = ("default_surface", "default_volume", "default_light", "default_background", "default_empty")
+DEFAULT_SURFACE = "default_surface"  # what Cycles names a face without a material
+
+
+def layer_names(entry: BlenderPass, levels: int = tracer.CRYPTOMATTE_LEVELS) -> list[str]:
     """This Blender's pass names for an entry (Blender 5's where it renamed them): a Cryptomatte pass is one RGBA
-    pass per two ranks."""
+    pass per two of its levels (CryptoObject00, 01, 02 for Blender's default 6), as Cycles makes them."""
     if entry.name.startswith("Crypto"):
-        layers = tracer.CRYPTOMATTE_RANKS // 2
-        return [f"{entry.name}{index:02d}" for index in range(layers)]
+        return [f"{entry.name}{index:02d}" for index in range(tracer.cryptomatte_layers(levels))]
     return [blender_name(entry.name)]
+
+
+def levels(view_layer) -> int:
+    """The view layer's Cryptomatte levels (View Layer > Passes > Cryptomatte > Levels; 6 where it has none)."""
+    return int(getattr(view_layer, "pass_cryptomatte_depth", tracer.CRYPTOMATTE_LEVELS))
+
+
+def cryptomatte(view_layer) -> dict:
+    """The view layer's Cryptomatte levels as the scene file's render field (the ranks its passes keep)."""
+    return {"cryptomatte_levels": levels(view_layer)}
 
 
 def blender_name(name: str) -> str:
@@ -111,7 +131,7 @@ def register_passes(engine, scene, view_layer) -> None:
         engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", "COLOR")
     for entry in PASSES:
         if _ticked(entry, scene, view_layer):
-            for name in layer_names(entry):
+            for name in layer_names(entry, levels(view_layer)):
                 engine.register_pass(scene, view_layer, name, len(entry.letters), entry.letters, entry.kind)
 
 
@@ -134,7 +154,7 @@ def write_passes(render_result, passes: dict[str, np.ndarray], fast: bool) -> No
         values = np.flipud(values).astype(np.float32)
         if entry.tracer == "shadow":
             values = np.repeat(values, 3, axis=2)
-        for index, name in enumerate(layer_names(entry)):
+        for index, name in enumerate(layer_names(entry, _levels_of(values))):
             target = layer.passes.find(name)
             if target < 0:
                 continue
@@ -159,22 +179,49 @@ def exr_channels(passes: dict[str, np.ndarray], layer: str) -> dict[str, np.ndar
         values = values.astype(np.float32, copy=False)
         if entry.tracer == "shadow":
             values = np.repeat(values, 3, axis=2)
-        for index, name in enumerate(layer_names(entry)):
+        for index, name in enumerate(layer_names(entry, _levels_of(values))):
             part = values[..., 4 * index : 4 * index + 4] if entry.name.startswith("Crypto") else values
             for k, letter in enumerate(entry.letters):
                 channels[f"{layer}.{name}.{letter}"] = part[..., k]
     return channels
 
 
+def _levels_of(values: np.ndarray) -> int:
+    """A traced pass's Cryptomatte levels as its RGBA layers give them (two ranks a layer)."""
+    return 2 * max(1, values.shape[-1] // 4)
+
+
 def cryptomatte_metadata(scene, view_layer_name: str) -> dict[str, str]:
     """The Cryptomatte layers' header fields (name, hash, conversion, manifest) for the render result's metadata,
-    where Blender's Cryptomatte node and its EXR writer find them."""
+    where Blender's Cryptomatte node and its EXR writer find them: the manifests under the names the IDs hash
+    (render.cryptomatte_names: Blender's), the materials' after Cycles' own shaders, as Cycles lists them."""
     fields: dict[str, str] = {}
     if "cryptomatte_object" in scene.render.passes:
-        names = list(dict.fromkeys(obj.name for obj in scene.objects))
+        names = tracer.cryptomatte_matte_names([obj.name for obj in scene.objects], scene.render, "object")
         fields.update(tracer.cryptomatte_layer_header(f"{view_layer_name}.CryptoObject", names, "object"))
     if "cryptomatte_material" in scene.render.passes:
-        fields.update(
-            tracer.cryptomatte_layer_header(f"{view_layer_name}.CryptoMaterial", list(scene.materials), "material")
-        )
+        names = tracer.cryptomatte_matte_names(list(scene.materials), scene.render, "material")
+        layer = f"{view_layer_name}.CryptoMaterial"
+        fields.update(tracer.cryptomatte_layer_header(layer, [*CYCLES_SHADERS, *names], "material"))
     return fields
+
+
+def blender_names(materials: dict, objects: dict[str, str], vane_material_name) -> dict:
+    """render.cryptomatte_names for an export: the scene file's objects and materials whose Blender names (those
+    Cycles' Cryptomatte hashes) are not theirs. objects: scene-file name -> Blender object name (an instance's: the
+    instanced object's, as Cycles names it); materials: the document's, "blender:<name>" for a Blender material,
+    "blender:default" for faces without one (Cycles' default_surface), and the vane's under their own names (their
+    Blender material is vane_material_name(name))."""
+    renamed_materials = {}
+    for name in materials:
+        if name == "blender:default":
+            renamed_materials[name] = DEFAULT_SURFACE
+        elif name.startswith("blender:"):
+            renamed_materials[name] = name[len("blender:") :]
+        else:
+            renamed_materials[name] = vane_material_name(name)
+    renamed = {
+        "objects": {name: blender for name, blender in objects.items() if blender and blender != name},
+        "materials": {name: blender for name, blender in renamed_materials.items() if blender != name},
+    }
+    return {key: table for key, table in renamed.items() if table}

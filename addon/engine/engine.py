@@ -134,7 +134,9 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         view_layer = depsgraph.view_layer
         passes = pass_map.wanted(blender_scene, view_layer)
         if passes:  # View Layer > Passes: traced with the image (whole frames), written into the result at the end
-            scene = scene.with_render(passes=passes, **pass_map.mist(blender_scene.world))
+            scene = scene.with_render(
+                passes=passes, **pass_map.mist(blender_scene.world), **pass_map.cryptomatte(view_layer)
+            )
         width, height = scene.render.width, scene.render.height
         left_out = camera.unsupported(blender_scene, exporting=False) + pass_map.not_made(view_layer)
         if left_out or notes.line():

@@ -150,8 +150,8 @@ def test_cryptomatte_picks_each_object_as_its_coverage(tmp_path: Path) -> None:
     for name, index in (("Cube", 9.0), ("Plane", 4.0)):
         target = np.float32(name_hash(name)[1])
         matte = np.zeros((48, 64))
-        for layer in ("00", "01"):
-            for id_letter, coverage_letter in (("R", "G"), ("B", "A")):
+        for layer in ("00", "01", "02"):  # Blender's default levels, 6: three layers
+            for id_letter, coverage_letter in (("r", "g"), ("b", "a")):
                 ids = channels[f"ViewLayer.CryptoObject{layer}.{id_letter}"].astype(np.float32)
                 matte += np.where(ids == target, channels[f"ViewLayer.CryptoObject{layer}.{coverage_letter}"], 0.0)
         # the centre sample's object (the Object Index pass) has some coverage, and full coverage inside the object
@@ -186,7 +186,7 @@ def test_passes_go_over_without_lists_where_blender_takes_only_lists(tmp_path: P
     assert (
         abs(channels["ViewLayer.Depth.Z"][24, 32] - 3.0) < 1e-4 and abs(channels["ViewLayer.Normal.Z"][0, 0] - 1) < 1e-5
     )
-    assert channels["ViewLayer.CryptoObject00.G"][24, 32] == 1.0  # the cube's whole coverage, rank 0
+    assert channels["ViewLayer.CryptoObject00.g"][24, 32] == 1.0  # the cube's whole coverage, rank 0
     assert calls == ([] if engine._FAST_WRITE == [False] else [True])
 
 
@@ -205,9 +205,75 @@ def test_the_passes_take_the_names_cycles_gives_them_in_this_blender(tmp_path: P
         save_multilayer(scene, tmp_path / f"{engine}.exr")
         channels, _ = read_exr(tmp_path / f"{engine}.exr", tmp_path)
         names[engine] = {name.rsplit(".", 1)[0] for name in channels} - {"ViewLayer.Noisy Image"}
-    # Cycles' Cryptomatte has 6 ranks (3 layers) by default, the engine 4 (2): the layers both have
-    assert names["WEATHERVANE_TRACER"] <= names["CYCLES"], names["WEATHERVANE_TRACER"] - names["CYCLES"]
-    assert len(names["CYCLES"] - names["WEATHERVANE_TRACER"]) == 2  # CryptoObject02 and CryptoMaterial02
+    assert names["WEATHERVANE_TRACER"] == names["CYCLES"], names["WEATHERVANE_TRACER"] ^ names["CYCLES"]
+
+
+def _cryptomatte_of(channels: dict[str, np.ndarray], header: dict[str, str]) -> tuple[set, dict, set]:
+    """A multilayer file's Cryptomatte: its channel names, each layer's manifest names (by the layer's name) and the
+    names whose IDs its pixels hold (by the manifest)."""
+    names = {name for name in channels if ".Crypto" in name}
+    manifests = {
+        header[key[: -len("manifest")] + "name"]: json.loads(value)
+        for key, value in header.items()
+        if key.startswith("cryptomatte/") and key.endswith("/manifest")
+    }
+    by_id = {int(hex_id, 16): name for manifest in manifests.values() for name, hex_id in manifest.items()}
+    seen = set()
+    for name in names:
+        if name.endswith((".r", ".b")):  # the ranks' IDs
+            bits = channels[name].astype(np.float32).view(np.uint32)
+            seen |= {by_id.get(int(value), f"{int(value):08x}") for value in np.unique(bits) if value}
+    return names, {layer: set(manifest) for layer, manifest in manifests.items()}, seen
+
+
+@pytest.mark.parametrize("levels", [2, 6, 10])
+def test_cryptomatte_has_cycles_layers_channels_and_manifests_at_the_view_layers_levels(tmp_path: Path, levels) -> None:
+    """Cycles' own multilayer file is the truth: (levels + 1) // 2 RGBA layers per pass with channels r, g, b, a, the
+    objects under their Blender names (an instanced object's: its own, not the instancer's), the materials under
+    theirs ("default_surface" for faces without one) after Cycles' own shaders, the same names in the pixels. Cycles
+    also lists a light's shader ("shader") and, from 4.5, its lights and its world's light ("object"): things the
+    engine draws no pixel of."""
+    from addon import compat
+
+    scene = plane_and_cube_scene()  # the plane has no material, the cube "red"; a point light and a world
+    things = bpy.data.collections.new("Things")
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.4, segments=8, ring_count=4, location=(0.0, 0.0, 50.0))
+    ball = bpy.context.object
+    for collection in ball.users_collection:
+        collection.objects.unlink(ball)
+    things.objects.link(ball)
+    holder = bpy.data.objects.new("Holder", None)  # the ball instanced beside the cube
+    holder.instance_type, holder.instance_collection = "COLLECTION", things
+    holder.location = (1.8, 1.0, -49.6)
+    scene.collection.objects.link(holder)
+    scene.render.resolution_x, scene.render.resolution_y = 32, 24
+    tick(scene, "use_pass_cryptomatte_object", "use_pass_cryptomatte_material")
+    scene.view_layers[0].pass_cryptomatte_depth = levels
+    found = {}
+    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
+        scene.render.engine = engine
+        scene.cycles.samples, scene.cycles.use_denoising, scene.cycles.device = 1, False, "CPU"
+        bpy.ops.render.render()
+        save_multilayer(scene, tmp_path / f"{engine}.exr")
+        found[engine] = _cryptomatte_of(*read_exr(tmp_path / f"{engine}.exr", tmp_path))
+    (cycles_channels, cycles_manifests, cycles_seen), (channels, manifests, seen) = found.values()
+    layers = (levels + 1) // 2
+    assert (
+        channels
+        == cycles_channels
+        == {
+            f"ViewLayer.Crypto{kind}{layer:02d}.{channel}"
+            for kind in ("Object", "Material")
+            for layer in range(layers)
+            for channel in "rgba"
+        }
+    )
+    lights = {obj.name for obj in scene.objects if obj.type == "LIGHT"}
+    extra_objects = lights | {"object"} if compat.VERSION >= (4, 5, 0) else set()
+    assert manifests["ViewLayer.CryptoObject"] == cycles_manifests["ViewLayer.CryptoObject"] - extra_objects
+    assert manifests["ViewLayer.CryptoObject"] == {"Plane", "Cube", "Sphere"}
+    assert manifests["ViewLayer.CryptoMaterial"] == cycles_manifests["ViewLayer.CryptoMaterial"] - {"shader"}
+    assert seen == cycles_seen == {"Plane", "Cube", "Sphere", "red", "default_surface"}
 
 
 def test_the_engines_own_pass_boxes_belong_to_each_view_layer() -> None:

@@ -16,7 +16,7 @@ from . import motion as mo
 from . import scene as sc
 from . import textures as tx
 from . import wind as wi
-from .passes import PASSES
+from .passes import CRYPTOMATTE_LEVELS_MAX, PASSES
 
 DEFAULT_SCENE_RESOURCE = "default_scene.json"
 
@@ -1092,7 +1092,8 @@ def _background_image(reader: _Reader, folder: str | Path | None) -> np.ndarray:
     return texels
 
 
-def _render(reader: _Reader | None) -> sc.RenderSettings:
+def _render(reader: _Reader | None, names: dict[str, set[str]] | None = None) -> sc.RenderSettings:
+    """names: the scene's object and material names ("object", "material"), which cryptomatte_names may rename."""
     if reader is None:
         return sc.RenderSettings()
     base = sc.RenderSettings()
@@ -1115,6 +1116,10 @@ def _render(reader: _Reader | None) -> sc.RenderSettings:
         border=reader.vector("border", None, length=4, low=0.0, high=1.0),
         crop=reader.boolean("crop", base.crop),
         passes=_passes(reader),
+        cryptomatte_levels=reader.number(
+            "cryptomatte_levels", base.cryptomatte_levels, low=1, high=CRYPTOMATTE_LEVELS_MAX, integer=True
+        ),
+        cryptomatte_names=_cryptomatte_names(reader, names),
         mist_start=reader.number("mist_start", base.mist_start, low=-COORDINATE_LIMIT, high=COORDINATE_LIMIT),
         mist_depth=reader.number("mist_depth", base.mist_depth, low=0.0, high=COORDINATE_LIMIT),
         mist_falloff=reader.choice("mist_falloff", MIST_FALLOFFS, base.mist_falloff),
@@ -1153,6 +1158,28 @@ def _passes(reader: _Reader) -> tuple[str, ...]:
         reader.fail("passes", f"unknown pass {_show(unknown[0])} (one of {', '.join(PASSES)})")
         return ()
     return tuple(name for name in PASSES if name in raw)
+
+
+def _cryptomatte_names(reader: _Reader, names: dict[str, set[str]] | None) -> tuple[tuple[str, str, str], ...]:
+    """render.cryptomatte_names: {"objects": {scene name: name}, "materials": {...}}, the names Cryptomatte's IDs
+    and manifest give the scene's objects and materials where they are not their own (a Blender export's: the
+    Blender names, as Cycles writes them) -> sorted (kind, scene name, name) triples."""
+    table = reader.reader("cryptomatte_names")
+    if table is None:
+        return ()
+    found = []
+    for key, kind in (("objects", "object"), ("materials", "material")):
+        raw = table.raw(key, {})
+        if not isinstance(raw, dict) or not all(isinstance(value, str) and value for value in raw.values()):
+            table.fail(key, f"must map names to non-empty names, got {_show_shape(raw)}")
+            continue
+        unknown = [name for name in raw if names is not None and name not in names[kind]]
+        if unknown:
+            table.fail(key, f"names no {kind} of the scene: {_show(unknown[0])}")
+            continue
+        found += [(kind, name, value) for name, value in raw.items()]
+    table.finish()
+    return tuple(sorted(found))
 
 
 def check_samples(samples: int) -> str | None:
@@ -1332,7 +1359,7 @@ def scene_from_dict(data: Any, source: str = "scene", base: str | Path | None = 
 
     camera = _camera(top.reader("camera"))
     background = _background(top.reader("background"), base)
-    render = _render(top.reader("render"))
+    render = _render(top.reader("render"), {"object": set(names), "material": set(materials)})
     vane = _vane(top.reader("vane"), set(names))
     motion = _motion(top.reader("motion"), top.reader("wind"))
     top.finish()

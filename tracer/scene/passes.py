@@ -34,8 +34,10 @@ def centre_sample(samples: int) -> int:
     return (n // 2) * n + n // 2
 
 
-# Cryptomatte ranks kept per pixel: 4 (two RGBA layers), as Blender's default "Levels 6" rounds to whole layers.
-CRYPTOMATTE_RANKS = 4
+# Cryptomatte levels: the (id, coverage) ranks kept per pixel, Blender's View Layer > Passes > Cryptomatte > Levels
+# (2 to 16, 6 by default); they go two to an RGBA layer, an odd count rounded up (cryptomatte_layers), as in Cycles.
+CRYPTOMATTE_LEVELS = 6
+CRYPTOMATTE_LEVELS_MAX = 16
 # The depth and position of a camera ray that meets nothing (Cycles' "far" value for the background).
 FAR = 1.0e10
 
@@ -56,8 +58,9 @@ PASSES: dict[str, Pass] = {
         Pass("environment", "Env", "RGB", "mean", "the background seen by camera rays and mirror rays"),
         Pass("transmission", "Transmission", "RGB", "mean", "what refracted and straight-through rays bring back"),
         Pass("shadow", "Shadow", "X", "mean", "the share of the lights (not ambient) that reach the first hit"),
-        Pass("cryptomatte_object", "CryptoObject", "RGBA" * (CRYPTOMATTE_RANKS // 2), "ranks", "Cryptomatte by object"),
-        Pass("cryptomatte_material", "CryptoMaterial", "RGBA" * (CRYPTOMATTE_RANKS // 2), "ranks", "by material"),
+        # one RGBA layer's channels, lower case as Cycles names them (CryptoObject00.r, ...); cryptomatte_layers of them
+        Pass("cryptomatte_object", "CryptoObject", "rgba", "ranks", "Cryptomatte by object"),
+        Pass("cryptomatte_material", "CryptoMaterial", "rgba", "ranks", "by material"),
     )
 }
 # these add up to the image
@@ -65,18 +68,29 @@ WHITTED = ("ambient", "diffuse", "specular", "emission", "reflection", "environm
 SHADING = (*WHITTED, "shadow")  # what the lights and mirrors give: traced with the image's terms
 
 
-def width(name: str) -> int:
-    """The channels a pass takes in the traced image: a Cryptomatte pass holds one id per sample until combined."""
-    return len(PASSES[name].channels)
+def cryptomatte_layers(levels: int = CRYPTOMATTE_LEVELS) -> int:
+    """A Cryptomatte pass's RGBA layers for its levels: two ranks a layer, rounded up, at most 16 ranks (Cycles'
+    `(min(16, levels) + 1) // 2`: levels 2 -> 1 layer, 6 -> 3, 10 -> 5)."""
+    if levels < 1:
+        raise ValueError(f"Cryptomatte levels {levels}: at least 1 rank is needed")
+    return (min(CRYPTOMATTE_LEVELS_MAX, levels) + 1) // 2
 
 
-def layout(names: tuple[str, ...]) -> dict[str, slice]:
+def width(name: str, levels: int = CRYPTOMATTE_LEVELS) -> int:
+    """The channels a pass takes in the traced image: a Cryptomatte pass 4 per RGBA layer of its levels."""
+    definition = PASSES[name]
+    if definition.combine == "ranks":
+        return len(definition.channels) * cryptomatte_layers(levels)
+    return len(definition.channels)
+
+
+def layout(names: tuple[str, ...], levels: int = CRYPTOMATTE_LEVELS) -> dict[str, slice]:
     """Where each pass's channels sit after the colour (and alpha) channels of a combined pixel: name -> slice,
-    counted from 0 (the caller adds the colour channels' count)."""
+    counted from 0 (the caller adds the colour channels' count); levels: the Cryptomatte passes' (width)."""
     where, start = {}, 0
     for name in names:
-        where[name] = slice(start, start + width(name))
-        start += width(name)
+        where[name] = slice(start, start + width(name, levels))
+        start += width(name, levels)
     return where
 
 

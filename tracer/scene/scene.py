@@ -625,6 +625,10 @@ class RenderSettings:
     border: tuple[float, float, float, float] | None = None
     crop: bool = False
     passes: tuple[str, ...] = ()  # render passes beside the image (tracer/scene/passes.py), in the registry's order
+    # Cryptomatte: the ranks kept per pixel (passes.cryptomatte_layers RGBA layers), and the names its IDs and manifest
+    # give objects and materials where they are not the scene's own: (kind "object" or "material", scene name, name)
+    cryptomatte_levels: int = 6
+    cryptomatte_names: tuple[tuple[str, str, str], ...] = ()
     # the Mist pass: Blender's World > Mist Pass start and depth (metres) and falloff
     mist_start: float = 5.0
     mist_depth: float = 25.0
@@ -672,7 +676,8 @@ class Scene:
         """A traced pixel's channels: colour, alpha where the scene has one, then each pass's (passes.layout)."""
         from .passes import width
 
-        return (4 if self.has_alpha else 3) + sum(width(name) for name in self.render.passes)
+        levels = self.render.cryptomatte_levels
+        return (4 if self.has_alpha else 3) + sum(width(name, levels) for name in self.render.passes)
 
     def with_heading(self, heading: float) -> Scene:
         """The same scene with the vane turned to heading degrees."""

@@ -9,8 +9,9 @@ and Nuke's gizmo read it:
 - each Cryptomatte layer has header attributes `cryptomatte/<key>/name, hash, conversion, manifest`, where <key> is
   the first 7 hex digits of the MurmurHash3 of the layer's name;
 - per pixel, the IDs the pixel's samples saw are ranked by coverage (their share of the pixel's samples), and rank
-  2i, 2i+1 go into the RGBA layer `<layer name>NN` (NN = i as two digits) as R = ID, G = coverage of rank 2i,
-  B = ID, A = coverage of rank 2i+1.
+  2i, 2i+1 go into the RGBA layer `<layer name>NN` (NN = i as two digits) as r = ID, g = coverage of rank 2i,
+  b = ID, a = coverage of rank 2i+1: the channels in lower case and levels ranks in (levels + 1) // 2 layers
+  (at most 16 ranks), as Cycles writes them in every Blender from 3.4 to 5.0.
 
 A reader gets an object's matte as the sum, over the ranks, of the coverage where the rank's ID equals the object's
 name_hash float. Background (nothing hit) has no rank: where a pixel saw fewer IDs than ranks, ID and coverage are 0.
@@ -30,7 +31,8 @@ CONVERSION = "uint32_to_float32"
 # Blender's three Cryptomatte passes (View Layer > Passes > Cryptomatte), the last part of their layer names.
 KINDS = {"object": "CryptoObject", "material": "CryptoMaterial", "asset": "CryptoAsset"}
 
-RANK_CHANNELS = ("R", "G", "B", "A")
+RANK_CHANNELS = ("r", "g", "b", "a")  # Cycles' (its passes' channel ids are "rgba")
+LEVELS_MAX = 16  # Blender's most (View Layer > Passes > Cryptomatte > Levels)
 
 _MASK = 0xFFFFFFFF
 # Pixels ranked at a time: the (chunk, S) working arrays stay a few MB however large the image is.
@@ -127,16 +129,29 @@ def layer_header(layer_name: str, names: Iterable[str], kind: str = "object") ->
     }
 
 
+def renamed(render, kind: str) -> dict[str, str]:
+    """The names Cryptomatte gives a scene's objects (kind "object") or materials ("material") where they are not
+    their own (RenderSettings.cryptomatte_names: a Blender export's, the Blender names Cycles writes)."""
+    return {name: matte for of, name, matte in getattr(render, "cryptomatte_names", ()) if of == kind}
+
+
+def matte_names(names: Iterable[str], render, kind: str) -> list[str]:
+    """Scene names -> the names Cryptomatte hashes and lists for them (renamed), in the same order."""
+    table = renamed(render, kind)
+    return [table.get(name, name) for name in names]
+
+
 def rank_layers(levels: int) -> int:
-    """Ranks -> the RGBA layers that hold them (2 ranks each, rounded up as Cycles does)."""
+    """Ranks -> the RGBA layers that hold them: 2 ranks each, rounded up, at most LEVELS_MAX ranks, as Cycles does
+    (`(min(16, levels) + 1) // 2`: levels 2 -> 1 layer, 6 -> 3, 10 -> 5)."""
     if levels < 1:
         raise ValueError(f"Cryptomatte levels {levels}: at least 1 rank is needed")
-    return (levels + 1) // 2
+    return (min(LEVELS_MAX, levels) + 1) // 2
 
 
 def channel_names(layer_name: str, levels: int = 6) -> list[str]:
-    """The channel names of a layer's ranks, in the column order of ranks(): `<layer_name>00.R`, `.G`, `.B`, `.A`,
-    `<layer_name>01.R`, ... for rank_layers(levels) RGBA layers (an odd levels gets one more rank, as in Cycles)."""
+    """The channel names of a layer's ranks, in the column order of ranks(): `<layer_name>00.r`, `.g`, `.b`, `.a`,
+    `<layer_name>01.r`, ... for rank_layers(levels) RGBA layers (an odd levels gets one more rank, as in Cycles)."""
     return [f"{layer_name}{layer:02d}.{channel}" for layer in range(rank_layers(levels)) for channel in RANK_CHANNELS]
 
 

@@ -1,8 +1,9 @@
 """A render's image and passes -> one multilayer OpenEXR file named as Blender names its layers and passes.
 
 Channels are "ViewLayer.Combined.R", "ViewLayer.Depth.Z", "ViewLayer.Normal.X", ... (Blender's own multilayer
-files, which its compositor's Image node and Nuke read as layers), Cryptomatte as "ViewLayer.CryptoObject00.R" ...
-with its manifest in the header, as the Cryptomatte specification and Blender write it."""
+files, which its compositor's Image node and Nuke read as layers), Cryptomatte as "ViewLayer.CryptoObject00.r" ...
+in render.cryptomatte_levels' layers, with its manifest in the header, as the Cryptomatte specification and Cycles
+write it."""
 
 from __future__ import annotations
 
@@ -30,25 +31,26 @@ def exr_channels(
             layer = f"{VIEW_LAYER}.{ps.PASSES[name].blender}"
             kind = "object" if name == "cryptomatte_object" else "material"
             header.update(cryptomatte.layer_header(layer, _names(scene, kind), kind))
-        for k, channel in enumerate(pass_channel_names(name)):
+        for k, channel in enumerate(pass_channel_names(name, scene.render.cryptomatte_levels)):
             channels[channel] = values[..., k]
     return {name: np.ascontiguousarray(values, dtype=np.float32) for name, values in channels.items()}, header
 
 
-def pass_channel_names(name: str) -> list[str]:
-    """The file's channel names of the pass name, e.g. ["ViewLayer.Normal.X", "ViewLayer.Normal.Y", ...]."""
+def pass_channel_names(name: str, levels: int = ps.CRYPTOMATTE_LEVELS) -> list[str]:
+    """The file's channel names of the pass name, e.g. ["ViewLayer.Normal.X", "ViewLayer.Normal.Y", ...]; levels:
+    the render's Cryptomatte levels (["ViewLayer.CryptoObject00.r", ... "ViewLayer.CryptoObject02.a"] for 6)."""
     definition = ps.PASSES[name]
     layer = f"{VIEW_LAYER}.{definition.blender}"
     if definition.combine == "ranks":
-        return cryptomatte.channel_names(layer, ps.CRYPTOMATTE_RANKS)
+        return cryptomatte.channel_names(layer, levels)
     return [f"{layer}.{letter}" for letter in definition.channels]
 
 
 def _names(scene: sc.Scene, kind: str) -> list[str]:
-    """The names a Cryptomatte layer's manifest lists: every object's, or every material's."""
-    if kind == "object":
-        return list(dict.fromkeys(obj.name for obj in scene.objects))
-    return list(scene.materials)
+    """The names a Cryptomatte layer's manifest lists: every object's, or every material's, as Cryptomatte names
+    them (render.cryptomatte_names)."""
+    names = [obj.name for obj in scene.objects] if kind == "object" else list(scene.materials)
+    return list(dict.fromkeys(cryptomatte.matte_names(names, scene.render, kind)))
 
 
 def write_passes_exr(
@@ -77,4 +79,5 @@ def passes_file_is_complete(path: Path, scene: sc.Scene) -> bool:
     combined = channels.get(f"{VIEW_LAYER}.Combined.R")
     if combined is None or combined.shape != (scene.render.height, scene.render.width):
         return False
-    return all(channel in channels for name in scene.render.passes for channel in pass_channel_names(name))
+    levels = scene.render.cryptomatte_levels
+    return all(channel in channels for name in scene.render.passes for channel in pass_channel_names(name, levels))

@@ -186,11 +186,13 @@ class PreparedScene:
         )
 
     def cryptomatte_hashes(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        """The distinct names of the placed objects (cryptomatte_object) or material rows (cryptomatte_material)
-        hashed as Cryptomatte's float ids (K,) float32, and each object's or row's index into them."""
-        from .cryptomatte import name_hash
+        """The distinct names of the placed objects (cryptomatte_object) or material rows (cryptomatte_material),
+        as Cryptomatte names them (render.cryptomatte_names), hashed as its float ids (K,) float32, and each object's
+        or row's index into them."""
+        from .cryptomatte import matte_names, name_hash
 
-        names = self.object_names if name == "cryptomatte_object" else self.material_names
+        kind = "object" if name == "cryptomatte_object" else "material"
+        names = matte_names(self.object_names if kind == "object" else self.material_names, self.scene.render, kind)
         distinct = list(dict.fromkeys(names))
         where = {text: index for index, text in enumerate(distinct)}
         hashes = np.asarray([name_hash(text)[1] for text in distinct], dtype=np.float32)

@@ -26,9 +26,10 @@ def plane_dtype(name: str, dtype: np.dtype | str) -> np.dtype:
     return np.dtype(np.float32 if ps.PASSES[name].combine == "ranks" else dtype)
 
 
-def plane_shape(name: str, height: int, width: int) -> tuple[int, int, int]:
-    """A pass's planar array: (channels, height, width), each channel a contiguous (height, width) plane."""
-    return (ps.width(name), height, width)
+def plane_shape(name: str, height: int, width: int, levels: int) -> tuple[int, int, int]:
+    """A pass's planar array: (channels, height, width), each channel a contiguous (height, width) plane; levels:
+    the render's Cryptomatte levels (a Cryptomatte pass's channels)."""
+    return (ps.width(name, levels), height, width)
 
 
 class PassRecorder:
@@ -50,10 +51,12 @@ class PassRecorder:
         self.prepared = prepared
         self.names = prepared.scene.render.passes
         self.samples = prepared.scene.render.samples
+        self.levels = prepared.scene.render.cryptomatte_levels
         pixels = count // self.samples
         if planes is None:
             planes = {
-                name: np.empty(plane_shape(name, 1, pixels), plane_dtype(name, prepared.dtype)) for name in self.names
+                name: np.empty(plane_shape(name, 1, pixels, self.levels), plane_dtype(name, prepared.dtype))
+                for name in self.names
             }
             rows = np.zeros(1, dtype=np.int64)
         self.planes, self.at = planes, (np.asarray(rows), columns)
@@ -298,7 +301,7 @@ class PassRecorder:
         from .cryptomatte import ranks
 
         hashes, distinct = _hashes(self.prepared, name)
-        return ranks(np.where(ids >= 0, distinct.take(np.maximum(ids, 0)), -1), hashes, levels=ps.CRYPTOMATTE_RANKS)
+        return ranks(np.where(ids >= 0, distinct.take(np.maximum(ids, 0)), -1), hashes, levels=self.levels)
 
 
 # Values go into a row by stretches (a slice each) where their places run in stretches of this many on average

@@ -13,6 +13,7 @@ from ..geometry import transforms as tf
 from ..geometry.transforms import add, dot, length, scale, sub
 from ..scene import scene as sc
 from ..scene.passes import centre_sample
+from .cryptomatte import matte_names
 from .reference import (
     CAMERA_T_MIN,
     INF,
@@ -137,7 +138,9 @@ class PassTracer(ReferenceTracer):
         out.position = P
         out.object_index = float(self.scene.objects[index].pass_index)
         out.material_index = float(material.pass_index)
-        out.object, out.material = self.scene.objects[index].name, self.material_name(index, part)
+        render = self.scene.render  # the names Cryptomatte gives them (render.cryptomatte_names)
+        out.object = matte_names([self.scene.objects[index].name], render, "object")[0]
+        out.material = matte_names([self.material_name(index, part)], render, "material")[0]
 
     def data_hit(self, O: sc.Vec3, D: sc.Vec3, t_max: float) -> tuple | None:
         """Beyond a surface of alpha below sc.PASS_ALPHA_THRESHOLD at O: the surface the camera ray's straight

@@ -223,7 +223,8 @@ def _render_band(
         planes = None
         if settings.passes:
             planes = {
-                name: np.empty(plane_shape(name, *shape[:2]), plane_dtype(name, dtype)) for name in settings.passes
+                name: np.empty(plane_shape(name, *shape[:2], settings.cryptomatte_levels), plane_dtype(name, dtype))
+                for name in settings.passes
             }
         band, counts = prepared.render_rows(rows, band_samples(settings), volume, touched, planes)
         if planes is None:
@@ -266,7 +267,8 @@ def _planes(settings: sc.RenderSettings, shape: tuple[int, int, int]) -> list[tu
     out = []
     for name in settings.passes:
         end = -(-end // BUFFER_ALIGNMENT) * BUFFER_ALIGNMENT
-        size, dtype = plane_shape(name, *shape[:2]), plane_dtype(name, settings.dtype)
+        size = plane_shape(name, *shape[:2], settings.cryptomatte_levels)
+        dtype = plane_dtype(name, settings.dtype)
         out.append((name, end, size, dtype))
         end += math.prod(size) * dtype.itemsize
     return out
@@ -383,7 +385,10 @@ class Renderer:
         planes = None
         if settings.passes:
             planes = {
-                name: np.empty(plane_shape(name, settings.height, settings.width), plane_dtype(name, settings.dtype))
+                name: np.empty(
+                    plane_shape(name, settings.height, settings.width, settings.cryptomatte_levels),
+                    plane_dtype(name, settings.dtype),
+                )
                 for name in settings.passes
             }
         touched = None if volume is None else np.zeros((settings.height, settings.width), dtype=bool)

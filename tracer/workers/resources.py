@@ -51,7 +51,10 @@ def image_bytes(settings: sc.RenderSettings) -> int:
     """A frame's image and its render passes' planes (each pass its channels in the image's dtype, Cryptomatte's in
     float32: tracer/tracing/recorder.py)."""
     itemsize = np.dtype(settings.dtype).itemsize
-    passes = sum(ps.width(name) * (4 if ps.PASSES[name].combine == "ranks" else itemsize) for name in settings.passes)
+    passes = sum(
+        ps.width(name, settings.cryptomatte_levels) * (4 if ps.PASSES[name].combine == "ranks" else itemsize)
+        for name in settings.passes
+    )
     return settings.width * settings.height * (3 * itemsize + passes)
 
 
