@@ -1165,6 +1165,8 @@ def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
         if rough > ROUGH_MIRROR:  # sampled microfacets (GGX, single scattering); a near-mirror stays sharp (named)
             document["transmission_roughness"] = min(1.0, rough)
         _glass_color(document, lobes, tint, notes)
+    if ("glossy" in document or "transmission_roughness" in document) and compat.microfacet_shadowing() != "correlated":
+        document["glossy_shadowing"] = compat.microfacet_shadowing()
     if alpha < 1.0:
         document["alpha"] = alpha
     return document

@@ -285,6 +285,7 @@ def _material(reader: _Reader, base: Path | None = None) -> sc.Material:
         glossy_fresnel=reader.choice("glossy_fresnel", ("constant", "schlick"), "constant"),
         glossy_energy=reader.choice("glossy_energy", ("multiscatter", "single"), "multiscatter"),
         glossy_source=reader.choice("glossy_source", ("traced", "world"), "traced"),
+        glossy_shadowing=reader.choice("glossy_shadowing", ("correlated", "separable"), "correlated"),
         transmission_roughness=reader.number("transmission_roughness", 0.0, low=0.0, high=1.0),
     )
     reader.finish()

@@ -82,6 +82,9 @@ class Material:
     glossy_fresnel: Literal["constant", "schlick"] = "constant"
     glossy_energy: Literal["multiscatter", "single"] = "multiscatter"
     glossy_source: Literal["traced", "world"] = "traced"
+    # Smith's masking-shadowing of the glossy lobe and rough glass: "correlated" (height-correlated, Cycles 4.0 and
+    # later) or "separable" (G1 G1, Cycles 3.x)
+    glossy_shadowing: Literal["correlated", "separable"] = "correlated"
     # rough glass: the roughness (Cycles') of the glass share's reflection and refraction, sampled by GGX microfacets
     # at render.glossy_samples pairs; 0: the documented sharp glass
     transmission_roughness: float = 0.0

@@ -42,6 +42,7 @@ class Lobes:
     boost: np.ndarray
     facing: np.ndarray
     traced: np.ndarray
+    separable: np.ndarray | bool = False  # (k,): Smith's separable masking-shadowing (glossy_shadowing)
     light: np.ndarray | None = None
     multiscatter: np.ndarray | None = None  # (k,) bool: the lobe's energy is multiscatter
     sampled: tuple[np.ndarray, np.ndarray] | None = None  # samples() at every pair: (3, m, k) and (m, k)
@@ -57,6 +58,7 @@ class Lobes:
             take(self.boost, keep),
             self.facing.take(keep),
             self.traced.take(keep),
+            self.separable if np.ndim(self.separable) == 0 else self.separable.take(keep),
             None,
             None if self.multiscatter is None else self.multiscatter.take(keep),
             None if self.sampled is None else (self.sampled[0][:, :, keep], self.sampled[1][:, keep]),
@@ -81,7 +83,8 @@ def lobes_at(scene: PreparedScene, hits: Hits) -> Lobes | None:
     schlick = scene.glossy_schlick.take(material)
     facing = v[2] > 0.0
     traced = scene.glossy_traced.take(material)
-    lobes = Lobes(rows, e1, e2, n, v, alpha, color, schlick, np.ones_like(color), facing, traced)
+    separable = scene.glossy_separable.take(material)
+    lobes = Lobes(rows, e1, e2, n, v, alpha, color, schlick, np.ones_like(color), facing, traced, separable)
     lobes.multiscatter = scene.glossy_multiscatter.take(material)
     if (lobes.multiscatter & traced).any():  # the lobes of the world alone: environment() at its own pairs
         ones = lobes.take(indices(traced))
@@ -117,7 +120,7 @@ def light_factor(lobes: Lobes, L: np.ndarray) -> np.ndarray:
     d = cos_h * cos_h * (a2 - 1.0) + 1.0
     D = a2 / (math.pi * d * d)
     lambda_v = _smith_lambda(np.where(lobes.facing, vz, 1.0), a2)
-    G2 = 1.0 / (1.0 + lambda_v + _smith_lambda(np.where(above, lz, 1.0), a2))
+    G2 = _shadowing(lambda_v, _smith_lambda(np.where(above, lz, 1.0), a2), lobes.separable)
     VH = (vx * hx + vy * hy + vz * hz) / safe
     F = fresnel(lobes, VH)
     value = F * (math.pi * D * G2 / (4.0 * np.where(lobes.facing, vz, 1.0))) * lobes.boost
@@ -137,7 +140,7 @@ def samples(lobes: Lobes, u1: np.ndarray, u2: np.ndarray) -> tuple[np.ndarray, n
     a2 = alpha * alpha
     above = (lz > 0.0) & lobes.facing
     lambda_v = _smith_lambda(np.where(lobes.facing, vz, 1.0), a2)
-    weight = (1.0 + lambda_v) / (1.0 + lambda_v + _smith_lambda(np.where(above, lz, 1.0), a2))
+    weight = (1.0 + lambda_v) * _shadowing(lambda_v, _smith_lambda(np.where(above, lz, 1.0), a2), lobes.separable)
     return np.stack((lx, ly, lz)), np.where(above, weight, 0.0)
 
 
@@ -242,12 +245,13 @@ def glass_rays(
     e1, e2 = facing_basis(n)
     v = np.stack((-_dot(d, e1), -_dot(d, e2), -_dot(d, n)))
     alpha = scene.transmission_roughness.take(material) ** 2
+    separable = scene.glossy_separable.take(material)
     pairs = scene.glossy_pairs
     count = len(pairs)
     gain = np.ones(rows.size)
     multiscatter = scene.glossy_multiscatter.take(material)
     if multiscatter.any():
-        _, _, weight_r, weight_t = _glass_split(v, eta, alpha, pairs[:, :1], pairs[:, 1:])  # (m, k)
+        _, _, weight_r, weight_t = _glass_split(v, eta, alpha, pairs[:, :1], pairs[:, 1:], separable)  # (m, k)
         albedo = (weight_r + weight_t).mean(axis=0)
         gain = np.where(multiscatter & (albedo > 0.0), 1.0 / np.where(albedo > 0.0, albedo, 1.0), 1.0)
     fresh = chosen < 0
@@ -256,7 +260,8 @@ def glass_rays(
     order = np.argsort(hit, kind="stable")
     hit, pair = hit.take(order), pair.take(order)
     u1, u2 = pairs[:, 0].take(pair), pairs[:, 1].take(pair)
-    reflected, T, weight_r, weight_t = _glass_split(v[:, hit], eta.take(hit), alpha.take(hit), u1, u2)
+    split = _glass_split(v[:, hit], eta.take(hit), alpha.take(hit), u1, u2, separable.take(hit))
+    reflected, T, weight_r, weight_t = split
     scale = np.where(fresh.take(hit), 1.0 / count, 1.0) * gain.take(hit)
     weight_r, weight_t = weight_r * scale, weight_t * scale
     world = lambda local: (  # noqa: E731
@@ -273,7 +278,7 @@ def glass_rays(
 
 
 def _glass_split(
-    v: np.ndarray, eta: np.ndarray, alpha: np.ndarray, u1: np.ndarray, u2: np.ndarray
+    v: np.ndarray, eta: np.ndarray, alpha: np.ndarray, u1: np.ndarray, u2: np.ndarray, separable: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rough glass seen from v (3, k) (local, z the normal facing the viewer) with eta and alpha (k,), at the numbers
     u1, u2 ((k,), or (m, 1) for m pairs at every hit) -> the reflected and refracted local directions (3, ...) and
@@ -293,12 +298,15 @@ def _glass_split(
     lambda_v = _smith_lambda(np.where(vz > 0.0, vz, 1.0), a2)
     reflected = np.stack((2.0 * c * mx - vx, 2.0 * c * my - vy, 2.0 * c * mz - vz))
     up = reflected[2] > 0.0
-    weight_r = np.where(up, F / (1.0 + lambda_v + _smith_lambda(np.where(up, reflected[2], 1.0), a2)), 0.0)
+    weight_r = np.where(
+        up, F * _shadowing(lambda_v, _smith_lambda(np.where(up, reflected[2], 1.0), a2), separable), 0.0
+    )
     # through m: T = (-v + (c - g) m) / eta, the sharp glass's rule with m for the normal
     T = np.stack(((c - g) * mx - vx, (c - g) * my - vy, (c - g) * mz - vz)) / eta
     T = T / np.sqrt(x_y_z_squared(T))
     down = inside & (T[2] < 0.0)
-    weight_t = np.where(down, (1.0 - F) / (1.0 + lambda_v + _smith_lambda(np.where(down, -T[2], 1.0), a2)), 0.0)
+    lambda_t = _smith_lambda(np.where(down, -T[2], 1.0), a2)
+    weight_t = np.where(down, (1.0 - F) * _shadowing(lambda_v, lambda_t, separable), 0.0)
     seen = (1.0 + lambda_v) * (vz > 0.0)
     return reflected, T, weight_r * seen, weight_t * seen
 
@@ -332,6 +340,12 @@ def fresnel(lobes: Lobes, cosine: np.ndarray) -> np.ndarray:
     colour (constant), or Schlick's F0 + (1 - F0) (1 - cos)^5."""
     grazing = (1.0 - np.clip(cosine, 0.0, 1.0)) ** 5
     return np.where(lobes.schlick, lobes.color + (1.0 - lobes.color) * grazing, lobes.color)
+
+
+def _shadowing(lambda_v: np.ndarray, lambda_l: np.ndarray, separable: np.ndarray) -> np.ndarray:
+    """Smith's masking-shadowing G2 from Lambda of the view and the light: height-correlated 1 / (1 + Lv + Ll)
+    (Cycles 4.0 and later), or separable 1 / ((1 + Lv)(1 + Ll)) where separable (Cycles 3.x)."""
+    return np.where(separable, 1.0 / ((1.0 + lambda_v) * (1.0 + lambda_l)), 1.0 / (1.0 + lambda_v + lambda_l))
 
 
 def _smith_lambda(cosine: np.ndarray, a2: np.ndarray) -> np.ndarray:

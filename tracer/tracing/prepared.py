@@ -113,6 +113,7 @@ class PreparedScene:
     roughness: np.ndarray | None = field(init=False, default=None)
     glossy_schlick: np.ndarray | None = field(init=False, default=None)
     glossy_multiscatter: np.ndarray | None = field(init=False, default=None)
+    glossy_separable: np.ndarray | None = field(init=False, default=None)  # Smith's separable G (Cycles 3.x)
     glossy_pairs: np.ndarray | None = field(init=False, default=None)
     world_pairs: np.ndarray | None = field(init=False, default=None)  # a lobe of the world alone: fewer
     rough_glass: bool = field(init=False, default=False)  # some glass has a roughness (glossy.glass_rays)
@@ -525,6 +526,7 @@ def _materials(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...]) -> 
         prepared.roughness = np.asarray([m.roughness for m in table], dtype=np.float64)
         prepared.glossy_schlick = np.asarray([m.glossy_fresnel == "schlick" for m in table], dtype=bool)
         prepared.glossy_multiscatter = np.asarray([m.glossy_energy == "multiscatter" for m in table], dtype=bool)
+        prepared.glossy_separable = np.asarray([m.glossy_shadowing == "separable" for m in table], dtype=bool)
         prepared.glossy_pairs = np.asarray(
             lightsamples.glossy_pairs(prepared.scene.render.glossy_samples), dtype=np.float64
         )
@@ -550,6 +552,7 @@ def _materials(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...]) -> 
                 lightsamples.glossy_pairs(prepared.scene.render.glossy_samples), dtype=np.float64
             )
             prepared.glossy_multiscatter = np.asarray([m.glossy_energy == "multiscatter" for m in table], dtype=bool)
+            prepared.glossy_separable = np.asarray([m.glossy_shadowing == "separable" for m in table], dtype=bool)
     if prepared.see_through:
         prepared.alpha = np.asarray([m.alpha for m in table], dtype=prepared.dtype)
         prepared.transmission = np.asarray([m.transmission for m in table], dtype=prepared.dtype)

@@ -47,6 +47,13 @@ def _unit(a: sc.Vec3) -> sc.Vec3:
     return (a[0] / n, a[1] / n, a[2] / n)
 
 
+def shadowing(lambda_v: float, lambda_l: float, separable: bool) -> float:
+    """Smith's G2: height-correlated 1 / (1 + Lv + Ll), or separable 1 / ((1 + Lv)(1 + Ll))."""
+    if separable:
+        return 1.0 / ((1.0 + lambda_v) * (1.0 + lambda_l))
+    return 1.0 / (1.0 + lambda_v + lambda_l)
+
+
 def smith_lambda(cosine: float, a2: float) -> float:
     c2 = cosine * cosine
     return 0.5 * (math.sqrt(1.0 + a2 * (1.0 - c2) / c2) - 1.0)
@@ -67,6 +74,7 @@ class Lobe:
     gain: sc.Color = (1.0, 1.0, 1.0)
     shine: sc.Color = (0.0, 0.0, 0.0)  # the lights through it (ReferenceTracer.find_intensities sets it)
     traced: bool = True  # glossy_source "traced"; else the background alone (environment())
+    separable: bool = False  # glossy_shadowing "separable": G2 = G1(v) G1(l)
 
     def fresnel(self, cosine: float) -> sc.Color:
         if not self.schlick:
@@ -85,7 +93,7 @@ class Lobe:
             return out, 0.0
         a2 = a * a
         lambda_v = smith_lambda(vz, a2)
-        return out, (1.0 + lambda_v) / (1.0 + lambda_v + smith_lambda(out[2], a2))
+        return out, (1.0 + lambda_v) * shadowing(lambda_v, smith_lambda(out[2], a2), self.separable)
 
     def world(self, local: sc.Vec3) -> sc.Vec3:
         return tuple(local[0] * self.e1[k] + local[1] * self.e2[k] + local[2] * self.n[k] for k in range(3))
@@ -106,7 +114,7 @@ class Lobe:
         a2 = self.alpha * self.alpha
         d = cos_h * cos_h * (a2 - 1.0) + 1.0
         D = a2 / (math.pi * d * d)
-        G2 = 1.0 / (1.0 + smith_lambda(vz, a2) + smith_lambda(lz, a2))
+        G2 = shadowing(smith_lambda(vz, a2), smith_lambda(lz, a2), self.separable)
         F = self.fresnel(_dot(self.v, half) / h_length)
         shape = math.pi * D * G2 / (4.0 * vz)
         return tuple(F[c] * shape * self.gain[c] for c in range(3))
@@ -154,7 +162,8 @@ def glass(
     pairs = tracer.glossy_pairs
     chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
     share = 1.0 / len(pairs) if path[0] < 0 else 1.0
-    splits = [_glass_split(v, eta, a, u1, u2) for u1, u2 in pairs]
+    separable = material.glossy_shadowing == "separable"
+    splits = [_glass_split(v, eta, a, u1, u2, separable) for u1, u2 in pairs]
     gain = 1.0
     if material.glossy_energy == "multiscatter":  # 1 / E, E both weights' mean over every pair
         albedo = sum(weight_r + weight_t for _, _, weight_r, weight_t in splits) / len(pairs)
@@ -178,7 +187,9 @@ def glass(
     return tuple(out)
 
 
-def _glass_split(v: sc.Vec3, eta: float, a: float, u1: float, u2: float) -> tuple[sc.Vec3, sc.Vec3, float, float]:
+def _glass_split(
+    v: sc.Vec3, eta: float, a: float, u1: float, u2: float, separable: bool
+) -> tuple[sc.Vec3, sc.Vec3, float, float]:
     """The reflected and refracted local directions at the numbers u1, u2 and their weights F G2 / G1(v) and
     (1 - F) G2 / G1(v) (0 on the wrong side, or refracted in total internal reflection)."""
     a2 = a * a
@@ -194,12 +205,12 @@ def _glass_split(v: sc.Vec3, eta: float, a: float, u1: float, u2: float) -> tupl
     reflected = tuple(2.0 * c * m[k] - v[k] for k in range(3))
     weight_r = 0.0
     if reflected[2] > 0.0:
-        weight_r = F / (1.0 + lambda_v + smith_lambda(reflected[2], a2)) * (1.0 + lambda_v)
+        weight_r = F * shadowing(lambda_v, smith_lambda(reflected[2], a2), separable) * (1.0 + lambda_v)
     T, weight_t = (0.0, 0.0, -1.0), 0.0
     if g2 > 0.0:
         T = _unit(tuple((-v[k] + (c - g) * m[k]) / eta for k in range(3)))
         if T[2] < 0.0:
-            weight_t = (1.0 - F) / (1.0 + lambda_v + smith_lambda(-T[2], a2)) * (1.0 + lambda_v)
+            weight_t = (1.0 - F) * shadowing(lambda_v, smith_lambda(-T[2], a2), separable) * (1.0 + lambda_v)
     return reflected, T, weight_r, weight_t
 
 
@@ -212,6 +223,7 @@ def lobe_at(material: sc.Material, S: sc.Vec3, V: sc.Vec3, pairs: list[tuple[flo
     v = (_dot(u, e1), _dot(u, e2), _dot(u, n))
     lobe = Lobe(e1, e2, n, v, material.roughness * material.roughness, material.glossy,
                 material.glossy_fresnel == "schlick")  # fmt: skip
+    lobe.separable = material.glossy_shadowing == "separable"
     if material.glossy_energy == "multiscatter" and v[2] > 0.0:
         albedo = sum(lobe.sample(u1, u2)[1] for u1, u2 in pairs) / len(pairs)
         if albedo > 0.0:
