@@ -133,6 +133,17 @@ def test_random_scene_passes_with_blender_fields_match_the_reference(seed: int) 
     check_against_reference(scene)
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_glossy_bouncing_and_mirrored_light_passes_match_the_reference(seed: int) -> None:
+    """Glossy lobes (traced and of the world), rough glass, diffuse bounces and area lights seen in mirrors: each
+    Whitted pass where the image puts it (tests/test_emitters.py's random scenes)."""
+    from tests.test_emitters import _seen_document
+
+    document = _seen_document(seed)
+    document["render"].pop("border", None)
+    check_against_reference(scene_from_dict(with_passes(document, seed, samples=(1, 4)[seed % 2])))
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_instanced_scene_passes_match_the_reference(seed: int) -> None:
     document = with_passes(instanced_scene_document(seed, width=16, height=12), seed, samples=(1, 4)[seed % 2])

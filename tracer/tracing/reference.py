@@ -319,6 +319,7 @@ class ReferenceTracer:
         )
         self.lights = light_samples(scene)
         self.glossy_pairs = lightsamples.glossy_pairs(scene.render.glossy_samples)
+        self.sky = True  # a miss brings the background (False: nothing, for the passes' split of a tree)
         self.seen_lights = [
             light for light in scene.lights if isinstance(light, sc.AreaLight) and light.seen_in_mirrors
         ]
@@ -551,7 +552,7 @@ class ReferenceTracer:
             if lamp is not None:
                 return lamp
         if closest_object < 0:
-            if path[2] == DIFFUSE:
+            if path[2] == DIFFUSE or not self.sky:
                 return (0.0, 0.0, 0.0)
             return (0.0, 0.0, 0.0) if camera and self.settings.film_transparent else self.background(D)
         if self.scene.objects[closest_object].holdout:

@@ -147,19 +147,27 @@ def glass(
     layers: int,
     path: tuple[int, int, int],
 ) -> sc.Color:
-    """What a rough glass hit's sampled rays bring back, before its glass share a t (glossy.glass_rays, one ray at
-    a time): per pair (all at a path's first glossy surface, else the path's), a visible microfacet normal m about
-    S turned to face D, a reflected ray of weight F G2 / G1(v) and a refracted one of (1 - F) G2 / G1(v) times the
-    colour. The reason for 9 parameters: the tracer, the hit and the ray's state as trace_ray carries them."""
+    """What a rough glass hit's sampled rays (glass_rays) bring back, before its glass share a t. The reason for 9
+    parameters: the tracer, the hit and the ray's state as trace_ray carries them."""
+    rays = [ray[:3] for ray in glass_rays(tracer.glossy_pairs, D, N, S, material, path)]
+    return traced(tracer, P, rays, depth, layers)
+
+
+def glass_rays(
+    pairs: list[tuple[float, float]], D: sc.Vec3, N: sc.Vec3, S: sc.Vec3, material: sc.Material, path: tuple
+) -> list[tuple[sc.Vec3, sc.Color, tuple[int, int, int], bool]]:
+    """A rough glass hit's rays (glossy.glass_rays, one ray at a time): per pair (all at a path's first glossy
+    surface, else the path's), a visible microfacet normal m about S turned to face D, a reflected ray of weight
+    F G2 / G1(v) and a refracted one of (1 - F) G2 / G1(v) times the colour -> (direction, weight, path, refracted)
+    each (mirror-like rays: they see the lights seen in mirrors)."""
     d = _unit(D)
     n = _unit(S if _dot(S, d) < 0.0 else (-S[0], -S[1], -S[2]))
     eta = material.ior if _dot(N, d) < 0.0 else 1.0 / material.ior
     e1, e2 = lightsamples.facing_basis(n)
     v = (-_dot(d, e1), -_dot(d, e2), -_dot(d, n))
     if not v[2] > 0.0:
-        return (0.0, 0.0, 0.0)
+        return []
     a = material.transmission_roughness * material.transmission_roughness
-    pairs = tracer.glossy_pairs
     chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
     share = 1.0 / len(pairs) if path[0] < 0 else 1.0
     separable = material.glossy_shadowing == "separable"
@@ -168,22 +176,26 @@ def glass(
     if material.glossy_energy == "multiscatter":  # 1 / E, E both weights' mean over every pair
         albedo = sum(weight_r + weight_t for _, _, weight_r, weight_t in splits) / len(pairs)
         gain = 1.0 / albedo if albedo > 0.0 else 1.0
-
-    def world(local: sc.Vec3) -> sc.Vec3:
-        return tuple(local[0] * e1[k] + local[1] * e2[k] + local[2] * n[k] for k in range(3))
-
-    out = [0.0, 0.0, 0.0]
+    made = []
     for index in chosen:
         reflected, T, weight_r, weight_t = splits[index]
-        for direction, weight, tint in ((reflected, weight_r, (1.0, 1.0, 1.0)), (T, weight_t, material.color)):
+        for direction, weight, tint, bent in ((reflected, weight_r, (1.0, 1.0, 1.0), False),
+                                              (T, weight_t, material.color, True)):  # fmt: skip
             weight = weight * share * gain
             if weight > 0.0:
-                tracer.rays["reflection"] += 1
-                child = (index, path[1], 0)  # a mirror-like ray: it sees the lights seen in mirrors
-                seen = tracer.trace_ray(
-                    P, world(direction), REFLECTION_T_MIN, math.inf, depth - 1, False, layers, child
-                )
-                out = [out[k] + weight * tint[k] * seen[k] for k in range(3)]
+                world = tuple(direction[0] * e1[k] + direction[1] * e2[k] + direction[2] * n[k] for k in range(3))
+                made.append((world, tuple(weight * c for c in tint), (index, path[1], 0), bent))
+    return made
+
+
+def traced(tracer: Tracing, P: sc.Vec3, rays: list[tuple], depth: int, layers: int) -> sc.Color:
+    """The sum of each ray's weight times what it brings back: rays (direction, weight, path) from P, each a
+    reflection ray of one bounce less."""
+    out = [0.0, 0.0, 0.0]
+    for direction, weight, path in rays:
+        tracer.rays["reflection"] += 1
+        seen = tracer.trace_ray(P, direction, REFLECTION_T_MIN, math.inf, depth - 1, False, layers, path)
+        out = [out[k] + weight[k] * seen[k] for k in range(3)]
     return tuple(out)
 
 
@@ -276,26 +288,27 @@ def rays(
     path: tuple[int, int, int],
     lobe: Lobe | None = None,
 ) -> sc.Color:
-    """What a glossy lobe's reflection rays bring back: every pair at a path's first glossy surface (its pair
-    -1), each ray then carrying its pair, else the path's pair alone (ray()'s weights).
-    The reason for 9 parameters: the tracer, the hit and the ray's state as trace_ray carries them."""
+    """What a glossy lobe's reflection rays (lobe_rays) bring back. The reason for 9 parameters: the tracer, the hit
+    and the ray's state as trace_ray carries them."""
     if lobe is None:
         lobe = lobe_at(material, S, V, tracer.glossy_pairs)
+    return traced(tracer, P, lobe_rays(lobe, tracer.glossy_pairs, path), depth, layers)
+
+
+def lobe_rays(lobe: Lobe, pairs: list[tuple[float, float]], path: tuple) -> list[tuple]:
+    """A glossy lobe's reflection rays: every pair at a path's first glossy surface (its pair -1), each ray then
+    carrying its pair, else the path's pair alone (ray()'s weights) -> (direction, weight, path) each (glossy rays:
+    they see no lights)."""
     if lobe.v[2] <= 0.0:
-        return (0.0, 0.0, 0.0)
-    pairs = tracer.glossy_pairs
+        return []
     chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
     share = 1.0 / len(pairs) if path[0] < 0 else 1.0
-    out = [0.0, 0.0, 0.0]
+    made = []
     for index in chosen:
         found = ray(lobe, *pairs[index], share)
-        if found is None:
-            continue
-        direction, weight = found
-        tracer.rays["reflection"] += 1
-        seen = tracer.trace_ray(P, direction, REFLECTION_T_MIN, math.inf, depth - 1, False, layers, (index, path[1], 1))
-        out = [out[c] + weight[c] * seen[c] for c in range(3)]
-    return tuple(out)
+        if found is not None:
+            made.append((*found, (index, path[1], 1)))
+    return made
 
 
 def diffuse(
@@ -308,26 +321,28 @@ def diffuse(
     layers: int,
     path: tuple[int, int, int],
 ) -> sc.Color:
-    """What a hit's diffuse bounce rays bring back times its albedo (glossy.diffuse_rays, one ray at a time): per
-    pair (all at a path's first glossy surface or bounce, else the path's), the cosine-weighted direction about S
-    turned toward V, each a diffuse ray of the next bounce; their mean. The reason for 8 parameters: the tracer, the
-    hit and the ray's state as trace_ray carries them."""
-    if depth <= 0 or not any(c > 0.0 for c in albedo):
+    """What a hit's diffuse bounce rays (bounce_rays) bring back. The reason for 8 parameters: the tracer, the hit and
+    the ray's state as trace_ray carries them."""
+    if depth <= 0:
         return (0.0, 0.0, 0.0)
+    return traced(tracer, P, bounce_rays(tracer.glossy_pairs, V, S, albedo, path), depth, layers)
+
+
+def bounce_rays(pairs: list[tuple[float, float]], V: sc.Vec3, S: sc.Vec3, albedo: sc.Color, path: tuple) -> list:
+    """A hit's diffuse bounce rays (glossy.diffuse_rays, one ray at a time): per pair (all at a path's first glossy
+    surface or bounce, else the path's), the cosine-weighted direction about S turned toward V, weighted by the
+    albedo over the number of rays -> (direction, weight, path) each, diffuse rays of the next bounce."""
+    if not any(c > 0.0 for c in albedo):
+        return []
     n = _unit(S if _dot(S, V) >= 0.0 else (-S[0], -S[1], -S[2]))
     e1, e2 = lightsamples.facing_basis(n)
-    pairs = tracer.glossy_pairs
     chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
     share = 1.0 / len(pairs) if path[0] < 0 else 1.0
-    out = [0.0, 0.0, 0.0]
+    made = []
     for index in chosen:
         u1, u2 = pairs[index]
         r, phi = math.sqrt(u1), 2.0 * math.pi * u2
         local = (r * math.cos(phi), r * math.sin(phi), math.sqrt(1.0 - u1))
         direction = tuple(local[0] * e1[k] + local[1] * e2[k] + local[2] * n[k] for k in range(3))
-        tracer.rays["reflection"] += 1
-        seen = tracer.trace_ray(
-            P, direction, REFLECTION_T_MIN, math.inf, depth - 1, False, layers, (index, path[1] + 1, 2)
-        )
-        out = [out[k] + albedo[k] * share * seen[k] for k in range(3)]
-    return tuple(out)
+        made.append((direction, tuple(c * share for c in albedo), (index, path[1] + 1, 2)))
+    return made

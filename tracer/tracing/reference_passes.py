@@ -13,10 +13,12 @@ from ..geometry import transforms as tf
 from ..geometry.transforms import add, dot, length, scale, sub
 from ..scene import scene as sc
 from ..scene.passes import centre_sample
+from . import reference_glossy
 from .cryptomatte import matte_names
 from .reference import (
     CAMERA_T_MIN,
     INF,
+    NEW_PATH,
     REFLECTION_T_MIN,
     ReferenceTracer,
     find_normal,
@@ -115,14 +117,49 @@ class PassTracer(ReferenceTracer):
         out.ambient, out.diffuse, out.specular = terms["ambient"], terms["diffuse"], terms["specular"]
         out.emission = material.emission
         out.shadow = terms["shadow"]
+        reflection, environment = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
         if self.settings.depth > 0 and material.reflective > 0.0:
-            reflection, environment = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
             self.mirror_passes(
                 P, reflect_ray(V, S), self.settings.depth - 1, material.reflective, reflection, environment
             )
-            out.reflection, out.environment = tuple(reflection), tuple(environment)
+        self.sampled_passes(P, V, S, material, 1.0, reflection, environment)
+        out.reflection, out.environment = tuple(reflection), tuple(environment)
         self.rays = counted
         return out
+
+    def sampled_passes(
+        self, P: sc.Vec3, V: sc.Vec3, S: sc.Vec3, material: sc.Material, shaded: float, reflection, environment
+    ) -> None:
+        """A camera ray's first hit's glossy lobe rays and diffuse bounce rays, times its shaded share: what their
+        trees meet into reflection, the sky they see into environment (split_ray)."""
+        depth = self.settings.depth
+        if depth <= 0 or shaded <= 0.0:
+            return
+        rays = []
+        if material.traces_glossy:
+            lobe = reference_glossy.lobe_at(material, S, V, self.glossy_pairs)
+            rays += reference_glossy.lobe_rays(lobe, self.glossy_pairs, NEW_PATH)
+        if self.settings.diffuse_bounces > 0:
+            albedo = tuple(c * (1.0 - material.reflective) for c in material.color)
+            rays += reference_glossy.bounce_rays(self.glossy_pairs, V, S, albedo, NEW_PATH)
+        for direction, weight, path in rays:
+            surface, sky = self.split_ray(P, direction, depth - 1, 0, path)
+            for c in range(3):
+                reflection[c] += shaded * weight[c] * surface[c]
+                environment[c] += shaded * weight[c] * sky[c]
+
+    def split_ray(
+        self, O: sc.Vec3, D: sc.Vec3, depth: int, layers: int, path: tuple[int, int, int]
+    ) -> tuple[sc.Color, sc.Color]:
+        """What a reflection ray's tree brings back, split into what its surfaces add (its colour with every miss
+        bringing nothing) and what the sky adds (the rest): the Reflection and Environment passes' shares."""
+        whole = self.trace_ray(O, D, REFLECTION_T_MIN, INF, depth, False, layers, path)
+        self.sky = False
+        try:
+            surface = self.trace_ray(O, D, REFLECTION_T_MIN, INF, depth, False, layers, path)
+        finally:
+            self.sky = True
+        return surface, tuple(whole[c] - surface[c] for c in range(3))
 
     def data_passes(
         self, out: SamplePasses, index: int, part: int, P: sc.Vec3, S: sc.Vec3, material: sc.Material
@@ -192,10 +229,25 @@ class PassTracer(ReferenceTracer):
             if refracted is not None and depth > 0:
                 seen = self.trace_ray(P, refracted, REFLECTION_T_MIN, INF, depth - 1, False, 0)
                 transmission = [transmission[c] + weight[c] * seen[c] for c in range(3)]
+            reflection, environment = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
             if depth > 0 and mirror > 0.0:
-                reflection, environment = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
                 self.mirror_passes(P, reflect_ray(V, S), depth - 1, mirror, reflection, environment)
-                out.reflection, out.environment = tuple(reflection), tuple(environment)
+            if depth > 0 and material.transmission > 0.0 and material.transmission_roughness > 0.0:
+                normal = find_normal(self.primitives[hit[0]], hit[1], P)
+                glass = a * material.transmission
+                for direction, weight, path, bent in reference_glossy.glass_rays(
+                    self.glossy_pairs, D, normal, S, material, NEW_PATH
+                ):
+                    if bent:  # a refracted ray's tree, surfaces and sky alike: Transmission
+                        seen = self.trace_ray(P, direction, REFLECTION_T_MIN, INF, depth - 1, False, 0, path)
+                        transmission = [transmission[c] + glass * weight[c] * seen[c] for c in range(3)]
+                        continue
+                    surface, sky = self.split_ray(P, direction, depth - 1, 0, path)
+                    for c in range(3):
+                        reflection[c] += glass * weight[c] * surface[c]
+                        environment[c] += glass * weight[c] * sky[c]
+            self.sampled_passes(P, V, S, material, shaded, reflection, environment)
+            out.reflection, out.environment = tuple(reflection), tuple(environment)
         out.transmission = tuple(transmission)
 
     def local_terms(self, P: sc.Vec3, S: sc.Vec3, V: sc.Vec3, material: sc.Material) -> dict:
@@ -203,7 +255,14 @@ class PassTracer(ReferenceTracer):
         colour (its specular colour for the highlight, where lights or materials are coloured) and (1 -
         reflectivity), as listing 3.1 weighs the local colour; and "shadow" (find_intensities' split)."""
         split: dict = {}
-        self.find_intensities(P, S, V, material.specular, split)
+        lobe = None
+        if material.is_glossy:  # the lights (or the world) through a glossy lobe: a highlight, as the image has it
+            pairs = self.glossy_pairs if material.traces_glossy else self.world_pairs
+            lobe = reference_glossy.lobe_at(material, S, V, pairs)
+            lobe.traced = material.traces_glossy
+        self.find_intensities(P, S, V, material.specular, split, lobe)
+        if lobe is not None and not lobe.traced:
+            lobe.shine = reference_glossy.environment(lobe, self.world_pairs, self.background)
         keep = 1.0 - material.reflective
         color = material.color
         tint = color if material.specular_color is None or not self.colored else material.specular_color
@@ -214,6 +273,8 @@ class PassTracer(ReferenceTracer):
                 terms[name] = tuple(value[c] * paint[c] * keep for c in range(3))
             else:
                 terms[name] = tuple((value[c] * keep) * paint[c] for c in range(3))
+        if lobe is not None:
+            terms["specular"] = tuple(terms["specular"][c] + lobe.shine[c] for c in range(3))
         terms["shadow"] = split["shadow"]
         return terms
 
@@ -228,45 +289,14 @@ class PassTracer(ReferenceTracer):
         layers: int = 0,
     ) -> None:
         """A mirror ray from O along D, its reflectivities' product weight (per channel where a refracted ray on its
-        way tinted it): what its surface adds (its local terms and emission, weighted) into reflection, the sky it
-        sees when it meets nothing into environment; then its own mirror ray, while depth lasts (listing 3.1's
-        recursion unrolled into sums), and on a see-through surface its straight and refracted rays the same way."""
+        way tinted it): what its tree's surfaces add (their local terms and emission, the lights seen in mirrors,
+        weighted) into reflection, the sky it sees into environment (split_ray: listing 3.1's recursion, once with
+        the sky and once without)."""
         w = (weight, weight, weight) if isinstance(weight, float | int) else weight
-        self.rays["reflection"] += 1
-        index, part, t = self.closest_intersection(O, D, REFLECTION_T_MIN, INF, "visible_reflection")
-        if index < 0:
-            sky = self.background(D)
-            for c in range(3):
-                environment[c] += w[c] * sky[c]
-            return
-        if self.scene.objects[index].holdout:
-            return
-        P = add(O, scale(D, t))
-        material = self.material(index, part)
-        material = self.textured(material, index, part, P)
-        V = (-D[0], -D[1], -D[2])
-        S = self.shading_normal(index, part, P, V, material)
-        shaded, mirror, refracted, tint = 1.0, material.reflective, None, (0.0, 0.0, 0.0)
-        if material.see_through:
-            a = material.alpha
-            if a < 1.0 and layers < sc.TRANSPARENT_BOUNCES:
-                beyond = tuple((1.0 - a) * w[c] for c in range(3))
-                self.mirror_passes(P, D, depth, beyond, reflection, environment, layers + 1)
-            if a <= 0.0:
-                return
-            shaded, mirror, refracted, tint = glass_split(find_normal(self.primitives[index], part, P), D, S, material)
-        if shaded > 0.0:
-            terms = self.local_terms(P, S, V, material)
-            for c in range(3):
-                local = terms["ambient"][c] + terms["diffuse"][c] + terms["specular"][c] + material.emission[c]
-                reflection[c] += w[c] * (shaded * local if material.see_through else local)
-        if depth > 0 and refracted is not None:
-            bent = tuple(w[c] * tint[c] for c in range(3))
-            self.mirror_passes(P, refracted, depth - 1, bent, reflection, environment, layers)
-        if depth > 0 and mirror > 0.0:
-            self.mirror_passes(
-                P, reflect_ray(V, S), depth - 1, tuple(w[c] * mirror for c in range(3)), reflection, environment, layers
-            )
+        surface, sky = self.split_ray(O, D, depth, layers, NEW_PATH)
+        for c in range(3):
+            reflection[c] += w[c] * surface[c]
+            environment[c] += w[c] * sky[c]
 
     def pixel_passes(self, i: int, j: int) -> tuple[dict[str, tuple[float, ...]], list[SamplePasses]]:
         """Pixel (i, j)'s passes (name -> its channels) from its samples: the mean of the samples', except depth,
