@@ -18,7 +18,12 @@ Lobes of the shaders (F0 is a dielectric's reflectance at normal incidence, comp
     Glossy BSDF      F = C (Anisotropic in 3.4 too, its anisotropy named)
     Emission         E = Color x Strength
 
-and a specular F splits by roughness rho into a mirror share and a highlight share. The twin draws the documented
+A specular F of a real weight (its mean above ROUGH_NAMED: a metal, a Glossy BSDF) rougher than rho 0.1 is the
+format's glossy lobe (GGX of that roughness; Schlick's Fresnel for Principled, the colour for Glossy BSDF; the
+node's distribution's energy; Smith's shadowing separable in 3.x, as its Cycles). Otherwise (a mirror, or a
+dielectric's few percent) a specular F splits by roughness rho into a mirror share and a highlight share, and the
+highlight share of a Principled dielectric also reflects the world (a glossy lobe of glossy_source "world"). The
+twin draws the documented
 highlight of exponent n as a Beckmann lobe of roughness rho = (2 / (n + 2))^(1/4) (vane/materials.py), so rho maps back
 to n = 2 / rho^4 - 2. A lobe at rho <= 0.1 (n >= 20000, narrower than any exponent the add-on's materials reach) is
 a mirror; at rho >= 0.5 (n <= 30, a lobe 14 degrees wide) the scene's reflection is blurred past recognition and
@@ -48,9 +53,10 @@ Alpha a mixes the whole BSDF with a Transparent BSDF: (1 - a) clear, the rest sc
 and glass weight g, the material's alpha is 1 - p, its transmission g / (1 - p), and the opaque lobes, divided by their
 share 1 - p - g, are the documented material the tracer weighs by alpha (1 - transmission). The format tints the
 refracted light by color: the glass's tint where no opaque diffuse shows, else the opaque colour (named where they
-differ). Rough glass is sharp (named). A Mix Shader switched by Light Path's Is Camera Ray or Is Shadow Ray takes the
-factor camera rays see, for every ray (named). Subsurface, coat, sheen, thin film, normal and bump maps, and volumes
-are named and rendered as the opaque base. With no node tree the Viewport Display colour is the colour.
+differ). Glass rougher than 0.1 is the format's rough glass (transmission_roughness); below, sharp (named). A Mix
+Shader switched by Light Path's Is Camera Ray or Is Shadow Ray takes the factor camera rays see, for every ray
+(named). Subsurface, coat, sheen, thin film, normal and bump maps, and volumes are named and rendered as the opaque
+base. With no node tree the Viewport Display colour is the colour.
 The add-on's own materials (vane/materials.py) convert back to exactly the values the panel holds.
 """
 
