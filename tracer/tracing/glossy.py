@@ -1,8 +1,9 @@
-"""Hits on glossy surfaces (a material's glossy colour not black) -> their rough specular lobe over arrays: GGX
-microfacets of Cycles' roughness (alpha = roughness^2, Smith's height-correlated masking-shadowing), the lights'
-terms through it, and the reflection rays it sends (Heitz 2018's sampling of the visible normals, at the fixed
-stratified pairs of lightsamples.glossy_pairs). docs/algorithm.md, "Glossy reflection"; the per-pixel reference
-(reference.py's glossy_* functions) does the same one hit at a time."""
+"""A wavefront's hits on glossy surfaces, rough glass and diffuse bounces -> their sampled lobes over arrays: GGX
+microfacets of Cycles' roughness (alpha = roughness^2, Smith's height-correlated or separable masking-shadowing),
+the lights' terms through a glossy lobe (or the world's alone, untraced), the reflection rays it sends, rough glass's
+reflected and refracted rays, and diffuse bounces' cosine-weighted rays (Heitz 2018's sampling of the visible
+normals, at the fixed stratified pairs of lightsamples.glossy_pairs). docs/algorithm.md, "Glossy reflection" and
+"Diffuse bounces"; the per-pixel reference (reference_glossy.py) does the same one hit at a time."""
 
 from __future__ import annotations
 
