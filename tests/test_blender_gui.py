@@ -85,6 +85,11 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
     # and every tooltip is one whole line (tests/addon/gui_measure.py)
     assert "WEATHERVANE-GUI labels fit" in log, log[-4000:]
     assert "WEATHERVANE-GUI tooltips one line" in log, log[-4000:]
+    # Scene Conversion with the longest note (a missing world picture's, with its path) at the Properties editor's
+    # width: every line fits, and each line's tooltip is its whole note
+    assert "WEATHERVANE-GUI scene conversion notes fit" in log, log[-4000:]
+    assert "WEATHERVANE-GUI scene conversion notes whole" in log, log[-4000:]
+    assert SCREENSHOT.with_name("weathervane-gui-conversion.png").exists()
     for page in (1, 2, 3):
         assert SCREENSHOT.with_name(f"weathervane-gui-sidebar-{page}.png").exists()
     # no Python error anywhere before the quit; at the quit, only Blender 3.4's readonly state (below)
@@ -153,8 +158,10 @@ def check_material_tab_colour_in_f12(work: Path) -> None:
 
 def check_memory_refusal(log: str) -> None:
     """A level-7 subdivided cube with 300 MB free (faked in the add-on's tracer): the Rendered view showed the one
-    refusal line naming the figures and traced nothing, the window answered a key, and F12 was refused with that line
-    and wrote nothing."""
+    refusal line naming the figures (wrapped to the view) and traced nothing, the window answered a key, and F12 was
+    refused with that line and wrote nothing; F12 with the render window showed the whole line over its empty image,
+    and the Info editor held it (tests/addon/gui_session.py measures each line with Blender's font and reads the
+    render window's pixels back)."""
     lines = [line for line in log.splitlines() if line.startswith("WEATHERVANE-GUI memory refusal")]
     assert len(lines) == 3, (lines, log[-4000:])
     view, answered, f12 = lines
@@ -164,6 +171,17 @@ def check_memory_refusal(log: str) -> None:
     assert "the window answered N over the view in" in answered, answered
     assert "nothing written: " in f12 and "Weathervane Tracer: not started: a " in f12, f12
     assert "196,608 triangles needs about" in f12 and "300.0 MB is available" in f12, f12
+    # the whole refusal where the user looks: the Rendered view's text, the render window over its empty image, the
+    # Info editor; the status bar's line (the last report) short enough for the bar
+    (view_text,) = [line for line in log.splitlines() if "refusal in the Rendered view's text" in line]
+    assert "lines, the whole refusal, the widest" in view_text, view_text
+    (window,) = [line for line in log.splitlines() if line.startswith("WEATHERVANE-GUI refusal in the render window")]
+    assert "lines, the whole refusal, the widest" in window, window
+    (info,) = [line for line in log.splitlines() if line.startswith("WEATHERVANE-GUI refusal in the Info editor")]
+    assert "Info editor: whole; the last report (the status bar's) is the short line" in info, info
+    assert "not enough memory: needs about" in info, info
+    for name in ("refusal-view", "render-window"):
+        assert SCREENSHOT.with_name(f"weathervane-gui-{name}.png").exists(), name
 
 
 def check_quit_errors(at_quit: str) -> None:

@@ -26,6 +26,7 @@ ADDON_LAYERS: tuple[tuple[str, ...], ...] = (
         "convert",
         "engine",
         "engine.workers",
+        "engine.messages",
         "vane.camera",
         "vane.lights",
         "vane.materials",

@@ -122,15 +122,16 @@ def _material_notes(material, blender_scene) -> list[str]:
     return material_convert.convert_material(material, blender_scene=blender_scene)[1]
 
 
-def summary_line(rows, characters: int | None = None) -> str:
+def summary_line(rows, characters: int | None = None, fits=None) -> str:
     """One line: how many materials, lights and worlds convert exactly and how many are approximated, with the first
-    approximated names (up to three) that fit in characters (all three where None; none where even one does not)."""
+    approximated names (up to three) that fit in characters, or that fits(line) accepts (a panel measures the line
+    with Blender's font; all three where neither is given; none where even one does not fit)."""
     approximated = [name for _, name, notes in rows if notes]
     line = f"{len(rows) - len(approximated)} exact, {len(approximated)} approximated"
     for shown in range(min(3, len(approximated)), 0, -1):
         more = ", ..." if shown < len(approximated) else ""
         named = f"{line} ({', '.join(approximated[:shown])}{more})"
-        if characters is None or len(named) <= characters:
+        if (characters is None or len(named) <= characters) and (fits is None or fits(named)):
             return named
     return line
 

@@ -15,7 +15,7 @@ import numpy as np
 from .. import tracer_api as tracer
 from ..convert import export, pass_map
 from ..vane import camera
-from . import viewport
+from . import messages, viewport
 from .workers import spawn_with_blenders_python
 
 
@@ -108,7 +108,15 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
 
             traceback.print_exc()
             status = f"Weathervane Tracer: {failure}"
-        self.update_stats("", status)
+        shown = status
+        try:  # the view draws the text line by line: a long one (a refusal) wrapped to the view
+            shown = messages.view_text(status, context.region, context.area)
+        except Exception:
+            import traceback
+
+            traceback.print_exc()
+        messages.VIEW_TEXT.update(status=status, shown=shown)
+        self.update_stats("", shown)
 
     def update_render_passes(self, scene=None, renderlayer=None) -> None:
         """The passes ticked in View Layer > Passes that the tracer makes, for Blender's result and compositor."""
@@ -118,16 +126,17 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         from ..convert.export import ExportCancelledError, ExportNotes, MemoryBudget, named_problems, scene_document
 
         blender_scene = depsgraph.scene
+        messages.clear_render_window()  # a previous F12's refusal is not about this render
         notes = ExportNotes()
         budget = MemoryBudget(blender_scene, cancelled=lambda: cancelled(self))
         try:
             document = scene_document(bpy.context, depsgraph, blender_scene, notes, budget, arrays=True)
             scene = tracer.scene_from_dict(export.as_json_types(document), "scene")
         except tracer.SceneError as error:
-            self.report({"ERROR"}, "; ".join(named_problems(error.problems, document, blender_scene.world)[:4]))
+            self._nothing_rendered("; ".join(named_problems(error.problems, document, blender_scene.world)[:4]))
             return
         except tracer.ResourceError as error:  # refused before its arrays were read: nothing started
-            self.report({"ERROR"}, f"Weathervane Tracer: not started: {error}")
+            self._nothing_rendered(f"Weathervane Tracer: not started: {error}")
             return
         except ExportCancelledError:
             return
@@ -141,8 +150,8 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         left_out = camera.unsupported(blender_scene, exporting=False) + pass_map.not_made(view_layer)
         if left_out or notes.line():
             said = [f"does not render: {', '.join(left_out)}"] if left_out else []
-            self.report(
-                {"WARNING"}, f"Weathervane Tracer: {'; '.join([*said, notes.line()] if notes.line() else said)}"
+            messages.report_whole(
+                self, {"WARNING"}, f"Weathervane Tracer: {'; '.join([*said, notes.line()] if notes.line() else said)}"
             )
         region = border_region(blender_scene.render, width, height)
         if region is not None:
@@ -211,7 +220,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             return
         except (tracer.ResourceError, tracer.WorkerLostError, tracer.TaskFailedError) as error:
             self.end_result(render_result, cancel=True)
-            self.report({"ERROR"}, str(error))  # not enough memory, workers lost: one line, the pool stays usable
+            self._nothing_rendered(str(error))  # not enough memory, workers lost: the pool stays usable
             return
         finally:
             if renderer is not None:
@@ -236,6 +245,13 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
                 whole.stamp_data_add_field(key, value)
         self.update_stats("Weathervane Tracer", f"{result.seconds * 1000:.0f} ms, {result.rays.total} rays")
 
+    def _nothing_rendered(self, text: str) -> None:
+        """F12 made no image: the whole text in the Info editor and over the render window's empty image, a short line
+        in the status bar (engine/messages.py). Not RenderEngine.error_set: from 4.2 it adds its text as one more
+        error report, and in 3.4 it only puts the text's start in the window's own line, above the whole text."""
+        messages.report_whole(self, {"ERROR"}, text)
+        messages.show_in_render_window(text)
+
     def _render_region(self, scene, region: tuple[int, int, int, int]) -> None:
         """Only the render border's pixels traced; Blender's result is the border's size (it places the region in
         the frame itself unless Crop to Render Region is on)."""
@@ -252,7 +268,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             return
         except (tracer.ResourceError, tracer.WorkerLostError, tracer.TaskFailedError) as error:
             self.end_result(render_result, cancel=True)
-            self.report({"ERROR"}, str(error))
+            self._nothing_rendered(str(error))
             return
         shown = np.ones((y1 - y0, x1 - x0, 4), dtype=np.float32)
         shown[..., :3] = np.flipud(result.image[height - y1 : height - y0, x0:x1])
@@ -410,9 +426,11 @@ def register() -> None:
     _closing[0] = False
     _register_classes()
     export.register()  # the export's memory of geometry and materials, and the handlers that keep it true
+    messages.register()  # the render window's text of an F12 that made no image
 
 
 def unregister() -> None:
+    messages.unregister()
     export.unregister()
     viewport.close_sessions()
     close_renderers()

@@ -10,10 +10,12 @@ The engine's own panels draw the same scene settings as the sidebar (one source 
 from __future__ import annotations
 
 import bpy
+from bpy.props import StringProperty
 
 from ..convert import conversion_report
 from ..vane import build
-from ..vane.panels import characters_for, draw_background, draw_highlights, draw_processes, wrapped
+from ..vane.panels import draw_background, draw_highlights, draw_processes, panel_room, wrapped
+from . import messages
 
 ENGINE = "WEATHERVANE_TRACER"
 
@@ -155,6 +157,33 @@ class WEATHERVANE_WORLD_PT_background(TracerPanel, bpy.types.Panel):
 
 
 NOTE_INDENT = 44  # pixels before a note's text: the row's separator (factor 2) and the icon, with some room
+NAME_INDENT = 24  # before a row's name: its icon
+
+
+class WEATHERVANE_OT_conversion_note(bpy.types.Operator):
+    # each line of a note in Scene Conversion is this button: its tooltip is the whole note (description below)
+    bl_description = "What the conversion approximates here: click to copy the note to the clipboard"
+    bl_idname = "weathervane.conversion_note"
+    bl_label = "Conversion Note"
+    bl_options = {"INTERNAL"}
+
+    note: StringProperty(name="Note", description="The whole note, shown as the tooltip", options={"SKIP_SAVE"})
+
+    @classmethod
+    def description(cls, _context, properties):
+        return properties.note or cls.bl_description
+
+    def execute(self, context):
+        if not self.note.strip():
+            self.report({"ERROR"}, "No note to copy: each line of a Scene Conversion note passes its whole note")
+            return {"CANCELLED"}
+        try:
+            context.window_manager.clipboard = self.note
+        except Exception as error:  # no clipboard (a display without one): a line, never a traceback
+            self.report({"ERROR"}, f"Cannot copy the note to the clipboard: {error}")
+            return {"CANCELLED"}
+        messages.report_whole(self, {"INFO"}, f"Copied to the clipboard: {self.note}")
+        return {"FINISHED"}
 
 
 class WEATHERVANE_RENDER_PT_conversion(TracerPanel, bpy.types.Panel):
@@ -165,18 +194,25 @@ class WEATHERVANE_RENDER_PT_conversion(TracerPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         rows = conversion_report.scene_conversion(context.scene)
-        # the counts, and as many of the approximated names as the editor's width holds (each has its row below)
+        # every text wrapped to the editor's width as Blender's font measures it; each line of a note is a button whose
+        # tooltip is the whole note (and which copies it)
         width = context.region.width if context.region else 240
-        layout.label(text=conversion_report.summary_line(rows, characters_for(width)))
+        room = panel_room(width)
+        layout.label(text=conversion_report.summary_line(rows, fits=lambda line: messages.text_width(line) <= room))
         icons = {"MATERIAL": "MATERIAL", "LIGHT": "LIGHT", "WORLD": "WORLD"}
         for kind, name, notes in rows:
             column = layout.column(align=True)
-            column.label(text=f"{name}: {'exact' if not notes else 'approximated'}", icon=icons[kind])
-            for note in notes:  # wrapped to the editor's width (a missing image's path, the longer notes)
+            title = f"{name}: {'exact' if not notes else 'approximated'}"
+            for index, line in enumerate(wrapped(title, width, NAME_INDENT)):
+                column.label(text=line, icon=icons[kind] if index == 0 else "BLANK1")
+            for note in notes:
                 for index, line in enumerate(wrapped(note, width, NOTE_INDENT)):
                     row = column.row()
+                    row.alignment = "LEFT"
                     row.separator(factor=2.0)
-                    row.label(text=line, icon="INFO" if index == 0 else "BLANK1")
+                    icon = "INFO" if index == 0 else "BLANK1"
+                    button = row.operator("weathervane.conversion_note", text=line, icon=icon, emboss=False)
+                    button.note = note
 
 
 class WEATHERVANE_VIEWLAYER_PT_passes(TracerPanel, bpy.types.Panel):
@@ -212,6 +248,7 @@ class WEATHERVANE_VIEWLAYER_PT_passes(TracerPanel, bpy.types.Panel):
         column.prop(view_layer, "use_pass_cryptomatte_material", text="Material")
 
 
+OPERATORS = (WEATHERVANE_OT_conversion_note,)
 CLASSES = (
     WEATHERVANE_RENDER_PT_tracer,
     WEATHERVANE_RENDER_PT_shading,
@@ -222,7 +259,7 @@ CLASSES = (
 
 
 def register() -> None:
-    for cls in CLASSES:
+    for cls in OPERATORS + CLASSES:
         bpy.utils.register_class(cls)
     for cls in _stock_panels() + shading_panels():
         if ENGINE not in cls.COMPAT_ENGINES and cls not in _added:
@@ -249,5 +286,5 @@ def unregister() -> None:
             cls.COMPAT_ENGINES.discard(ENGINE)
     _added.clear()
     _inherited.clear()
-    for cls in reversed(CLASSES):
+    for cls in reversed(OPERATORS + CLASSES):
         bpy.utils.unregister_class(cls)

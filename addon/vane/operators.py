@@ -14,6 +14,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from .. import tracer_api as tracer
 from ..convert.export import other_lights
+from ..engine import messages
 from . import animation, build, camera, lights
 
 _RESULT: list[str] = ["", "INFO"]  # the last operator's result line and its kind, shown in the sidebar
@@ -31,9 +32,10 @@ def clear_result(*_args) -> None:
 
 
 def report(operator, kinds: set[str], message: str) -> None:
-    """operator.report, and the sidebar's result line: the last report of the run (an error wins over the lines
-    before it). (A report method on the operator class would not be called: Blender's own comes first.)"""
-    operator.report(kinds, message)
+    """operator.report (a long message whole, and a short line for the status bar: engine/messages.py), and the
+    sidebar's result line: the last report of the run (an error wins over the lines before it). (A report method on
+    the operator class would not be called: Blender's own comes first.)"""
+    messages.report_whole(operator, kinds, message)
     kind = next(iter(kinds), "INFO")
     if not _RESULT[0] or _RESULT[1] != "ERROR" or kind == "ERROR":
         _RESULT[:] = [message, kind]

@@ -9,6 +9,7 @@ from __future__ import annotations
 import bpy
 
 from ..convert.export import entry_kind, other_lights
+from ..engine import messages
 from . import build
 from .operators import result_line
 
@@ -58,18 +59,16 @@ def draw_background(layout, settings, text: str | None = None) -> None:
         layout.prop(settings, "zenith")
 
 
-def characters_for(width: int, indent: int = 0) -> int:
-    """How many characters a line of a panel width pixels wide holds, less indent pixels (an icon, a box): about 6.3
-    pixels a character at 11 points (the real-window test measures the lines with Blender's font)."""
-    scale = (bpy.context.preferences.system.ui_scale if bpy.context else 1.0) or 1.0  # 0 in background mode
-    return max(12, int((width / scale - 2 * 14 - 12 - indent) / 6.3))
+def panel_room(width: int, indent: int = 0) -> float:
+    """Pixels a line of text has in a panel width pixels wide, less indent pixels (an icon, a box): the panel's
+    margins and a button's padding taken off (the real-window test measures the lines with Blender's font)."""
+    return width - (2 * 14 + 12 + indent) * messages.interface_scale()
 
 
 def wrapped(text: str, width: int, indent: int = 0) -> list[str]:
-    """text wrapped into lines that fit a panel of width pixels, less indent pixels."""
-    import textwrap
-
-    return textwrap.wrap(text, characters_for(width, indent)) or [""]
+    """text wrapped into lines that fit a panel of width pixels, less indent pixels, as Blender's font measures them
+    (a word too long for a line, a file's path, broken after a '/', '_' or '.')."""
+    return messages.fitted(text, panel_room(width, indent))
 
 
 RESULT_ICONS = {"INFO": "INFO", "WARNING": "ERROR", "ERROR": "CANCEL"}

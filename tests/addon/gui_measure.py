@@ -12,6 +12,10 @@ every state that changes what they show (wind and spin, each background, highlig
 
 Tooltips: each operator's and property's description as Blender holds it is one line (a docstring's line breaks
 and indentation show in the tooltip) and, for operators, not cut at Blender's 240-byte limit (RNA_DYN_DESCR_MAX).
+
+Scene Conversion's notes (measure_notes): the panel drawn for the scene as it is, in the Properties editor's region (its
+width as the window has it): every text fits its room, and every line of a note is a button whose tooltip (the
+operator's description, as Blender asks for it) is the whole note, the lines together the whole note.
 """
 
 from __future__ import annotations
@@ -167,7 +171,9 @@ class Recorder:
         module, name = idname.split(".")
         label = text if text is not None else getattr(getattr(bpy.ops, module), name).get_rna_type().name
         self._add(label, ICON if icon != "NONE" else 0.0)
-        return _Properties()
+        properties = _Properties()
+        BUTTONS.append((idname, label, properties))
+        return properties
 
     def operator_menu_enum(self, operator: str, property: str, text: str = "", icon: str = "NONE", **kwargs):
         self._add(text, ICON if icon != "NONE" else 0.0)
@@ -188,10 +194,10 @@ class Recorder:
 
 
 class _Properties:
-    """What layout.operator returns: its properties can be set."""
+    """What layout.operator returns: its properties can be set (and are kept, for the button's tooltip)."""
 
-    def __setattr__(self, name: str, value) -> None:
-        pass
+
+BUTTONS: list = []  # (operator, text, properties) of every operator button drawn into a Recorder, in order
 
 
 def needs(node: Node, width: float, scale: float, found: dict, where: str) -> None:
@@ -319,3 +325,42 @@ def tooltips() -> list:
         if "\n" in rna.description or "  " in rna.description or len(written) > DESCRIPTION_MAX:
             bad.append(f"weathervane.{name}: {rna.description!r}")
     return bad
+
+
+def measure_notes(context, window, area, region) -> tuple[dict, list, list]:
+    """Render Properties > Scene Conversion drawn in the Properties editor's region (area, region: the editor's):
+    found[text] = (share of its room, panel) for its texts; the notes with each one's lines as its buttons show them;
+    and the problems: a button whose tooltip is no note, a note whose buttons' lines do not make the whole note."""
+    import re
+    import sys
+
+    import blf
+
+    cls = bpy.types.WEATHERVANE_RENDER_PT_conversion
+    note_operator = bpy.types.WEATHERVANE_OT_conversion_note
+    report = sys.modules["weathervane.convert.conversion_report"]
+    scale = context.preferences.system.ui_scale or 1.0
+    node = Node(False)
+    holder = type("Panel", (), {})()
+    holder.layout = Recorder(node, root=True)
+    BUTTONS.clear()
+    with context.temp_override(window=window, area=area, region=region):
+        cls.draw(holder, bpy.context)  # wrapped for the region's width, as Blender draws it there
+        rows = report.scene_conversion(bpy.context.scene)
+        # each button's tooltip as Blender asks the operator for it
+        buttons = [
+            (text, note_operator.description(bpy.context, properties))
+            for idname, text, properties in BUTTONS
+            if idname == note_operator.bl_idname
+        ]
+    blf.size(0, 11 * scale)
+    found: dict = {}
+    needs(node, region.width - 2 * MARGIN * scale, scale, found, cls.__name__)
+    squeeze = lambda text: re.sub(r"\s+", "", text)  # noqa: E731 - lines end at a space or after a '/', '_', ...
+    every = [note for _, _, row in rows for note in row]  # a note twice (two materials): its lines twice
+    notes = [(note, [text for text, tip in buttons if tip == note]) for note in dict.fromkeys(every)]
+    problems = [f"the tooltip of {text!r} is no note: {tip!r}" for text, tip in buttons if tip not in every]
+    for note, lines in notes:
+        if squeeze("".join(lines)) != squeeze(note) * every.count(note):
+            problems.append(f"{lines!r} are not the note {note!r}")
+    return found, notes, problems

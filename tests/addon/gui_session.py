@@ -97,7 +97,7 @@ def prepare() -> float | None:
         traceback.print_exc()
         bpy.ops.wm.quit_blender()
         return None
-    return run_steps([f12_factory_cube()], setup)
+    return run_steps([f12_factory_cube(), conversion_notes()], setup)
 
 
 def setup() -> None:
@@ -495,7 +495,138 @@ def open_export_menu() -> float | None:
 def capture_menu() -> float | None:
     target = screenshot("-export-menu")
     print("WEATHERVANE-GUI export menu", target)
-    return guarded(f12_then_quit)
+    return guarded(refusal_in_the_render_window)  # then f12_then_quit
+
+
+def text_pixels(text: str) -> float:
+    """text's width in pixels in Blender's interface font at the window's scale (as tests/addon/gui_measure.py)."""
+    import blf
+
+    blf.size(0, 11 * (bpy.context.preferences.system.ui_scale or 1.0))  # pixels (3.4 deprecates its DPI argument)
+    return blf.dimensions(0, text)[0]
+
+
+def save_png(rgb, path: str) -> None:
+    """An (height, width, 3) uint8 image, rows from the top, written as PNG with Blender's own image API."""
+    import numpy as np
+
+    height, width = rgb.shape[:2]
+    image = bpy.data.images.new("weathervane screen", width, height)
+    try:
+        rgba = np.ones((height, width, 4), dtype=np.float32)
+        rgba[..., :3] = rgb[::-1] / 255.0  # Blender's rows start at the bottom
+        image.pixels.foreach_set(rgba.ravel())
+        image.filepath_raw, image.file_format = path, "PNG"
+        image.save()
+    finally:
+        bpy.data.images.remove(image)
+
+
+def refusal_in_the_render_window() -> float | None:
+    """F12 as the key starts it, at Blender's default 1920x1080, of a scene too large for the free memory (the level-7
+    cube and FAKE_FREE_MEMORY of refuse_a_scene_too_large), in the render window Blender opens: its image region shows
+    the whole refusal over the empty image, in lines that each fit the region as Blender's font measures them and
+    that are on screen (their pixels read from the X server, saved as SCREENSHOT-render-window.png); the Info editor
+    holds the whole refusal and, last (what the status bar shows), the short line, which fits the bar. Then the memory
+    and the scene as they were; the render window stays open for the F12 that follows (f12_then_quit)."""
+    import re
+    import time
+
+    resources = sys.modules["weathervane.tracer_api"]
+    messages = sys.modules["weathervane.engine.messages"]
+    real = resources.available_memory
+    resources.available_memory = lambda: FAKE_FREE_MEMORY
+    scene = bpy.context.scene
+    saved = (scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage)
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 1920, 1080, 100
+    window, area, region = view3d()
+    tracing_quiet()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        assert bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, -3.0)) == {"FINISHED"}
+        cube = bpy.context.active_object
+        modifier = cube.modifiers.new("Subdivision", "SUBSURF")
+        modifier.levels, modifier.render_levels = 1, 7
+        # Blender opens the render window around the pointer: at the window's middle, it covers the screen
+        window.event_simulate("MOUSEMOVE", "NOTHING", x=window.width // 2, y=window.height // 2)
+        assert bpy.ops.render.render("INVOKE_DEFAULT") == {"RUNNING_MODAL"}
+    started = time.perf_counter()
+
+    def shown() -> float | None:
+        windows = list(bpy.context.window_manager.windows)
+        if bpy.app.is_job_running("RENDER") or len(windows) < 2 or not messages.DRAWN:
+            assert time.perf_counter() - started < 30.0, "the render window showed no refusal"
+            return 0.1
+        if "drawn" not in state:  # the window's first frames read back black here: a look later, as a user's
+            state["drawn"] = time.perf_counter() - started
+            return 0.5
+        render_window = next(w for w in windows if w != window)
+        image_area = next(a for a in render_window.screen.areas if a.type == "IMAGE_EDITOR")
+        image_region = next(r for r in image_area.regions if r.type == "WINDOW")
+        text, drawn = messages.render_window_text(), dict(messages.DRAWN)
+        scale = bpy.context.preferences.system.ui_scale or 1.0
+        room = image_region.width - (messages.MARGIN + messages.GIZMOS) * scale
+        widths = [text_pixels(line) for line in drawn["lines"]]
+        squeeze = lambda line: re.sub(r"\s+", "", line)  # noqa: E731
+        assert text.startswith("Weathervane Tracer: not started: a 1920x1080 "), text
+        assert drawn["region"] == (image_region.x, image_region.y, image_region.width, image_region.height), drawn
+        whole = squeeze("".join(drawn["lines"])) == squeeze(text)
+        # on screen: what the X server shows (a new window's own buffer reads back black here), the white text's
+        # pixels inside each line's box; the render window opens over the whole screen, as a 1920x1080 render's does
+        import numpy as np
+
+        assert (render_window.width, render_window.height) == (window.width, window.height), render_window.width
+        assert abs(render_window.x) <= 2 and abs(render_window.y) <= 2, (render_window.x, render_window.y)
+        xscreen = XScreen()
+        try:
+            shown = xscreen.grab((0, 0, render_window.width, render_window.height))
+        finally:
+            xscreen.close()
+        save_png(shown, SCREENSHOT.replace(".png", "-render-window.png"))
+        lit = []
+        for x, y, width, height in drawn["boxes"]:  # region pixels from the bottom; the screen's rows from the top
+            left, top = int(image_region.x + x), render_window.height - int(image_region.y + y + height)
+            box = shown[top : top + int(height) + 1, left : left + int(width) + 1]
+            lit.append(int((box.min(axis=2) > 200).sum()))
+        print(
+            f"WEATHERVANE-GUI refusal in the render window {state['drawn']:.2f} s after F12, "
+            f"{image_region.width}x{image_region.height}: {len(drawn['lines'])} lines, "
+            f"{'the whole refusal' if whole else 'NOT the whole refusal'}, the widest {max(widths):.0f} px of "
+            f"{room:.0f} px, white pixels per line {lit}"
+        )
+        assert whole and max(widths) <= room and min(lit) >= 20, (drawn, widths, lit, np.shape(shown))
+        state.update(text=text)
+        return None
+
+    def in_info() -> None:
+        """The Info editor's reports (the timeline's area made an Info editor a moment), copied as its Copy does."""
+        text = state["text"]
+        timeline = next(a for a in window.screen.areas if a.type == "DOPESHEET_EDITOR")
+        ui_type = timeline.ui_type
+        timeline.type = "INFO"
+        info_region = next(r for r in timeline.regions if r.type == "WINDOW")
+        with bpy.context.temp_override(window=window, area=timeline, region=info_region):
+            bpy.ops.info.select_all(action="SELECT")
+            bpy.ops.info.report_copy()
+        timeline.type = "DOPESHEET_EDITOR"
+        timeline.ui_type = ui_type
+        copied = bpy.context.window_manager.clipboard.splitlines()
+        short = messages.headline(text)
+        bar = text_pixels(short)
+        print(
+            f"WEATHERVANE-GUI refusal in the Info editor: {'whole' if text in copied else 'NOT whole'}; the last "
+            f"report (the status bar's) {'is the short line' if copied[-1] == short else repr(copied[-1])}, "
+            f"{bar:.0f} px of the window's {window.width}: {short}"
+        )
+        assert text in copied and copied[-1] == short and bar <= window.width / 2, copied[-4:]
+        resources.available_memory = real
+        mesh = cube.data
+        bpy.data.objects.remove(cube)
+        bpy.data.meshes.remove(mesh)
+        scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = saved
+        print(f"WEATHERVANE-GUI render window and Info steps took {time.perf_counter() - started:.1f} s")
+
+    state: dict = {}
+    return run_steps([shown, in_info], f12_then_quit)
 
 
 # F12's size and samples when Blender is quit during it: several seconds of tracing here (at 1280x720 and 1 sample,
@@ -1143,6 +1274,83 @@ def f12_factory_cube():
     return step
 
 
+# a world picture whose file is missing, named as downloaded HDRIs are: its note, with the path, is the longest of
+# Scene Conversion's, and its path one word no line holds
+MISSING_PICTURE = "kloofendal_48d_partly_cloudy_puresky_4k.hdr"
+
+
+def conversion_notes():
+    """A step: Render Properties > Scene Conversion of the factory scene (no vane: the World's own notes) with the
+    tracer, Shadows 16 and a world picture whose file is missing, as the Properties editor shows it: every text fits
+    its room as Blender's font measures it (tests/addon/gui_measure.py), each note's lines as buttons make the whole
+    note and show it whole as their tooltip; a screenshot (SCREENSHOT-conversion.png) with the editor scrolled to the
+    panel; then the world, the engine and the editor as they were."""
+    import os
+    import time
+
+    state: dict = {}
+
+    def editor():
+        window = bpy.context.window_manager.windows[0]
+        area = next(a for a in window.screen.areas if a.type == "PROPERTIES")
+        return window, area, next(r for r in area.regions if r.type == "WINDOW")
+
+    def step() -> float | None:
+        scene, (window, area, region) = bpy.context.scene, editor()
+        if not state:
+            state.update(engine=scene.render.engine, shadows=scene.weathervane.shadow_samples)
+            state.update(tab=area.spaces.active.context, began=time.perf_counter())
+            scene.render.engine = "WEATHERVANE_TRACER"
+            scene.weathervane.shadow_samples = "16"
+            world = scene.world
+            world.use_nodes = True
+            node = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+            node.image = bpy.data.images.new(MISSING_PICTURE, 4, 4)
+            node.image.source, node.image.filepath = "FILE", f"//textures/hdri/{MISSING_PICTURE}"
+            background = next(n for n in world.node_tree.nodes if n.type == "BACKGROUND")
+            world.node_tree.links.new(node.outputs["Color"], background.inputs["Color"])
+            state["node"] = node
+            area.spaces.active.context = "RENDER"
+            return 0.3  # drawn once with the tab's panels, so that the editor knows how far it scrolls
+        if "scrolled" not in state:
+            state["scrolled"] = True
+            with bpy.context.temp_override(window=window, area=area, region=region):
+                for _ in range(3):  # to the end: Scene Conversion is the last open panel of the tab
+                    bpy.ops.view2d.scroll_down(page=True)
+            return 0.3
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        import gui_measure
+
+        found, notes, problems = gui_measure.measure_notes(bpy.context, window, area, region)
+        region.tag_redraw()
+        bpy.ops.wm.redraw_timer(type="DRAW_WIN_SWAP", iterations=1)
+        screenshot("-conversion")
+        too_wide = sorted((text, share) for text, (share, _) in found.items() if share > 1.0)
+        widest = max(found, key=lambda text: found[text][0])
+        longest = max((note for note, _ in notes), key=len)
+        print(
+            f"WEATHERVANE-GUI scene conversion in Properties {region.width} px: {len(found)} texts, the widest "
+            f"{widest!r} needs {100 * found[widest][0]:.0f}% of its room; the longest note ({len(longest)} characters) "
+            f"in {dict(notes)[longest]}"
+        )
+        assert any(MISSING_PICTURE in note for note, _ in notes), notes
+        print(f"WEATHERVANE-GUI notes cut: {too_wide}" if too_wide else "WEATHERVANE-GUI scene conversion notes fit")
+        print(f"WEATHERVANE-GUI notes: {problems}" if problems else "WEATHERVANE-GUI scene conversion notes whole")
+        world = scene.world
+        image = state["node"].image
+        world.node_tree.nodes.remove(state["node"])
+        bpy.data.images.remove(image)
+        scene.render.engine, scene.weathervane.shadow_samples = state["engine"], state["shadows"]
+        with bpy.context.temp_override(window=window, area=area, region=region):
+            for _ in range(3):
+                bpy.ops.view2d.scroll_up(page=True)
+        area.spaces.active.context = state["tab"]
+        print(f"WEATHERVANE-GUI scene conversion step took {time.perf_counter() - state['began']:.1f} s")
+        return None
+
+    return step
+
+
 FAKE_FREE_MEMORY = 300_000_000  # bytes: the vane at F12's size fits (about 0.25 GB), a level-7 cube does not
 HEARTBEAT_SECONDS = 0.02
 
@@ -1244,7 +1452,28 @@ def refuse_a_scene_too_large() -> float | None:
         area.tag_redraw()
         return guarded(when_the_rendered_view_stopped(lambda: guarded(render_empty_f12)))
 
-    return run_steps([switch, refused, idle_seconds(1.0), press_n, f12], report)
+    return run_steps([switch, refused, view_text_in_lines, idle_seconds(1.0), press_n, f12], report)
+
+
+def view_text_in_lines() -> None:
+    """A step: the refusal as the Rendered view's text shows it (the engine's text, drawn line by line at the view's
+    top left): the whole refusal, each line within the view's room (the toolbar and the gizmos' column left out) as
+    Blender's font measures it; a screenshot, SCREENSHOT-refusal-view.png."""
+    import re
+
+    messages = sys.modules["weathervane.engine.messages"]
+    _, area, region = view3d()
+    refusal, lines = messages.VIEW_TEXT["status"], messages.VIEW_TEXT["shown"].split("\n")
+    room = messages.view_room(region, area)
+    widths = [text_pixels(line) for line in lines]
+    whole = re.sub(r"\s+", "", "".join(lines)) == re.sub(r"\s+", "", refusal)
+    target = screenshot("-refusal-view")
+    print(
+        f"WEATHERVANE-GUI refusal in the Rendered view's text: {len(lines)} lines, "
+        f"{'the whole refusal' if whole else 'NOT the whole refusal'}, the widest {max(widths):.0f} px of "
+        f"{room:.0f} px: {target}"
+    )
+    assert refusal.startswith("Weathervane Tracer: not started: ") and whole and max(widths) <= room, (lines, room)
 
 
 def idle_seconds(seconds: float):

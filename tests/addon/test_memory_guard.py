@@ -12,7 +12,7 @@ import pytest
 
 from addon import tracer_api
 from addon.convert import mesh_export
-from addon.engine import engine
+from addon.engine import engine, messages
 from tracer.workers import resources
 
 
@@ -60,6 +60,8 @@ def test_a_scene_larger_than_the_free_memory_is_refused_before_it_is_read(monkey
     assert f"of {triangles:,} triangles needs about" in message
     assert "250.0 MB is available; the largest: Cube (196,608 triangles); try fewer triangles" in message
     assert "Precision 32-bit" in message and "Traceback" not in message
+    # the render window's text over its empty image is the whole line (engine/messages.py draws it in a window)
+    assert messages.render_window_text() == message.strip().removeprefix("Error: ")
     assert grown < 200_000_000  # Blender's own evaluation of the modifier only
     image = bpy.data.images.get("Render Result")
     assert image is None or not image.has_data or max(image.pixels[:]) == 0.0  # nothing was written

@@ -721,8 +721,11 @@ def test_the_scene_conversion_summary_fits_its_room() -> None:
     assert conversion_report.summary_line(rows) == "1 exact, 3 approximated (Material.001, Light, World)"
     assert conversion_report.summary_line(rows, 44) == "1 exact, 3 approximated (Material.001, ...)"
     assert conversion_report.summary_line(rows, 30) == "1 exact, 3 approximated"
-    for width in (200, 280, 400):  # the Properties editor's width: the line in the characters it holds
-        from addon.vane.panels import characters_for
+    from addon.engine.messages import text_width
+    from addon.vane.panels import panel_room
 
-        line = conversion_report.summary_line(rows, characters_for(width))
-        assert len(line) <= characters_for(width) and line.startswith("1 exact, 3 approximated")
+    for width in (200, 280, 400):  # the Properties editor's width: the line in the pixels it holds (Blender's font)
+        room = panel_room(width)
+        line = conversion_report.summary_line(rows, fits=lambda text, room=room: text_width(text) <= room)
+        assert text_width(line) <= room and line.startswith("1 exact, 3 approximated")
+    assert len(conversion_report.summary_line(rows, fits=lambda text: text_width(text) <= panel_room(400))) > 30
