@@ -365,8 +365,9 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         default="16",
     )
     diffuse_bounces: IntProperty(
-        name="Diffuse Bounces",
-        description="Indirect light between surfaces (render.diffuse_bounces): the diffuse bounces a path may take, "
+        name="Bounces",
+        description="Diffuse bounces: indirect light between surfaces (render.diffuse_bounces), the diffuse bounces a "
+        "path may take, "
         "as Cycles' Light Paths > Diffuse; 0 (the default) is the documented model's direct light only; each bounce "
         "sends Glossy rays from a path's first surface",
         min=0,
