@@ -83,7 +83,7 @@ def test_a_cube_shadows_the_world_light_as_in_cycles(tmp_path: Path, strength: f
 
 @AT_THE_ENDS
 def test_with_a_diffuse_bounce_the_ground_beside_the_cube_gets_its_light_as_in_cycles(tmp_path: Path) -> None:
-    """Render Properties > Diffuse Bounces 1 beside Cycles' Light Paths > Diffuse 1: each region within 10% of
+    """Render Properties > Bounces 1 beside Cycles' Light Paths > Diffuse 1: each region within 10% of
     Cycles' mean, and the ground beside the cube brighter than without the bounce (the cube's lit faces light it)."""
     _world_scene()
     scene = bpy.context.scene
