@@ -1,5 +1,6 @@
 """The add-on in real Blenders: the built zips install and work in Blender 5.0 and 3.4.1, and the add-on test suite
-passes inside Debian's Blender 3.4.1 (it runs under plain pytest on the bpy 5.0.1 wheel in tests/addon)."""
+passes inside Debian's Blender 3.4.1 and the 4.x bpy wheels, two Blenders at a time (it runs under plain pytest on
+the bpy 5.0.1 wheel in tests/addon)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import shutil
 import subprocess
 import sys
 import textwrap
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -71,24 +73,7 @@ def test_legacy_zip_installs_and_builds_in_blender_34(dist: Path, tmp_path: Path
 
 @needs_blender_34
 def test_addon_suite_passes_inside_blender_34() -> None:
-    result = subprocess.run(
-        [
-            BLENDER,
-            "-b",
-            "--factory-startup",
-            "--python-exit-code",
-            "1",
-            "--python",
-            str(ROOT / "tests" / "addon" / "run_in_blender.py"),
-            "--",
-            "-q",
-            str(ROOT / "tests" / "addon"),
-        ],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=600,
-    )
+    result = _suites()["3.4.1"].result()
     assert "Blender 3.4" in result.stdout
     assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
     assert " passed" in result.stdout and " failed" not in result.stdout
@@ -100,6 +85,39 @@ def wheel_versions() -> list[str]:
     return [line.split("#")[0].strip() for line in lines if line.split("#")[0].strip()]
 
 
+_running: dict[str, Future] = {}
+
+
+def _suites() -> dict[str, Future]:
+    """The add-on suite in Debian's Blender 3.4.1 and in each bpy wheel that is installed, two at a time (each is
+    mostly one process: on two cores, side by side they take about half the time of one after the other), started
+    when the first test of them asks -> each Blender's future subprocess.CompletedProcess."""
+    if _running:
+        return _running
+    commands = {}
+    if BLENDER is not None:
+        runner = str(ROOT / "tests" / "addon" / "run_in_blender.py")
+        commands["3.4.1"] = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python", runner,
+                             "--", "-q", str(ROOT / "tests" / "addon")]  # fmt: skip
+    for version in wheel_versions():
+        python = ROOT / f".venv-bpy-{version}" / "bin" / "python"
+        if python.exists():
+            script = textwrap.dedent(f"""
+                import sys
+                import bpy, numpy, pytest
+                print("Blender", bpy.app.version_string, "NumPy", numpy.__version__)
+                arguments = ["-q", "-p", "no:cacheprovider", "--rootdir", {str(ROOT)!r},
+                             {str(ROOT / "tests" / "addon")!r}]
+                sys.exit(int(pytest.main(arguments)))
+            """)
+            commands[version] = [str(python), "-c", script]
+    pool = ThreadPoolExecutor(max_workers=2)
+    for name, command in commands.items():
+        _running[name] = pool.submit(subprocess.run, command, capture_output=True, text=True, cwd=ROOT, timeout=900)
+    pool.shutdown(wait=False)
+    return _running
+
+
 @pytest.mark.parametrize("version", wheel_versions())
 def test_addon_suite_passes_in_the_bpy_wheel(version: str) -> None:
     python = ROOT / f".venv-bpy-{version}" / "bin" / "python"
@@ -107,14 +125,7 @@ def test_addon_suite_passes_in_the_bpy_wheel(version: str) -> None:
         pytest.skip(
             f"no {python.parent.parent.name}: `make blender-wheels` (part of `make test`) installs bpy {version}"
         )
-    script = textwrap.dedent(f"""
-        import sys
-        import bpy, numpy, pytest
-        print("Blender", bpy.app.version_string, "NumPy", numpy.__version__)
-        arguments = ["-q", "-p", "no:cacheprovider", "--rootdir", {str(ROOT)!r}, {str(ROOT / "tests" / "addon")!r}]
-        sys.exit(int(pytest.main(arguments)))
-    """)
-    result = subprocess.run([str(python), "-c", script], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    result = _suites()[version].result()
     assert f"Blender {version}" in result.stdout, result.stdout[-2000:] + result.stderr[-2000:]
     assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
     assert " passed" in result.stdout and " failed" not in result.stdout
