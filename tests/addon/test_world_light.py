@@ -56,6 +56,24 @@ def _regions() -> dict[str, np.ndarray]:
     return {"open": np.hypot(x, y) > 3.0, "beside the cube": beside, "the cube's top": reach < 0.9}
 
 
+def _regions_against_cycles(tmp_path: Path, what: str) -> dict[str, np.ndarray]:
+    """F12 of the open scene by Cycles and by the engine -> their red channels; each region's mean within 10% of
+    Cycles' (printed with the engines' seconds). The masks are symmetric: rows from the bottom do."""
+    scene = bpy.context.scene
+    images, seconds = {}, {}
+    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
+        scene.render.engine = engine
+        started = time.perf_counter()
+        images[engine] = f12_exr(tmp_path / f"{engine}.exr")[..., 0]
+        seconds[engine] = time.perf_counter() - started
+    for name, mask in _regions().items():
+        cycles, tracer = images["CYCLES"][mask].mean(), images["WEATHERVANE_TRACER"][mask].mean()
+        print(f"{what}, {name}: tracer {tracer:.4f}, Cycles {cycles:.4f}, ratio {tracer / cycles:.4f}")
+        assert tracer == pytest.approx(cycles, rel=0.10), name
+    print(f"seconds at {PIXELS}x{PIXELS}: " + ", ".join(f"{engine} {value:.2f}" for engine, value in seconds.items()))
+    return images
+
+
 @AT_THE_ENDS
 @pytest.mark.parametrize("strength", [1.0])
 def test_a_cube_shadows_the_world_light_as_in_cycles(tmp_path: Path, strength: float) -> None:
@@ -66,17 +84,7 @@ def test_a_cube_shadows_the_world_light_as_in_cycles(tmp_path: Path, strength: f
     _, light, notes = world_convert.convert_world(scene.world, blender_scene=scene)
     assert light["type"] == "world" and light["samples"] == world_convert.WORLD_SAMPLES
     assert notes == [f"world light: shadowed, {world_convert.WORLD_SAMPLES} directions per point, no bounces"]
-    images, seconds = {}, {}
-    for engine in ("CYCLES", "WEATHERVANE_TRACER"):  # the masks are symmetric: rows from the bottom do
-        scene.render.engine = engine
-        started = time.perf_counter()
-        images[engine] = f12_exr(tmp_path / f"{engine}.exr")[..., 0]
-        seconds[engine] = time.perf_counter() - started
-    for name, mask in _regions().items():
-        cycles, tracer = images["CYCLES"][mask].mean(), images["WEATHERVANE_TRACER"][mask].mean()
-        print(f"world light, {name}: tracer {tracer:.4f}, Cycles {cycles:.4f}, ratio {tracer / cycles:.4f}")
-        assert tracer == pytest.approx(cycles, rel=0.10), name
-    print(f"seconds at {PIXELS}x{PIXELS}: " + ", ".join(f"{engine} {value:.2f}" for engine, value in seconds.items()))
+    images = _regions_against_cycles(tmp_path, "world light")
     beside = images["WEATHERVANE_TRACER"][_regions()["beside the cube"]].mean()
     assert beside < 0.85 * images["WEATHERVANE_TRACER"][_regions()["open"]].mean()  # the cube's shadow is there
 
@@ -93,17 +101,7 @@ def test_with_a_diffuse_bounce_the_ground_beside_the_cube_gets_its_light_as_in_c
 
     _, _, notes = world_convert.convert_world(scene.world, blender_scene=scene)
     assert notes == [f"world light: shadowed, {world_convert.WORLD_SAMPLES} directions per point, 1 diffuse bounce"]
-    images, seconds = {}, {}
-    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
-        scene.render.engine = engine
-        started = time.perf_counter()
-        images[engine] = f12_exr(tmp_path / f"{engine}.exr")[..., 0]
-        seconds[engine] = time.perf_counter() - started
-    for name, mask in _regions().items():
-        cycles, tracer = images["CYCLES"][mask].mean(), images["WEATHERVANE_TRACER"][mask].mean()
-        print(f"1 diffuse bounce, {name}: tracer {tracer:.4f}, Cycles {cycles:.4f}, ratio {tracer / cycles:.4f}")
-        assert tracer == pytest.approx(cycles, rel=0.10), name
-    print(f"seconds at {PIXELS}x{PIXELS}: " + ", ".join(f"{engine} {value:.2f}" for engine, value in seconds.items()))
+    images = _regions_against_cycles(tmp_path, "1 diffuse bounce")
     scene.weathervane.diffuse_bounces = 0
     direct = f12_exr(tmp_path / "direct.exr")[..., 0]
     beside = _regions()["beside the cube"]

@@ -155,10 +155,7 @@ def sample_rays(
     pairs = scene.glossy_pairs
     count = len(pairs)
     fresh = chosen < 0
-    lobe = np.concatenate((np.repeat(indices(fresh), count), indices(~fresh)))
-    pair = np.concatenate((np.tile(np.arange(count), int(fresh.sum())), chosen.take(indices(~fresh))))
-    order = np.argsort(lobe, kind="stable")  # a hit's rays together, in pair order
-    lobe, pair = lobe.take(order), pair.take(order)
+    lobe, pair = _ray_pairs(chosen, count)
     one = lobes.take(lobe)
     directions, weight = samples(one, pairs[:, 0].take(pair), pairs[:, 1].take(pair))
     lx, ly, lz = directions
@@ -213,10 +210,7 @@ def diffuse_rays(
     pairs = scene.glossy_pairs
     count = len(pairs)
     fresh = chosen < 0
-    hit = np.concatenate((np.repeat(indices(fresh), count), indices(~fresh)))
-    pair = np.concatenate((np.tile(np.arange(count), int(fresh.sum())), chosen.take(indices(~fresh))))
-    order = np.argsort(hit, kind="stable")
-    hit, pair = hit.take(order), pair.take(order)
+    hit, pair = _ray_pairs(chosen, count)
     u1, u2 = pairs[:, 0].take(pair), pairs[:, 1].take(pair)
     r, phi = np.sqrt(u1), 2.0 * math.pi * u2
     x, y, z = r * np.cos(phi), r * np.sin(phi), np.sqrt(1.0 - u1)
@@ -256,10 +250,7 @@ def glass_rays(
         albedo = (weight_r + weight_t).mean(axis=0)
         gain = np.where(multiscatter & (albedo > 0.0), 1.0 / np.where(albedo > 0.0, albedo, 1.0), 1.0)
     fresh = chosen < 0
-    hit = np.concatenate((np.repeat(indices(fresh), count), indices(~fresh)))
-    pair = np.concatenate((np.tile(np.arange(count), int(fresh.sum())), chosen.take(indices(~fresh))))
-    order = np.argsort(hit, kind="stable")
-    hit, pair = hit.take(order), pair.take(order)
+    hit, pair = _ray_pairs(chosen, count)
     u1, u2 = pairs[:, 0].take(pair), pairs[:, 1].take(pair)
     split = _glass_split(v[:, hit], eta.take(hit), alpha.take(hit), u1, u2, separable.take(hit))
     reflected, T, weight_r, weight_t = split
@@ -276,6 +267,17 @@ def glass_rays(
     order = np.lexsort((refracted, both))  # a hit's rays together: by pair, the reflected before the refracted
     hit, pair = hit.take(both.take(order)), pair.take(both.take(order))
     return hit, pair, take(directions, order), weights.take(order), refracted.take(order)
+
+
+def _ray_pairs(chosen: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """The rays of hits whose chosen pair (k,) is -1 (a path's first glossy surface or bounce: every one of the count
+    pairs) or a pair of its path (that one) -> each ray's hit (j,) and pair (j,), a hit's rays together in pair
+    order."""
+    fresh = chosen < 0
+    hit = np.concatenate((np.repeat(indices(fresh), count), indices(~fresh)))
+    pair = np.concatenate((np.tile(np.arange(count), int(fresh.sum())), chosen.take(indices(~fresh))))
+    order = np.argsort(hit, kind="stable")
+    return hit.take(order), pair.take(order)
 
 
 def _glass_split(
