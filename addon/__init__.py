@@ -16,10 +16,10 @@ bl_info = {
 }
 
 from .engine import engine as render_engine  # noqa: E402  (`engine` stays the name of the folder)
-from .engine import render_panels  # noqa: E402
+from .engine import motion_panel, render_panels  # noqa: E402
 from .vane import operators, panels, properties, sync  # noqa: E402
 
-MODULES = (properties, operators, panels, render_engine, render_panels, sync)
+MODULES = (properties, operators, panels, render_engine, render_panels, motion_panel, sync)
 
 
 def register() -> None:

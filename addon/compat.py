@@ -268,3 +268,13 @@ def panorama_settings(camera_data):
     """Where a camera's panoramic settings (panorama_type, fisheye_fov, fisheye_lens, latitude_min...) live: on the
     camera data from Blender 4.0, on its Cycles settings (camera.cycles) before."""
     return camera_data if hasattr(camera_data, "panorama_type") else camera_data.cycles
+
+
+def motion_blur_position(blender_scene) -> str:
+    """Render > Motion Blur > Position (START, CENTER or END): the render settings' from 4.2 (shared by Cycles and
+    EEVEE), Cycles' own before; CENTER where neither is there (Cycles' default)."""
+    render = blender_scene.render
+    if hasattr(render, "motion_blur_position"):
+        return render.motion_blur_position
+    cycles = getattr(blender_scene, "cycles", None)
+    return getattr(cycles, "motion_blur_position", "CENTER")

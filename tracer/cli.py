@@ -17,7 +17,7 @@ from .scene import scene as sc
 from .scene.loader import SceneError, check_samples, default_scene, load_scene
 from .scene.passes import parse as parse_passes
 from .tracing.images import SUFFIXES, sweep_stale_temporaries, write_image
-from .workers import adaptive
+from .workers import adaptive, shutter
 from .workers.parallel import Renderer, worker_count
 from .workers.pool import TaskFailedError, WorkerLostError
 from .workers.resources import (
@@ -272,6 +272,8 @@ def _summary(output: Path, scene: sc.Scene, workers: int, result, swept: int) ->
     if getattr(result, "adaptive", None) is not None:
         spp = f"{settings.samples} spp where neighbours differ by > {settings.adaptive_threshold:g} "
         spp += f"({result.adaptive:.1%} of pixels), {adaptive.base_samples(settings.samples)} elsewhere"
+    if shutter.steps(scene) > 1:
+        spp += f", motion blur over {shutter.steps(scene)} time slices"
     return (
         f"{output}: {settings.width}x{settings.height}, {spp}, depth {settings.depth}, "
         f"{settings.model}, {settings.dtype}, {workers} workers: {result.seconds * 1000:.1f} ms, "
@@ -363,6 +365,13 @@ def run_animate(args: argparse.Namespace) -> int:
     if scene.vane is None:
         print(
             f"error: {args.scene or 'default scene'}: vane: is required to animate (name the turning parts)",
+            file=sys.stderr,
+        )
+        return EXIT_BAD_INPUT
+    if shutter.steps(scene) > 1:
+        print(
+            f"error: {args.scene or 'default scene'}: poses: motion blur over one frame's shutter; animate renders the "
+            "vane's turn frame by frame (render renders the poses' frame)",
             file=sys.stderr,
         )
         return EXIT_BAD_INPUT

@@ -42,7 +42,7 @@ from ..vane import build
 from ..vane import camera as camera_module
 from ..vane import materials as vane_materials
 from ..vane.animation import motion_for
-from . import light_convert, material_convert, mesh_export, pass_map, world_convert
+from . import light_convert, material_convert, mesh_export, motion_blur, pass_map, world_convert
 
 
 def _transform(matrix) -> dict:
@@ -330,6 +330,7 @@ class _Collected:
     materials: dict = field(default_factory=dict)  # the document's materials (whether a mesh entry needs UVs)
     arrays: bool = False  # large meshes' fields as arrays (mesh_export.Placed.fields)
     blender_names: dict = field(default_factory=dict)  # object name in the document -> its Blender object's name
+    motion: motion_blur.SampledMotion | None = None  # motion blur: the matrices over the shutter of what moves
 
 
 class MemoryBudget:
@@ -458,12 +459,18 @@ def _collection_controls(view_layer, notes: ExportNotes) -> None:
 
 
 def _collect(
-    depsgraph, turn, materials: dict, notes: ExportNotes, budget: MemoryBudget | None, arrays: bool = False
+    depsgraph,
+    turn,
+    materials: dict,
+    notes: ExportNotes,
+    budget: MemoryBudget | None,
+    arrays: bool = False,
+    motion: motion_blur.SampledMotion | None = None,
 ) -> _Collected:
     """Every object instance Blender renders at the depsgraph's frame: the add-on's objects as their own kinds, and
     each other geometry read once (not at all where the cache holds it unchanged), then placed: once in world space
     as a "mesh", several times as a "meshes" entry and "instances" of it."""
-    collected = _Collected(arrays=arrays, materials=materials)
+    collected = _Collected(arrays=arrays, materials=materials, motion=motion)
     export = _Export(depsgraph, materials, notes, arrays)
     cache = mesh_export.CACHE
     hidden = _render_hidden_objects() if depsgraph.mode == "VIEWPORT" else None
@@ -492,6 +499,8 @@ def _collect(
         if source is None:
             owner = parent.original if parent is not None else None
             source = sources[key] = _classify(obj, original, owner, turn, hidden, notes)
+            if motion is not None and owner is not None and owner.name in motion.objects:
+                notes.not_expressed("motion blur of instances (at the frame's time)", owner.name)
         if source.action == SKIP or not getattr(instance, "show_self", True):
             continue
         if source.action == LIGHT:
@@ -501,7 +510,12 @@ def _collect(
             if not source.done:
                 source.done = True
                 body = json.loads(original["weathervane_object"])
-                body.update(_transform(_unturned(original, turn)))
+                unturned = _unturned(original, turn)
+                body.update(_transform(unturned))
+                if motion is not None and original.name in motion.objects:
+                    # the document turns the parts by the heading: each pose is the part's unturned at that time
+                    untwist = (instance.matrix_world @ unturned.inverted_safe()).inverted_safe()
+                    body["poses"] = [motion_blur.pose(untwist @ matrix) for matrix in motion.objects[original.name]]
                 items.append(_Item(order, body, blender=original.name))
                 if turn is not None and original.parent == turn:
                     collected.parts.append(body["name"])
@@ -535,14 +549,23 @@ def _placed_items(geometry: _Geometry, export: _Export, collected: _Collected) -
     """A geometry's placements -> document bodies: one placement (or one the vane turns) as a world-space "mesh", as
     Cycles bakes a geometry used once into world space; the rest as "instances" groups over one meshes entry."""
     placements = geometry.placements
-    alone = [placement for placement in placements if placement[1].turned]
-    shared = [placement for placement in placements if not placement[1].turned]
+    moving = collected.motion.objects if collected.motion is not None else {}
+    # a geometry the vane turns, or an object of its own that moves over the shutter (its poses): a mesh alone
+    apart = [placement[1].turned or (placement[1].owner is None and placement[1].original.name in moving)
+             for placement in placements]  # fmt: skip
+    alone = [placement for placement, single in zip(placements, apart, strict=True) if single]
+    shared = [placement for placement, single in zip(placements, apart, strict=True) if not single]
     if len(shared) == 1 and not isinstance(shared[0][2], np.ndarray):  # an array: a block of bulk placements
         alone, shared = alone + shared, []
     items = []
     for order, source, matrix in alone:
         placed = mesh_export.CACHE.placed(geometry.entry, matrix)
         body = _mesh_object(placed, source, export) if len(placed.triangles) else None
+        name = source.original.name
+        if body is not None and source.owner is None and name in moving and not isinstance(matrix, np.ndarray):
+            body["poses"], rigid = motion_blur.relative_poses(moving[name], matrix)
+            if not rigid:
+                export.notes.not_expressed("motion blur of a changing scale (its move blurred only)", name)
         if source.owner is None or source.generated:  # an object's own geometry, or a text's mesh: its name
             item = _Item(order, body, source.original.name, dropped=placed.dropped, blender=source.original.name)
         else:
@@ -860,6 +883,7 @@ def scene_document(
     notes: ExportNotes | None = None,
     budget: MemoryBudget | bool = True,
     arrays: bool = False,
+    motion: motion_blur.SampledMotion | None = None,
 ) -> dict:
     """The Blender scene as Blender renders it at the depsgraph's frame (the current one for the context's
     depsgraph, the frame being rendered inside a render) as a tracer scene document. notes, when given, collects
@@ -884,7 +908,7 @@ def scene_document(
     heading = math.degrees(turn.evaluated_get(depsgraph).matrix_basis.to_euler("XYZ")[2]) if turn is not None else 0.0
     if budget is True:
         budget = MemoryBudget(blender_scene)
-    collected = _collect(depsgraph, turn, materials, notes, budget or None, arrays)
+    collected = _collect(depsgraph, turn, materials, notes, budget or None, arrays, motion)
     _collection_controls(depsgraph.view_layer, notes)
     objects, parts = collected.objects, collected.parts
     own_vane = any("weathervane_object" in obj for obj in bpy.data.objects)
@@ -925,6 +949,10 @@ def scene_document(
     }
     if blender_scene.camera is not None:
         document["camera"] = camera_module.to_tracer(blender_scene.camera.evaluated_get(depsgraph))
+        if motion is not None and motion.camera is not None:
+            document["camera"]["poses"] = [motion_blur.pose(matrix) for matrix in motion.camera]
+    if motion is not None:
+        _motion_notes(blender_scene, motion, notes)
     glass = any(material.get("transmission", 0.0) > 0.0 for material in materials.values())
     cycles = getattr(blender_scene, "cycles", None)
     if glass and getattr(cycles, "caustics_refractive", False):  # Cycles' default; the format's rule is caustics off
@@ -977,6 +1005,17 @@ def scene_document(
             },
         }
     return document
+
+
+def _motion_notes(blender_scene, motion: motion_blur.SampledMotion, notes: ExportNotes) -> None:
+    """What the poses leave out of Blender's motion blur, named: shapes that change, moving lights, instances, the
+    shutter's curve and rolling."""
+    for name in motion.deforming:
+        notes.not_expressed("motion blur of a changing shape (its move blurred only)", name)
+    for name in motion.lights:
+        notes.not_expressed("motion blur of a moving light (lit as at the frame)", name)
+    for problem in motion_blur.unsupported(blender_scene):
+        notes.approximated.append(f"motion blur: {problem}")
 
 
 def _wind_document(wind) -> dict:

@@ -13,7 +13,7 @@ import bpy
 import numpy as np
 
 from .. import tracer_api as tracer
-from ..convert import export, pass_map
+from ..convert import export, motion_blur, pass_map
 from ..vane import camera
 from . import messages, viewport
 from .workers import spawn_with_blenders_python
@@ -130,7 +130,8 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         notes = ExportNotes()
         budget = MemoryBudget(blender_scene, cancelled=lambda: cancelled(self))
         try:
-            document = scene_document(bpy.context, depsgraph, blender_scene, notes, budget, arrays=True)
+            moves = motion_blur.sampled(blender_scene, depsgraph, self.frame_set)  # Render > Motion Blur's poses
+            document = scene_document(bpy.context, depsgraph, blender_scene, notes, budget, arrays=True, motion=moves)
             scene = tracer.scene_from_dict(export.as_json_types(document), "scene")
         except tracer.SceneError as error:
             self._nothing_rendered("; ".join(named_problems(error.problems, document, blender_scene.world)[:4]))

@@ -123,7 +123,7 @@ def _record(blender_object, obj) -> None:
     fields = {
         field.name: value.tolist() if hasattr(value, "tolist") else value
         for field in dataclasses.fields(obj)
-        if field.name not in ("location", "rotation")
+        if field.name not in ("location", "rotation", "poses")  # its place is the Blender object's, at any time
         for value in (getattr(obj, field.name),)
     }
     fields["type"] = {

@@ -126,8 +126,6 @@ def unsupported(blender_scene, exporting: bool = True) -> list[str]:
         if exporting and _moves(obj):
             problems.append(f"moving camera (exported as at frame {blender_scene.frame_current})")
     render = blender_scene.render
-    if render.use_motion_blur:
-        problems.append("motion blur")
     if exporting and render.use_border:
         problems.append("render border (a scene file holds the whole frame; F12 renders only the border)")
     return problems

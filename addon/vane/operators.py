@@ -266,10 +266,17 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
 
     @reports_errors
     def execute(self, context):
+        from ..convert import motion_blur
         from ..convert.export import named_problems, scene_document
 
         try:
-            document = scene_document(context)
+            scene = context.scene
+            moves = motion_blur.sampled(
+                scene,
+                context.evaluated_depsgraph_get(),
+                lambda frame, subframe: scene.frame_set(frame, subframe=subframe),
+            )
+            document = scene_document(context, motion=moves)
         except tracer.ResourceError as error:  # refused before the scene's arrays were read
             report(self, {"ERROR"}, f"cannot export: {error}")
             return {"CANCELLED"}

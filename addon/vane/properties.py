@@ -374,6 +374,14 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         max=8,
         default=0,
     )
+    motion_blur_steps: IntProperty(
+        name="Steps",
+        description="Motion blur steps: the renders of the scene at evenly spaced times over Blender's shutter "
+        "(Render > Motion Blur), averaged into the frame (poses in the scene file); each step is one render",
+        min=2,
+        max=64,
+        default=16,
+    )
     world_light: EnumProperty(
         name="World Light",
         description="How the world lights a scene the add-on did not build",

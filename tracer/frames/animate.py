@@ -23,6 +23,7 @@ from ..scene.keyframes import DEFAULT_TOLERANCE, reduce_keys
 from ..scene.motion import Motion, iter_headings
 from ..tracing.images import FramePng, atomic_path, encode_frame, sweep_stale_temporaries, to_8bit, write_frame
 from ..tracing.wavefront import RayCounts
+from ..workers import shutter
 from ..workers.parallel import Renderer, RenderResult
 from .incremental import render_frames as incremental_frames
 
@@ -96,6 +97,11 @@ def plan_frames(
     (and, with passes, whose passes file holds them) stays (unless overwrite), so a stopped run resumes."""
     if scene.vane is None:
         raise ValueError("the scene has no vane to turn (add a 'vane' section naming its parts)")
+    if shutter.steps(scene) > 1:
+        raise ValueError(
+            "the scene has poses (motion blur over one frame's shutter): animate renders the vane's turn frame by "
+            "frame, render renders the poses' frame"
+        )
     rendered, skipped = [], []
     width, height = scene.render.width, scene.render.height
     for frame in range(first, last + 1):

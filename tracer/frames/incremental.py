@@ -24,6 +24,7 @@ from ..geometry.footprint import HeadingMarks, HeadingParts, heading_marks, head
 from ..scene import scene as sc
 from ..tracing.raystore import RayStore
 from ..tracing.wavefront import RayCounts, TracedScene
+from ..workers import shutter
 from ..workers.parallel import BandDone, Progress, Renderer, RenderResult, batches
 from ..workers.resources import band_samples
 
@@ -117,8 +118,16 @@ class TurningFrames:
     def render(
         self, renderer: Renderer, scene: sc.Scene, progress: Progress | None = None, band_done: BandDone | None = None
     ) -> RenderResult:
-        # an alpha, a render border or passes: whole frames (pixel re-traces keep colour only, of the whole image)
-        if scene.vane is None or scene.has_alpha or scene.render.border is not None or scene.render.passes:
+        # an alpha, a render border or passes: whole frames (pixel re-traces keep colour only, of the whole image);
+        # motion blur: whole frames of time slices (the pixels a turn reaches are one time's)
+        settings = scene.render
+        if (
+            scene.vane is None
+            or scene.has_alpha
+            or settings.border is not None
+            or settings.passes
+            or shutter.steps(scene) > 1
+        ):
             return renderer.render(scene, progress, band_done=band_done)
         still = pickle.dumps(replace(scene, vane=replace(scene.vane, heading=0.0)))
         if still == self._still:

@@ -38,6 +38,7 @@ LENS_RANGE = (1e-3, 1e6)  # millimetres: lens and sensor sizes
 FOV_RANGE = (1e-3, 179.0)  # degrees
 SHIFT_LIMIT = 10.0  # Blender's lens shift range, in units of the fitted sensor side
 PIXEL_ASPECT_RANGE = (1.0, 200.0)  # Blender's pixel_aspect_x and _y
+POSES_MAX = 256  # motion blur's time slices (poses over the shutter), at most: each is a whole render
 SHOWN_CHARACTERS = 60  # a value in a message is cut to about this many characters
 
 
@@ -514,6 +515,7 @@ def _object(
         "visible_reflection": reader.boolean("visible_reflection", True),
         "holdout": reader.boolean("holdout", False),
         "pass_index": reader.number("pass_index", 0, low=0, high=PASS_INDEX_MAX, integer=True),
+        "poses": _poses(reader),
     }
     result: sc.SceneObject | None = None
     if kind == "sphere":
@@ -537,6 +539,42 @@ def _object(
         result = _instances(reader, common, meshes or {}, many=kind == "instances")
     reader.finish()
     return result
+
+
+def _poses(reader: _Reader) -> tuple[sc.Pose, ...]:
+    """An object's or the camera's "poses": a list of 2 to POSES_MAX {"location", "rotation"} at evenly spaced times
+    over the shutter (motion blur); () where absent."""
+    raw = reader.raw("poses", None)
+    if raw is None:
+        return ()
+    if not isinstance(raw, list) or not 2 <= len(raw) <= POSES_MAX:
+        reader.fail(
+            "poses",
+            f'must be a list of 2 to {POSES_MAX} poses ({{"location": [x, y, z], "rotation": [x, y, z]}} at evenly '
+            f"spaced times over the shutter), got {_show_shape(raw)}",
+        )
+        return ()
+    poses = []
+    for index, body in enumerate(raw):
+        pose = _Reader(body, f"{reader.at('poses')}[{index}]", reader.problems)
+        poses.append((pose.position("location"), pose.angles("rotation")))
+        pose.finish()
+    return tuple(poses)
+
+
+def _same_pose_counts(objects: list[sc.SceneObject], camera: sc.Camera, problems: list[str]) -> None:
+    """Every moving object and a moving camera have one pose per time slice: the same number of poses."""
+    counts = [(f"objects[{i}].poses", len(obj.poses)) for i, obj in enumerate(objects) if obj.poses]
+    if camera.poses:
+        counts.append(("camera.poses", len(camera.poses)))
+    if counts and any(count != counts[0][1] for _, count in counts):
+        first, expected = counts[0]
+        for where, count in counts[1:]:
+            if count != expected:
+                problems.append(
+                    f"{where}: {count} poses where {first} has {expected}: each moving object and the camera need one "
+                    "pose per time over the shutter, the same number"
+                )
 
 
 MATRIX_MIN_DETERMINANT = 1e-18  # relative to the largest entry cubed: below it, a matrix flattens its mesh
@@ -985,6 +1023,7 @@ def _camera(reader: _Reader | None) -> sc.Camera:
         focus_distance=reader.number(
             "focus_distance", base.focus_distance, low=0.0, low_open=True, least=LENGTH_RANGE[0], high=LENGTH_RANGE[1]
         ),
+        poses=_poses(reader),
     )
     reader.finish()
     return camera
@@ -1363,6 +1402,7 @@ def scene_from_dict(data: Any, source: str = "scene", base: str | Path | None = 
     render = _render(top.reader("render"), {"object": set(names), "material": set(materials)})
     vane = _vane(top.reader("vane"), set(names))
     motion = _motion(top.reader("motion"), top.reader("wind"))
+    _same_pose_counts(objects, camera, problems)
     top.finish()
     if problems:
         raise SceneError(problems, source)

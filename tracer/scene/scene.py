@@ -16,6 +16,7 @@ from .motion import Motion
 
 Vec3 = tuple[float, float, float]
 Color = tuple[float, float, float]
+Pose = tuple[Vec3, Vec3]  # (location in metres, rotation as Euler XYZ degrees): where an object is at one time
 
 MODELS = ("phong", "blinn-phong")
 BACKGROUNDS = ("solid", "sky", "documented", "none", "image")
@@ -117,6 +118,9 @@ class Primitive:
     visible_reflection: bool = True
     holdout: bool = False
     pass_index: int = 0  # Blender's Object > Relations > Pass Index: the Object Index pass's value
+    # motion blur: the object's (location, rotation) at evenly spaced times over the shutter, open to close, each in
+    # place of location and rotation in its time slice (tracer/frames/shutter.py); () for an object that stays put
+    poses: tuple[Pose, ...] = ()
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -552,6 +556,7 @@ class Camera:
     latitude_max: float = 90.0
     longitude_min: float = -180.0
     longitude_max: float = 180.0
+    poses: tuple[Pose, ...] = ()  # motion blur: the camera's (location, rotation) over the shutter, as an object's
 
 
 @dataclass(frozen=True)

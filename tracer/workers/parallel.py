@@ -30,7 +30,7 @@ from ..geometry.footprint import Volume
 from ..scene import scene as sc
 from ..tracing.recorder import plane_dtype, plane_shape
 from ..tracing.wavefront import RayCounts, TracedScene
-from . import adaptive
+from . import adaptive, shutter
 from .pool import PoolClosedError, Task, WorkerPool
 from .resources import band_samples, check_resources
 
@@ -365,7 +365,12 @@ class Renderer:
         trees meet it (RenderResult.touched; footprint.py).
 
         An exception from progress (a cancelled render) stops the frame; the pool stays usable. With adaptive
-        sampling (render.adaptive_threshold) the frame is adaptive.render's two passes (volume: not recorded)."""
+        sampling (render.adaptive_threshold) the frame is adaptive.render's two passes (volume: not recorded); with
+        objects or a camera that move over the shutter (their poses), shutter.render's time slices."""
+        if shutter.steps(scene) > 1:
+            return shutter.render(lambda part, told, _: self.render(part, told, volume), scene, progress, band_done)
+        if any(obj.poses for obj in scene.objects) or scene.camera.poses:
+            scene = shutter.still(scene)  # poses all alike: the same bytes as without them
         if adaptive.applies(scene.render) and volume is None:
             started = time.perf_counter()
             image, rays, share = adaptive.render(
