@@ -23,7 +23,12 @@ if BUILT:
     if str(_HERE) not in sys.path:
         sys.path.append(str(_HERE))
     from weathervane_tracer.frames.incremental import TurningFrames
-    from weathervane_tracer.frames.progressive import EDITABLE_SAMPLES, KEPT_BYTES_PER_SAMPLE, ProgressiveRender
+    from weathervane_tracer.frames.progressive import (
+        EDITABLE_SAMPLES,
+        KEPT_BYTES_PER_SAMPLE,
+        ProgressiveRender,
+        Samples,
+    )
     from weathervane_tracer.geometry.camera import documented_background_direction, sensor_size
     from weathervane_tracer.geometry.transforms import (
         BOX_TRIANGLES,
@@ -70,7 +75,7 @@ if BUILT:
     from weathervane_tracer.workers.resources import ResourceError, available_memory, check_resources
 else:  # the repository's package
     from tracer.frames.incremental import TurningFrames
-    from tracer.frames.progressive import EDITABLE_SAMPLES, KEPT_BYTES_PER_SAMPLE, ProgressiveRender
+    from tracer.frames.progressive import EDITABLE_SAMPLES, KEPT_BYTES_PER_SAMPLE, ProgressiveRender, Samples
     from tracer.geometry.camera import documented_background_direction, sensor_size
     from tracer.geometry.transforms import (
         BOX_TRIANGLES,
@@ -142,6 +147,7 @@ __all__ = [
     "RenderSettings",
     "Renderer",
     "ResourceError",
+    "Samples",
     "SceneError",
     "Sphere",
     "Spin",

@@ -138,9 +138,10 @@ def test_small_edits_after_the_full_level_trace_only_what_they_change_at_full_si
             levels.clear()
             generation = progressive.show(edited)
             assert progressive.wait(120) and progressive.error is None
-            if small:  # one level at full size, a few pixels traced
-                assert [(level.divisor, level.generation) for level in levels] == [(1, generation)], change
-                assert 0 < levels[0].traced < EDIT_SHARE * 96 * 64, change
+            if small:  # one level at full size, a few pixels traced (an object moved: the pool's 1/8 level first)
+                first = [(8, generation)] if "moved" in change else []
+                assert [(level.divisor, level.generation) for level in levels] == [*first, (1, generation)], change
+                assert 0 < levels[-1].traced < EDIT_SHARE * 96 * 64, change
             else:  # the pool's coarse levels first, as for any other change
                 assert [level.divisor for level in levels] == list(LEVELS), change
             # the same bytes as a whole render of the edited scene
@@ -208,3 +209,45 @@ def test_no_ray_trees_are_kept_for_a_scene_whose_full_level_took_long(monkeypatc
         progressive.show(edits()[0][1](scene))  # a small edit, but nothing kept to apply it to
         assert progressive.wait(120)
         assert [level.divisor for level in levels] == list(LEVELS)
+
+
+def test_passes_go_up_by_four_to_the_target_and_samples_count_only_what_the_scene_has() -> None:
+    from tracer.frames.progressive import ONE, Samples, passes, scene_samples, used_samples, with_samples
+
+    assert passes(ONE) == (ONE,)
+    assert passes(Samples(1, 4, 4, 4)) == (Samples(1, 4, 4, 4),)
+    assert passes(Samples(1, 16, 4, 16)) == (Samples(1, 4, 4, 4), Samples(1, 16, 4, 16))
+    assert passes(Samples(9, 64, 1, 64)) == (Samples(4, 4, 1, 4), Samples(9, 16, 1, 16), Samples(9, 64, 1, 64))
+    scene = small_scene()  # the default vane: point and directional lights, no glossy lobe, no world light
+    assert scene_samples(scene) == Samples(4, 1, 16, 1)
+    assert used_samples(scene, Samples(4, 16, 16, 16)) == Samples(4, 1, 1, 1)
+    assert with_samples(scene, scene_samples(scene)) is scene
+    soft = replace(scene, lights=(*scene.lights, sc.AreaLight(location=(0.0, -2.0, 4.0), direction=(0.0, 0.0, -1.0))))
+    assert used_samples(soft, Samples(4, 16, 16, 16)) == Samples(4, 16, 1, 1)
+
+
+def test_a_target_traces_one_sample_of_everything_first_then_passes_each_at_most_the_scenes() -> None:
+    """An area light at 16 shadow samples, traced to 4: the coarse levels at one sample of everything, the full image
+    at 4 (the scene's 16 never asked); a target above the scene's is the scene's."""
+    from tracer.frames.progressive import Samples
+
+    scene = small_scene().with_render(samples=1, shadow_samples=16)
+    area = sc.AreaLight(location=(1.0, -3.0, 5.0), direction=(0.0, 0.0, -1.0), size=(2.0, 2.0), intensity=30.0)
+    scene = replace(scene, lights=(*scene.lights, area))
+    levels: list[Level] = []
+    progressive = ProgressiveRender(1, on_level=levels.append)
+    try:
+        progressive.show(scene, target=Samples(1, 4, 4, 4))
+        assert progressive.wait(120) and progressive.error is None
+        assert [(lv.divisor, lv.sample, lv.samples, lv.final) for lv in levels] == [
+            (8, 1, 4, False), (4, 1, 4, False), (2, 1, 4, False), (1, 4, 4, True)]  # fmt: skip
+        assert np.array_equal(levels[0].image, render(level_scene(scene, 8), workers=1).image)
+        assert np.array_equal(levels[0].image, render(level_scene(scene.with_render(shadow_samples=1), 8)).image)
+        assert np.array_equal(levels[-1].image, render(scene.with_render(shadow_samples=4), workers=1).image)
+        levels.clear()
+        progressive.show(scene, target=Samples(64, 64, 64, 64))
+        assert progressive.wait(120)
+        assert [(lv.divisor, lv.sample, lv.samples) for lv in levels][3:] == [(1, 4, 16), (1, 16, 16)]
+        assert np.array_equal(levels[-1].image, render(scene, workers=1).image)
+    finally:
+        progressive.close()

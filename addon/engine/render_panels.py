@@ -132,6 +132,20 @@ class WEATHERVANE_RENDER_PT_tracer(TracerPanel, bpy.types.Panel):
         layout.label(text=f"View Transform: {transform}", icon=icon)
 
 
+class WEATHERVANE_RENDER_PT_viewport(TracerPanel, bpy.types.Panel):
+    # the Rendered view's own samples, as Cycles' Sampling has Viewport beside Render; F12's are in the panel above
+    bl_label = "Viewport"
+    bl_context = "render"
+    bl_parent_id = "WEATHERVANE_RENDER_PT_tracer"
+
+    def draw(self, context):
+        layout = self.split_layout()
+        settings = context.scene.weathervane
+        layout.prop(settings, "viewport_samples")
+        layout.prop(settings, "viewport_shadow_samples")
+        layout.prop(settings, "viewport_glossy_samples")
+
+
 class WEATHERVANE_RENDER_PT_shading(TracerPanel, bpy.types.Panel):
     bl_label = "Highlights"
     bl_context = "render"
@@ -251,6 +265,7 @@ class WEATHERVANE_VIEWLAYER_PT_passes(TracerPanel, bpy.types.Panel):
 OPERATORS = (WEATHERVANE_OT_conversion_note,)
 CLASSES = (
     WEATHERVANE_RENDER_PT_tracer,
+    WEATHERVANE_RENDER_PT_viewport,
     WEATHERVANE_RENDER_PT_shading,
     WEATHERVANE_RENDER_PT_conversion,
     WEATHERVANE_WORLD_PT_background,

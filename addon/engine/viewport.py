@@ -5,6 +5,10 @@ Blender calls view_update() when the depsgraph changes (an object moved, a mater
 changed) and view_draw() whenever the view is drawn (also when it is orbited or zoomed). Both only hand a new scene
 to the tracing thread when what the tracer would render changed, and never wait for it; a timer on Blender's main
 thread asks the Rendered views to redraw as levels finish.
+
+The view has its own samples (Render Properties > Weathervane Tracer > Viewport; each at most F12's): its coarse
+levels are one sample of everything, its full size is traced in passes up to them, and its status says how far it
+is ("Sample 4/16"), as Cycles' viewport does. F12 reads only its own settings.
 """
 
 from __future__ import annotations
@@ -22,11 +26,13 @@ from .workers import spawn_with_blenders_python
 
 SENSOR = 36.0  # millimetres: any width serves, the lens is derived from it
 REDRAW_SECONDS = 0.02  # how often the main thread looks for finished levels while a view is tracing
-# How long a draw waits for the newest scene's first level: a small edit at full size (a colour: 0.07-0.1 s in a
-# full-HD window's view; an object moved: 0.2-0.5 s) or an orbit's 1/8 image (0.04-0.08 s) is mostly ready within this,
-# and drawing it at once saves a whole draw of the previous image (0.4-0.6 s of software OpenGL under Xvfb).
-FIRST_LEVEL_WAIT = 0.2
-EDIT_WAIT = 0.5  # the same for a change answered from the kept ray trees (an object moved: 0.2-0.4 s to its pixels)
+# How long a draw waits for the newest scene's first level (an orbit's 1/8 image at one sample: 0.03-0.05 s in the
+# real-window test's 1321x759 view) before it draws the previous image under "updating": drawing the change itself
+# saves a draw of the previous image (0.1-0.2 s of software OpenGL under Xvfb), but the user must see at once that
+# the change was taken.
+FIRST_LEVEL_WAIT = 0.05
+EDIT_WAIT = 0.05  # the same for a change answered from the kept ray trees (a slow one's 1/8 level comes first)
+WORLD_VIEW_SAMPLES = 4  # the fewest world-light directions the view traces to (F12's: 16)
 INTERMEDIATE_SECONDS = 1.0  # a level between the first drawn and the full one is drawn after this long without a draw
 # the longest a closing view waits for its tracing thread's current piece (a piece of kept ray trees: well under 1 s)
 CLOSE_WAIT = 2.0
@@ -109,6 +115,7 @@ class ViewportSession:
         self.status = ""  # the status line last drawn
         self._view_size: tuple[int, int] | None = None  # the region's (width, height) when last shown
         self._editable_samples, self._kept_bytes = tracer.EDITABLE_SAMPLES, tracer.KEPT_BYTES_PER_SAMPLE
+        self.samples = tracer.Samples()  # what the view traces to (set by update_scene from the Viewport settings)
         _sessions.add(self)
         # a session let go without close() still ends its thread and its workers (the thread holds the tracer, not
         # the session)
@@ -127,12 +134,15 @@ class ViewportSession:
     def update_scene(self, context, depsgraph) -> None:
         from ..convert.export import MemoryBudget, scene_document
 
-        # the memory check counts the view's image (the last size it was drawn at) and its kept ray trees
+        self.samples = view_samples(depsgraph.scene.weathervane)
+        # the memory check counts the view's image (the last size it was drawn at) and its kept ray trees (kept up
+        # to EDITABLE_SAMPLES camera samples times shadow samples)
         budget = True
         if self._view_size is not None:
             width, height = self._view_size
-            samples = min(width * height * int(depsgraph.scene.weathervane.samples), self._editable_samples)
-            budget = MemoryBudget(depsgraph.scene, size=self._view_size, extra=samples * self._kept_bytes)
+            samples = width * height * self.samples.pixel * self.samples.shadow
+            kept = samples * self._kept_bytes if samples <= self._editable_samples else 0
+            budget = MemoryBudget(depsgraph.scene, size=self._view_size, extra=kept)
         try:
             document = scene_document(context, depsgraph, depsgraph.scene, budget=budget)
         except tracer.ResourceError as refusal:  # too large for the free memory: not read
@@ -160,7 +170,7 @@ class ViewportSession:
         # only the view's part is serialized on a redraw: the scene's (10,000 instances' matrices, a large mesh's
         # triangles) was once, when it changed
         view_part = json.dumps({"camera": camera, "render": render}, sort_keys=True)
-        key = f"{playing}{view_part}{self._scene_key}"
+        key = f"{playing}{self.samples}{view_part}{self._scene_key}"
         if key == self._shown_key:
             return
         document = {**self.document, **json.loads(view_part)}
@@ -172,7 +182,7 @@ class ViewportSession:
             self.error = "; ".join(named_problems(error.problems, document, bpy.context.scene.world)[:2])
             return
         self._shown_key, self.error = key, None
-        self.progressive.show(scene, (PLAYBACK_DIVISOR,) if playing else None)
+        self.progressive.show(scene, (PLAYBACK_DIVISOR,) if playing else None, self.samples)
         _keep_redrawing()
 
     def draw_soon(self) -> None:
@@ -200,7 +210,7 @@ class ViewportSession:
 
     def news(self) -> bool:
         """Whether a redraw would show something new: a level or a failure not drawn yet. A level between a scene's
-        first drawn one and its full image only after INTERMEDIATE_SECONDS without a draw: each draw takes the
+        first drawn one and its finished image only after INTERMEDIATE_SECONDS without a draw: each draw takes the
         tracer's CPU, and a full-HD view's full image follows its 1/8 within a second."""
         level, drawn = self.progressive.latest(), self._texture_level
         if self.progressive.error is not None and self.progressive.error != self.status:
@@ -208,7 +218,7 @@ class ViewportSession:
         if level is None or level is drawn:
             return False
         return (
-            level.divisor == 1
+            level.final
             or drawn is None
             or drawn.generation != level.generation
             or time.perf_counter() - self._drawn_at >= INTERMEDIATE_SECONDS
@@ -221,11 +231,28 @@ class ViewportSession:
         if level.generation != self.progressive.generation:  # the previous scene's image, until the change is traced
             return "Weathervane Tracer: updating"
         whole = level.image.shape[0] * level.image.shape[1]
-        if level.divisor == 1 and level.traced < whole:
+        if level.final and level.traced < whole:
             return f"Weathervane Tracer: edit, {level.traced} of {whole} pixels traced again in {level.seconds:.2f} s"
-        if level.divisor == 1:  # done, even while the ray trees for edits are kept in the background
-            return f"Weathervane Tracer: done in {level.seconds:.2f} s"
-        return f"Weathervane Tracer: 1/{level.divisor} resolution ({level.seconds:.2f} s)"
+        # Cycles' "Sample 3/16": the most samples of any kind the scene has, of the most it is traced to
+        sample = f"Sample {level.sample}/{level.samples}" if level.samples > 1 else ""
+        if level.final:  # done, even while the ray trees for edits are kept in the background
+            return f"Weathervane Tracer: done in {level.seconds:.2f} s" + (f" ({sample})" if sample else "")
+        if level.divisor == 1:
+            return f"Weathervane Tracer: {sample} ({level.seconds:.2f} s)"
+        where = f"1/{level.divisor} resolution"
+        return f"Weathervane Tracer: {f'{sample}, ' if sample else ''}{where} ({level.seconds:.2f} s)"
+
+
+def view_samples(settings) -> tracer.Samples:
+    """The Viewport settings (Render Properties) -> the samples the view traces to; the tracer takes each at most
+    as F12's (a view never traces more than F12, nor another look: 1 shadow sample is a hard shadow)."""
+    shadows = int(settings.viewport_shadow_samples)
+    return tracer.Samples(
+        pixel=int(settings.viewport_samples),
+        shadow=shadows,
+        glossy=int(settings.viewport_glossy_samples),
+        world=max(WORLD_VIEW_SAMPLES, shadows),
+    )
 
 
 def _texture(rgba: np.ndarray):

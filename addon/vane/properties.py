@@ -364,6 +364,28 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
         items=[(str(n), str(n), f"{n} reflection rays a point") for n in (4, 16, 64, 256)],
         default="16",
     )
+    # the Rendered view's own samples (Render Properties > Weathervane Tracer > Viewport): each at most F12's above
+    viewport_samples: EnumProperty(
+        name="Samples",
+        description="Viewport samples: rays a pixel in the Rendered view, at most F12's Samples; the view's first "
+        "image after a change is 1 sample of everything, then more up to these",
+        items=_square_counts("One ray through each pixel centre", ""),
+        default="1",
+    )
+    viewport_shadow_samples: EnumProperty(
+        name="Shadows",
+        description="Viewport shadow samples: points on each light of a size in the Rendered view, at most F12's "
+        "Shadows (the world light: these, at least 4 directions)",
+        items=_square_counts("The light's centre alone: hard shadows", " over the light"),
+        default="4",
+    )
+    viewport_glossy_samples: EnumProperty(
+        name="Glossy",
+        description="Viewport glossy samples: reflection rays from each point of a rough surface in the Rendered "
+        "view, at most F12's Glossy",
+        items=[(str(n), str(n), f"{n} reflection rays a point") for n in (1, 4, 16, 64, 256)],
+        default="4",
+    )
     diffuse_bounces: IntProperty(
         name="Bounces",
         description="Diffuse bounces: indirect light between surfaces (render.diffuse_bounces), the diffuse bounces a "

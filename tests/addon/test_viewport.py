@@ -88,7 +88,7 @@ def test_the_views_image_is_the_tracers_render_from_that_view_and_edits_trace_ag
         session.show(view.region, view.data)
         assert session.progressive.wait(120) and session.progressive.error is None
         shown = session.progressive.latest()
-        assert shown.divisor == 1
+        assert shown.divisor == 1 and shown.final
         # the exported scene, rendered from the camera the view's matrices describe
         assert bpy.ops.weathervane.export(filepath=str(tmp_path / "scene.json")) == {"FINISHED"}
         document = json.loads((tmp_path / "scene.json").read_text())
@@ -146,18 +146,106 @@ def test_a_scene_the_tracer_cannot_render_shows_one_line_in_the_view() -> None:
 
 def test_the_status_line_never_shows_a_previous_scenes_figures_and_says_done_with_the_full_image() -> None:
     """After an edit the view first shows the previous image: its status says the change is being traced, not the
-    previous scene's "1/1 resolution (time)"; a full image is "done" even while its ray trees are kept for edits."""
+    previous scene's "1/1 resolution (time)"; a full image is "done" even while its ray trees are kept for edits;
+    a scene traced to more than one sample says how far it is, as Cycles' "Sample 3/16"."""
     session = viewport.ViewportSession.__new__(viewport.ViewportSession)
     session.error = None
-    level = SimpleNamespace(image=np.zeros((4, 6, 3)), divisor=1, generation=1, seconds=0.5, traced=24)
+
+    def level(divisor: int, generation: int, seconds: float, traced: int, sample=1, samples=1, final=None):
+        size = (4, 6, 3) if divisor == 1 else (1, 1, 3)
+        final = divisor == 1 if final is None else final
+        return SimpleNamespace(image=np.zeros(size), divisor=divisor, generation=generation, seconds=seconds,
+                               traced=traced, sample=sample, samples=samples, final=final)  # fmt: skip
+
+    full = level(1, 1, 0.5, 24)
     session.progressive = SimpleNamespace(error=None, generation=1, busy=True)  # keeping the ray trees
-    assert session._status(level) == "Weathervane Tracer: done in 0.50 s"
+    assert session._status(full) == "Weathervane Tracer: done in 0.50 s"
     session.progressive.generation = 2  # an edit handed over, nothing of it traced yet
-    assert session._status(level) == "Weathervane Tracer: updating"
-    coarse = SimpleNamespace(image=np.zeros((1, 1, 3)), divisor=8, generation=2, seconds=0.1, traced=1)
-    assert session._status(coarse) == "Weathervane Tracer: 1/8 resolution (0.10 s)"
-    edited = SimpleNamespace(image=np.zeros((4, 6, 3)), divisor=1, generation=2, seconds=0.05, traced=3)
+    assert session._status(full) == "Weathervane Tracer: updating"
+    assert session._status(level(8, 2, 0.1, 1)) == "Weathervane Tracer: 1/8 resolution (0.10 s)"
+    edited = level(1, 2, 0.05, 3)
     assert session._status(edited) == "Weathervane Tracer: edit, 3 of 24 pixels traced again in 0.05 s"
+    # traced to 16 samples of some kind: one sample of everything at the coarse levels, then 4, then 16
+    assert session._status(level(8, 2, 0.03, 1, 1, 16)) == "Weathervane Tracer: Sample 1/16, 1/8 resolution (0.03 s)"
+    assert session._status(level(1, 2, 1.2, 24, 4, 16, False)) == "Weathervane Tracer: Sample 4/16 (1.20 s)"
+    assert session._status(level(1, 2, 3.5, 24, 16, 16)) == "Weathervane Tracer: done in 3.50 s (Sample 16/16)"
+
+
+def test_the_view_traces_to_its_own_samples_from_one_sample_of_everything_and_f12_keeps_its_own(
+    tmp_path: Path,
+) -> None:
+    """An area light and a glass sphere at F12's Shadows 16: the view's coarse levels are one sample of everything,
+    its full image the scene at the Viewport's samples (4 shadow samples, each kind at most F12's), "Sample 4/4"; a
+    playing animation's frame is one sample of everything; F12's export keeps Shadows 16 and knows nothing of the
+    Viewport settings."""
+    view_matrix, window_matrix, _ = view_of({"lens": 30.0}, (48, 36), 0.0)
+    scene = bpy.context.scene
+    settings = scene.weathervane
+    settings.workers, settings.shadow_samples, settings.other_lights = 1, "16", True
+    light = bpy.data.lights.new("Area", "AREA")
+    light.energy, light.size = 300.0, 1.5
+    area = bpy.data.objects.new("Area", light)
+    area.location = (1.0, -3.0, 4.0)
+    scene.collection.objects.link(area)
+    mesh = bpy.data.meshes.new("Glass ball")
+    import bmesh
+
+    shape = bmesh.new()
+    bmesh.ops.create_uvsphere(shape, u_segments=16, v_segments=8, radius=0.8)
+    shape.to_mesh(mesh)
+    shape.free()
+    glass = bpy.data.materials.new("Glass")
+    glass.use_nodes = True
+    nodes = glass.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    bsdf = nodes.new("ShaderNodeBsdfGlass")
+    glass.node_tree.links.new(bsdf.outputs[0], nodes["Material Output"].inputs[0])
+    mesh.materials.append(glass)
+    ball = bpy.data.objects.new("Glass ball", mesh)
+    ball.location = (0.5, -3.5, 1.0)
+    scene.collection.objects.link(ball)
+    view = View(view_matrix, window_matrix, 48, 36)
+    session = viewport.ViewportSession(workers=1)
+    levels: list = []
+    session.progressive._on_level = levels.append
+    try:
+        session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
+        assert session.document["render"]["shadow_samples"] == 16  # F12's document, untouched
+        session.show(view.region, view.data)
+        assert session.progressive.wait(120) and session.progressive.error is None
+        assert [(lv.divisor, lv.sample, lv.samples, lv.final) for lv in levels] == [
+            (8, 1, 4, False), (4, 1, 4, False), (2, 1, 4, False), (1, 4, 4, True)]  # fmt: skip
+        assert session._status(levels[-1]).endswith("(Sample 4/4)")
+        document = {**session.document, "camera": viewport.view_camera(view_matrix, window_matrix, 48, 36)}
+        document["render"] = {**document["render"], "width": 48, "height": 36, "pixel_aspect": [1.0, 1.0]}
+        at = {}  # the view's image at 1, 4 and 16 shadow samples, by the tracer
+        for samples in (1, 4, 16):
+            settings_at = {**document["render"], "shadow_samples": samples}
+            at[samples] = render(scene_from_dict({**document, "render": settings_at}), workers=1).image
+        assert np.array_equal(levels[-1].image, at[4]) and not np.array_equal(at[4], at[16])
+        coarse = scene_from_dict({**document, "render": {**document["render"], "width": 6, "height": 4,
+                                                           "shadow_samples": 1}})  # fmt: skip
+        assert np.array_equal(levels[0].image, render(coarse, workers=1).image)
+        # the Viewport's Shadows at 16: passes of 4, then 16 (F12's), the status counting them
+        levels.clear()
+        settings.viewport_shadow_samples = "16"
+        session.update_scene(bpy.context, bpy.context.evaluated_depsgraph_get())
+        session.show(view.region, view.data)
+        assert session.progressive.wait(120)
+        assert [(lv.divisor, lv.sample, lv.samples) for lv in levels] == [(8, 1, 16), (4, 1, 16), (2, 1, 16),
+                                                                           (1, 4, 16), (1, 16, 16)]  # fmt: skip
+        assert np.array_equal(levels[-1].image, at[16])
+        # playing: each frame at 1/4, one sample of everything
+        levels.clear()
+        session.show(view.region, view.data, playing=True)
+        assert session.progressive.wait(120)
+        assert [(lv.divisor, lv.sample, lv.final) for lv in levels] == [(4, 1, False)]
+        # F12 exports its own Shadows whatever the Viewport's
+        assert bpy.ops.weathervane.export(filepath=str(tmp_path / "scene.json")) == {"FINISHED"}
+        assert json.loads((tmp_path / "scene.json").read_text())["render"]["shadow_samples"] == 16
+    finally:
+        session.close()
+        settings.shadow_samples, settings.viewport_shadow_samples, settings.other_lights = "1", "4", False
 
 
 def test_selecting_hovering_or_redrawing_starts_no_trace_and_leaves_the_image_and_status() -> None:

@@ -18,6 +18,7 @@ float64), for an interactive session (the viewport), not for a farm.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -101,17 +102,25 @@ class EditableImage:
         self.image = np.empty((settings.height, settings.width, 3), dtype=settings.dtype)
         self.alpha = np.empty((settings.height, settings.width), dtype=settings.dtype) if scene.has_alpha else None
         self.rays = RayCounts()
-        pieces = max(1, self.pixels * settings.samples // BUILD_PIECE_SAMPLES)
+        # each pixel's live segments, and what a segment took to trace: an edit's time, estimated before tracing it
+        self.segment_counts = np.zeros(self.pixels, dtype=np.int32)
+        started, pieces = time.perf_counter(), max(1, self.pixels * settings.samples // BUILD_PIECE_SAMPLES)
         for piece in np.array_split(np.arange(self.pixels), pieces):
             self._trace(scene, piece)
             if between_pieces is not None:
                 between_pieces()
+        self.seconds_per_segment = (time.perf_counter() - started) / max(1, int(self.segment_counts.sum()))
 
     @property
     def segments(self) -> Segments:
         """The current segments, every pixel's latest tree (a copy)."""
         live = [chunk.take(self._live(chunk, generation)) for chunk, generation in self.chunks]
         return Segments.empty() if not live else live[0].joined(*live[1:])
+
+    def seconds_for(self, pixels: np.ndarray) -> float:
+        """About how long tracing these pixels again takes: their segments at the build's time a segment (a glass
+        pixel's tree is many segments through a mesh, a ground pixel's two)."""
+        return float(self.segment_counts[pixels].sum()) * self.seconds_per_segment
 
     def affected(self, edit: Edit) -> np.ndarray:
         """The flat pixels (P,) that apply(edit) would trace again, ascending."""
@@ -134,6 +143,7 @@ class EditableImage:
         if self.alpha is not None and colors.shape[1] == 4:
             self.alpha.reshape(-1)[pixels] = colors[:, 3]
         chunk = store.segments()
+        self.segment_counts[pixels] = np.bincount(chunk.pixel, minlength=self.pixels)[pixels]
         self.chunks.append((chunk, self.generation.take(chunk.pixel)))
         self.last_traced = len(pixels)
         total = sum(chunk.pixel.size for chunk, _ in self.chunks)
