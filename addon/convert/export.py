@@ -966,6 +966,9 @@ def scene_document(
         # Cryptomatte under the Blender names Cycles writes, at the view layer's levels (the passes are the engine's)
         names = pass_map.blender_names(materials, collected.blender_names, vane_materials.material_name)
         document["render"].update(pass_map.cryptomatte(view_layer), **({"cryptomatte_names": names} if names else {}))
+    threshold = float(getattr(settings, "noise_threshold", 0.0))
+    if int(settings.samples) > 1 and threshold > 0.0:  # adaptive sampling: the samples only where pixels differ
+        document["render"]["adaptive_threshold"] = round(threshold, 6)  # the property's float32, as typed
     if int(settings.shadow_samples) > 1:  # lights of a size sampled over their surface (1: the default, not written)
         document["render"]["shadow_samples"] = int(settings.shadow_samples)
     bounces = int(getattr(settings, "diffuse_bounces", 0))

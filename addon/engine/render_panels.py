@@ -119,6 +119,7 @@ class WEATHERVANE_RENDER_PT_tracer(TracerPanel, bpy.types.Panel):
         settings = context.scene.weathervane
         layout.prop(settings, "depth")
         layout.prop(settings, "samples")
+        layout.prop(settings, "noise_threshold")
         layout.prop(settings, "shadow_samples")
         layout.prop(settings, "glossy_samples")
         layout.prop(settings, "diffuse_bounces")

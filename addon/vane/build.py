@@ -497,6 +497,7 @@ def _fill_settings(context, scene) -> None:
     settings.background_color = scene.background.color
     settings.horizon, settings.zenith = scene.background.horizon, scene.background.zenith
     settings.samples = _nearest_count(scene.render.samples)
+    settings.noise_threshold = scene.render.adaptive_threshold
     settings.shadow_samples = _nearest_count(scene.render.shadow_samples)
     settings.materials.clear()
     for name, material in scene.materials.items():

@@ -27,6 +27,12 @@ def _color(name: str, default: tuple[float, float, float], description: str, **e
     )
 
 
+# F12 of a scene the add-on did not build: antialiased, the samples spent where neighbouring pixels differ (adaptive
+# sampling); Build sets the scene file's own (the documented vane: 1 sample, the seed's image)
+ANTIALIASED_SAMPLES = 16
+ANTIALIASED_THRESHOLD = 0.005
+
+
 def _square_counts(one: str, where: str) -> list[tuple[str, str, str]]:
     """Enum items for a stratified n x n count (1, 4, 9, 16, 64): one's tooltip, and "Stratified n x n" + where."""
     return [("1", "1", one)] + [(str(n * n), str(n * n), f"Stratified {n} x {n}{where}") for n in (2, 3, 4, 8)]
@@ -346,8 +352,21 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     )
     samples: EnumProperty(
         name="Samples",
+        description="Camera samples per pixel, at most (render.samples): 1 is the documented tracer's one ray through "
+        "each pixel centre; more antialias edges, where Noise Threshold spends them",
         items=_square_counts("One ray through each pixel centre", ""),
-        default="1",
+        default=str(ANTIALIASED_SAMPLES),
+    )
+    noise_threshold: FloatProperty(
+        name="Noise Threshold",
+        description="Adaptive sampling (render.adaptive_threshold): every pixel at 1 sample first, then Samples only "
+        "where neighbouring pixels differ by more than this (edges, texture detail, penumbrae); 0 traces every pixel "
+        "at Samples",
+        min=0.0,
+        max=1.0,
+        precision=4,
+        step=0.1,
+        default=ANTIALIASED_THRESHOLD,
     )
     shadow_samples: EnumProperty(
         name="Shadows",

@@ -86,6 +86,7 @@ def _use_cycles(scene, built: scenes.Built) -> None:
     cycles.use_denoising = False
     cycles.use_adaptive_sampling = False
     cycles.filter_width = 0.01  # each pixel sampled at its centre: the tracer's one ray per pixel
+    scene.weathervane.samples = "1"  # and the tracer's one ray per pixel centre (its F12 default antialiases)
     cycles.seed = 0
     if built.bounces is not None:
         cycles.max_bounces = built.bounces

@@ -222,6 +222,7 @@ def test_a_mirror_shows_an_area_lights_shape_and_brightness_as_cycles_does(tmp_p
     scene.view_settings.view_transform = "Standard"
     scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 16, False
     scene.cycles.filter_width = 0.01  # each pixel sampled at its centre, as the tracer's one sample is: sharp edges
+    scene.weathervane.samples = "1"  # (its F12 default antialiases)
     images = {}
     for engine in ("CYCLES", "WEATHERVANE_TRACER"):
         scene.render.engine = engine
