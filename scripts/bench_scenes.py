@@ -18,7 +18,7 @@ Every scene has a camera, a sun and a world colour. For each scene, size and eng
 after the scene is built (for the tracer: starting its workers, exporting, preparing, tracing), a second F12 with
 nothing changed, and an F12 after one object moved (forest: the mover, 1 m along x; cubes-separate: the first
 cube, 1 m up; cubes-merged: the merged object, 1 m up). F12 is bpy.ops.render.render(write_still=False), timed
-around the call. The tracer renders --tracer-samples a pixel (default 1, the engine's default: one ray through each
+around the call. The tracer renders --tracer-samples a pixel (default 1, the documented model's: one ray through each
 pixel centre; 4 is a stratified 2 x 2) with all cores as workers; Cycles renders 4 samples on the CPU with all
 cores, no denoising and no adaptive sampling (a fixed amount of work, as the tracer's).
 
