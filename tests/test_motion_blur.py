@@ -8,12 +8,16 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import jsonschema
 import numpy as np
 import pytest
 
+from tests.random_scenes import extended_scene_document
+from tests.tracing import assert_matches_reference
+from tracer.geometry.camera import sample_position
 from tracer.scene.loader import SceneError, scene_from_dict
 from tracer.scene.passes import WHITTED
 from tracer.workers import shutter
@@ -152,3 +156,32 @@ def test_the_animate_command_refuses_poses_by_name(tmp_path: Path) -> None:
     )  # fmt: skip
     assert done.returncode == 2 and "poses: motion blur" in done.stderr and "Traceback" not in done.stderr
     assert not (tmp_path / "frames").exists() or not any((tmp_path / "frames").iterdir())
+
+
+def test_slices_share_out_the_samples_every_stratum_once_and_the_streak_is_the_swept_box() -> None:
+    scene = scene_from_dict(_document({"poses": _poses(-0.5, 0.5, steps=16)}, samples=16))
+    slices = [shutter.time_slice(scene, k).render for k in range(16)]
+    assert all(settings.samples == 1 and settings.time_slice == (k, 16) for k, settings in enumerate(slices))
+    for i, j in ((3, 5), (80, 20), (159, 39)):  # each pixel's 16 slices land in its 16 strata, one each
+        cells = {(int((x - i) * 4), int((y - j) * 4)) for x, y in (sample_position(s, i, j, 0) for s in slices)}
+        assert cells == {(a, b) for a in range(4) for b in range(4)}
+    result = render(scene)
+    assert result.rays.camera == WIDTH * HEIGHT * 16  # the still frame's samples, not 16 frames of them
+    # the box's 1 m swept over 1 m: coverage along x is the trapezoid (box * move), here 2 m wide at its foot, flat 0
+    # at its top (a triangle); each pixel's 16 samples meet 16 times (noise of about 1/16), averaged over the 16 rows
+    # well inside the box's 1 m (20 rows) across the motion
+    profile = result.alpha[12:28].mean(axis=0)
+    triangle = np.clip(1.0 - np.abs(_pixel_centres()), 0.0, 1.0)
+    assert np.abs(profile - triangle).max() < 0.07
+    assert np.abs(profile - triangle).mean() < 0.01
+    two = render(scene, workers=2)
+    assert two.image.tobytes() == result.image.tobytes() and two.alpha.tobytes() == result.alpha.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_time_slices_share_of_the_samples_is_the_per_pixel_references(seed: int) -> None:
+    """The strata a slice traces (image positions and lens points) are the same in both tracers."""
+    scene = scene_from_dict(extended_scene_document(seed))
+    if seed % 2:  # a thin lens: its points are the strata's too
+        scene = replace(scene, camera=replace(scene.camera, aperture=0.05, focus_distance=6.0))
+    assert_matches_reference(scene.with_render(samples=4, time_slice=(seed % 4, 4)))

@@ -89,13 +89,46 @@ def jitter_array(seed: int, sample_index: np.ndarray, dimension: int) -> np.ndar
         return (_mix64_array(key) >> np.uint64(11)).astype(np.float64) * 2.0**-53
 
 
+SLICE_SEED = 0x736C6963  # each pixel's turn of the strata among a motion blur's time slices: its own sequence
+
+
+def strata(settings: sc.RenderSettings) -> int:
+    """The strata of a pixel's stratified grid: its samples, or in a time slice of motion blur samples * slices (the
+    slice traces samples of them)."""
+    return settings.samples if settings.time_slice is None else settings.samples * settings.time_slice[1]
+
+
+def stratum(settings: sc.RenderSettings, pixel: int, s: int) -> int:
+    """The stratum of the grid that sample s of the flat pixel traces: s itself; in time slice k of T, the stratum
+    s * T + (k + shift) mod T, shift the pixel's own uniform turn in [0, T): over the T slices a pixel traces each
+    stratum once, and which slice (time) meets which stratum differs from pixel to pixel (no pattern of time
+    against position on the image)."""
+    if settings.time_slice is None:
+        return s
+    k, slices = settings.time_slice
+    shift = int(jitter(settings.seed + SLICE_SEED, pixel, 0) * slices)
+    return s * slices + (k + shift) % slices
+
+
+def _strata_array(settings: sc.RenderSettings, pixels: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """stratum() for arrays of flat pixels and samples (N,) each."""
+    if settings.time_slice is None:
+        return s
+    k, slices = settings.time_slice
+    shift = (jitter_array(settings.seed + SLICE_SEED, pixels, 0) * slices).astype(np.int64)
+    return s * slices + (k + shift) % slices
+
+
 def sample_position(settings: sc.RenderSettings, i: int, j: int, s: int) -> tuple[float, float]:
     """Image-plane position, in pixels from the top-left corner, of sample s of pixel (i, j)."""
-    n = math.isqrt(settings.samples)
+    grid = strata(settings)
+    n = math.isqrt(grid)
     if n == 1:
         return i + 0.5, j + 0.5
-    index = (j * settings.width + i) * settings.samples + s
-    column, row = s % n, s // n
+    pixel = j * settings.width + i
+    cell = stratum(settings, pixel, s)
+    index = pixel * grid + cell
+    column, row = cell % n, cell // n
     x = i + (column + jitter(settings.seed, index, 0)) / n
     y = j + (row + jitter(settings.seed, index, 1)) / n
     return x, y
@@ -107,7 +140,8 @@ LENS_SEED = 0x6C656E73  # the lens samples' own sequence: jitter(seed + LENS_SEE
 def lens_sample(settings: sc.RenderSettings, i: int, j: int, s: int) -> tuple[float, float]:
     """The lens position (u, v) in [0, 1)^2 of sample s of pixel (i, j): a uniform pair of its own for each camera
     sample (apart from its image position's jitter)."""
-    index = (j * settings.width + i) * settings.samples + s
+    pixel = j * settings.width + i
+    index = pixel * strata(settings) + stratum(settings, pixel, s)
     seed = settings.seed + LENS_SEED
     return jitter(seed, index, 0), jitter(seed, index, 1)
 
@@ -115,9 +149,14 @@ def lens_sample(settings: sc.RenderSettings, i: int, j: int, s: int) -> tuple[fl
 def _lens_samples(settings: sc.RenderSettings, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """lens_sample of every sample of the flat pixels (P,), ordered pixel, sample (N,) each."""
     samples = settings.samples
-    index = (
-        np.asarray(pixels, dtype=np.int64)[:, None] * samples + np.arange(samples, dtype=np.int64)[None, :]
-    ).ravel()
+    pixels = np.asarray(pixels, dtype=np.int64)
+    if settings.time_slice is None:
+        index = (pixels[:, None] * samples + np.arange(samples, dtype=np.int64)[None, :]).ravel()
+    else:
+        shape = (pixels.size, samples)
+        flat = np.broadcast_to(pixels[:, None], shape).ravel()
+        s = np.broadcast_to(np.arange(samples, dtype=np.int64)[None, :], shape).ravel()
+        index = flat * strata(settings) + _strata_array(settings, flat, s)
     seed = settings.seed + LENS_SEED
     return jitter_array(seed, index, 0), jitter_array(seed, index, 1)
 
@@ -286,7 +325,8 @@ def _sample_positions(settings: sc.RenderSettings, pixels: np.ndarray) -> tuple[
     """Image positions x, y (N,) of every sample of the given flat pixels (P,), ordered pixel, sample: the same
     operations as sample_position."""
     width, samples = settings.width, settings.samples
-    n = math.isqrt(samples)
+    grid = strata(settings)
+    n = math.isqrt(grid)
     pixels = np.asarray(pixels, dtype=np.int64)
     shape = (pixels.size, samples)
     j = np.broadcast_to((pixels // width)[:, None], shape).ravel()
@@ -294,7 +334,9 @@ def _sample_positions(settings: sc.RenderSettings, pixels: np.ndarray) -> tuple[
     s = np.broadcast_to(np.arange(samples, dtype=np.int64)[None, :], shape).ravel()
     if n == 1:
         return i + 0.5, j + 0.5
-    index = (j * width + i) * samples + s
+    if settings.time_slice is not None:
+        s = _strata_array(settings, j * width + i, s)
+    index = (j * width + i) * grid + s
     x = i + ((s % n) + jitter_array(settings.seed, index, 0)) / n
     y = j + ((s // n) + jitter_array(settings.seed, index, 1)) / n
     return x, y

@@ -657,6 +657,10 @@ class RenderSettings:
 
 @dataclass(frozen=True)
 class Scene:
+    # a time slice of motion blur (tracer/workers/shutter.py), (k, slices): the image plane's stratified grid has
+    # samples * slices strata a pixel, and this slice traces `samples` of them, a different set in each slice and
+    # pixel (camera.py's strata); None: the grid is the samples' own. Set by the shutter, not read from scene files.
+    time_slice: tuple[int, int] | None = None
     materials: dict[str, Material]
     objects: tuple[SceneObject, ...]
     lights: tuple[Light, ...]

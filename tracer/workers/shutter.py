@@ -3,8 +3,12 @@
 steps the same way), each slice a whole render of the scene at one time, the image their mean.
 
 Slice k of n puts every moving object and the camera at its k-th pose (the add-on's poses are at the middles of n
-equal parts of the shutter) and jitters its pixel samples by seed + k, so that samples per pixel and slices do not
-repeat each other; the slices weigh the same. The passes
+equal parts of the shutter); the slices weigh the same. Where the samples per pixel are a multiple of n (a perfect
+square of them a slice: 16 samples over 16 slices), the slices share them out: each pixel's stratified grid keeps
+its strata, and each slice traces samples / n of them, a different set per pixel (geometry/camera.py's stratum), so
+that the blur costs what the still frame costs, and a streak is smooth, as each pixel sees each time at a place of
+its own (Cook, Porter and Carpenter's time per sample). Otherwise every slice traces every sample, jittered by seed
++ k, and the image costs n frames: a streak is then n copies of the object. The passes
 that average samples (passes.Pass.combine "mean": the Whitted terms, normal, mist, shadow) average the slices too,
 and still add up to the image; those that take one sample's value (depth, position, the indices, Cryptomatte) take
 the middle slice's, the one nearest the shutter's middle.
@@ -12,6 +16,7 @@ the middle slice's, the one nearest the shutter's middle.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -41,8 +46,29 @@ def time_slice(scene: sc.Scene, index: int) -> sc.Scene:
     camera = scene.camera
     if camera.poses:
         camera = replace(camera, location=camera.poses[index][0], rotation=camera.poses[index][1], poses=())
-    render = replace(scene.render, seed=scene.render.seed + index)
+    render = _slice_settings(scene.render, index, len(posed(scene)))
     return replace(scene, objects=objects, camera=camera, render=render)
+
+
+def posed(scene: sc.Scene) -> tuple[sc.Pose, ...]:
+    """The poses of the scene's first posed object (or camera): one per time slice."""
+    return next((obj.poses for obj in scene.objects if obj.poses), ()) or scene.camera.poses
+
+
+def shares_samples(settings: sc.RenderSettings, slices: int) -> bool:
+    """Whether the slices share out the pixels' samples: samples a multiple of slices, each slice's share a perfect
+    square (16 samples over 16 slices: one each; 64 over 16: four)."""
+    share, left = divmod(settings.samples, slices)
+    return not left and share >= 1 and math.isqrt(share) ** 2 == share
+
+
+def _slice_settings(settings: sc.RenderSettings, index: int, slices: int) -> sc.RenderSettings:
+    """Slice index's render settings: where the slices share out the samples (shares_samples), samples / slices of
+    each pixel's strata (camera.stratum: every stratum once over the slices, at a time of its own); else every
+    sample in every slice, jittered by seed + index."""
+    if shares_samples(settings, slices):
+        return replace(settings, samples=settings.samples // slices, time_slice=(index, slices))
+    return replace(settings, seed=settings.seed + index)
 
 
 def still(scene: sc.Scene) -> sc.Scene:
