@@ -650,6 +650,10 @@ class RenderSettings:
     # indirect light between surfaces: the diffuse bounces a path may take (Cycles' Light Paths > Diffuse), each
     # hit's bounce by cosine-weighted rays at the glossy pairs; 0: none (the documented model)
     diffuse_bounces: int = 0
+    # a time slice of motion blur (tracer/workers/shutter.py), (k, slices): the image plane's stratified grid has
+    # samples * slices strata a pixel, and this slice traces `samples` of them, a different set in each slice and
+    # pixel (camera.py's strata); None: the grid is the samples' own. Set by the shutter, not read from scene files.
+    time_slice: tuple[int, int] | None = None
     # adaptive sampling (tracer/workers/adaptive.py): 0 every pixel at `samples`; above 0, every pixel at a quarter
     # of them first and the full count again where neighbouring pixels differ by more than this (linear units)
     adaptive_threshold: float = 0.0
@@ -657,10 +661,6 @@ class RenderSettings:
 
 @dataclass(frozen=True)
 class Scene:
-    # a time slice of motion blur (tracer/workers/shutter.py), (k, slices): the image plane's stratified grid has
-    # samples * slices strata a pixel, and this slice traces `samples` of them, a different set in each slice and
-    # pixel (camera.py's strata); None: the grid is the samples' own. Set by the shutter, not read from scene files.
-    time_slice: tuple[int, int] | None = None
     materials: dict[str, Material]
     objects: tuple[SceneObject, ...]
     lights: tuple[Light, ...]
