@@ -26,12 +26,13 @@ from .workers import spawn_with_blenders_python
 
 SENSOR = 36.0  # millimetres: any width serves, the lens is derived from it
 REDRAW_SECONDS = 0.02  # how often the main thread looks for finished levels while a view is tracing
-# How long a draw waits for the newest scene's first level (an orbit's 1/8 image at one sample: 0.03-0.05 s in the
-# real-window test's 1321x759 view) before it draws the previous image under "updating": drawing the change itself
-# saves a draw of the previous image (0.1-0.2 s of software OpenGL under Xvfb), but the user must see at once that
-# the change was taken.
-FIRST_LEVEL_WAIT = 0.05
-EDIT_WAIT = 0.05  # the same for a change answered from the kept ray trees (a slow one's 1/8 level comes first)
+# How long a draw waits for the newest scene's first level before it draws the previous image under "updating": none.
+# Waiting would save a draw of the previous image (0.1-0.2 s of software OpenGL under Xvfb), but the draw right after
+# a change comes before even the 1/8 level at one sample (0.03-0.05 s on the pool in the real-window test's 1321x759
+# view), and the user must see at once that the change was taken (issue 47: within 0.2 s). Kept as settings of the
+# session's draw_soon for views whose draws are cheap.
+FIRST_LEVEL_WAIT = 0.0
+EDIT_WAIT = 0.0  # the same for a change answered from the kept ray trees (a slow one's 1/8 level comes first)
 WORLD_VIEW_SAMPLES = 4  # the fewest world-light directions the view traces to (F12's: 16)
 INTERMEDIATE_SECONDS = 1.0  # a level between the first drawn and the full one is drawn after this long without a draw
 # the longest a closing view waits for its tracing thread's current piece (a piece of kept ray trees: well under 1 s)
@@ -105,7 +106,12 @@ class ViewportSession:
 
     def __init__(self, workers: int) -> None:
         self.workers = workers
-        self.progressive = tracer.ProgressiveRender(workers, start_method=spawn_with_blenders_python())
+        # each level's texture data made on the tracing thread as it is delivered (a full 1321x759 level's: 25-45 ms
+        # that the main thread's draw would otherwise spend); the thread holds the tracer, not the session
+        prepared = self._prepared = {}
+        self.progressive = tracer.ProgressiveRender(
+            workers, start_method=spawn_with_blenders_python(), on_level=lambda level: _prepare(prepared, level)
+        )
         self.document: dict | None = None  # the scene without its camera (set by view_update)
         self.error: str | None = None  # why the scene cannot be traced (a bad scene), shown in the view
         self._scene_key = ""  # the document as JSON, made once per update: view_draw runs on every redraw
@@ -187,7 +193,8 @@ class ViewportSession:
 
     def draw_soon(self) -> None:
         """Before a draw: wait up to FIRST_LEVEL_WAIT for the newest scene's first level (its coarse image, or a small
-        edit at full size), so that this draw shows the change rather than the previous image under "updating"."""
+        edit at full size), so that this draw would show the change rather than the previous image under
+        "updating"."""
         self.progressive.wait_first(FIRST_LEVEL_WAIT, EDIT_WAIT)
 
     def draw(self, region) -> str:
@@ -199,7 +206,9 @@ class ViewportSession:
         texture = _textures.get(id(self))
         if texture is None or self._texture_level is not level:
             _free_textures()
-            texture = _textures[id(self)] = _texture(texture_rgba(level.image))
+            prepared = self._prepared.get("last")  # (level, its texture data): one item, set at once
+            rgba = prepared[1] if prepared is not None and prepared[0] is level else texture_rgba(level.image)
+            texture = _textures[id(self)] = _texture(rgba)
             self._texture_level = level
             self._drawn_at = time.perf_counter()
         from gpu_extras.presets import draw_texture_2d
@@ -253,6 +262,11 @@ def view_samples(settings) -> tracer.Samples:
         glossy=int(settings.viewport_glossy_samples),
         world=max(WORLD_VIEW_SAMPLES, shadows),
     )
+
+
+def _prepare(prepared: dict, level) -> None:
+    """On the tracing thread, as a level is delivered: its texture data, for the draw that shows it."""
+    prepared["last"] = (level, texture_rgba(level.image))
 
 
 def _texture(rgba: np.ndarray):

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from mathutils import Matrix
 
+from addon import compat
 from addon.engine import viewport
 from tracer.geometry import camera as cam
 from tracer.scene import scene as sc
@@ -195,7 +196,7 @@ def test_the_view_traces_to_its_own_samples_from_one_sample_of_everything_and_f1
     shape.to_mesh(mesh)
     shape.free()
     glass = bpy.data.materials.new("Glass")
-    glass.use_nodes = True
+    compat.enable_nodes(glass)
     nodes = glass.node_tree.nodes
     nodes.remove(nodes["Principled BSDF"])
     bsdf = nodes.new("ShaderNodeBsdfGlass")
