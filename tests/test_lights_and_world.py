@@ -459,3 +459,35 @@ def test_a_world_light_keeps_the_passes_adding_up_and_workers_agree(seed: int) -
     document = _world_lit_document(seed)
     document["render"].pop("border", None)
     _passes_add_up_and_workers_agree(scene_from_dict(document))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_world_directions_shared_out_among_a_pixels_samples_match_the_reference(seed: int) -> None:
+    """lightsamples.world_share: 4 or 16 camera samples a pixel (or a motion blur slice's share) take the world
+    light's directions in turn; the per-pixel reference does the same."""
+    scene = scene_from_dict(_world_lit_document(seed))
+    settings = {"samples": 16} if seed % 3 == 0 else {"samples": 4}
+    if seed % 3 == 2:
+        settings["time_slice"] = (seed % 4, 4)
+    assert_matches_reference(scene.with_render(**settings))
+
+
+def test_shared_world_directions_cost_one_ray_each_a_pixel_and_give_the_one_sample_value() -> None:
+    """16 samples over a pixel of open ground under a sphere: each direction traced once for the pixel (16 shadow
+    rays, not 256), and the pixel's value the one sample's (the same directions from points 2.5 mm apart)."""
+    sphere = {"name": "ball", "type": "sphere", "material": "white", "location": [0.0, 0.0, 1.2], "radius": 1.0}
+    sphere["visible_camera"] = False
+    document = {
+        "materials": {"white": {"color": [1.0, 1.0, 1.0], "specular": 0}},
+        "objects": [{"name": "ground", "type": "plane", "material": "white"}, sphere],
+        "lights": [{"type": "world", "intensity": 1.0, "samples": 16}],
+        "camera": {"location": [0.0, 0.0, 50.0], "rotation": [0.0, 0.0, 0.0], "type": "ORTHO", "ortho_scale": 0.01},
+        "background": {"type": "solid", "color": [1.0, 1.0, 1.0]},
+        "render": {"width": 1, "height": 1, "depth": 0},
+    }
+    one = render(scene_from_dict(document), workers=1)
+    document["render"]["samples"] = 16
+    shared = render(scene_from_dict(document), workers=1)
+    assert one.rays.shadow == 16 and shared.rays.shadow == 16 and shared.rays.camera == 16
+    assert shared.image[0, 0, 0] == pytest.approx(one.image[0, 0, 0], abs=1e-12)
+    assert 0.0 < one.image[0, 0, 0] < 1.0  # the sphere hides some of the directions

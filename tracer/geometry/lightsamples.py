@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..scene import scene as sc
 
 
@@ -104,6 +106,25 @@ def hemisphere_directions(samples: int) -> list[sc.Vec3]:
         angle = i * GOLDEN_ANGLE
         directions.append((r * math.cos(angle), r * math.sin(angle), z))
     return directions
+
+
+def world_share(settings: sc.RenderSettings, directions: int) -> int:
+    """How many of a pixel's camera samples share out the world light's directions: g = gcd(strata, directions),
+    strata the pixel's samples (times a motion blur's time slices). Camera sample s then takes the directions i with
+    i = key mod g (sharing_key), each g times its weight: the pixel's mean holds every direction once per strata / g
+    samples, as one sample holding them all would, at 1 / g of the shadow rays (16 samples: one direction each).
+    1: every sample takes every direction (one sample a pixel, or counts with no common factor)."""
+    slices = 1 if settings.time_slice is None else settings.time_slice[1]
+    return math.gcd(settings.samples * slices, directions)
+
+
+def sharing_key(settings: sc.RenderSettings, sample: int | np.ndarray) -> int | np.ndarray:
+    """A camera sample's place among the pixel's strata for world_share: sample s of the pixel (in a time slice k of
+    T, s T + k: over the slices every key once)."""
+    if settings.time_slice is None:
+        return sample
+    k, slices = settings.time_slice
+    return sample * slices + k
 
 
 def equirectangular(D: sc.Vec3, rotation: float) -> tuple[float, float]:

@@ -209,6 +209,8 @@ class WorldSample(DirectedLight):
 
     local: tuple[float, float, float] = (0.0, 0.0, 1.0)
     world: bool = True  # the background's radiance along it times its colour; False: its colour alone
+    index: int = 0  # which of its light's directions (lightsamples.world_share gives it to some camera samples)
+    count: int = 1  # its light's directions
     highlight: ClassVar[bool] = False
 
     def toward(self, P: np.ndarray) -> np.ndarray:
@@ -250,7 +252,10 @@ def prepare_lights(scene: sc.Scene, dtype: np.dtype) -> list[PreparedLight]:
             directions = lightsamples.hemisphere_directions(light.samples)
             share, weight = 2.0 * light.intensity / len(directions), 1.0 / len(directions)
             world = light.radiance == "background"
-            made = [WorldSample(share, color, weight=weight, local=local, world=world) for local in directions]
+            made = [
+                WorldSample(share, color, weight=weight, local=local, world=world, index=i, count=len(directions))
+                for i, local in enumerate(directions)
+            ]
         else:  # a sun of an angle: its samples' directions (one: the direction itself)
             directions = lightsamples.sun_directions(light, samples)
             share = light.intensity / len(directions) if len(directions) > 1 else light.intensity

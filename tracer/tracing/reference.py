@@ -318,6 +318,7 @@ class ReferenceTracer:
             for light in scene.lights
         )
         self.lights = light_samples(scene)
+        self.camera_sample = 0  # the pixel's sample being traced: which world directions it takes
         self.glossy_pairs = lightsamples.glossy_pairs(scene.render.glossy_samples)
         self.sky = True  # a miss brings the background (False: nothing, for the passes' split of a tree)
         self.seen_lights = [
@@ -412,6 +413,12 @@ class ReferenceTracer:
                 ambient_sum += light.intensity
                 ambient = [ambient[c] + light.intensity * color[c] for c in range(3)]
                 continue
+            if isinstance(light, sc.WorldLight):  # disk: the direction's index
+                share = lightsamples.world_share(self.settings, light.samples)
+                if share > 1:  # shared out among the pixel's samples: this sample's directions, share times
+                    if disk % share != lightsamples.sharing_key(self.settings, self.camera_sample) % share:
+                        continue
+                    intensity, weight = intensity * share, weight * share
             lights += weight
             factor = 1.0
             if isinstance(light, sc.PointLight | sc.SpotLight):
@@ -675,6 +682,7 @@ class ReferenceTracer:
         """The box-filtered mean of the pixel's samples (r, g, b), and alpha where the scene has one."""
         total = [0.0, 0.0, 0.0, 0.0]
         for s in range(self.settings.samples):
+            self.camera_sample = s  # the world light's share of directions (lightsamples.world_share)
             x, y = cam.sample_position(self.settings, i, j, s)
             lens = cam.lens_sample(self.settings, i, j, s)
             O, D, t_max = cam.primary_ray(self.scene.camera, self.settings, x, y, lens)
@@ -820,7 +828,8 @@ def light_samples(scene: sc.Scene) -> list[tuple]:
         elif isinstance(light, sc.WorldLight):  # directions in each point's normal frame
             directions = lightsamples.hemisphere_directions(light.samples)
             share = 2.0 * light.intensity / len(directions)
-            made.extend((light, local, share, 1.0 / len(directions), None, None) for local in directions)
+            # the sixth: the direction's index (lightsamples.world_share gives it to some of a pixel's samples)
+            made.extend((light, local, share, 1.0 / len(directions), None, i) for i, local in enumerate(directions))
         elif isinstance(light, sc.PointLight | sc.SpotLight) and light.radius > 0.0 and samples > 1:
             offsets = lightsamples.disk_offsets(samples)
             share = light.intensity / len(offsets)

@@ -303,10 +303,11 @@ class PassTracer(ReferenceTracer):
         position and the indices, which are the sample's nearest the pixel's centre (passes.centre_sample: Cycles
         writes them from its first sample, on the centre); and the samples' own SamplePasses (their Cryptomatte
         names)."""
-        samples = [
-            self.sample_passes(*cam.sample_position(self.settings, i, j, s), cam.lens_sample(self.settings, i, j, s))
-            for s in range(self.settings.samples)
-        ]
+        samples = []
+        for s in range(self.settings.samples):
+            self.camera_sample = s  # the world light's share of directions (lightsamples.world_share)
+            position, lens = cam.sample_position(self.settings, i, j, s), cam.lens_sample(self.settings, i, j, s)
+            samples.append(self.sample_passes(*position, lens))
         values = {}
         for name in PASS_NAMES:
             if name in CENTRE_SAMPLE:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry import lightsamples
 from ..geometry.footprint import Footprint
 from ..geometry.kernels import dot, indices, take
 from . import glossy, shadows, surfaces
@@ -82,7 +83,7 @@ def find_intensity(
     P, N, V = hits.P, hits.S, hits.V
     count = P.shape[1]
     length_n = np.sqrt(dot(N, N))
-    terms = _light_terms(scene, P, N, V, specular, length_n)
+    terms = _light_terms(scene, P, N, V, specular, length_n, samples)
     own = [term for term in terms if term is not None]
     normals = N if hits.geometric is None else hits.geometric
     lit = shadows.reached(scene, own, P, normals, hits.surface, counts, footprint, samples, frames)
@@ -102,10 +103,19 @@ def find_intensity(
 
 
 def _light_terms(
-    scene: PreparedScene, P: np.ndarray, N: np.ndarray, V: np.ndarray, specular: np.ndarray, length_n: np.ndarray
+    scene: PreparedScene,
+    P: np.ndarray,
+    N: np.ndarray,
+    V: np.ndarray,
+    specular: np.ndarray,
+    length_n: np.ndarray,
+    samples: np.ndarray,
 ) -> list[LightTerm | None]:
-    """Each light's LightTerm at the points P with normals N and V (3, n), in the scene's order (None: ambient)."""
+    """Each light's LightTerm at the points P with normals N and V (3, n), in the scene's order (None: ambient).
+    samples: the camera samples (n,) the points belong to: a world direction shared out among a pixel's samples
+    (lightsamples.world_share) counts at the points of its samples alone, g times (N.L g)."""
     settings = scene.scene.render
+    keys: dict[int, np.ndarray] = {}  # each share's key mod g at the points
     length_v = np.sqrt(dot(V, V))
     shiny = specular > 0.0
     terms: list[LightTerm | None] = []
@@ -121,6 +131,12 @@ def _light_terms(
         color = light.color if not light.world else surfaces.background(scene, L, None) * light.color
         if not light.highlight:  # the world's light: a diffuse term only
             diffuse_gate = NL > 0.0
+            share = lightsamples.world_share(settings, light.count)
+            if share > 1:
+                if share not in keys:
+                    keys[share] = lightsamples.sharing_key(settings, samples % settings.samples) % share
+                diffuse_gate &= keys[share] == light.index % share
+                NL = NL * share
             terms.append(
                 LightTerm(
                     L, NL, length_l, diffuse_gate, np.zeros_like(diffuse_gate), NL, indices(diffuse_gate), None, color
@@ -206,7 +222,11 @@ def _shadow_share(
     if throughs is not None:
         reached = [light_reached * through for light_reached, through in zip(reached, throughs, strict=True)]
     share = np.zeros(count, dtype=scene.dtype)
-    weights = [light.weight for light in directed(scene.lights)]
+    settings = scene.scene.render
+    weights = [
+        light.weight * (lightsamples.world_share(settings, light.count) if not light.highlight else 1)
+        for light in directed(scene.lights)
+    ]
     if all(weight == 1.0 for weight in weights):
         for light_reached in reached:
             share += light_reached
