@@ -185,3 +185,11 @@ def test_a_time_slices_share_of_the_samples_is_the_per_pixel_references(seed: in
     if seed % 2:  # a thin lens: its points are the strata's too
         scene = replace(scene, camera=replace(scene.camera, aperture=0.05, focus_distance=6.0))
     assert_matches_reference(scene.with_render(samples=4, time_slice=(seed % 4, 4)))
+
+
+def test_a_slices_camera_rays_are_not_taken_for_the_whole_frames() -> None:
+    """The camera's rays are kept between renders of the same camera and image settings: a slice's share of the
+    strata is not the whole frame's (they once were, when the kept rays' key left the slice out)."""
+    scene = scene_from_dict(extended_scene_document(1)).with_render(samples=4)
+    render(scene.with_render(time_slice=(1, 4)), workers=1)
+    assert_matches_reference(scene)

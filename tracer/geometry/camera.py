@@ -531,6 +531,7 @@ def cached_band_directions(
         settings.height,
         settings.samples,
         settings.seed,
+        settings.time_slice,  # a motion blur slice's strata (stratum)
         settings.pixel_aspect,
         np.dtype(dtype).str,
         rows.tobytes(),
