@@ -19,6 +19,8 @@ Cases:
   default64, default32  the built-in scene, 640x480, depth 3, 1 sample, 2 workers, float64 / float32
   glass64               the built-in scene with a glass plinth and parts at alpha 0.6 (see-through wavefronts),
                         640x480, depth 3, 2 workers, float64
+  roughglass64          the built-in scene with a rough glass plinth (roughness 0.4: sampled reflection and
+                        refraction at the 16 glossy pairs, turned per camera sample), 320x240, depth 3, 2 workers
   peer64, peer32        rt3.py's scene (4 spheres, a point light, 2 bounces, 400x300) in the scene format,
                         1 worker (one process), float64 / float32; rt3.py itself is timed in the same rounds
 The last line of the output is one JSON object with every figure.
@@ -82,12 +84,22 @@ def glass_scene() -> dict:
     return document
 
 
+def rough_glass_scene() -> dict:
+    """The built-in scene at 320x240 with its plinth rough glass (transmission 1, IOR 1.45, roughness 0.4): the
+    rough glass rays of glossy.glass_rays at every pair of its first hits, one pair at the hits after."""
+    document = json.loads((ROOT / "tracer" / "scene" / "default_scene.json").read_text())
+    document["materials"]["stone"].update(transmission=1.0, ior=1.45, transmission_roughness=0.4)
+    document["render"].update(width=320, height=240)
+    return document
+
+
 CASES = {
     "default64": {"scene": None, "dtype": "float64", "workers": 2},
     "default32": {"scene": None, "dtype": "float32", "workers": 2},
     "peer64": {"scene": PEER_SCENE, "dtype": "float64", "workers": 1},
     "peer32": {"scene": PEER_SCENE, "dtype": "float32", "workers": 1},
     "glass64": {"scene": glass_scene(), "dtype": "float64", "workers": 2},
+    "roughglass64": {"scene": rough_glass_scene(), "dtype": "float64", "workers": 2},
 }
 
 # CPU seconds (user + system) of this process and its children (the workers), from /proc where there is one: on a

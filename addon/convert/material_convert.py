@@ -20,10 +20,10 @@ Lobes of the shaders (F0 is a dielectric's reflectance at normal incidence, comp
 
 A specular F of a real weight (its mean above ROUGH_NAMED: a metal, a Glossy BSDF) rougher than rho 0.1 is the
 format's glossy lobe (GGX of that roughness; Schlick's Fresnel for Principled, the colour for Glossy BSDF; the
-node's distribution's energy; Smith's shadowing separable in 3.x, as its Cycles). Otherwise (a mirror, or a
-dielectric's few percent) a specular F splits by roughness rho into a mirror share and a highlight share, and the
-highlight share of a Principled dielectric also reflects the world (a glossy lobe of glossy_source "world"). The
-twin draws the documented
+node's distribution's energy, a rough Glass BSDF's too; Smith's shadowing separable in 3.x, as its Cycles).
+Otherwise (a mirror, or a dielectric's few percent) a specular F splits by roughness rho into a mirror share and a
+highlight share, and the highlight share of a Principled dielectric also reflects the world (a glossy lobe of
+glossy_source "world"). The twin draws the documented
 highlight of exponent n as a Beckmann lobe of roughness rho = (2 / (n + 2))^(1/4) (vane/materials.py), so rho maps back
 to n = 2 / rho^4 - 2. A lobe at rho <= 0.1 (n >= 20000, narrower than any exponent the add-on's materials reach) is
 a mirror; at rho >= 0.5 (n <= 30, a lobe 14 degrees wide) the scene's reflection is blurred past recognition and
@@ -137,6 +137,7 @@ class _Lobes:
         self.glass_ior = 0.0
         self.glass_roughness = 0.0  # the glass lobes' roughness times their weight (above ROUGH_MIRROR: rough)
         self.iors: set[float] = set()  # the IORs of the glass lobes (several: one, their weighted mean, named)
+        self.glass_kinds: set[str] = set()  # the energy ("multiscatter", "single") of each rough glass lobe
         self.clear = 0.0
         # the mean weight of specular lobes too rough for a mirror: what reflects the scene and world blurred in
         # Cycles, here only the lights' highlight (named where it is large: a rough metal, not a dielectric's 4%)
@@ -168,6 +169,7 @@ class _Lobes:
         out.sheen = [c * k for c in self.sheen]
         out.sheen_roughness = self.sheen_roughness * k
         out.iors = set(self.iors) if k > 0.0 else set()
+        out.glass_kinds = set(self.glass_kinds) if k > 0.0 else set()
         for name in ("texture", "emission_texture"):
             texture = getattr(self, name)
             if texture is not None:
@@ -187,6 +189,7 @@ class _Lobes:
         out.glass_roughness = self.glass_roughness + other.glass_roughness
         out.glass_tint = [a + b for a, b in zip(self.glass_tint, other.glass_tint, strict=True)]
         out.iors = self.iors | other.iors
+        out.glass_kinds = self.glass_kinds | other.glass_kinds
         out.clear = self.clear + other.clear
         out.rough = self.rough + other.rough
         out.glossy = [a + b for a, b in zip(self.glossy, other.glossy, strict=True)]
@@ -201,9 +204,12 @@ class _Lobes:
             out.textures_dropped += int(mine is not None and theirs is not None)
         return out
 
-    def add_glass(self, weight: float, tint, ior: float, roughness: float = 0.0) -> None:
-        """A clear dielectric lobe of this weight, tint (linear RGB) and index of refraction."""
+    def add_glass(self, weight: float, tint, ior: float, roughness: float = 0.0, energy: str = "multiscatter") -> None:
+        """A clear dielectric lobe of this weight, tint (linear RGB), index of refraction, roughness and, where rough,
+        microfacet energy (_energy)."""
         ior = min(IOR_MAX, max(IOR_MIN, ior))
+        if weight > 0.0 and roughness > ROUGH_MIRROR:
+            self.glass_kinds.add(energy)
         self.glass += weight
         self.glass_tint = [g + weight * c for g, c in zip(self.glass_tint, tint, strict=True)]
         self.glass_ior += weight * ior
@@ -840,7 +846,8 @@ def _glass(node, material, notes: list[str]) -> _Lobes:
     roughness = value_input(node.inputs["Roughness"], f"{node.name} Roughness", notes)
     if getattr(node, "distribution", "") == "SHARP":  # 3.4's Sharp ignores the roughness
         roughness = 0.0
-    lobes.add_glass(1.0, color, ior, min(1.0, max(0.0, roughness)))
+    roughness = min(1.0, max(0.0, roughness))
+    lobes.add_glass(1.0, color, ior, roughness, _energy(node, notes) if roughness > ROUGH_MIRROR else "multiscatter")
     if 0.0 < roughness <= ROUGH_MIRROR:
         notes.append(f"rough {node.bl_label}: sharp")
     if node.bl_idname == "ShaderNodeBsdfRefraction":
@@ -1164,12 +1171,15 @@ def _glass_color(document: dict, rest: _Lobes, tint: list[float], notes: list[st
 
 def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
     rough = lobes.glass_roughness / lobes.glass if lobes.glass > 0.0 else 0.0  # the glass lobes' weighted mean
+    glass_kinds = lobes.glass_kinds
     lobes, alpha, transmission, ior, tint = _shares(lobes, notes)
     document = _opaque_document(lobes, model, coef, notes)
     if transmission > 0.0:
         document["transmission"], document["ior"] = transmission, ior
-        if rough > ROUGH_MIRROR:  # sampled microfacets (GGX, single scattering); a near-mirror stays sharp (named)
+        if rough > ROUGH_MIRROR:  # sampled microfacets (GGX); a near-mirror stays sharp (named)
             document["transmission_roughness"] = min(1.0, rough)
+            if "glossy" not in document and glass_kinds == {"single"}:  # the glass's distribution's energy (_energy):
+                document["glossy_energy"] = "single"  # Beckmann (3.x's default) and GGX lose it, Multiscatter GGX not
         _glass_color(document, lobes, tint, notes)
     if ("glossy" in document or "transmission_roughness" in document) and compat.microfacet_shadowing() != "correlated":
         document["glossy_shadowing"] = compat.microfacet_shadowing()

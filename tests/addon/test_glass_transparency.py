@@ -79,7 +79,14 @@ def test_a_glass_bsdf_is_all_transmission_of_its_ior_tinted_by_its_colour() -> N
     document, notes = material_convert.convert_material(material)
     assert document["color"] == pytest.approx([0.9, 0.5, 0.2]) and document["transmission"] == 1.0
     assert document["transmission_roughness"] == pytest.approx(0.3)  # rough glass, sampled
-    assert notes == ["Glass BSDF colour: tints the refraction only"]
+    beckmann = getattr(node, "distribution", "") == "BECKMANN"  # 3.x's default: single scattering, drawn as GGX's
+    assert document.get("glossy_energy", "multiscatter") == ("single" if beckmann else "multiscatter")
+    assert notes == ["Beckmann distribution: GGX"] * beckmann + ["Glass BSDF colour: tints the refraction only"]
+    if hasattr(node, "distribution"):  # GGX (single scattering) and Multiscatter GGX, as Cycles draws them
+        for distribution, energy in (("GGX", "single"), ("MULTI_GGX", "multiscatter")):
+            node.distribution = distribution
+            assert material_convert.convert_material(material)[0].get("glossy_energy", "multiscatter") == energy
+        node.distribution = "BECKMANN" if beckmann else "MULTI_GGX"
     node.inputs["Roughness"].default_value = 0.05  # a near-mirror stays sharp, named
     document, notes = material_convert.convert_material(material)
     assert "transmission_roughness" not in document and notes[0] == "rough Glass BSDF: sharp"

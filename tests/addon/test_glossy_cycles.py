@@ -180,9 +180,12 @@ def _compare_glass(tmp_path: Path, roughness: float, samples: int) -> None:
     _against_cycles(tmp_path, "rough glass", roughness, samples)
 
 
-# At roughness 0.6 the mean is within 6% but PSNR 21.8 dB: the fixed sample pairs, the same at the glass's entry and
-# exit, draw a star-shaped structure through the sphere where Cycles' random samples blur (measured 2026-12-05)
-SHORT = pytest.mark.xfail(strict=True, reason="rough glass 0.6: PSNR 21.8 dB against Cycles' 1024 samples, not 25")
+# In 3.4.1 at roughness 0.6 the mean is 17% below Cycles' and PSNR 23.4 dB: 3.4's Glass BSDF is Beckmann by default,
+# single scattering that loses less light than GGX's (Cycles 3.4 itself: 0.249 against GGX's 0.196 and Multiscatter
+# GGX's 0.285), which the format's GGX lobe does not draw (measured 2026-12-05)
+SHORT = pytest.mark.xfail(
+    bpy.app.version < (4, 0, 0), strict=True, reason="3.4's Beckmann glass at 0.6: 17% darker and 23.4 dB, not 25"
+)
 
 
 @pytest.mark.slow

@@ -119,6 +119,41 @@ def _strata_array(settings: sc.RenderSettings, pixels: np.ndarray, s: np.ndarray
     return s * slices + (k + shift) % slices
 
 
+GLASS_SEED = 0x676C6173  # rough glass's pair rotations: jitter(seed + GLASS_SEED, serial * BOUNCES + depth, 0 or 1)
+BOUNCES = 128  # above the deepest path (render.depth <= 64): each depth of a camera sample's tree its own index
+
+
+def glass_rotation(seed: int, serial: int, depth: int) -> tuple[float, float]:
+    """The Cranley-Patterson rotation (in [0, 1)^2) of the glossy pairs at a rough glass hit of camera sample serial
+    (sample_serial) with depth bounces left: its own for every camera sample and every depth of its
+    tree (the glass's entry and exit differ), the same for any band or worker."""
+    index = serial * BOUNCES + depth
+    return jitter(seed + GLASS_SEED, index, 0), jitter(seed + GLASS_SEED, index, 1)
+
+
+def glass_rotations(seed: int, serial: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """glass_rotation of arrays of camera samples and depths (k,) -> (2, k)."""
+    index = np.asarray(serial, dtype=np.int64) * BOUNCES + np.asarray(depth, dtype=np.int64)
+    return np.stack((jitter_array(seed + GLASS_SEED, index, 0), jitter_array(seed + GLASS_SEED, index, 1)))
+
+
+def sample_serial(settings: sc.RenderSettings, i: int, j: int, s: int) -> int:
+    """The global index of sample s of pixel (i, j), as its jitter and lens sample count it: (j * width + i) *
+    samples + s, or in a time slice of motion blur the pixel's strata times its own plus the stratum it traces."""
+    pixel = j * settings.width + i
+    return pixel * strata(settings) + stratum(settings, pixel, s)
+
+
+def sample_serials(settings: sc.RenderSettings, pixels: np.ndarray) -> np.ndarray:
+    """sample_serial of every sample of the flat pixels (P,), ordered pixel, sample (P * samples,)."""
+    samples = settings.samples
+    pixels = np.asarray(pixels, dtype=np.int64)
+    shape = (pixels.size, samples)
+    flat = np.broadcast_to(pixels[:, None], shape).ravel()
+    s = np.broadcast_to(np.arange(samples, dtype=np.int64)[None, :], shape).ravel()
+    return flat * strata(settings) + _strata_array(settings, flat, s)
+
+
 def sample_position(settings: sc.RenderSettings, i: int, j: int, s: int) -> tuple[float, float]:
     """Image-plane position, in pixels from the top-left corner, of sample s of pixel (i, j)."""
     grid = strata(settings)

@@ -160,5 +160,6 @@ def facing_basis(w: sc.Vec3) -> tuple[sc.Vec3, sc.Vec3]:
 def glossy_pairs(samples: int) -> list[tuple[float, float]]:
     """A glossy lobe's sample numbers (u1, u2) in [0, 1)^2, the same at every hit: u1 = (i + 0.5) / samples (the
     radius of Heitz's disk of visible normals, stratified) and u2 = i times the golden angle's fraction of a turn,
-    mod 1 (its angle, turning as hemisphere_directions' do)."""
+    mod 1 (its angle, turning as hemisphere_directions' do). Rough glass turns them at each hit by a rotation of its
+    own (camera.glass_rotation)."""
     return [((i + 0.5) / samples, (i * GOLDEN_TURN) % 1.0) for i in range(samples)]

@@ -39,7 +39,9 @@ class RayBatch:
     glossy surface after it sends its ray by (glossy.sample_rays). bounces (n,) and diffuse (n,) bool, in scenes with
     diffuse bounces: the diffuse bounces on the path so far, and whether the ray is one (its miss adds nothing: the
     world's light is the world light's). lamps (n,) bool, in scenes with area lights seen in mirrors: the ray sees
-    them (mirror, refracted and rough glass rays; not camera, glossy or diffuse ones)."""
+    them (mirror, refracted and rough glass rays; not camera, glossy or diffuse ones). serial (n,), in scenes with
+    rough glass: the global index of the camera sample a ray's tree belongs to (camera.sample_serial: its rough glass
+    hits' pair rotations, camera.glass_rotations)."""
 
     pixel: np.ndarray
     origin: np.ndarray
@@ -56,6 +58,7 @@ class RayBatch:
     bounces: np.ndarray | None = None
     diffuse: np.ndarray | None = None
     lamps: np.ndarray | None = None
+    serial: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -83,6 +86,7 @@ class RayBatch:
                     "bounces",
                     "diffuse",
                     "lamps",
+                    "serial",
                 )
             ),
         )

@@ -2,8 +2,9 @@
 microfacets of Cycles' roughness (alpha = roughness^2, Smith's height-correlated or separable masking-shadowing),
 the lights' terms through a glossy lobe (or the world's alone, untraced), the reflection rays it sends, rough glass's
 reflected and refracted rays, and diffuse bounces' cosine-weighted rays (Heitz 2018's sampling of the visible
-normals, at the fixed stratified pairs of lightsamples.glossy_pairs). docs/algorithm.md, "Glossy reflection" and
-"Diffuse bounces"; the per-pixel reference (reference_glossy.py) does the same one hit at a time."""
+normals, at the fixed stratified pairs of lightsamples.glossy_pairs, rough glass's turned by a rotation of each camera
+sample and depth). docs/algorithm.md, "Glossy reflection" and "Diffuse bounces"; the per-pixel reference
+(reference_glossy.py) does the same one hit at a time."""
 
 from __future__ import annotations
 
@@ -219,10 +220,12 @@ def diffuse_rays(
 
 
 def glass_rays(
-    scene: PreparedScene, hits: Hits, rows: np.ndarray, D: np.ndarray, chosen: np.ndarray
+    scene: PreparedScene, hits: Hits, rows: np.ndarray, D: np.ndarray, chosen: np.ndarray, rotation: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The rays of rough glass hits rows (k,) met along D (3, k): for every pair at a path's first glossy surface
-    (chosen -1), else the path's pair, a microfacet normal m sampled about the shading normal turned to face the
+    (chosen -1), else the path's pair, each pair turned by the hit's Cranley-Patterson rotation (2, k) (rotated(): its
+    own for every camera sample and depth, camera.glass_rotations, so that neither the pixels nor a path's entry and
+    exit share one pattern), a microfacet normal m sampled about the shading normal turned to face the
     ray (as the sharp glass bends by it), then a reflected ray of weight F G2 / G1(v) and a refracted one of weight
     (1 - F) G2 / G1(v) (Walter et al. 2007; F the dielectric Fresnel at v.m, eta = ior entering by the geometric
     normal, 1 / ior leaving), each divided by the hit's number of pairs, and for multiscatter energy by E, the mean
@@ -246,12 +249,14 @@ def glass_rays(
     gain = np.ones(rows.size)
     multiscatter = scene.glossy_multiscatter.take(material)
     if multiscatter.any():
-        _, _, weight_r, weight_t = _glass_split(v, eta, alpha, pairs[:, :1], pairs[:, 1:], separable)  # (m, k)
+        every = rotated(pairs[:, :1], rotation[0]), rotated(pairs[:, 1:], rotation[1])  # (m, k) each
+        _, _, weight_r, weight_t = _glass_split(v, eta, alpha, *every, separable)  # (m, k)
         albedo = (weight_r + weight_t).mean(axis=0)
         gain = np.where(multiscatter & (albedo > 0.0), 1.0 / np.where(albedo > 0.0, albedo, 1.0), 1.0)
     fresh = chosen < 0
     hit, pair = _ray_pairs(chosen, count)
-    u1, u2 = pairs[:, 0].take(pair), pairs[:, 1].take(pair)
+    u1 = rotated(pairs[:, 0].take(pair), rotation[0].take(hit))
+    u2 = rotated(pairs[:, 1].take(pair), rotation[1].take(hit))
     split = _glass_split(v[:, hit], eta.take(hit), alpha.take(hit), u1, u2, separable.take(hit))
     reflected, T, weight_r, weight_t = split
     scale = np.where(fresh.take(hit), 1.0 / count, 1.0) * gain.take(hit)
@@ -267,6 +272,13 @@ def glass_rays(
     order = np.lexsort((refracted, both))  # a hit's rays together: by pair, the reflected before the refracted
     hit, pair = hit.take(both.take(order)), pair.take(both.take(order))
     return hit, pair, take(directions, order), weights.take(order), refracted.take(order)
+
+
+def rotated(u: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """Sample numbers u in [0, 1) moved by offsets in [0, 1) and wrapped: u + offset, less 1 where that reaches 1
+    (Cranley and Patterson 1976; the reference's rotated, to the bit)."""
+    moved = u + offset
+    return np.where(moved >= 1.0, moved - 1.0, moved)
 
 
 def _ray_pairs(chosen: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:

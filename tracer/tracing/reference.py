@@ -327,6 +327,7 @@ class ReferenceTracer:
         self.world_pairs = lightsamples.glossy_pairs(min(4, scene.render.glossy_samples))  # a lobe of the world
         # shadow rays pass partly transparent surfaces (shadow_through) where some material has alpha < 1
         self.shadow_alpha = any(m.alpha < 1.0 for m in scene.materials.values())
+        self.serial = 0  # the camera sample being traced (camera.sample_serial): rough glass's rotations
 
     def material(self, index: int, part: int) -> sc.Material:
         """The material of object index's part (a mesh's triangle may have its own)."""
@@ -686,6 +687,7 @@ class ReferenceTracer:
             x, y = cam.sample_position(self.settings, i, j, s)
             lens = cam.lens_sample(self.settings, i, j, s)
             O, D, t_max = cam.primary_ray(self.scene.camera, self.settings, x, y, lens)
+            self.serial = cam.sample_serial(self.settings, i, j, s)
             self.rays["camera"] += 1
             if t_max == 0.0:  # a panoramic camera's ray outside its lens: nothing, not even the background
                 continue

@@ -9,6 +9,7 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
+from ..geometry import camera as cam
 from ..geometry import lightsamples
 from ..scene import scene as sc
 
@@ -19,6 +20,8 @@ class Tracing(Protocol):
 
     glossy_pairs: list[tuple[float, float]]
     rays: dict[str, int]
+    settings: sc.RenderSettings
+    serial: int  # the camera sample being traced (camera.sample_serial)
 
     def trace_ray(
         self,
@@ -147,19 +150,27 @@ def glass(
     layers: int,
     path: tuple[int, int, int],
 ) -> sc.Color:
-    """What a rough glass hit's sampled rays (glass_rays) bring back, before its glass share a t. The reason for 9
-    parameters: the tracer, the hit and the ray's state as trace_ray carries them."""
-    rays = [ray[:3] for ray in glass_rays(tracer.glossy_pairs, D, N, S, material, path)]
+    """What a rough glass hit's sampled rays (glass_rays) bring back, before its glass share a t, at the rotation of
+    the tracer's camera sample and this depth (camera.glass_rotation). The reason for 9 parameters: the tracer, the
+    hit and the ray's state as trace_ray carries them."""
+    rotation = cam.glass_rotation(tracer.settings.seed, tracer.serial, depth)
+    rays = [ray[:3] for ray in glass_rays(tracer.glossy_pairs, D, N, S, material, path, rotation)]
     return traced(tracer, P, rays, depth, layers)
 
 
 def glass_rays(
-    pairs: list[tuple[float, float]], D: sc.Vec3, N: sc.Vec3, S: sc.Vec3, material: sc.Material, path: tuple
+    pairs: list[tuple[float, float]],
+    D: sc.Vec3,
+    N: sc.Vec3,
+    S: sc.Vec3,
+    material: sc.Material,
+    path: tuple,
+    rotation: tuple[float, float],
 ) -> list[tuple[sc.Vec3, sc.Color, tuple[int, int, int], bool]]:
     """A rough glass hit's rays (glossy.glass_rays, one ray at a time): per pair (all at a path's first glossy
-    surface, else the path's), a visible microfacet normal m about S turned to face D, a reflected ray of weight
-    F G2 / G1(v) and a refracted one of (1 - F) G2 / G1(v) times the colour -> (direction, weight, path, refracted)
-    each (mirror-like rays: they see the lights seen in mirrors)."""
+    surface, else the path's) turned by the hit's rotation (rotated), a visible microfacet normal m about S turned
+    to face D, a reflected ray of weight F G2 / G1(v) and a refracted one of (1 - F) G2 / G1(v) times the colour ->
+    (direction, weight, path, refracted) each (mirror-like rays: they see the lights seen in mirrors)."""
     d = _unit(D)
     n = _unit(S if _dot(S, d) < 0.0 else (-S[0], -S[1], -S[2]))
     eta = material.ior if _dot(N, d) < 0.0 else 1.0 / material.ior
@@ -171,7 +182,8 @@ def glass_rays(
     chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
     share = 1.0 / len(pairs) if path[0] < 0 else 1.0
     separable = material.glossy_shadowing == "separable"
-    splits = [_glass_split(v, eta, a, u1, u2, separable) for u1, u2 in pairs]
+    turned = [(rotated(u1, rotation[0]), rotated(u2, rotation[1])) for u1, u2 in pairs]
+    splits = [_glass_split(v, eta, a, u1, u2, separable) for u1, u2 in turned]
     gain = 1.0
     if material.glossy_energy == "multiscatter":  # 1 / E, E both weights' mean over every pair
         albedo = sum(weight_r + weight_t for _, _, weight_r, weight_t in splits) / len(pairs)
@@ -186,6 +198,12 @@ def glass_rays(
                 world = tuple(direction[0] * e1[k] + direction[1] * e2[k] + direction[2] * n[k] for k in range(3))
                 made.append((world, tuple(weight * c for c in tint), (index, path[1], 0), bent))
     return made
+
+
+def rotated(u: float, offset: float) -> float:
+    """A sample number u in [0, 1) moved by offset in [0, 1), wrapped (Cranley-Patterson; glossy.rotated)."""
+    moved = u + offset
+    return moved - 1.0 if moved >= 1.0 else moved
 
 
 def traced(tracer: Tracing, P: sc.Vec3, rays: list[tuple], depth: int, layers: int) -> sc.Color:

@@ -235,8 +235,9 @@ class PassTracer(ReferenceTracer):
             if depth > 0 and material.transmission > 0.0 and material.transmission_roughness > 0.0:
                 normal = find_normal(self.primitives[hit[0]], hit[1], P)
                 glass = a * material.transmission
+                rotation = cam.glass_rotation(self.settings.seed, self.serial, depth)
                 for direction, weight, path, bent in reference_glossy.glass_rays(
-                    self.glossy_pairs, D, normal, S, material, NEW_PATH
+                    self.glossy_pairs, D, normal, S, material, NEW_PATH, rotation
                 ):
                     if bent:  # a refracted ray's tree, surfaces and sky alike: Transmission
                         seen = self.trace_ray(P, direction, REFLECTION_T_MIN, INF, depth - 1, False, 0, path)
@@ -306,6 +307,7 @@ class PassTracer(ReferenceTracer):
         samples = []
         for s in range(self.settings.samples):
             self.camera_sample = s  # the world light's share of directions (lightsamples.world_share)
+            self.serial = cam.sample_serial(self.settings, i, j, s)  # rough glass's rotations
             position, lens = cam.sample_position(self.settings, i, j, s), cam.lens_sample(self.settings, i, j, s)
             samples.append(self.sample_passes(*position, lens))
         values = {}

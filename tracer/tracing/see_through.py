@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry import camera as cam
 from ..geometry.footprint import Footprint
 from ..geometry.kernels import dot, indices, take
 from ..geometry.rayframes import RayFrames
@@ -244,8 +245,9 @@ def _rough_glass_rays(
     rows = indices(go & rough & (glass > 0.0))
     if not rows.size:
         return None
+    rotation = cam.glass_rotations(scene.scene.render.seed, batch.serial.take(rows), batch.left.take(rows))
     hit, pair, D, weight, refracted = glossy.glass_rays(
-        scene, hits, rows, take(batch.direction, rows), batch.sample.take(rows)
+        scene, hits, rows, take(batch.direction, rows), batch.sample.take(rows), rotation
     )
     if not hit.size:
         return None
@@ -302,7 +304,7 @@ def _child(
     alpha; a mirror or refracted ray (kind 1 or 2 for the passes' tag) is a new path. sample: a glossy ray's pair
     (k,) (None: the rays keep their path's). The reason for 11 parameters: the five that vary by child come with
     the six every child shares."""
-    P = take(hits.P, rows)
+    P = hits.P.take(rows, axis=1, mode="wrap")  # not take(): a lone hit's rays are columns, not a shared (3, 1)
     O = P
     if scene.robust:
         O = offset_origins(P, take(hits.N, rows), D, *(part.take(rows) for part in hits.surface))
@@ -328,9 +330,10 @@ def _child(
         diffuse = batch.diffuse.take(rows) if straight else np.zeros(rows.size, dtype=bool)
     if batch.lamps is not None:  # mirror, refracted and rough glass rays see lights (glossy, diffuse: not)
         lamps = batch.lamps.take(rows) if straight else np.ones(rows.size, dtype=bool)
+    serial = None if batch.serial is None else batch.serial.take(rows)
     return RayBatch(
         batch.pixel.take(rows), O, D, weight, left, reach, camera, layers, tag, clear, pending, sample, bounces,
-        diffuse, lamps,
+        diffuse, lamps, serial,
     )  # fmt: skip
 
 

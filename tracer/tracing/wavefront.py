@@ -61,7 +61,9 @@ class TracedScene(PreparedScene):
 
         rows: the image rows (R,) that the rays are, ordered as camera.band_directions gives them, if they are;
         else pixels: the flat pixels (P,) whose samples they are, pixel by pixel, where known (either lets the
-        screen rectangles cull the camera rays and their first mirror rays).
+        screen rectangles cull the camera rays and their first mirror rays; in a scene with rough glass either gives
+        the camera samples' global indices, which turn the glass's sample pairs: camera.glass_rotations; without
+        them, the rays' order here).
         origins (3, N): where each ray starts (None: all at the camera); far (N,): where each stops (None: never),
         as camera.band_starts gives them for a clipped or orthographic camera. footprint: records which of the N
         camera rays' trees meet its volume. recorder: keeps the render passes of the N camera rays (NO_PASSES: none).
@@ -85,6 +87,9 @@ class TracedScene(PreparedScene):
         if glass:
             glossy, lamps = self.traced_glossy or self.rough_glass, bool(self.seen_lights)
             batch = see_through.camera_batch(batch, self.dtype, glossy, bool(self.diffuse_bounces), lamps)
+            if self.rough_glass:  # each camera sample's global index: its rough glass hits' pair rotations
+                known = pixels if rows is None else cam.band_pixels(settings, rows)
+                batch.serial = np.arange(total) if known is None else cam.sample_serials(settings, known)
         culling = _Culling(self, rows, pixels, frames, total)
         first = True
         while batch.size:
@@ -283,7 +288,9 @@ class TracedScene(PreparedScene):
                 directions = cam.cached_band_directions(camera, settings, rows, self.dtype)
             else:
                 directions = cam.band_directions(camera, settings, rows, columns).astype(self.dtype)
-        pixels = None if cam.shares_origin(camera) else cam.band_pixels(settings, rows, columns)
+        pixels = None
+        if not cam.shares_origin(camera) or (columns is not None and self.rough_glass):  # trace() needs them
+            pixels = cam.band_pixels(settings, rows, columns)
         # whole rows: the screen rectangles cull them
         at = (
             None
