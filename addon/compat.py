@@ -41,6 +41,13 @@ def cycles_spot_model() -> str:
     return "cycles3" if VERSION < (4, 0, 0) else "cycles4"
 
 
+def cycles_sun_disc_model() -> str:
+    """The scene format's disc_model of this Blender's Cycles: "cycles3" before 4.0 (a sun's disc in a mirror is
+    brighter toward its rim by 1 / cos^3 of the angle from its centre, and intensity / tan^2 of half its angle at
+    the centre), "cycles4" from 4.0 (intensity / sin^2 of half its angle all over it)."""
+    return "cycles3" if VERSION < (4, 0, 0) else "cycles4"
+
+
 def passes_named_in_words() -> bool:
     """Blender 5.0 names passes in words ("Object Index", "Diffuse Direct"); earlier releases in codes ("IndexOB",
     "DiffDir")."""

@@ -144,6 +144,15 @@ def test_glossy_bouncing_and_mirrored_light_passes_match_the_reference(seed: int
     check_against_reference(scene_from_dict(with_passes(document, seed, samples=(1, 4)[seed % 2])))
 
 
+@pytest.mark.parametrize("seed", [1, 2, 4])  # the disc in a Whitted mirror, through glass, in a see-through mirror
+def test_passes_with_a_sun_seen_in_mirrors_match_the_reference(seed: int) -> None:
+    """A sun's disc seen in mirrors goes to Reflection (the lights seen in mirrors' pass; Transmission through
+    glass), the sky beside it to Environment (tests/test_emitters.py's random scenes)."""
+    from tests.test_emitters import _sun_document
+
+    check_against_reference(scene_from_dict(with_passes(_sun_document(seed), seed, samples=(1, 4)[seed % 2])))
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_instanced_scene_passes_match_the_reference(seed: int) -> None:
     document = with_passes(instanced_scene_document(seed, width=16, height=12), seed, samples=(1, 4)[seed % 2])

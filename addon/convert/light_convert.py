@@ -12,7 +12,9 @@ So a point or spot light is {"intensity": P / (4 pi^2), "falloff": "inverse_squa
 S / pi, every light with its colour (times the blackbody colour where Use Temperature is on, and the power times
 2^exposure, as Cycles emits them). A spot shines along the light's -Z axis in world space with Blender's spot_size
 (the full cone, here in degrees) and spot_blend. A sun's angle is the directional light's "angle" (soft shadows with
-the render's Shadows setting).
+the render's Shadows setting); where it is above 0 and the sun's Glossy ray visibility and Multiple Importance are on,
+"seen_in_mirrors" (mirrors show its disc at Cycles' radiance, "disc_model" cycles3 in Blender 3.x:
+tests/addon/test_sun_in_mirrors.py).
 
 An area light is the tracer's "area" light (a one-sided cosine emitter sampled over its shape, docs/scene-format.md):
 its intensity along the normal is P / pi W/sr, so {"intensity": P / pi^2} in Blender 4.0-5.0 and P / pi^2 * pi / 4 in
@@ -117,6 +119,12 @@ def _falloff_node(light, notes: list[str] | None = None) -> tuple[str | None, fl
     return None, strength, color
 
 
+def _multiple_importance(light) -> bool:
+    """Whether Cycles samples the light by Multiple Importance (Light > Multiple Importance, on by default)."""
+    settings = getattr(light, "cycles", None)
+    return bool(getattr(settings, "use_multiple_importance_sampling", True))
+
+
 def documented(light) -> bool:
     """Whether a Blender point light or sun is the documented light the Lights panel's entry holds, in any colour:
     a point of radius 0 driven by a Light Falloff node's Constant output, a sun of angle 0. Else it converts as
@@ -180,6 +188,15 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
         document = {"type": "directional", "direction": list(_world_axis(obj, 1.0)), "intensity": power / math.pi}
         if light.angle > 0.0:
             document["angle"] = math.degrees(light.angle)
+            # Cycles' mirrors show the disc where the sun's Glossy ray visibility and Multiple Importance are on
+            # (kernel/light/distant.h: a sun without MIS is never met by a ray), as Blender has them by default
+            met = _multiple_importance(light)
+            if met and getattr(obj, "visible_glossy", True):
+                document["seen_in_mirrors"] = True
+                if compat.cycles_sun_disc_model() != "cycles4":
+                    document["disc_model"] = compat.cycles_sun_disc_model()
+            if met and getattr(obj, "visible_camera", False):  # off for a light unless the user turns it on
+                notes.append("sun's Camera ray visibility: its disc not shown to the camera, only in mirrors")
             if _shadow_samples(blender_scene) == 1:
                 notes.append(f"sun angle {math.degrees(light.angle):.3g}°: hard shadow")
     elif kind == "AREA":

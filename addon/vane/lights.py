@@ -88,6 +88,8 @@ def create_from_scene(light, name: str, collection):
     if kind == "DirectionalLight":
         obj = create("DIRECTIONAL", light.intensity, name, collection, light.direction)
         obj.data.angle = math.radians(light.angle)
+        if light.angle > 0.0 and hasattr(obj, "visible_glossy"):  # the file's disc is seen in mirrors, or not
+            obj.visible_glossy = light.seen_in_mirrors
     else:
         blender_type = {"PointLight": "POINT", "SpotLight": "SPOT", "AreaLight": "AREA"}[kind]
         data = bpy.data.lights.new(name, type=blender_type)

@@ -920,6 +920,8 @@ def _light(reader: _Reader) -> sc.Light | None:
             intensity=intensity,
             color=color,
             angle=reader.number("angle", 0.0, low=0.0, high=180.0),
+            seen_in_mirrors=reader.boolean("seen_in_mirrors", False),
+            disc_model=reader.choice("disc_model", sc.DISC_MODELS, "cycles4"),
         )
     elif kind == "area":
         result = _area_light(reader, intensity, color, direction)

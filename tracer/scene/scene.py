@@ -29,6 +29,7 @@ DTYPES = ("float32", "float64")
 NUMERICS = ("documented", "robust")
 FALLOFFS = ("none", "inverse_square")
 SPOT_MODELS = ("cycles4", "cycles3")
+DISC_MODELS = ("cycles4", "cycles3")  # a sun's disc as Cycles 4.0+ or Cycles 3.x shows it (emitters.py)
 WHITE = (1.0, 1.0, 1.0)
 BLACK = (0.0, 0.0, 0.0)
 # straight-through (alpha) continuations along one path, as Cycles' Transparent Max Bounces (default 8): a ray that
@@ -475,6 +476,12 @@ class DirectionalLight:
     # the sun's angular diameter in degrees (Blender's sun angle): with render.shadow_samples > 1 its shadow rays
     # go to directions spread over that disk of the sky (soft shadows), each carrying intensity / samples
     angle: float = 0.0
+    # mirror and refracted rays that meet nothing and point into the disc see its radiance (tracing/emitters.py), as
+    # Cycles' reflections show the sun; False: the documented model (the sun is seen only in highlights)
+    seen_in_mirrors: bool = False
+    # the disc's radiance: cycles4 (Blender 4.0+) i / sin^2(angle / 2) all over it; cycles3 (Blender 3.x) i /
+    # (tan^2(angle / 2) cos^3 theta), theta the angle from its centre
+    disc_model: Literal["cycles4", "cycles3"] = "cycles4"
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,9 @@
-"""Area lights that mirror rays see (an area light's seen_in_mirrors, Blender's Glossy ray visibility of a light) ->
-where a wavefront's mirror and refracted rays meet one before any surface: its radiance times the rays' weights added
-into their samples, and those rays ended. Camera rays, glossy lobes' and diffuse bounces' rays do not see lights:
-their lights are counted where they start (the light terms through the lobe, the shadow rays)."""
+"""Lights that mirror rays see (a light's seen_in_mirrors, Blender's Glossy ray visibility of a light) -> where a
+wavefront's mirror and refracted rays meet an area light before any surface: its radiance times the rays' weights
+added into their samples, and those rays ended; where they meet nothing and point into a sun's disc (a directional
+light with an angle): its radiance, added to the background they see. Camera rays, glossy lobes' and diffuse bounces'
+rays do not see lights: their lights are counted where they start (the light terms through the lobe, the shadow
+rays), and Cycles' camera does not show a light either."""
 
 from __future__ import annotations
 
@@ -83,3 +85,62 @@ def meet(
         return rays.take(met), np.zeros((3, 0))
     radiance = np.concatenate([light.radiance for light in lights], axis=1).take(found.take(met), axis=1)
     return rays.take(met), radiance
+
+
+@dataclass(frozen=True)
+class SeenSun:
+    """A sun (a directional light with an angle) as mirror rays see it: the unit direction toward it (3, 1), the
+    cosine of its angular radius h (half its angle), and its radiance (3, 1) at the disc's centre: intensity /
+    sin^2 h times its colour (cycles4), or intensity / tan^2 h (cycles3, which divides it by cos^3 of the angle from
+    the centre). The tracer's intensity is Blender's strength S / pi, and Cycles 4.0+ spreads S over the disc's
+    solid angle's projection pi sin^2 h (scene/light.cpp, Light::area); Cycles 3.x took the disc as one of radius
+    tan h a unit away (kernel/light/light.h, light_sample_from_distant_ray: invarea / cos^3 theta)."""
+
+    direction: np.ndarray
+    cos_radius: float
+    radiance: np.ndarray
+    cycles3: bool
+
+
+def prepare_suns(scene: sc.Scene) -> list[SeenSun]:
+    """The scene's suns that mirror rays see: those with seen_in_mirrors and an angle (Cycles shows no disc of a
+    sun of angle 0)."""
+    seen = []
+    for light in scene.lights:
+        if not (isinstance(light, sc.DirectionalLight) and light.seen_in_mirrors and light.angle > 0.0):
+            continue
+        radius = math.radians(light.angle) / 2.0
+        cycles3 = light.disc_model == "cycles3"
+        spread = math.tan(radius) ** 2 if cycles3 else math.sin(radius) ** 2
+        length = math.sqrt(sum(c * c for c in light.direction))
+        seen.append(
+            SeenSun(
+                column([c / length for c in light.direction], np.float64),
+                math.cos(radius),
+                column([light.intensity / spread * c for c in light.color], np.float64),
+                cycles3,
+            )
+        )
+    return seen
+
+
+def see_suns(suns: list[SeenSun], direction: np.ndarray, rays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which of the rays rows (k,) (directions (3, n), all of them rays that meet nothing) point into a sun's disc
+    (the angle to its centre at most its angular radius, as Cycles' distant_light_intersect) -> those rows (j,) and
+    the radiance they see (3, j) float64: every disc they point into, added (Cycles adds each sun's)."""
+    if not rays.size or not suns:
+        return rays[:0], np.zeros((3, 0))
+    D = np.asarray(take(direction, rays), dtype=np.float64)
+    length = np.sqrt((D * D).sum(axis=0))
+    total = np.zeros((3, rays.size))
+    any_inside = np.zeros(rays.size, dtype=bool)
+    for sun in suns:
+        cosine = (D * sun.direction).sum(axis=0) / length
+        inside = cosine >= sun.cos_radius
+        any_inside |= inside
+        if sun.cycles3:
+            total += np.where(inside, sun.radiance / np.where(inside, cosine, 1.0) ** 3, 0.0)
+        else:
+            total += np.where(inside, sun.radiance, 0.0)
+    seen = indices(any_inside)
+    return rays.take(seen), total.take(seen, axis=1)

@@ -133,6 +133,7 @@ class PreparedScene:
     # lights, camera, background
     lights: list[PreparedLight] = field(init=False)
     seen_lights: list = field(init=False, default_factory=list)  # area lights mirror rays see (emitters.py)
+    seen_suns: list = field(init=False, default_factory=list)  # suns' discs mirror rays see (emitters.py)
     origin: np.ndarray = field(init=False)  # (3, 1) the camera's location
     screen: ScreenRectangles | None = field(init=False, default=None)  # which camera rays each kernel can meet
     mirrors: dict[int, ScreenRectangles] = field(init=False, default_factory=dict)  # the same for reflective planes
@@ -166,6 +167,7 @@ class PreparedScene:
         _textures(self, objects, placed.primitives)
         self.lights = prepare_lights(self.scene, self.dtype)
         self.seen_lights = emitters.prepare(self.scene, self.dtype)
+        self.seen_suns = emitters.prepare_suns(self.scene)
         # the documented arithmetic (one intensity per point) unless a light or a material needs colours
         self.colored = self.colored or any(
             light.color != sc.WHITE

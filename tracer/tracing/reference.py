@@ -324,6 +324,11 @@ class ReferenceTracer:
         self.seen_lights = [
             light for light in scene.lights if isinstance(light, sc.AreaLight) and light.seen_in_mirrors
         ]
+        self.seen_suns = [
+            light
+            for light in scene.lights
+            if isinstance(light, sc.DirectionalLight) and light.seen_in_mirrors and light.angle > 0.0
+        ]
         self.world_pairs = lightsamples.glossy_pairs(min(4, scene.render.glossy_samples))  # a lobe of the world
         # shadow rays pass partly transparent surfaces (shadow_through) where some material has alpha < 1
         self.shadow_alpha = any(m.alpha < 1.0 for m in scene.materials.values())
@@ -560,9 +565,14 @@ class ReferenceTracer:
             if lamp is not None:
                 return lamp
         if closest_object < 0:
-            if path[2] == DIFFUSE or not self.sky:
+            if path[2] == DIFFUSE:
                 return (0.0, 0.0, 0.0)
-            return (0.0, 0.0, 0.0) if camera and self.settings.film_transparent else self.background(D)
+            # a mirror ray's suns: not the sky's (the passes' split counts them with the lights seen in mirrors)
+            sun = seen_sun(self.seen_suns, D) if not camera and path[2] == MIRROR else (0.0, 0.0, 0.0)
+            if not self.sky or (camera and self.settings.film_transparent):
+                return sun
+            sky = self.background(D)
+            return (sky[0] + sun[0], sky[1] + sun[1], sky[2] + sun[2])
         if self.scene.objects[closest_object].holdout:
             return (0.0, 0.0, 0.0)
         P = add(O, scale(D, closest_t))
@@ -785,6 +795,24 @@ def seen_light(lights: list[sc.AreaLight], O: sc.Vec3, D: sc.Vec3, t_min: float,
             area = light.size[0] * light.size[1] * (math.pi / 4.0 if round_shape else 1.0)
             found, nearest = tuple(math.pi * light.intensity / area * c for c in light.color), t
     return found
+
+
+def seen_sun(suns: list[sc.DirectionalLight], D: sc.Vec3) -> sc.Color:
+    """The radiance a ray along D that meets nothing sees of the suns (emitters.see_suns, one ray at a time): each
+    sun's whose disc it points into (the angle to the sun at most half its angle), added."""
+    out = [0.0, 0.0, 0.0]
+    size = length(D)
+    for sun in suns:
+        radius = math.radians(sun.angle) / 2.0
+        cosine = dot(D, normalize(sun.direction)) / size
+        if not cosine >= math.cos(radius):
+            continue
+        if sun.disc_model == "cycles3":  # a disc of radius tan h a unit away: 1 / cos^3 toward its rim
+            radiance = sun.intensity / math.tan(radius) ** 2 / cosine**3
+        else:  # Cycles 4.0+: uniform over the disc, its strength over pi sin^2 h
+            radiance = sun.intensity / math.sin(radius) ** 2
+        out = [out[c] + radiance * sun.color[c] for c in range(3)]
+    return tuple(out)
 
 
 def glass_split(

@@ -85,7 +85,7 @@ class TracedScene(PreparedScene):
         origin = self.origin if origins is None else origins
         batch = RayBatch(np.arange(total), origin, D, left=settings.depth, reach=far)
         if glass:
-            glossy, lamps = self.traced_glossy or self.rough_glass, bool(self.seen_lights)
+            glossy, lamps = self.traced_glossy or self.rough_glass, bool(self.seen_lights or self.seen_suns)
             batch = see_through.camera_batch(batch, self.dtype, glossy, bool(self.diffuse_bounces), lamps)
             if self.rough_glass:  # each camera sample's global index: its rough glass hits' pair rotations
                 known = pixels if rows is None else cam.band_pixels(settings, rows)
@@ -99,6 +99,8 @@ class TracedScene(PreparedScene):
                 obj[t >= batch.reach] = -1
             if self.seen_lights and not first:  # mirror rays that meet a light's front before any surface end there
                 batch, t, obj, part = self._meet_lights(color, batch, t, obj, part, t_min, recorder)
+            if self.seen_suns and not first:  # mirror rays that meet nothing see the suns' discs they point into
+                self._see_suns(color, batch, obj, recorder)
             if footprint is not None:  # each ray up to its hit; a miss to its end
                 end = np.where(obj >= 0, t, np.inf if batch.reach is None else batch.reach)
                 footprint.record(batch.pixel, batch.origin, batch.direction, t_min, end, hit=obj)
@@ -164,6 +166,26 @@ class TracedScene(PreparedScene):
         keep[met] = False
         keep = indices(keep)
         return batch.take(keep), t.take(keep), obj.take(keep), part.take(keep)
+
+    def _see_suns(self, color: np.ndarray, batch: RayBatch, obj: np.ndarray, recorder: PassRecorder | NoPasses) -> None:
+        """The rays that see lights (a Whitted wavefront's all, a see-through one's with lamps), meet nothing and
+        point into a sun's disc (emitters.see_suns): its radiance times their weights into their samples and the
+        Reflection pass; they go on to see the background too (Cycles adds the sun's and the world's)."""
+        missed = obj < 0
+        rays = indices(missed if batch.lamps is None else missed & batch.lamps)
+        seen, radiance = emitters.see_suns(self.seen_suns, batch.direction, rays)
+        if not seen.size:
+            return
+        weight = batch.weight
+        if weight is not None:  # (n,) on mirror paths, (3, n) where glass tints them
+            radiance = (weight.take(seen) if weight.ndim == 1 else take(weight, seen)) * radiance
+        value = radiance.astype(self.dtype, copy=False)
+        pixel = batch.pixel.take(seen)
+        see_through.add_at(color, pixel, value, batch.camera is None)
+        if batch.tag is None:
+            recorder.reflection(pixel, value)
+        else:
+            recorder.tagged("reflection", batch.tag, seen, pixel, value)
 
     def _intersect(
         self, batch: RayBatch, t_min: float, first: bool, culling: _Culling, frames: np.ndarray | None

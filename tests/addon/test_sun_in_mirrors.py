@@ -1,0 +1,98 @@
+"""A sun of angle 8 degrees seen in a mirror floor beside Cycles: the disc where Cycles shows it (coverage IoU) and as
+bright (Cycles 4.0+: strength / (pi sin^2 4 degrees) all over it; 3.x: / (pi tan^2 4 degrees cos^3) toward the
+rim); with the sun's Glossy ray visibility off, neither shows it. The conversion (every Blender): seen_in_mirrors
+from the Glossy visibility and Multiple Importance, the disc model of this Blender's Cycles, the camera's visibility
+named."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import bpy
+import numpy as np
+import pytest
+
+from addon import compat
+from addon.convert import light_convert
+from tests.addon.f12_images import AT_THE_ENDS, f12_exr
+
+WIDTH, HEIGHT = 64, 48
+ANGLE = 8.0  # degrees: the disc about 13 pixels across at the default 50 mm lens
+STRENGTH, COLOR = 3.0, (1.0, 0.8, 0.6)
+
+
+def _sun_over_a_mirror() -> bpy.types.Object:
+    """A 40 m mirror floor (Principled Metallic 1, Roughness 0, white), a sun 30 degrees above the horizon toward +Y,
+    a camera 2.5 m up looking 30 degrees down toward +Y (its view's reflection goes to the sun), no world, Standard
+    view; Cycles at 4 samples, each at its pixel's centre (a perfect mirror and the sun's disc converge at once) ->
+    the sun."""
+    scene = bpy.context.scene
+    mirror = bpy.data.materials.new("mirror")
+    compat.enable_nodes(mirror)
+    principled = mirror.node_tree.nodes["Principled BSDF"]
+    principled.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    principled.inputs["Metallic"].default_value = 1.0
+    principled.inputs["Roughness"].default_value = 0.0
+    bpy.ops.mesh.primitive_plane_add(size=40.0)
+    bpy.context.object.data.materials.append(mirror)
+    light = bpy.data.lights.new("sun", type="SUN")
+    light.energy, light.angle, light.color = STRENGTH, math.radians(ANGLE), COLOR
+    sun = bpy.data.objects.new("sun", light)
+    sun.rotation_euler = (math.radians(-60.0), 0.0, 0.0)  # its +Z (toward the light) 30 degrees up toward +Y
+    scene.collection.objects.link(sun)
+    camera = bpy.data.cameras.new("camera")
+    scene.camera = bpy.data.objects.new("camera", camera)
+    scene.collection.objects.link(scene.camera)
+    scene.camera.location = (0.0, -4.0, 2.5)
+    scene.camera.rotation_euler = (math.radians(60.0), 0.0, 0.0)
+    scene.world = None
+    render = scene.render
+    render.resolution_x, render.resolution_y, render.resolution_percentage = WIDTH, HEIGHT, 100
+    scene.view_settings.view_transform = "Standard"
+    scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 4, False
+    scene.cycles.filter_width = 0.01  # each pixel sampled at its centre, as the tracer's one sample is: sharp edges
+    scene.weathervane.samples = "1"  # (its F12 default antialiases)
+    return sun
+
+
+def test_a_suns_disc_is_seen_in_mirrors_as_this_blenders_cycles_shows_it() -> None:
+    sun = _sun_over_a_mirror()
+    document, notes = light_convert.convert_light(sun)
+    assert document["angle"] == pytest.approx(ANGLE) and document["seen_in_mirrors"] is True
+    assert document.get("disc_model", "cycles4") == ("cycles3" if bpy.app.version < (4, 0, 0) else "cycles4")
+    assert notes == [f"sun angle {ANGLE:.3g}°: hard shadow"]
+    sun.visible_camera = True  # Cycles' camera then shows the disc; the tracer's does not, and says so
+    assert "disc not shown to the camera" in light_convert.convert_light(sun)[1][0]
+    sun.visible_glossy = False
+    assert "seen_in_mirrors" not in light_convert.convert_light(sun)[0]
+    sun.visible_glossy = True
+    sun.data.cycles.use_multiple_importance_sampling = False  # Cycles' rays never meet a sun without it
+    assert "seen_in_mirrors" not in light_convert.convert_light(sun)[0]
+
+
+@AT_THE_ENDS
+def test_a_mirror_shows_the_suns_disc_where_and_as_bright_as_cycles_does(tmp_path: Path) -> None:
+    """Where Cycles shows the disc (above half its brightest) the engine's coverage IoU >= 0.97, and its mean there
+    within 1% of Cycles' in each channel (the bar: 5%); with the sun's Glossy visibility off, neither shows it."""
+    sun = _sun_over_a_mirror()
+    scene = bpy.context.scene
+    images = {}
+    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
+        scene.render.engine = engine
+        images[engine] = f12_exr(tmp_path / f"{engine}.exr")
+    cycles, tracer = images["CYCLES"], images["WEATHERVANE_TRACER"]
+    shown_c, shown_t = cycles[..., 0] > 0.5 * cycles[..., 0].max(), tracer[..., 0] > 0.5 * cycles[..., 0].max()
+    iou = (shown_c & shown_t).sum() / (shown_c | shown_t).sum()
+    both = shown_c & shown_t
+    mean_c, mean_t = cycles[both].mean(axis=0), tracer[both].mean(axis=0)
+    print(
+        f"the sun in the mirror ({compat.version_name()}): {shown_c.sum()} pixels, IoU {iou:.3f}, "
+        f"tracer {np.round(mean_t, 4)}, Cycles {np.round(mean_c, 4)}, ratio {np.round(mean_t / mean_c, 6)}"
+    )
+    assert shown_c.sum() > 80 and iou >= 0.97
+    np.testing.assert_allclose(mean_t, mean_c, rtol=0.01)  # the bar is 5%; measured: the same to 1e-5
+    sun.visible_glossy = False
+    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
+        scene.render.engine = engine
+        assert f12_exr(tmp_path / f"{engine}-hidden.exr")[..., 0].max() < 0.5 * cycles[..., 0].max(), engine
