@@ -36,6 +36,7 @@ ADDON_LAYERS: tuple[tuple[str, ...], ...] = (
         "convert.light_convert",
         "convert.world_convert",
         "convert.pass_map",
+        "convert.motion_blur",
     ),
     (
         "vane.build",
@@ -48,7 +49,7 @@ ADDON_LAYERS: tuple[tuple[str, ...], ...] = (
         "convert.conversion_report",
     ),  # the scene the add-on builds, reads and keys
     ("engine.viewport", "engine.engine"),  # the render engine and the Rendered view
-    ("vane.operators", "vane.panels", "engine.render_panels"),  # what the user clicks
+    ("vane.operators", "vane.panels", "engine.render_panels", "engine.motion_panel"),  # what the user clicks
     ("__init__",),  # registration
 )
 # The add-on's folders: the weathervane (vane/), the conversion between Blender and the tracer (convert/), the render

@@ -1,4 +1,4 @@
-"""Defaults an artist expects (issue 47, item 4): F12 of a scene the add-on did not build is antialiased (16 samples
+"""Defaults an artist expects: F12 of a scene the add-on did not build is antialiased (16 samples
 where neighbouring pixels differ, adaptive sampling), its edges' coverage Cycles' within a sample's share; the built
 vane keeps the documented model's one sample a pixel, and its scene file says no adaptive sampling."""
 
