@@ -1,11 +1,12 @@
 """Lights seen in mirrors (an area light's or a sun's seen_in_mirrors): the vectorized tracer against the per-pixel
-reference, the radiance a mirror shows against the analytic pi intensity / area (a sun's: Cycles' disc), and which
-rays see them."""
+reference, the radiance a mirror shows against the analytic pi intensity / area (a sun's: Cycles' disc), which rays
+see them, and an edit of their intensity against the whole render."""
 
 from __future__ import annotations
 
 import math
 import random
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ import pytest
 from tests.test_glossy import _glossy_document
 from tests.test_lights_and_world import _passes_add_up_and_workers_agree, _soft_document
 from tests.tracing import assert_matches_reference
+from tracer.frames.edits import EditableImage, edits_between
 from tracer.geometry import transforms as tf
 from tracer.scene import scene as sc
 from tracer.scene.loader import scene_from_dict
@@ -164,3 +166,34 @@ def test_the_camera_does_not_see_the_sun():
         "render": {"width": 4, "height": 3},
     }  # fmt: skip
     np.testing.assert_array_equal(render(scene_from_dict(document), workers=1).image, 0.2)
+
+
+@pytest.mark.parametrize("kind", ["directional", "area"])
+def test_an_edit_of_a_light_seen_only_through_glass_retraces_the_pixels_that_see_it(kind: str) -> None:
+    """A glass ball before a camera looking into a sun's disc (or an area light behind the ball): its pixels see the
+    light only by refracted rays, with no shadow segment toward it. Doubling the light's intensity in an editable
+    image gives the whole render of the edited scene, bit for bit (before: the disc's pixels kept their old value)."""
+    up = [0.0, math.cos(math.radians(30.0)), math.sin(math.radians(30.0))]
+    if kind == "directional":
+        light = {"type": "directional", "direction": up, "intensity": 1.0, "angle": 8.0, "seen_in_mirrors": True}
+    else:
+        light = {"type": "area", "location": [8.0 * c for c in up], "direction": [-c for c in up], "shape": "square",
+                 "size": 1.0, "intensity": 1.0, "seen_in_mirrors": True}  # fmt: skip
+    document = {
+        "materials": {"glass": {"color": [1, 1, 1], "transmission": 1.0, "ior": 1.45}},
+        "objects": [
+            {"name": "ball", "type": "sphere", "location": [4.0 * c for c in up], "radius": 1.0, "material": "glass"}
+        ],
+        "lights": [light],
+        "camera": {"location": [0.0, 0.0, 0.0], "rotation": [120.0, 0.0, 0.0]},
+        "background": {"type": "solid", "color": [0.1, 0.1, 0.1]},
+        "render": {"width": 32, "height": 24},
+    }
+    scene = scene_from_dict(document)
+    brighter = replace(scene, lights=(replace(scene.lights[0], intensity=2.0),))
+    whole = render(brighter, workers=1).image
+    assert whole.max() > 2.0 * render(scene, workers=1).image.max() - 0.2  # the light is what the ball shows
+    image = EditableImage(scene)
+    for edit in edits_between(scene, brighter):
+        image.apply(edit)
+    np.testing.assert_array_equal(image.image, whole)

@@ -8,7 +8,8 @@ edit changes (footprint.py gives the reasoning):
 - a material: some camera, mirror or refracted segment of the tree hits an object of that material (shadow rays do
   not look at materials, except for alpha: an edit of a material's alpha is not one of these edits);
 - a light's intensity: the tree has a shadow segment toward that light (a point is given one wherever the light
-  could add to it, whatever the intensity); an ambient light's: the tree hits anything;
+  could add to it, whatever the intensity), or, for a sun seen in mirrors, a segment that meets nothing and points
+  into its disc; an ambient light's: the tree hits anything;
 - an object's location or rotation: some segment meets the object's box before or after the move.
 
 Those pixels are traced again (their segments replace theirs in the store); the others keep their bytes. One
@@ -18,6 +19,7 @@ float64), for an interactive session (the viewport), not for a farm.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -173,14 +175,28 @@ class EditableImage:
             if isinstance(edit, MaterialEdit):
                 hits = uses[segments.hit]
             elif isinstance(edit, LightEdit):
-                if isinstance(self.scene.lights[edit.index], sc.AmbientLight):
+                light = self.scene.lights[edit.index]
+                if isinstance(light, sc.AmbientLight):
                     hits = segments.hit >= 0
                 else:
                     hits = segments.light == edit.index
+                    if isinstance(light, sc.DirectionalLight) and light.seen_in_mirrors and light.angle > 0.0:
+                        hits = hits | _into_the_disc(segments, light)
             else:
                 hits = volume.meets(segments.O, segments.D, segments.start, segments.end)
             touched[segments.pixel[hits & (generation == self.generation.take(segments.pixel))]] = True
         return np.flatnonzero(touched)
+
+
+def _into_the_disc(segments: Segments, sun: sc.DirectionalLight) -> np.ndarray:
+    """(n,) bool: the segments that meet nothing and point into a sun's disc (emitters.see_suns' test): a mirror or
+    refracted ray there sees the sun, where its tree may have no shadow segment toward it (through glass)."""
+    toward = np.asarray(sun.direction, dtype=np.float64)
+    cosine = (segments.D * (toward / np.linalg.norm(toward))[:, None]).sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cosine = cosine / np.sqrt((segments.D * segments.D).sum(axis=0))
+    # a little wider than the disc: a segment's direction is stored in float64 from a float32 ray's
+    return (segments.hit < 0) & (segments.light < 0) & (cosine >= math.cos(math.radians(sun.angle) / 2.0) - 1e-6)
 
 
 def _uses(obj: sc.SceneObject, material: str) -> bool:

@@ -31,12 +31,13 @@ class SeenLight:
     half: tuple[float, float]
     round: bool
     radiance: np.ndarray
+    source: int = -1  # its index in the scene's lights (the ray stores' segments name it, for edits)
 
 
 def prepare(scene: sc.Scene, dtype: np.dtype) -> list[SeenLight]:
     """The scene's area lights that mirror rays see."""
     seen = []
-    for light in scene.lights:
+    for source, light in enumerate(scene.lights):
         if not (isinstance(light, sc.AreaLight) and light.seen_in_mirrors):
             continue
         normal, x_axis, y_axis = lightsamples.area_frame(light)
@@ -52,6 +53,7 @@ def prepare(scene: sc.Scene, dtype: np.dtype) -> list[SeenLight]:
                 (light.size[0] / 2.0, light.size[1] / 2.0),
                 round_shape,
                 column(radiance, dtype),
+                source,
             )
         )
     return seen
@@ -59,12 +61,13 @@ def prepare(scene: sc.Scene, dtype: np.dtype) -> list[SeenLight]:
 
 def meet(
     lights: list[SeenLight], origin: np.ndarray, direction: np.ndarray, t: np.ndarray, t_min: float, rays: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Which of the rays rows (k,) (origins (3, n) or (3, 1), directions (3, n), nearest surface t (n,), inf for
-    none) meet a light's front before their surface, with t > t_min -> those rows (j,) and the radiance each
-    brings (3, j) (the nearest light's, where several lie on a ray)."""
+    none) meet a light's front before their surface, with t > t_min -> those rows (j,), the radiance each brings
+    (3, j) (the nearest light's, where several lie on a ray), that light's index in the scene's lights (j,) and
+    where the ray meets it (j,)."""
     if not rays.size:
-        return rays, np.zeros((3, 0))
+        return rays, np.zeros((3, 0)), np.zeros(0, dtype=np.int64), np.zeros(0)
     O = np.asarray(take(origin, rays) if origin.shape[1] > 1 else origin, dtype=np.float64)
     D = np.asarray(take(direction, rays), dtype=np.float64)
     nearest = np.asarray(t.take(rays), dtype=np.float64).copy()
@@ -82,9 +85,11 @@ def meet(
         found = np.where(hit, index, found)
     met = indices(found >= 0)
     if not met.size:
-        return rays.take(met), np.zeros((3, 0))
-    radiance = np.concatenate([light.radiance for light in lights], axis=1).take(found.take(met), axis=1)
-    return rays.take(met), radiance
+        return rays.take(met), np.zeros((3, 0)), np.zeros(0, dtype=np.int64), np.zeros(0)
+    which = found.take(met)
+    radiance = np.concatenate([light.radiance for light in lights], axis=1).take(which, axis=1)
+    sources = np.asarray([light.source for light in lights], dtype=np.int64).take(which)
+    return rays.take(met), radiance, sources, nearest.take(met)
 
 
 @dataclass(frozen=True)

@@ -98,7 +98,7 @@ class TracedScene(PreparedScene):
             if batch.reach is not None:  # beyond the camera's clip_end: the nearest hit is, so all are
                 obj[t >= batch.reach] = -1
             if self.seen_lights and not first:  # mirror rays that meet a light's front before any surface end there
-                batch, t, obj, part = self._meet_lights(color, batch, t, obj, part, t_min, recorder)
+                batch, t, obj, part = self._meet_lights(color, batch, t, obj, part, t_min, recorder, footprint)
             if self.seen_suns and not first:  # mirror rays that meet nothing see the suns' discs they point into
                 self._see_suns(color, batch, obj, recorder)
             if footprint is not None:  # each ray up to its hit; a miss to its end
@@ -143,15 +143,27 @@ class TracedScene(PreparedScene):
         part: np.ndarray,
         t_min: float,
         recorder: PassRecorder | NoPasses,
+        footprint: Footprint | RayStore | None,
     ) -> tuple[RayBatch, np.ndarray, np.ndarray, np.ndarray]:
         """The rays that see lights (a Whitted wavefront's all, a see-through one's with lamps) and meet a light's
         front before their surface (emitters.meet): its radiance times their weights into their samples and the
-        Reflection pass, and those rays dropped from the wavefront."""
+        Reflection pass, their segments up to the light, naming it, into the footprint (an edit of its intensity
+        retraces them, where no shadow segment may name it: through glass), and those rays dropped from the
+        wavefront."""
         rays = np.arange(batch.size) if batch.lamps is None else indices(batch.lamps)
         surface = np.where(obj >= 0, t, np.inf)
-        met, radiance = emitters.meet(self.seen_lights, batch.origin, batch.direction, surface, t_min, rays)
+        met, radiance, sources, reach = emitters.meet(
+            self.seen_lights, batch.origin, batch.direction, surface, t_min, rays
+        )
         if not met.size:
             return batch, t, obj, part
+        if footprint is not None:
+            for source in np.unique(sources):
+                mine = indices(sources == source)
+                rows = met.take(mine)
+                origin = batch.origin if batch.origin.shape[1] == 1 else take(batch.origin, rows)
+                direction = take(batch.direction, rows)
+                footprint.record(batch.pixel.take(rows), origin, direction, t_min, reach.take(mine), light=int(source))
         weight = batch.weight
         if weight is not None:  # (n,) on mirror paths, (3, n) where glass tints them
             radiance = (weight.take(met) if weight.ndim == 1 else take(weight, met)) * radiance
