@@ -251,3 +251,16 @@ def test_a_target_traces_one_sample_of_everything_first_then_passes_each_at_most
         assert np.array_equal(levels[-1].image, render(scene, workers=1).image)
     finally:
         progressive.close()
+
+
+def test_an_edit_estimated_slow_shows_the_pools_first_level_then_its_pixels_from_the_kept_trees(monkeypatch) -> None:
+    monkeypatch.setattr(progressive_module, "QUICK_EDIT_SECONDS", 0.0)  # every edit estimated slow
+    scene = small_scene()
+    with shown(scene) as (progressive, levels):
+        edited = edits()[0][1](scene)  # the tail fin's material: a small edit
+        generation = progressive.show(edited)
+        assert progressive.wait(120) and progressive.error is None
+        assert [(level.divisor, level.generation) for level in levels] == [(8, generation), (1, generation)]
+        assert 0 < levels[-1].traced < EDIT_SHARE * 96 * 64 and levels[-1].final and not levels[0].final
+        assert np.array_equal(levels[0].image, render(level_scene(edited, 8), workers=1).image)
+        assert np.array_equal(levels[-1].image, render(edited, workers=1).image)
