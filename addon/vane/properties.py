@@ -353,15 +353,15 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     samples: EnumProperty(
         name="Samples",
         description="Camera samples per pixel, at most (render.samples): 1 is the documented tracer's one ray through "
-        "each pixel centre; more antialias edges, where Noise Threshold spends them",
+        "each pixel centre; more antialias edges, where Threshold spends them",
         items=_square_counts("One ray through each pixel centre", ""),
         default=str(ANTIALIASED_SAMPLES),
     )
     noise_threshold: FloatProperty(
-        name="Noise Threshold",
-        description="Adaptive sampling (render.adaptive_threshold): every pixel at 1 sample first, then Samples only "
-        "where neighbouring pixels differ by more than this (edges, texture detail, penumbrae); 0 traces every pixel "
-        "at Samples",
+        name="Threshold",
+        description="Noise threshold of adaptive sampling (render.adaptive_threshold): every pixel at 1 sample first, "
+        "then Samples only where neighbouring pixels differ by more than this (edges, texture detail, penumbrae); 0 "
+        "traces every pixel at Samples",
         min=0.0,
         max=1.0,
         precision=4,
