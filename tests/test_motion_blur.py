@@ -193,3 +193,19 @@ def test_a_slices_camera_rays_are_not_taken_for_the_whole_frames() -> None:
     scene = scene_from_dict(extended_scene_document(1)).with_render(samples=4)
     render(scene.with_render(time_slice=(1, 4)), workers=1)
     assert_matches_reference(scene)
+
+
+def test_one_or_four_samples_over_16_poses_take_a_4_by_4_grid_and_8_poses_do_not_share() -> None:
+    """16 poses (a perfect square) share out a grid of lcm(samples, 16) strata: at 1, 4 or 16 samples the same 4 x 4
+    grid, one stratum a slice, the same bytes; 8 poses (not a square) trace every sample in every slice."""
+    images = {}
+    for samples in (1, 4, 16):
+        scene = scene_from_dict(_document({"poses": _poses(-0.5, 0.5, steps=16)}, samples=samples))
+        assert shutter.time_slice(scene, 3).render.time_slice == (3, 16)
+        result = render(scene)
+        assert result.rays.camera == WIDTH * HEIGHT * 16
+        images[samples] = result.image.tobytes() + result.alpha.tobytes()
+    assert images[1] == images[4] == images[16]
+    eight = scene_from_dict(_document({"poses": _poses(-0.5, 0.5, steps=8)}, samples=4))
+    assert shutter.time_slice(eight, 3).render.time_slice is None
+    assert render(eight).rays.camera == WIDTH * HEIGHT * 4 * 8

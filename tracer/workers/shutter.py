@@ -3,12 +3,12 @@
 steps the same way), each slice a whole render of the scene at one time, the image their mean.
 
 Slice k of n puts every moving object and the camera at its k-th pose (the add-on's poses are at the middles of n
-equal parts of the shutter); the slices weigh the same. Where the samples per pixel are a multiple of n (a perfect
-square of them a slice: 16 samples over 16 slices), the slices share them out: each pixel's stratified grid keeps
-its strata, and each slice traces samples / n of them, a different set per pixel (geometry/camera.py's stratum), so
-that the blur costs what the still frame costs, and a streak is smooth, as each pixel sees each time at a place of
-its own (Cook, Porter and Carpenter's time per sample). Otherwise every slice traces every sample, jittered by seed
-+ k, and the image costs n frames: a streak is then n copies of the object. The passes
+equal parts of the shutter); the slices weigh the same. Where n is a perfect square (16), the slices share out a
+stratified grid of lcm(samples, n) strata a pixel: each slice traces lcm / n of them, a different set per pixel
+(geometry/camera.py's stratum), so that every stratum is traced once, each at a time of its own (Cook, Porter and
+Carpenter's time per sample): the blur costs max(samples, n)-ish samples a pixel, not n frames, and a streak is
+smooth but for noise. Otherwise (n = 8) every slice traces every sample, jittered by seed + k, and the image costs n
+frames: a streak is then n copies of the object. The passes
 that average samples (passes.Pass.combine "mean": the Whitted terms, normal, mist, shadow) average the slices too,
 and still add up to the image; those that take one sample's value (depth, position, the indices, Cryptomatte) take
 the middle slice's, the one nearest the shutter's middle.
@@ -55,19 +55,23 @@ def posed(scene: sc.Scene) -> tuple[sc.Pose, ...]:
     return next((obj.poses for obj in scene.objects if obj.poses), ()) or scene.camera.poses
 
 
-def shares_samples(settings: sc.RenderSettings, slices: int) -> bool:
-    """Whether the slices share out the pixels' samples: samples a multiple of slices, each slice's share a perfect
-    square (16 samples over 16 slices: one each; 64 over 16: four)."""
-    share, left = divmod(settings.samples, slices)
-    return not left and share >= 1 and math.isqrt(share) ** 2 == share
+def shared_strata(settings: sc.RenderSettings, slices: int) -> int | None:
+    """The strata a pixel's grid has where the slices share them out: lcm(samples, slices) when slices is a perfect
+    square (samples always is), each slice then tracing lcm / slices of them, a perfect square too (16 samples over 16
+    slices: one each; 64 over 16: four; 1 or 4 over 16: a 4 x 4 grid, one each: the blur antialiases as it goes,
+    at the cost of 16 samples, no more than 16 slices of one). None where slices is not a square (8): no share."""
+    if math.isqrt(slices) ** 2 != slices:
+        return None
+    return math.lcm(settings.samples, slices)
 
 
 def _slice_settings(settings: sc.RenderSettings, index: int, slices: int) -> sc.RenderSettings:
-    """Slice index's render settings: where the slices share out the samples (shares_samples), samples / slices of
-    each pixel's strata (camera.stratum: every stratum once over the slices, at a time of its own); else every
-    sample in every slice, jittered by seed + index."""
-    if shares_samples(settings, slices):
-        return replace(settings, samples=settings.samples // slices, time_slice=(index, slices))
+    """Slice index's render settings: where the slices share out a grid of strata (shared_strata), strata / slices of
+    each pixel's (camera.stratum: every stratum once over the slices, at a time of its own); else every sample in
+    every slice, jittered by seed + index."""
+    strata = shared_strata(settings, slices)
+    if strata is not None:
+        return replace(settings, samples=strata // slices, time_slice=(index, slices))
     return replace(settings, seed=settings.seed + index)
 
 
