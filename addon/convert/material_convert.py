@@ -137,7 +137,8 @@ class _Lobes:
         self.glass_ior = 0.0
         self.glass_roughness = 0.0  # the glass lobes' roughness times their weight (above ROUGH_MIRROR: rough)
         self.iors: set[float] = set()  # the IORs of the glass lobes (several: one, their weighted mean, named)
-        self.glass_kinds: set[str] = set()  # the energy ("multiscatter", "single") of each rough glass lobe
+        # the energy and distribution of each rough glass lobe: "multiscatter" (GGX), "single" (GGX), "beckmann"
+        self.glass_kinds: set[str] = set()
         self.clear = 0.0
         # the mean weight of specular lobes too rough for a mirror: what reflects the scene and world blurred in
         # Cycles, here only the lights' highlight (named where it is large: a rough metal, not a dielectric's 4%)
@@ -847,7 +848,13 @@ def _glass(node, material, notes: list[str]) -> _Lobes:
     if getattr(node, "distribution", "") == "SHARP":  # 3.4's Sharp ignores the roughness
         roughness = 0.0
     roughness = min(1.0, max(0.0, roughness))
-    lobes.add_glass(1.0, color, ior, roughness, _energy(node, notes) if roughness > ROUGH_MIRROR else "multiscatter")
+    if roughness <= ROUGH_MIRROR:
+        kind = "multiscatter"
+    elif getattr(node, "distribution", "") == "BECKMANN":  # the format's Beckmann rough glass, single scattering
+        kind = "beckmann"
+    else:
+        kind = _energy(node, notes)
+    lobes.add_glass(1.0, color, ior, roughness, kind)
     if 0.0 < roughness <= ROUGH_MIRROR:
         notes.append(f"rough {node.bl_label}: sharp")
     if node.bl_idname == "ShaderNodeBsdfRefraction":
@@ -1178,8 +1185,12 @@ def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
         document["transmission"], document["ior"] = transmission, ior
         if rough > ROUGH_MIRROR:  # sampled microfacets (GGX); a near-mirror stays sharp (named)
             document["transmission_roughness"] = min(1.0, rough)
-            if "glossy" not in document and glass_kinds == {"single"}:  # the glass's distribution's energy (_energy):
-                document["glossy_energy"] = "single"  # Beckmann (3.x's default) and GGX lose it, Multiscatter GGX not
+            if "glossy" not in document and glass_kinds and glass_kinds <= {"single", "beckmann"}:
+                document["glossy_energy"] = "single"  # the glass's distribution's energy: GGX and Beckmann lose some
+            if glass_kinds == {"beckmann"}:
+                document["transmission_distribution"] = "beckmann"
+            elif "beckmann" in glass_kinds:
+                notes.append("glass of several distributions: GGX")
         _glass_color(document, lobes, tint, notes)
     if ("glossy" in document or "transmission_roughness" in document) and compat.microfacet_shadowing() != "correlated":
         document["glossy_shadowing"] = compat.microfacet_shadowing()

@@ -79,13 +79,20 @@ def test_a_glass_bsdf_is_all_transmission_of_its_ior_tinted_by_its_colour() -> N
     document, notes = material_convert.convert_material(material)
     assert document["color"] == pytest.approx([0.9, 0.5, 0.2]) and document["transmission"] == 1.0
     assert document["transmission_roughness"] == pytest.approx(0.3)  # rough glass, sampled
-    beckmann = getattr(node, "distribution", "") == "BECKMANN"  # 3.x's default: single scattering, drawn as GGX's
+    beckmann = getattr(node, "distribution", "") == "BECKMANN"  # 3.x's default: the format's Beckmann, single
     assert document.get("glossy_energy", "multiscatter") == ("single" if beckmann else "multiscatter")
-    assert notes == ["Beckmann distribution: GGX"] * beckmann + ["Glass BSDF colour: tints the refraction only"]
-    if hasattr(node, "distribution"):  # GGX (single scattering) and Multiscatter GGX, as Cycles draws them
-        for distribution, energy in (("GGX", "single"), ("MULTI_GGX", "multiscatter")):
+    assert document.get("transmission_distribution", "ggx") == ("beckmann" if beckmann else "ggx")
+    assert notes == ["Glass BSDF colour: tints the refraction only"]
+    if hasattr(node, "distribution"):  # Beckmann, GGX (single scattering) and Multiscatter GGX, as Cycles draws them
+        for distribution, energy, drawn in (
+            ("BECKMANN", "single", "beckmann"),
+            ("GGX", "single", "ggx"),
+            ("MULTI_GGX", "multiscatter", "ggx"),
+        ):
             node.distribution = distribution
-            assert material_convert.convert_material(material)[0].get("glossy_energy", "multiscatter") == energy
+            converted = material_convert.convert_material(material)[0]
+            assert converted.get("glossy_energy", "multiscatter") == energy
+            assert converted.get("transmission_distribution", "ggx") == drawn
         node.distribution = "BECKMANN" if beckmann else "MULTI_GGX"
     node.inputs["Roughness"].default_value = 0.05  # a near-mirror stays sharp, named
     document, notes = material_convert.convert_material(material)

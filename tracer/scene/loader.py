@@ -288,6 +288,7 @@ def _material(reader: _Reader, base: Path | None = None) -> sc.Material:
         glossy_source=reader.choice("glossy_source", ("traced", "world"), "traced"),
         glossy_shadowing=reader.choice("glossy_shadowing", ("correlated", "separable"), "correlated"),
         transmission_roughness=reader.number("transmission_roughness", 0.0, low=0.0, high=1.0),
+        transmission_distribution=reader.choice("transmission_distribution", ("ggx", "beckmann"), "ggx"),
     )
     reader.finish()
     return material

@@ -87,9 +87,12 @@ class Material:
     # Smith's masking-shadowing of the glossy lobe and rough glass: "correlated" (height-correlated, Cycles 4.0 and
     # later) or "separable" (G1 G1, Cycles 3.x)
     glossy_shadowing: Literal["correlated", "separable"] = "correlated"
-    # rough glass: the roughness (Cycles') of the glass share's reflection and refraction, sampled by GGX microfacets
-    # at render.glossy_samples pairs; 0: the documented sharp glass
+    # rough glass: the roughness (Cycles') of the glass share's reflection and refraction, sampled by microfacets
+    # (transmission_distribution) at render.glossy_samples pairs; 0: the documented sharp glass
     transmission_roughness: float = 0.0
+    # rough glass's microfacet distribution: "ggx" (sampled by visible normals, Heitz 2018) or "beckmann" (Cycles'
+    # Beckmann: visible normals by Jakob's inversion, Smith's shadowing by Walter et al. 2007's rational G1)
+    transmission_distribution: Literal["ggx", "beckmann"] = "ggx"
 
     @property
     def is_glossy(self) -> bool:

@@ -1,10 +1,10 @@
 """A wavefront's hits on glossy surfaces, rough glass and diffuse bounces -> their sampled lobes over arrays: GGX
 microfacets of Cycles' roughness (alpha = roughness^2, Smith's height-correlated or separable masking-shadowing),
-the lights' terms through a glossy lobe (or the world's alone, untraced), the reflection rays it sends, rough glass's
-reflected and refracted rays, and diffuse bounces' cosine-weighted rays (Heitz 2018's sampling of the visible
-normals, at the fixed stratified pairs of lightsamples.glossy_pairs, rough glass's turned by a rotation of each camera
-sample and depth). docs/algorithm.md, "Glossy reflection" and "Diffuse bounces"; the per-pixel reference
-(reference_glossy.py) does the same one hit at a time."""
+the lights' terms through a glossy lobe (or the world's alone, untraced), the reflection rays it sends, rough
+glass's reflected and refracted rays (GGX, or Beckmann as Cycles samples it), and diffuse bounces' cosine-weighted
+rays (Heitz 2018's sampling of the visible normals, at the fixed stratified pairs of lightsamples.glossy_pairs,
+rough glass's turned by a rotation of each camera sample and depth). docs/algorithm.md, "Glossy reflection" and
+"Diffuse bounces"; the per-pixel reference (reference_glossy.py) does the same one hit at a time."""
 
 from __future__ import annotations
 
@@ -20,6 +20,23 @@ from .lights import facing_basis, x_y_z_squared
 from .prepared import PreparedScene
 
 SCHLICK_MEAN = 1.0 / 21.0  # the hemispherical mean of (1 - cos)^5 weighted by the cosine: Schlick's F_avg
+
+# Beckmann rough glass (_beckmann_visible_normal, _beckmann_lambda): Cycles' constants; the reference has the same
+BECKMANN_NORMAL_INCIDENCE = 0.99999  # a stretched view's cosine from which its slopes are those of normal incidence
+BECKMANN_NEWTON_STEPS = 3
+BECKMANN_PRECISION = 1e-6
+BECKMANN_NO_SHADOW = 0.625  # 1 / (alpha tan) above 1.6: Lambda 0
+INV_SQRT_PI = 0.56418958354
+ERF = (0.0705230784, 0.0422820123, 0.0092705272, 0.0001520143, 0.0002765672, 0.0000430638)
+IERF_LIMIT = 0.99999994
+IERF_CENTRAL = (
+    2.81022636e-08, 3.43273939e-07, -3.5233877e-06, -4.39150654e-06, 0.00021858087, -0.00125372503, -0.00417768164,
+    0.246640727, 1.50140941,
+)  # fmt: skip
+IERF_TAIL = (
+    -0.000200214257, 0.000100950558, 0.00134934322, -0.00367342844, 0.00573950773, -0.0076224613, 0.00943887047,
+    1.00167406, 2.83297682,
+)  # fmt: skip
 
 
 @dataclass
@@ -244,20 +261,21 @@ def glass_rays(
     v = np.stack((-_dot(d, e1), -_dot(d, e2), -_dot(d, n)))
     alpha = scene.transmission_roughness.take(material) ** 2
     separable = scene.glossy_separable.take(material)
+    beckmann = scene.transmission_beckmann.take(material)
     pairs = scene.glossy_pairs
     count = len(pairs)
     gain = np.ones(rows.size)
     multiscatter = scene.glossy_multiscatter.take(material)
     if multiscatter.any():
         every = rotated(pairs[:, :1], rotation[0]), rotated(pairs[:, 1:], rotation[1])  # (m, k) each
-        _, _, weight_r, weight_t = _glass_split(v, eta, alpha, *every, separable)  # (m, k)
+        _, _, weight_r, weight_t = _glass_split(v, eta, alpha, *every, separable, beckmann)  # (m, k)
         albedo = (weight_r + weight_t).mean(axis=0)
         gain = np.where(multiscatter & (albedo > 0.0), 1.0 / np.where(albedo > 0.0, albedo, 1.0), 1.0)
     fresh = chosen < 0
     hit, pair = _ray_pairs(chosen, count)
     u1 = rotated(pairs[:, 0].take(pair), rotation[0].take(hit))
     u2 = rotated(pairs[:, 1].take(pair), rotation[1].take(hit))
-    split = _glass_split(v[:, hit], eta.take(hit), alpha.take(hit), u1, u2, separable.take(hit))
+    split = _glass_split(v[:, hit], eta.take(hit), alpha.take(hit), u1, u2, separable.take(hit), beckmann.take(hit))
     reflected, T, weight_r, weight_t = split
     scale = np.where(fresh.take(hit), 1.0 / count, 1.0) * gain.take(hit)
     weight_r, weight_t = weight_r * scale, weight_t * scale
@@ -293,14 +311,31 @@ def _ray_pairs(chosen: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _glass_split(
-    v: np.ndarray, eta: np.ndarray, alpha: np.ndarray, u1: np.ndarray, u2: np.ndarray, separable: np.ndarray
+    v: np.ndarray,
+    eta: np.ndarray,
+    alpha: np.ndarray,
+    u1: np.ndarray,
+    u2: np.ndarray,
+    separable: np.ndarray,
+    beckmann: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rough glass seen from v (3, k) (local, z the normal facing the viewer) with eta and alpha (k,), at the numbers
-    u1, u2 ((k,), or (m, 1) for m pairs at every hit) -> the reflected and refracted local directions (3, ...) and
-    their weights F G2 / G1(v) and (1 - F) G2 / G1(v) (...) (0 where a direction is on the wrong side, or in total
-    internal reflection)."""
+    u1, u2 ((k,), or (m, 1) for m pairs at every hit), its distribution GGX, or Beckmann where beckmann (k,) ->
+    the reflected and refracted local directions (3, ...) and their weights F G2 / G1(v) and (1 - F) G2 / G1(v) (...)
+    (0 where a direction is on the wrong side, or in total internal reflection)."""
     vx, vy, vz = v
-    m = _visible_normal(vx, vy, vz, alpha, u1, u2)
+    lambda_of = _smith_lambda
+    if beckmann.any():
+        steep = np.where(vz > 0.0, vz, 1.0)  # the Beckmann sampler's view, well defined where the weight is not 0
+        m = np.where(
+            beckmann, _beckmann_visible_normal(vx, vy, steep, alpha, u1, u2), _visible_normal(vx, vy, vz, alpha, u1, u2)
+        )
+
+        def lambda_of(cosine: np.ndarray, a2: np.ndarray) -> np.ndarray:
+            return np.where(beckmann, _beckmann_lambda(cosine, a2), _smith_lambda(cosine, a2))
+
+    else:
+        m = _visible_normal(vx, vy, vz, alpha, u1, u2)
     mx, my, mz = m
     c = vx * mx + vy * my + vz * mz
     g2 = eta * eta - 1.0 + c * c
@@ -310,17 +345,15 @@ def _glass_split(
     B = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
     F = np.where(inside, 0.5 * A * A * (1.0 + B * B), 1.0)
     a2 = alpha * alpha
-    lambda_v = _smith_lambda(np.where(vz > 0.0, vz, 1.0), a2)
+    lambda_v = lambda_of(np.where(vz > 0.0, vz, 1.0), a2)
     reflected = np.stack((2.0 * c * mx - vx, 2.0 * c * my - vy, 2.0 * c * mz - vz))
     up = reflected[2] > 0.0
-    weight_r = np.where(
-        up, F * _shadowing(lambda_v, _smith_lambda(np.where(up, reflected[2], 1.0), a2), separable), 0.0
-    )
+    weight_r = np.where(up, F * _shadowing(lambda_v, lambda_of(np.where(up, reflected[2], 1.0), a2), separable), 0.0)
     # through m: T = (-v + (c - g) m) / eta, the sharp glass's rule with m for the normal
     T = np.stack(((c - g) * mx - vx, (c - g) * my - vy, (c - g) * mz - vz)) / eta
     T = T / np.sqrt(x_y_z_squared(T))
     down = inside & (T[2] < 0.0)
-    lambda_t = _smith_lambda(np.where(down, -T[2], 1.0), a2)
+    lambda_t = lambda_of(np.where(down, -T[2], 1.0), a2)
     weight_t = np.where(down, (1.0 - F) * _shadowing(lambda_v, lambda_t, separable), 0.0)
     seen = (1.0 + lambda_v) * (vz > 0.0)
     return reflected, T, weight_r * seen, weight_t * seen
@@ -348,6 +381,82 @@ def _visible_normal(
     mx, my, mz = alpha * nx, alpha * ny, np.maximum(0.0, nz)
     m_length = np.sqrt(mx * mx + my * my + mz * mz)
     return np.stack((mx / m_length, my / m_length, mz / m_length))
+
+
+def _beckmann_visible_normal(
+    vx: np.ndarray, vy: np.ndarray, vz: np.ndarray, alpha: np.ndarray, u1: np.ndarray, u2: np.ndarray
+) -> np.ndarray:
+    """A Beckmann microfacet normal (3, n) sampled among those visible from v (local, z up, vz > 0) at u1, u2 (Heitz
+    and d'Eon 2014's stretched slopes; the slope along the view by Jakob's inversion of its CDF, Newton steps kept
+    in their bracket, as Cycles' microfacet_beckmann_sample_vndf; erf and its inverse as Cycles' fast_erff and
+    fast_ierff); at normal incidence the slopes are erf^-1(2u - 1), the same formula's limit."""
+    sx, sy, sz = alpha * vx, alpha * vy, vz
+    length = np.sqrt(sx * sx + sy * sy + sz * sz)
+    sx, sy, sz = sx / length, sy / length, sz / length
+    steep = sz < BECKMANN_NORMAL_INCIDENCE
+    sin = np.sqrt(np.maximum(0.0, 1.0 - sz * sz))
+    safe_sin = np.where(steep, sin, 1.0)
+    tan = np.where(steep, sin / sz, 0.0)
+    cot = sz / safe_sin
+    erf_a = np.where(steep, _erf(cot), 1.0)
+    exp_a2 = np.where(steep, np.exp(-cot * cot), 0.0)
+    cos_phi, sin_phi = np.where(steep, sx / safe_sin, 1.0), np.where(steep, sy / safe_sin, 0.0)
+    K = tan * INV_SQRT_PI
+    y_approx = u1 * (1.0 + erf_a + K * (1.0 - erf_a * erf_a))
+    y_exact = u1 * (1.0 + erf_a + K * exp_a2)
+    safe_K = np.where(K > 0.0, K, 1.0)
+    b = np.where(K > 0.0, (0.5 - np.sqrt(K * (K - y_approx + 1.0) + 0.25)) / safe_K, y_approx - 1.0)
+    inverse = _inverse_erf(b)
+    begin_x, begin_y, end_x = np.full_like(b, -1.0), -y_exact + 0.0 * b, erf_a + 0.0 * b
+    current_x, current_y = b, 1.0 + b + K * np.exp(-inverse * inverse) - y_exact
+    going = np.ones(b.shape, dtype=bool)
+    for _ in range(BECKMANN_NEWTON_STEPS):
+        going = going & (np.abs(current_y) > BECKMANN_PRECISION)
+        same = np.sign(begin_y) == np.sign(current_y)
+        begin_x, begin_y = np.where(same, current_x, begin_x), np.where(same, current_y, begin_y)
+        end_x = np.where(same, end_x, current_x)
+        newton = current_x - current_y / (1.0 - inverse * tan)
+        step = np.where((newton >= begin_x) & (newton <= end_x), newton, 0.5 * (begin_x + end_x))
+        current_x = np.where(going, step, current_x)
+        inverse = _inverse_erf(current_x)
+        current_y = 1.0 + current_x + K * np.exp(-inverse * inverse) - y_exact
+    slope_x, slope_y = inverse, _inverse_erf(2.0 * u2 - 1.0)
+    slope_x, slope_y = cos_phi * slope_x - sin_phi * slope_y, sin_phi * slope_x + cos_phi * slope_y
+    mx, my = -alpha * slope_x, -alpha * slope_y
+    m_length = np.sqrt(mx * mx + my * my + 1.0)
+    return np.stack((mx / m_length, my / m_length, 1.0 / m_length))
+
+
+def _beckmann_lambda(cosine: np.ndarray, a2: np.ndarray) -> np.ndarray:
+    """Smith's Lambda of Beckmann at cosines > 0 to the normal, Walter et al. 2007's rational approximation (Cycles'):
+    with a = 1 / (alpha tan), ((0.396 a - 1.259) a + 1) / ((2.181 a + 3.535) a) below a = 1.6, else 0 (1 / G1 - 1 of
+    Cycles 3.x's bsdf_beckmann_G1)."""
+    inverse_a = np.sqrt(a2 * np.maximum(0.0, 1.0 - cosine * cosine)) / cosine
+    shadowed = inverse_a >= BECKMANN_NO_SHADOW
+    a = 1.0 / np.where(shadowed, inverse_a, 1.0)
+    return np.where(shadowed, ((0.396 * a - 1.259) * a + 1.0) / ((2.181 * a + 3.535) * a), 0.0)
+
+
+def _erf(x: np.ndarray) -> np.ndarray:
+    """erf(x) by Abramowitz and Stegun 7.1.28 (Cycles' fast_erff, error below 2e-6)."""
+    a = np.abs(x)
+    r = ((((((ERF[5] * a + ERF[4]) * a + ERF[3]) * a + ERF[2]) * a + ERF[1]) * a + ERF[0]) * a) + 1.0
+    s = r * r
+    t = s * s
+    u = t * t
+    return np.where(a >= 12.3, np.sign(x), np.sign(x) * (1.0 - 1.0 / (u * u)))
+
+
+def _inverse_erf(x: np.ndarray) -> np.ndarray:
+    """erf^-1(x) by Giles 2010's single-precision polynomials (Cycles' fast_ierff), |x| held below 1."""
+    a = np.minimum(np.abs(x), IERF_LIMIT)
+    w = -np.log((1.0 - a) * (1.0 + a))
+    central = w < 5.0
+    w = np.where(central, w - 2.5, np.sqrt(w) - 3.0)
+    p_central, p_tail = IERF_CENTRAL[0], IERF_TAIL[0]
+    for c, t in zip(IERF_CENTRAL[1:], IERF_TAIL[1:], strict=True):
+        p_central, p_tail = p_central * w + c, p_tail * w + t
+    return np.where(central, p_central, p_tail) * x
 
 
 def fresnel(lobes: Lobes, cosine: np.ndarray) -> np.ndarray:

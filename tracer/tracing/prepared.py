@@ -119,6 +119,7 @@ class PreparedScene:
     rough_glass: bool = field(init=False, default=False)  # some glass has a roughness (glossy.glass_rays)
     diffuse_bounces: int = field(init=False, default=0)  # render.diffuse_bounces (glossy.diffuse_rays)
     transmission_roughness: np.ndarray | None = field(init=False, default=None)  # (rows,) float64
+    transmission_beckmann: np.ndarray | None = field(init=False, default=None)  # (rows,) bool: Beckmann rough glass
     colored: bool = field(init=False)  # lights or materials with colours: the terms as (3, n) colours
     emissive: bool = field(init=False)
     any_two_sided: bool = field(init=False)
@@ -549,6 +550,7 @@ def _materials(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...]) -> 
     prepared.rough_glass = any(m.transmission > 0.0 and m.transmission_roughness > 0.0 for m in table)
     if prepared.rough_glass:
         prepared.transmission_roughness = np.asarray([m.transmission_roughness for m in table], dtype=np.float64)
+        prepared.transmission_beckmann = np.asarray([m.transmission_distribution == "beckmann" for m in table])
         if prepared.glossy_pairs is None:
             prepared.glossy_pairs = np.asarray(
                 lightsamples.glossy_pairs(prepared.scene.render.glossy_samples), dtype=np.float64

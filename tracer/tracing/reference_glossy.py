@@ -1,7 +1,7 @@
 """One hit on a glossy surface -> its rough specular lobe, one number at a time: the per-pixel reference's side of
 glossy.py (GGX of Cycles' roughness, Smith's height-correlated masking-shadowing, Heitz 2018's sampling of the
-visible normals at lightsamples.glossy_pairs, Cycles' multiscatter gain), written from the formulas, not from the
-arrays."""
+visible normals at lightsamples.glossy_pairs, Cycles' multiscatter gain; rough glass's Beckmann microfacets as
+Cycles samples them), written from the formulas, not from the arrays."""
 
 from __future__ import annotations
 
@@ -39,6 +39,19 @@ class Tracing(Protocol):
 REFLECTION_T_MIN = 0.01  # listing 3.1, as the reference's mirror rays
 
 SCHLICK_MEAN = 1.0 / 21.0
+
+# Beckmann rough glass: Cycles' constants (microfacet_beckmann_sample_vndf, bsdf_beckmann_G1, fast_erff, fast_ierff)
+BECKMANN_NORMAL_INCIDENCE = 0.99999
+BECKMANN_NEWTON_STEPS = 3
+BECKMANN_PRECISION = 1e-6
+BECKMANN_NO_SHADOW = 0.625
+INV_SQRT_PI = 0.56418958354
+ERF = (0.0705230784, 0.0422820123, 0.0092705272, 0.0001520143, 0.0002765672, 0.0000430638)
+IERF_LIMIT = 0.99999994
+IERF_CENTRAL = (2.81022636e-08, 3.43273939e-07, -3.5233877e-06, -4.39150654e-06, 0.00021858087, -0.00125372503,
+                -0.00417768164, 0.246640727, 1.50140941)  # fmt: skip
+IERF_TAIL = (-0.000200214257, 0.000100950558, 0.00134934322, -0.00367342844, 0.00573950773, -0.0076224613,
+             0.00943887047, 1.00167406, 2.83297682)  # fmt: skip
 
 
 def _dot(a: sc.Vec3, b: sc.Vec3) -> float:
@@ -139,6 +152,77 @@ def visible_normal(v: sc.Vec3, a: float, u1: float, u2: float) -> sc.Vec3:
     return _unit((a * normal[0], a * normal[1], max(0.0, normal[2])))
 
 
+def beckmann_visible_normal(v: sc.Vec3, a: float, u1: float, u2: float) -> sc.Vec3:
+    """A Beckmann microfacet normal among those visible from v (local, z up, v.z > 0) at u1, u2: the stretched view's
+    slopes, the one along it by Jakob's inversion of its CDF (Newton steps within their bracket, up to 3 while the
+    residual is above 1e-6, as Cycles' microfacet_beckmann_sample_vndf), the other erf^-1(2 u2 - 1); at normal
+    incidence (the stretched cosine from 0.99999) both erf^-1(2u - 1)."""
+    stretched = _unit((a * v[0], a * v[1], v[2]))
+    cos_phi, sin_phi, tan, erf_a, exp_a2 = 1.0, 0.0, 0.0, 1.0, 0.0
+    if stretched[2] < BECKMANN_NORMAL_INCIDENCE:
+        sin = math.sqrt(max(0.0, 1.0 - stretched[2] * stretched[2]))
+        tan, cot = sin / stretched[2], stretched[2] / sin
+        erf_a, exp_a2 = erf(cot), math.exp(-cot * cot)
+        cos_phi, sin_phi = stretched[0] / sin, stretched[1] / sin
+    K = tan * INV_SQRT_PI
+    y_approx = u1 * (1.0 + erf_a + K * (1.0 - erf_a * erf_a))
+    y_exact = u1 * (1.0 + erf_a + K * exp_a2)
+    b = (0.5 - math.sqrt(K * (K - y_approx + 1.0) + 0.25)) / K if K > 0.0 else y_approx - 1.0
+    inverse = inverse_erf(b)
+    begin, end = (-1.0, -y_exact), erf_a
+    x, y = b, 1.0 + b + K * math.exp(-inverse * inverse) - y_exact
+    steps = 0
+    while abs(y) > BECKMANN_PRECISION and steps < BECKMANN_NEWTON_STEPS:
+        steps += 1
+        if math.copysign(1.0, begin[1]) * (begin[1] != 0.0) == math.copysign(1.0, y) * (y != 0.0):
+            begin = (x, y)
+        else:
+            end = x
+        newton = x - y / (1.0 - inverse * tan)
+        x = newton if begin[0] <= newton <= end else 0.5 * (begin[0] + end)
+        inverse = inverse_erf(x)
+        y = 1.0 + x + K * math.exp(-inverse * inverse) - y_exact
+    slope_x, slope_y = inverse, inverse_erf(2.0 * u2 - 1.0)
+    slope_x, slope_y = cos_phi * slope_x - sin_phi * slope_y, sin_phi * slope_x + cos_phi * slope_y
+    return _unit((-a * slope_x, -a * slope_y, 1.0))
+
+
+def beckmann_lambda(cosine: float, a2: float) -> float:
+    """Smith's Lambda of Beckmann by Walter et al. 2007's rational approximation: 0 where 1 / (alpha tan) > 1.6."""
+    inverse_a = math.sqrt(a2 * max(0.0, 1.0 - cosine * cosine)) / cosine
+    if inverse_a < BECKMANN_NO_SHADOW:
+        return 0.0
+    a = 1.0 / inverse_a
+    return ((0.396 * a - 1.259) * a + 1.0) / ((2.181 * a + 3.535) * a)
+
+
+def erf(x: float) -> float:
+    """Abramowitz and Stegun 7.1.28's erf (glossy._erf)."""
+    a = abs(x)
+    if a >= 12.3:
+        return math.copysign(1.0, x)
+    c = ERF
+    r = ((((((c[5] * a + c[4]) * a + c[3]) * a + c[2]) * a + c[1]) * a + c[0]) * a) + 1.0
+    s = r * r
+    t = s * s
+    u = t * t
+    sign = 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+    return sign * (1.0 - 1.0 / (u * u))
+
+
+def inverse_erf(x: float) -> float:
+    """Giles 2010's erf^-1 (glossy._inverse_erf)."""
+    a = min(abs(x), IERF_LIMIT)
+    w = -math.log((1.0 - a) * (1.0 + a))
+    central = w < 5.0
+    coefficients = IERF_CENTRAL if central else IERF_TAIL
+    w = w - 2.5 if central else math.sqrt(w) - 3.0
+    p = coefficients[0]
+    for c in coefficients[1:]:
+        p = p * w + c
+    return p * x
+
+
 def glass(
     tracer: Tracing,
     P: sc.Vec3,
@@ -182,8 +266,9 @@ def glass_rays(
     chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
     share = 1.0 / len(pairs) if path[0] < 0 else 1.0
     separable = material.glossy_shadowing == "separable"
+    beckmann = material.transmission_distribution == "beckmann"
     turned = [(rotated(u1, rotation[0]), rotated(u2, rotation[1])) for u1, u2 in pairs]
-    splits = [_glass_split(v, eta, a, u1, u2, separable) for u1, u2 in turned]
+    splits = [_glass_split(v, eta, a, u1, u2, separable, beckmann) for u1, u2 in turned]
     gain = 1.0
     if material.glossy_energy == "multiscatter":  # 1 / E, E both weights' mean over every pair
         albedo = sum(weight_r + weight_t for _, _, weight_r, weight_t in splits) / len(pairs)
@@ -218,13 +303,14 @@ def traced(tracer: Tracing, P: sc.Vec3, rays: list[tuple], depth: int, layers: i
 
 
 def _glass_split(
-    v: sc.Vec3, eta: float, a: float, u1: float, u2: float, separable: bool
+    v: sc.Vec3, eta: float, a: float, u1: float, u2: float, separable: bool, beckmann: bool
 ) -> tuple[sc.Vec3, sc.Vec3, float, float]:
     """The reflected and refracted local directions at the numbers u1, u2 and their weights F G2 / G1(v) and
-    (1 - F) G2 / G1(v) (0 on the wrong side, or refracted in total internal reflection)."""
+    (1 - F) G2 / G1(v) (0 on the wrong side, or refracted in total internal reflection), of GGX or Beckmann."""
     a2 = a * a
-    lambda_v = smith_lambda(v[2], a2)
-    m = visible_normal(v, a, u1, u2)
+    lambda_of = beckmann_lambda if beckmann else smith_lambda
+    lambda_v = lambda_of(v[2], a2)
+    m = beckmann_visible_normal(v, a, u1, u2) if beckmann else visible_normal(v, a, u1, u2)
     c = _dot(v, m)
     g2 = eta * eta - 1.0 + c * c
     F, g = 1.0, 1.0
@@ -235,12 +321,12 @@ def _glass_split(
     reflected = tuple(2.0 * c * m[k] - v[k] for k in range(3))
     weight_r = 0.0
     if reflected[2] > 0.0:
-        weight_r = F * shadowing(lambda_v, smith_lambda(reflected[2], a2), separable) * (1.0 + lambda_v)
+        weight_r = F * shadowing(lambda_v, lambda_of(reflected[2], a2), separable) * (1.0 + lambda_v)
     T, weight_t = (0.0, 0.0, -1.0), 0.0
     if g2 > 0.0:
         T = _unit(tuple((-v[k] + (c - g) * m[k]) / eta for k in range(3)))
         if T[2] < 0.0:
-            weight_t = (1.0 - F) * shadowing(lambda_v, smith_lambda(-T[2], a2), separable) * (1.0 + lambda_v)
+            weight_t = (1.0 - F) * shadowing(lambda_v, lambda_of(-T[2], a2), separable) * (1.0 + lambda_v)
     return reflected, T, weight_r, weight_t
 
 
