@@ -3,6 +3,7 @@ engine's result as F12 saves it, for the tests that compare it with Cycles')."""
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import bpy
@@ -32,6 +33,18 @@ def f12_exr(path: Path, color_mode: str = "RGB") -> np.ndarray:
         return pixels.reshape(height, width, image.channels)[..., : len(color_mode)].astype(np.float64)
     finally:
         bpy.data.images.remove(image)
+
+
+def f12_cycles_and_engine(folder: Path, color_mode: str = "RGB") -> tuple[dict[str, np.ndarray], dict[str, float]]:
+    """F12 of the open scene by Cycles and then by the engine (f12_exr into folder) -> each one's image and seconds
+    around its F12, by engine name."""
+    images, seconds = {}, {}
+    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
+        bpy.context.scene.render.engine = engine
+        started = time.perf_counter()
+        images[engine] = f12_exr(folder / f"{engine}.exr", color_mode)
+        seconds[engine] = time.perf_counter() - started
+    return images, seconds
 
 
 def looking_down(height: float, ortho_scale: float, pixels: int = 8) -> None:

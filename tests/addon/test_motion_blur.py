@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import time
 from pathlib import Path
 
 import bpy
@@ -18,7 +17,7 @@ import pytest
 
 from addon.convert import motion_blur
 from addon.convert.export import ExportNotes, scene_document
-from tests.addon.f12_images import AT_THE_ENDS, f12_exr, glowing_material
+from tests.addon.f12_images import AT_THE_ENDS, f12_cycles_and_engine, glowing_material
 
 WIDTH, HEIGHT, ORTHO_SCALE = 200, 40, 4.0  # 0.02 m a pixel
 SIZE, MOVE, SPEED = 0.5, 1.0, 2.0  # the cube's side, its move over the shutter, metres a frame (shutter 0.5)
@@ -78,15 +77,10 @@ def _streak(alpha: np.ndarray) -> tuple[float, float]:
 @pytest.mark.parametrize("camera_moves", [False, True], ids=["object", "camera"])
 def test_the_streak_of_a_cube_moving_1_m_over_the_shutter_is_cycles(tmp_path: Path, camera_moves: bool) -> None:
     _moving_cube_scene(camera_moves)
-    scene = bpy.context.scene
-    found, seconds = {}, {}
-    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
-        scene.render.engine = engine
-        started = time.perf_counter()
-        alpha = f12_exr(tmp_path / f"{engine}.exr", "RGBA")[..., 3]
-        seconds[engine] = time.perf_counter() - started
-        found[engine] = _streak(alpha)
-    (cycles, cycles_centre), (tracer, tracer_centre) = found["CYCLES"], found["WEATHERVANE_TRACER"]
+    images, seconds = f12_cycles_and_engine(tmp_path, "RGBA")
+    (cycles, cycles_centre), (tracer, tracer_centre) = (
+        _streak(images[e][..., 3]) for e in ("CYCLES", "WEATHERVANE_TRACER")
+    )
     print(
         f"streak ({'camera' if camera_moves else 'object'} moving): tracer {tracer:.3f} m, Cycles {cycles:.3f} m "
         f"(centre {tracer_centre:+.3f} / {cycles_centre:+.3f}); seconds "

@@ -5,14 +5,13 @@ pixels outside a fisheye's or the mirror ball's circle black in both)."""
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import bpy
 import pytest
 
 from addon import compat
-from tests.addon.f12_images import AT_THE_ENDS, f12_exr, glowing_material
+from tests.addon.f12_images import AT_THE_ENDS, f12_cycles_and_engine, glowing_material
 
 CUBES = ((0.0, 4.0, 0.0), (3.0, 3.0, 1.0), (-4.0, 1.0, -1.0), (0.5, 1.0, 4.0), (1.0, -4.0, 0.5), (-1.5, 2.0, -3.0))
 # a pixel counts as covered where a cube shows over 70% of it: the mirror ball's rim is a circle of pixels half
@@ -55,14 +54,8 @@ def _scene(kind: str) -> None:
 @pytest.mark.parametrize("kind", sorted(CASES))
 def test_each_panoramic_camera_covers_the_pixels_cycles_covers(tmp_path: Path, kind: str) -> None:
     _scene(kind)
-    scene = bpy.context.scene
-    masks, seconds = {}, {}
-    for engine in ("CYCLES", "WEATHERVANE_TRACER"):
-        scene.render.engine = engine
-        started = time.perf_counter()
-        masks[engine] = f12_exr(tmp_path / f"{engine}.exr")[..., 0] > COVERED
-        seconds[engine] = time.perf_counter() - started
-    cycles, tracer = masks["CYCLES"], masks["WEATHERVANE_TRACER"]
+    images, seconds = f12_cycles_and_engine(tmp_path)
+    cycles, tracer = (images[engine][..., 0] > COVERED for engine in ("CYCLES", "WEATHERVANE_TRACER"))
     iou = (cycles & tracer).sum() / (cycles | tracer).sum()
     print(f"{kind}: coverage IoU {iou:.4f}, {cycles.sum()} pixels in Cycles; seconds {seconds}")
     assert cycles.sum() > 40 and iou >= 0.97
