@@ -295,6 +295,29 @@ def _unit_or_none(n: sc.Vec3) -> sc.Vec3 | None:
     return (n[0] / size, n[1] / size, n[2] / size)
 
 
+def _colored(scene: sc.Scene) -> bool:
+    """Whether the scene needs colours rather than the documented one intensity per point: a coloured or glossy
+    material, or a coloured, falling-off, spot, area or world light."""
+    materials = scene.materials.values()
+    return any(m.specular_color is not None or m.is_glossy for m in materials) or any(
+        light.color != sc.WHITE
+        or getattr(light, "falloff", "none") != "none"
+        or isinstance(light, sc.SpotLight | sc.AreaLight | sc.WorldLight)
+        for light in scene.lights
+    )
+
+
+def seen_in_mirrors(scene: sc.Scene) -> tuple[list[sc.AreaLight], list[sc.DirectionalLight]]:
+    """The scene's area lights and suns (of an angle above 0) that mirror rays see (seen_in_mirrors)."""
+    lights = [light for light in scene.lights if isinstance(light, sc.AreaLight) and light.seen_in_mirrors]
+    suns = [
+        light
+        for light in scene.lights
+        if isinstance(light, sc.DirectionalLight) and light.seen_in_mirrors and light.angle > 0.0
+    ]
+    return lights, suns
+
+
 class ReferenceTracer:
     """Traces one ray at a time exactly as the listings do; counts rays by kind."""
 
@@ -310,25 +333,12 @@ class ReferenceTracer:
             obj.normals.tolist() if isinstance(obj, sc.MeshInstances) and obj.normals is not None else None
             for obj in scene.objects
         ]
-        materials = scene.materials.values()
-        self.colored = any(m.specular_color is not None or m.is_glossy for m in materials) or any(
-            light.color != sc.WHITE
-            or getattr(light, "falloff", "none") != "none"
-            or isinstance(light, sc.SpotLight | sc.AreaLight | sc.WorldLight)
-            for light in scene.lights
-        )
+        self.colored = _colored(scene)
         self.lights = light_samples(scene)
         self.camera_sample = 0  # the pixel's sample being traced: which world directions it takes
         self.glossy_pairs = lightsamples.glossy_pairs(scene.render.glossy_samples)
         self.sky = True  # a miss brings the background (False: nothing, for the passes' split of a tree)
-        self.seen_lights = [
-            light for light in scene.lights if isinstance(light, sc.AreaLight) and light.seen_in_mirrors
-        ]
-        self.seen_suns = [
-            light
-            for light in scene.lights
-            if isinstance(light, sc.DirectionalLight) and light.seen_in_mirrors and light.angle > 0.0
-        ]
+        self.seen_lights, self.seen_suns = seen_in_mirrors(scene)
         self.world_pairs = lightsamples.glossy_pairs(min(4, scene.render.glossy_samples))  # a lobe of the world
         # shadow rays pass partly transparent surfaces (shadow_through) where some material has alpha < 1
         self.shadow_alpha = any(m.alpha < 1.0 for m in scene.materials.values())
@@ -564,15 +574,12 @@ class ReferenceTracer:
             lamp = seen_light(self.seen_lights, O, D, t_min, closest_t if closest_object >= 0 else INF)
             if lamp is not None:
                 return lamp
-        if closest_object < 0:
+        if closest_object < 0:  # a mirror ray's suns are not the sky's (the passes' split counts them as lights)
             if path[2] == DIFFUSE:
                 return (0.0, 0.0, 0.0)
-            # a mirror ray's suns: not the sky's (the passes' split counts them with the lights seen in mirrors)
             sun = seen_sun(self.seen_suns, D) if not camera and path[2] == MIRROR else (0.0, 0.0, 0.0)
-            if not self.sky or (camera and self.settings.film_transparent):
-                return sun
-            sky = self.background(D)
-            return (sky[0] + sun[0], sky[1] + sun[1], sky[2] + sun[2])
+            shown = self.sky and not (camera and self.settings.film_transparent)
+            return add(sun, self.background(D)) if shown else sun
         if self.scene.objects[closest_object].holdout:
             return (0.0, 0.0, 0.0)
         P = add(O, scale(D, closest_t))

@@ -14,9 +14,9 @@ import numpy as np
 
 from ..geometry import camera as cam
 from ..geometry.footprint import Footprint, Volume
-from ..geometry.kernels import indices, quiet, take
+from ..geometry.kernels import indices, quiet
 from ..geometry.rayframes import RayFrames
-from . import emitters, see_through, surfaces, whitted
+from . import mirrored, see_through, surfaces, whitted
 from .batch import RayBatch
 from .prepared import PreparedScene
 from .rays import CAMERA_T_MIN, REFLECTION_T_MIN, RayCounts, tally
@@ -98,9 +98,9 @@ class TracedScene(PreparedScene):
             if batch.reach is not None:  # beyond the camera's clip_end: the nearest hit is, so all are
                 obj[t >= batch.reach] = -1
             if self.seen_lights and not first:  # mirror rays that meet a light's front before any surface end there
-                batch, t, obj, part = self._meet_lights(color, batch, t, obj, part, t_min, recorder, footprint)
+                batch, t, obj, part = mirrored.meet_lights(self, color, batch, t, obj, part, t_min, recorder, footprint)
             if self.seen_suns and not first:  # mirror rays that meet nothing see the suns' discs they point into
-                self._see_suns(color, batch, obj, recorder)
+                mirrored.see_suns(self, color, batch, obj, recorder)
             if footprint is not None:  # each ray up to its hit; a miss to its end
                 end = np.where(obj >= 0, t, np.inf if batch.reach is None else batch.reach)
                 footprint.record(batch.pixel, batch.origin, batch.direction, t_min, end, hit=obj)
@@ -133,71 +133,6 @@ class TracedScene(PreparedScene):
                 break
             tally(counts, "reflection", batch.size, None if frames is None else RayFrames.of(batch.pixel, frames))
         return color
-
-    def _meet_lights(
-        self,
-        color: np.ndarray,
-        batch: RayBatch,
-        t: np.ndarray,
-        obj: np.ndarray,
-        part: np.ndarray,
-        t_min: float,
-        recorder: PassRecorder | NoPasses,
-        footprint: Footprint | RayStore | None,
-    ) -> tuple[RayBatch, np.ndarray, np.ndarray, np.ndarray]:
-        """The rays that see lights (a Whitted wavefront's all, a see-through one's with lamps) and meet a light's
-        front before their surface (emitters.meet): its radiance times their weights into their samples and the
-        Reflection pass, their segments up to the light, naming it, into the footprint (an edit of its intensity
-        retraces them, where no shadow segment may name it: through glass), and those rays dropped from the
-        wavefront."""
-        rays = np.arange(batch.size) if batch.lamps is None else indices(batch.lamps)
-        surface = np.where(obj >= 0, t, np.inf)
-        met, radiance, sources, reach = emitters.meet(
-            self.seen_lights, batch.origin, batch.direction, surface, t_min, rays
-        )
-        if not met.size:
-            return batch, t, obj, part
-        if footprint is not None:
-            for source in np.unique(sources):
-                mine = indices(sources == source)
-                rows = met.take(mine)
-                origin = batch.origin if batch.origin.shape[1] == 1 else take(batch.origin, rows)
-                direction = take(batch.direction, rows)
-                footprint.record(batch.pixel.take(rows), origin, direction, t_min, reach.take(mine), light=int(source))
-        weight = batch.weight
-        if weight is not None:  # (n,) on mirror paths, (3, n) where glass tints them
-            radiance = (weight.take(met) if weight.ndim == 1 else take(weight, met)) * radiance
-        value = radiance.astype(self.dtype, copy=False)
-        pixel = batch.pixel.take(met)
-        see_through.add_at(color, pixel, value, batch.camera is None)
-        if batch.tag is None:
-            recorder.reflection(pixel, value)
-        else:
-            recorder.tagged("reflection", batch.tag, met, pixel, value)
-        keep = np.ones(batch.size, dtype=bool)
-        keep[met] = False
-        keep = indices(keep)
-        return batch.take(keep), t.take(keep), obj.take(keep), part.take(keep)
-
-    def _see_suns(self, color: np.ndarray, batch: RayBatch, obj: np.ndarray, recorder: PassRecorder | NoPasses) -> None:
-        """The rays that see lights (a Whitted wavefront's all, a see-through one's with lamps), meet nothing and
-        point into a sun's disc (emitters.see_suns): its radiance times their weights into their samples and the
-        Reflection pass; they go on to see the background too (Cycles adds the sun's and the world's)."""
-        missed = obj < 0
-        rays = indices(missed if batch.lamps is None else missed & batch.lamps)
-        seen, radiance = emitters.see_suns(self.seen_suns, batch.direction, rays)
-        if not seen.size:
-            return
-        weight = batch.weight
-        if weight is not None:  # (n,) on mirror paths, (3, n) where glass tints them
-            radiance = (weight.take(seen) if weight.ndim == 1 else take(weight, seen)) * radiance
-        value = radiance.astype(self.dtype, copy=False)
-        pixel = batch.pixel.take(seen)
-        see_through.add_at(color, pixel, value, batch.camera is None)
-        if batch.tag is None:
-            recorder.reflection(pixel, value)
-        else:
-            recorder.tagged("reflection", batch.tag, seen, pixel, value)
 
     def _intersect(
         self, batch: RayBatch, t_min: float, first: bool, culling: _Culling, frames: np.ndarray | None
