@@ -123,27 +123,54 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
 
 LATENCIES = (
     "f12-factory-cube-1920x1080",  # F12 of the factory scene at Blender's default size, key to the job's end
-    "material-colour",  # the tail fin's colour set as the sidebar sets it, to its finished pixels on screen
-    "object-moved",  # the ball moved, likewise
-    "ground-colour-first-image",  # the ground's colour (most pixels: coarse to fine), to its first image on screen
-    "ground-colour",  # ... and to its finished image
-    "orbit-first-image",  # numpad 4 over the view, to its first image on screen
-    "orbit",  # ... and to its finished image
+    # issue 47's scene (the vane, a glass sphere and an area light at F12's Shadows 16), the view at its default
+    # Viewport samples: from the change to ...
+    "glass-ior-drawn",  # ... the engine's first draw after it ("updating", or the change's first level)
+    "glass-ior-taken",  # ... the status text's first change on screen (the edit seen to be taken)
+    "glass-ior-first-image",  # ... the first image on screen (the glass's IOR set as its Material tab sets it)
+    "glass-ior",  # ... its finished image
+    "glass-moved-drawn",  # the glass sphere moved 0.3 m, likewise
+    "glass-moved-taken",
+    "glass-moved-first-image",
+    "glass-moved",
+    "orbit-drawn",  # numpad 4 over the view, likewise
+    "orbit-taken",
+    "orbit-first-image",
+    "orbit",
     "playback",  # Space over 10 keyed frames: seconds a frame, new images on screen
+    "load",  # the 1-minute load average during the measurements (the highest of three)
     "f12-material-tab-colour",  # F12 at 320x240 after a colour edit in the Material tab
 )
+# Issue 47's bars at load < 2 (seconds; playback: seconds a frame, 4 images a second): asserted as they are up to a
+# 1-minute load average of 2 during the measurements (the test's own Blender, workers and Xvfb make about 2 on the
+# otherwise idle 2-core machine); above it, outside the issue's condition (other work beside the test: the view's
+# workers run at nice +10 and yield to it), times load / 2
+BARS = {"drawn": 0.2, "first-image": 0.5, "finished": 3.0, "playback": 0.25}
+# From a draw to the screen: Blender's draw of the window in software OpenGL after the engine's part (0.13-0.2 s
+# measured at load 1.5-2), which no engine shortens: "updating" on screen is asserted within the bar plus this
+DRAW_TO_SCREEN = 0.15
 
 
 def check_latencies(log: str) -> None:
-    """What the user sees, from the session (tests/addon/gui_session.py reads the view's pixels from the X server):
-    each figure printed, none asserted (the machine is shared); the pixels changed on screen for every change (the
-    session asserts it), and playback showed new images."""
+    """What the user sees, from the session (tests/addon/gui_session.py reads the view's pixels and its status text
+    from the X server): every change reached the screen (the session asserts it), playback showed new images, and on
+    issue 47's scene the engine drew "updating" (or the change's first level) within 0.2 s of each change and the
+    screen showed it within DRAW_TO_SCREEN more, the first image was on screen within 0.5 s and the finished one
+    within 3 s, and playback showed at least 4 images a second (medians of 3; above a load of 2, those times load /
+    2)."""
     import re
 
     found = dict(re.findall(r"^WEATHERVANE-GUI latency (\S+) ([0-9.]+|inf)", log, flags=re.MULTILINE))
     assert sorted(found) == sorted(LATENCIES), (found, log[-4000:])
     assert all(float(value) > 0 for value in found.values()), found
     assert found["playback"] != "inf", "no new image on screen while the animation played"
+    scale = max(1.0, float(found["load"]) / 2.0)
+    for change in ("glass-ior", "glass-moved", "orbit"):
+        assert float(found[f"{change}-drawn"]) <= scale * BARS["drawn"], (change, found)
+        assert float(found[f"{change}-taken"]) <= scale * (BARS["drawn"] + DRAW_TO_SCREEN), (change, found)
+        assert float(found[f"{change}-first-image"]) <= scale * BARS["first-image"], (change, found)
+        assert float(found[change]) <= scale * BARS["finished"], (change, found)
+    assert float(found["playback"]) <= scale * BARS["playback"], found
 
 
 def check_material_tab_colour_in_f12(work: Path) -> None:

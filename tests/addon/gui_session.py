@@ -378,7 +378,7 @@ def full_image_then(step, idle: bool = True) -> float | None:
         level = sessions[0].progressive.latest() if sessions else None
         if (
             level is None
-            or level.divisor != 1
+            or not level.final
             or level.image.shape[:2] != (region.height, region.width)
             or (idle and sessions[0].progressive.busy)
         ):
@@ -1010,8 +1010,10 @@ def idle_view(least: float = 0.3):
 
 
 def watched(what: str, box, change):
-    """A step: reads the box of the screen, makes the change (the input event), waits for the view to finish, then
-    records the seconds from the event to the first changed pixels and to the finished image on screen."""
+    """A step: reads the box of the screen (and the view's status text), makes the change (the input event), waits
+    for the view to finish, then records the seconds from the event to the first changed pixels and to the finished
+    image on screen, to the first change of the status text on screen (the change seen to be taken: "updating" or the
+    change's first image) and which statuses the engine drew."""
     import time
 
     state: dict = {}
@@ -1019,8 +1021,10 @@ def watched(what: str, box, change):
     def step() -> float | None:
         if "watch" not in state:
             state["watch"] = watch = Watch(box() if callable(box) else box)
+            state["status"] = Watch(status_box())
             state["generation"] = the_session().progressive.generation
-            watch.started = time.perf_counter()
+            DRAWN.clear()
+            watch.started = state["status"].started = time.perf_counter()
             change()
             return 0.02
         watch = state["watch"]
@@ -1032,12 +1036,49 @@ def watched(what: str, box, change):
         if waited < state.setdefault("finished", waited) + 0.5:  # half a second of reads after the view is idle
             return 0.05
         watch.stop()
+        state["status"].stop()
         first, finished, share = watch.times()
         assert first is not None and finished is not None and share > 0, (what, first, finished, share)
         LATENCIES.setdefault(what, []).append((first, finished, share))
+        taken = next((t for t, changed, _ in state["status"].samples if changed > 0), None)
+        drawn = [f"{t - watch.started:.2f} {status.removeprefix('Weathervane Tracer: ')}" for t, status in DRAWN]
+        # the engine's first draw after the change: "updating" or the change's first level, never the old "done"
+        assert DRAWN and not DRAWN[0][1].startswith("Weathervane Tracer: done"), (what, drawn)
+        SEEN.setdefault(what, []).append((taken, DRAWN[0][0] - watch.started, drawn))
         return None
 
     return step
+
+
+def status_box() -> tuple:
+    """The status text's line on screen: the view's top left, where Blender draws the engine's stats, the third line
+    under the view's name and collection (overlays on; the region starts under the header and behind the tool
+    header, the line 76-88 px below its top in this window); a thin box, so that reading it costs the machine little."""
+    _, _, region = view3d()
+    return window_box(region, 10, region.height - 72, 460, region.height - 94, margin=0)
+
+
+SEEN: dict = {}  # what -> [(seconds to the status text's first change on screen, to the engine's first draw, [the
+# statuses drawn]), ...]
+DRAWN: list = []  # (time.perf_counter(), status) of each draw of the Rendered view since the last change
+
+
+def record_draws() -> None:
+    """Note the status of every draw of the Rendered view (the engine's view_draw), with its time."""
+    import time
+
+    viewport = sys.modules["weathervane.engine.viewport"]
+    if getattr(viewport.ViewportSession.draw, "recorded", False):
+        return
+    draw = viewport.ViewportSession.draw
+
+    def recorded(self, region):
+        status = draw(self, region)
+        DRAWN.append((time.perf_counter(), status))
+        return status
+
+    recorded.recorded = True
+    viewport.ViewportSession.draw = recorded
 
 
 def run_steps(steps: list, then) -> float | None:
@@ -1054,21 +1095,6 @@ def run_steps(steps: list, then) -> float | None:
     return guarded(run)
 
 
-def recolour(colour, material: str = "verdigris"):
-    def change() -> None:
-        materials = {entry.name: entry for entry in bpy.context.scene.weathervane.materials}
-        materials[material].color = colour  # as the sidebar's Materials panel sets it
-
-    return change
-
-
-def move_ball(dx: float):
-    def change() -> None:
-        bpy.data.objects["WV ball"].location.x += dx
-
-    return change
-
-
 def keys(*names: str):
     """Keys pressed and released with the mouse over the view's centre (Blender's event_simulate)."""
 
@@ -1083,12 +1109,77 @@ def keys(*names: str):
     return change
 
 
+GLASS_BALL = "Glass ball"
+
+
+def add_glass_and_area_light() -> None:
+    """Issue 47's scene: beside the vane, a glass sphere (a UV sphere, 32 x 16, with a Glass BSDF) and a 1.5 m area
+    light, rendered with Lights > Other Lights at F12's Shadows 16 (the view traces to its own Viewport samples).
+    Made with bpy.data (no operator while the view traces: tracing_quiet)."""
+    import bmesh
+
+    scene = bpy.context.scene
+    mesh = bpy.data.meshes.new(GLASS_BALL)
+    shape = bmesh.new()
+    bmesh.ops.create_uvsphere(shape, u_segments=32, v_segments=16, radius=0.6)
+    for face in shape.faces:
+        face.smooth = True
+    shape.to_mesh(mesh)
+    shape.free()
+    glass = bpy.data.materials.new(GLASS_BALL)
+    glass.use_nodes = True
+    nodes = glass.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    bsdf = nodes.new("ShaderNodeBsdfGlass")
+    glass.node_tree.links.new(bsdf.outputs[0], nodes["Material Output"].inputs[0])
+    mesh.materials.append(glass)
+    ball = bpy.data.objects.new(GLASS_BALL, mesh)
+    ball.location = (1.6, -1.0, 0.6)
+    light = bpy.data.lights.new("Area light", "AREA")
+    light.energy, light.size = 300.0, 1.5
+    area = bpy.data.objects.new("Area light", light)
+    area.location = (2.0, -2.0, 4.0)
+    for obj in (ball, area):
+        scene.collection.objects.link(obj)
+    settings = scene.weathervane
+    settings.other_lights, settings.shadow_samples = True, "16"
+
+
+def remove_glass_and_area_light() -> None:
+    scene = bpy.context.scene
+    scene.weathervane.other_lights, scene.weathervane.shadow_samples = False, "1"
+    light = bpy.data.objects["Area light"].data
+    bpy.data.objects.remove(bpy.data.objects["Area light"])
+    bpy.data.lights.remove(light)
+    mesh = bpy.data.objects[GLASS_BALL].data
+    bpy.data.objects.remove(bpy.data.objects[GLASS_BALL])
+    bpy.data.meshes.remove(mesh)
+    bpy.data.materials.remove(bpy.data.materials[GLASS_BALL])
+
+
+def set_ior(value: float):
+    def change() -> None:
+        bpy.data.materials[GLASS_BALL].node_tree.nodes["Glass BSDF"].inputs["IOR"].default_value = value
+
+    return change
+
+
+def move_glass(dx: float):
+    def change() -> None:
+        bpy.data.objects[GLASS_BALL].location.x += dx
+
+    return change
+
+
 def measure_latencies() -> float | None:
-    """In the Rendered view as the artist sees it (headers and overlays on): from the change or the input event to
-    the changed pixels on screen (read from the X server), medians of LATENCY_REPEATS: the tail fin's colour set as
-    the sidebar sets it, the ball moved, the ground's colour and a numpad orbit (each its first, coarse image and its
-    finished one); then playback (Space)
-    of the vane's turn keyed over 10 frames. Printed, not asserted: the machine is shared."""
+    """In the Rendered view as the artist sees it (headers and overlays on), on issue 47's scene (the vane with a
+    glass sphere and an area light at F12's Shadows 16; the view at its default Viewport samples): from the change or
+    the input event to the changed pixels on screen (read from the X server), medians of LATENCY_REPEATS: the glass's
+    IOR set as its Material tab sets it, the sphere moved, a numpad orbit (each its first, coarse image, its finished
+    one and the status text's first change); then playback (Space) of the vane's turn keyed over 10 frames. The
+    test asserts the issue's bars (tests/test_blender_gui.py)."""
+    import os
+
     _, area, _ = view3d()
     view = area.spaces.active.region_3d
     saved = {
@@ -1099,25 +1190,14 @@ def measure_latencies() -> float | None:
         "view_camera_offset": tuple(view.view_camera_offset),
     }
     perspective = view.view_perspective
-    colour = tuple({entry.name: entry for entry in bpy.context.scene.weathervane.materials}["verdigris"].color)
-    ball = ["WV ball"]
-    steps: list = [idle_view(1.0)]
-    for repeat, new in enumerate(((0.1, 0.3, 0.9), (0.95, 0.85, 0.1), (0.2, 0.9, 0.2))[:LATENCY_REPEATS]):
-        steps += [watched("material-colour", lambda: objects_box(["WV tail_fin"]), recolour(new)), idle_view()]
+    record_draws()
+    LOADS.append(os.getloadavg()[0])
+    steps: list = [add_glass_and_area_light, idle_view(1.0)]
+    for repeat, ior in enumerate((1.6, 1.33, 1.5)[:LATENCY_REPEATS]):
+        steps += [watched("glass-ior", lambda: objects_box([GLASS_BALL]), set_ior(ior)), idle_view()]
         dx = 0.3 if repeat % 2 == 0 else -0.3
-        box = lambda dx=dx: objects_box(ball, (dx, 0.0, 0.0))  # noqa: E731 - where it is and where it goes
-        steps += [watched("object-moved", box, move_ball(dx)), idle_view()]
-    back = -0.3 if LATENCY_REPEATS % 2 else 0.0
-
-    def as_built() -> None:  # the colour and the ball's place as before, for the steps after (not measured)
-        recolour(colour)()
-        move_ball(back)()
-
-    # the ground's colour: most of the view's pixels, answered coarse to fine (its first image is the 1/8 one)
-    ground = tuple({entry.name: entry for entry in bpy.context.scene.weathervane.materials}["tiles"].color)
-    for new in ((0.3, 0.5, 0.8), (0.8, 0.6, 0.3), (0.4, 0.8, 0.4))[:LATENCY_REPEATS]:
-        steps += [watched("ground-colour", view_box, recolour(new, "tiles")), idle_view()]
-    steps += [as_built, recolour(ground, "tiles"), idle_view()]
+        box = lambda dx=dx: objects_box([GLASS_BALL], (dx, 0.0, 0.0))  # noqa: E731 - where it is and where it goes
+        steps += [watched("glass-moved", box, move_glass(dx)), idle_view()]
 
     def leave_the_camera_view() -> None:  # numpad 4 in the camera view turns nothing there in 3.4.1
         view.view_perspective = "PERSP"
@@ -1133,8 +1213,25 @@ def measure_latencies() -> float | None:
         view.view_perspective = perspective
         area.tag_redraw()
 
-    steps += [restore_view, idle_view(0.5), playback(), idle_view(0.5)]
+    editors: dict = {}
+
+    def render_properties() -> None:  # Render Properties' Viewport samples beside the view, for the screenshot
+        window, _, _ = view3d()
+        for editor in (a.spaces.active for a in window.screen.areas if a.type == "PROPERTIES"):
+            editors[editor], editor.context = editor.context, "RENDER"
+
+    def screenshot_done_when() -> None:
+        print("WEATHERVANE-GUI viewport samples screenshot", screenshot("-viewport-samples"), "status", status_box())
+        for editor, context in editors.items():
+            editor.context = context
+        LOADS.append(os.getloadavg()[0])
+
+    steps += [restore_view, render_properties, idle_view(0.5), screenshot_done_when, playback(), idle_view(0.5)]
+    steps += [remove_glass_and_area_light, idle_view(0.5)]
     return run_steps(steps, report_latencies)
+
+
+LOADS: list = []  # the load average (1 minute) when the measurements began and when they ended
 
 
 PLAYBACK_SECONDS = 5.0
@@ -1194,8 +1291,22 @@ def idle() -> bool:
 
 
 def report_latencies() -> float | None:
+    import os
     import statistics
 
+    LOADS.append(os.getloadavg()[0])
+    print(f"WEATHERVANE-GUI latency load {max(LOADS):.2f} (1-minute load averages {LOADS})")
+    for what, runs in SEEN.items():
+        taken, drawn = [run[0] for run in runs], [run[1] for run in runs]
+        print(
+            f"WEATHERVANE-GUI latency {what}-drawn {statistics.median(drawn):.3f} s to the engine's first draw after "
+            f"the change ({', '.join(f'{t:.2f}' for t in drawn)}): 'updating' or the change's first level"
+        )
+        print(
+            f"WEATHERVANE-GUI latency {what}-taken {statistics.median(t if t is not None else 1e9 for t in taken):.3f}"
+            f" s to the status text's first change on screen ({', '.join(f'{t:.2f}' for t in taken if t is not None)}"
+            f"); statuses drawn: {runs[0][2][:6]}"
+        )
     for what, runs in LATENCIES.items():
         if what == "playback":
             fps, first, reads = runs[0]
@@ -1209,8 +1320,7 @@ def report_latencies() -> float | None:
         shares = ", ".join(f"{100 * run[2]:.0f}%" for run in runs)
         runs_text = ", ".join(f"{a:.2f}/{b:.2f}" for a, b in zip(firsts, finished, strict=True))
         _, _, region = view3d()
-        if what in ("orbit", "ground-colour"):
-            print(f"WEATHERVANE-GUI latency {what}-first-image {statistics.median(firsts):.3f}")
+        print(f"WEATHERVANE-GUI latency {what}-first-image {statistics.median(firsts):.3f}")
         print(
             f"WEATHERVANE-GUI latency {what} {statistics.median(finished):.3f} s to the finished pixels on screen "
             f"(first change {statistics.median(firsts):.3f} s; {len(runs)} runs first/finished: {runs_text}; pixels "
