@@ -9,11 +9,13 @@ view; File > Export; quit.
 Beside SCREENSHOT it writes SCREENSHOT-output.png (Output Properties with the tracer as the engine),
 SCREENSHOT-rendered.png (the 3D View in Rendered shading, nothing over it), SCREENSHOT-rendered-ui.png (the same
 with the interface), SCREENSHOT-foreign-f12.png (F12 of the vane with the foreign scene, 320 x 240),
-SCREENSHOT-foreign-rendered.png (the Rendered view with it, laid out as SCREENSHOT-rendered.png) and
-SCREENSHOT-export-menu.png; in WORK_FOLDER, f12.png (F12's image saved as PNG), f12-scene.json (the scene exported
-at that moment), rendered-scene.json (the scene seen from the Rendered view, for the test to trace), the view
-region's place in the window (rendered-region.json), foreign-f12-empty.png (F12 at 320 x 240 before the foreign
-scene) and foreign.json (each new object's bounding box projected into F12's image and into the window).
+SCREENSHOT-foreign-rendered.png (the Rendered view with it, laid out as SCREENSHOT-rendered.png),
+SCREENSHOT-export-menu.png and SCREENSHOT-viewport-samples.png (issue 47's scene finished in the Rendered view
+beside Render Properties > Weathervane Tracer > Viewport); in WORK_FOLDER, f12.png (F12's image saved as PNG),
+f12-scene.json (the scene exported at that moment), rendered-scene.json (the scene seen from the Rendered view, for
+the test to trace), the view region's place in the window (rendered-region.json), foreign-f12-empty.png (F12 at 320
+x 240 before the foreign scene) and foreign.json (each new object's bounding box projected into F12's image and into
+the window).
 
 Blender 3.4 has no API to choose a sidebar tab (Region.active_panel_category came later); the sidebar opens on
 its first category. The built-in panels of "Item" are written in C and registered first, but they only show with
@@ -1077,8 +1079,14 @@ def record_draws() -> None:
         DRAWN.append((time.perf_counter(), status))
         return status
 
-    recorded.recorded = True
+    recorded.recorded, recorded.original = True, draw
     viewport.ViewportSession.draw = recorded
+
+
+def stop_recording_draws() -> None:
+    viewport = sys.modules["weathervane.engine.viewport"]
+    viewport.ViewportSession.draw = getattr(viewport.ViewportSession.draw, "original", viewport.ViewportSession.draw)
+    DRAWN.clear()
 
 
 def run_steps(steps: list, then) -> float | None:
@@ -1295,6 +1303,7 @@ def report_latencies() -> float | None:
     import statistics
 
     LOADS.append(os.getloadavg()[0])
+    stop_recording_draws()
     print(f"WEATHERVANE-GUI latency load {max(LOADS):.2f} (1-minute load averages {LOADS})")
     for what, runs in SEEN.items():
         taken, drawn = [run[0] for run in runs], [run[1] for run in runs]
