@@ -142,13 +142,16 @@ class ViewportSession:
 
         self.samples = view_samples(depsgraph.scene.weathervane)
         # the memory check counts the view's image (the last size it was drawn at) and its kept ray trees (kept up
-        # to EDITABLE_SAMPLES camera samples times shadow samples)
+        # to EDITABLE_SAMPLES camera samples times shadow samples; whether the scene has a light of a size, which
+        # makes them count, is known only after the export: counted as if it had)
         budget = True
         if self._view_size is not None:
             width, height = self._view_size
-            samples = width * height * self.samples.pixel * self.samples.shadow
-            kept = samples * self._kept_bytes if samples <= self._editable_samples else 0
-            budget = MemoryBudget(depsgraph.scene, size=self._view_size, extra=kept)
+            settings = depsgraph.scene.weathervane
+            shadows = min(self.samples.shadow, int(settings.shadow_samples))
+            pixel = min(self.samples.pixel, int(settings.samples))
+            samples = min(width * height * pixel * shadows, self._editable_samples)
+            budget = MemoryBudget(depsgraph.scene, size=self._view_size, extra=samples * self._kept_bytes)
         try:
             document = scene_document(context, depsgraph, depsgraph.scene, budget=budget)
         except tracer.ResourceError as refusal:  # too large for the free memory: not read
