@@ -123,7 +123,7 @@ def test_panel_beside_the_built_vane_in_a_real_window(dist: Path, tmp_path: Path
 
 LATENCIES = (
     "f12-factory-cube-1920x1080",  # F12 of the factory scene at Blender's default size, key to the job's end
-    # issue 47's scene (the vane, a glass sphere and an area light at F12's Shadows 16), the view at its default
+    # the artist's scene (the vane, a glass sphere and an area light at F12's Shadows 16), the view at its default
     # Viewport samples: from the change to ...
     "glass-ior-drawn",  # ... the engine's first draw after it ("updating", or the change's first level)
     "glass-ior-taken",  # ... the status text's first change on screen (the edit seen to be taken)
@@ -141,7 +141,7 @@ LATENCIES = (
     "load",  # the 1-minute load average during the measurements (the highest of three)
     "f12-material-tab-colour",  # F12 at 320x240 after a colour edit in the Material tab
 )
-# Issue 47's bars at load < 2 (seconds; playback: seconds a frame, 4 images a second): asserted as they are up to a
+# The live view's bars at load < 2 (seconds; playback: seconds a frame, 4 images a second): asserted as they are up to a
 # 1-minute load average of 2 during the measurements (the test's own Blender, workers and Xvfb make about 2 on the
 # otherwise idle 2-core machine); above it, outside the issue's condition (other work beside the test: the view's
 # workers run at nice +10 and yield to it), times load / 2
@@ -154,7 +154,7 @@ DRAW_TO_SCREEN = 0.15
 def check_latencies(log: str) -> None:
     """What the user sees, from the session (tests/addon/gui_session.py reads the view's pixels and its status text
     from the X server): every change reached the screen (the session asserts it), playback showed new images, and on
-    issue 47's scene the engine drew "updating" (or the change's first level) within 0.2 s of each change and the
+    the artist's scene the engine drew "updating" (or the change's first level) within 0.2 s of each change and the
     screen showed it within DRAW_TO_SCREEN more, the first image was on screen within 0.5 s and the finished one
     within 3 s, and playback showed at least 4 images a second (medians of 3; above a load of 2, those times load /
     2)."""

@@ -29,7 +29,7 @@ REDRAW_SECONDS = 0.02  # how often the main thread looks for finished levels whi
 # How long a draw waits for the newest scene's first level before it draws the previous image under "updating": none.
 # Waiting would save a draw of the previous image (0.1-0.2 s of software OpenGL under Xvfb), but the draw right after
 # a change comes before even the 1/8 level at one sample (0.03-0.05 s on the pool in the real-window test's 1321x759
-# view), and the user must see at once that the change was taken (issue 47: within 0.2 s). Kept as settings of the
+# view), and the user must see at once that the change was taken (within 0.2 s). Kept as settings of the
 # session's draw_soon for views whose draws are cheap.
 FIRST_LEVEL_WAIT = 0.0
 EDIT_WAIT = 0.0  # the same for a change answered from the kept ray trees (a slow one's 1/8 level comes first)

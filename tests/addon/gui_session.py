@@ -10,7 +10,7 @@ Beside SCREENSHOT it writes SCREENSHOT-output.png (Output Properties with the tr
 SCREENSHOT-rendered.png (the 3D View in Rendered shading, nothing over it), SCREENSHOT-rendered-ui.png (the same
 with the interface), SCREENSHOT-foreign-f12.png (F12 of the vane with the foreign scene, 320 x 240),
 SCREENSHOT-foreign-rendered.png (the Rendered view with it, laid out as SCREENSHOT-rendered.png),
-SCREENSHOT-export-menu.png and SCREENSHOT-viewport-samples.png (issue 47's scene finished in the Rendered view
+SCREENSHOT-export-menu.png and SCREENSHOT-viewport-samples.png (the artist's scene finished in the Rendered view
 beside Render Properties > Weathervane Tracer > Viewport); in WORK_FOLDER, f12.png (F12's image saved as PNG),
 f12-scene.json (the scene exported at that moment), rendered-scene.json (the scene seen from the Rendered view, for
 the test to trace), the view region's place in the window (rendered-region.json), foreign-f12-empty.png (F12 at 320
@@ -1121,7 +1121,7 @@ GLASS_BALL = "Glass ball"
 
 
 def add_glass_and_area_light() -> None:
-    """Issue 47's scene: beside the vane, a glass sphere (a UV sphere, 32 x 16, with a Glass BSDF) and a 1.5 m area
+    """The artist's scene: beside the vane, a glass sphere (a UV sphere, 32 x 16, with a Glass BSDF) and a 1.5 m area
     light, rendered with Lights > Other Lights at F12's Shadows 16 (the view traces to its own Viewport samples).
     Made with bpy.data (no operator while the view traces: tracing_quiet)."""
     import bmesh
@@ -1180,7 +1180,7 @@ def move_glass(dx: float):
 
 
 def measure_latencies() -> float | None:
-    """In the Rendered view as the artist sees it (headers and overlays on), on issue 47's scene (the vane with a
+    """In the Rendered view as the artist sees it (headers and overlays on), on the artist's scene (the vane with a
     glass sphere and an area light at F12's Shadows 16; the view at its default Viewport samples): from the change or
     the input event to the changed pixels on screen (read from the X server), medians of LATENCY_REPEATS: the glass's
     IOR set as its Material tab sets it, the sphere moved, a numpad orbit (each its first, coarse image, its finished
