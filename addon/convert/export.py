@@ -25,6 +25,7 @@ as Blender calls it inside the evaluation, before the handlers run.
 
 from __future__ import annotations
 
+import heapq
 import itertools
 import json
 import math
@@ -380,17 +381,18 @@ class MemoryBudget:
         """Raises ResourceError (one line) when what is counted so far cannot fit in the memory free at the start."""
         if self.available is None:
             return
-        largest = sorted(self.meshes.items(), key=lambda item: -item[1])[: self.LARGEST]
-        tracer.check_resources(
-            self.settings,
-            self.workers,
-            triangles=self.triangles,
-            instances=self.instances,
-            largest=tuple((name, count) for name, count in largest if count),
-            available=self.available,
-            blender=True,
-            extra=self.extra,
-        )
+        counted = {"triangles": self.triangles, "instances": self.instances, "available": self.available}
+        try:
+            tracer.check_resources(self.settings, self.workers, **counted, blender=True, extra=self.extra)
+        except tracer.ResourceError:
+            # the largest meshes only for the refusal's line: sorting them at every geometry was quadratic (0.85 of
+            # the 1.18 s export of 3,000 separate cubes)
+            largest = heapq.nlargest(self.LARGEST, self.meshes.items(), key=lambda item: item[1])
+            named = tuple((name, count) for name, count in largest if count)
+            tracer.check_resources(
+                self.settings, self.workers, **counted, largest=named, blender=True, extra=self.extra
+            )
+            raise
 
 
 class ExportCancelledError(Exception):
