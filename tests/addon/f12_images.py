@@ -3,6 +3,7 @@ engine's result as F12 saves it, for the tests that compare it with Cycles')."""
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
@@ -76,3 +77,36 @@ def glowing_material(name: str = "glow") -> bpy.types.Material:
     output = tree.nodes.new("ShaderNodeOutputMaterial")
     tree.links.new(emission.outputs["Emission"], output.inputs["Surface"])
     return material
+
+
+def mirror_floor(size: float) -> None:
+    """A plane of size metres at the origin with a perfect mirror: a white Principled BSDF, Metallic 1, Roughness 0."""
+    from addon import compat
+
+    mirror = bpy.data.materials.new("mirror")
+    compat.enable_nodes(mirror)
+    principled = mirror.node_tree.nodes["Principled BSDF"]
+    principled.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    principled.inputs["Metallic"].default_value = 1.0
+    principled.inputs["Roughness"].default_value = 0.0
+    bpy.ops.mesh.primitive_plane_add(size=size)
+    bpy.context.object.data.materials.append(mirror)
+
+
+def looking_into_the_mirror(width: int, height: int, cycles_samples: int) -> None:
+    """The open scene's camera 2.5 m up and 4 m back, looking 30 degrees down toward +Y (at a mirror floor), width x
+    height, no world, Standard view; Cycles on the CPU at cycles_samples each on its pixel's centre (filter 0.01) and
+    the engine at its one sample on the centre (its F12 default antialiases): sharp edges in both."""
+    scene = bpy.context.scene
+    camera = bpy.data.cameras.new("camera")
+    scene.camera = bpy.data.objects.new("camera", camera)
+    scene.collection.objects.link(scene.camera)
+    scene.camera.location = (0.0, -4.0, 2.5)
+    scene.camera.rotation_euler = (math.radians(60.0), 0.0, 0.0)
+    scene.world = None
+    render = scene.render
+    render.resolution_x, render.resolution_y, render.resolution_percentage = width, height, 100
+    scene.view_settings.view_transform = "Standard"
+    scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", cycles_samples, False
+    scene.cycles.filter_width = 0.01
+    scene.weathervane.samples = "1"

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from addon import compat
-from tests.addon.f12_images import AT_THE_ENDS, f12_exr
+from tests.addon.f12_images import AT_THE_ENDS, f12_exr, looking_into_the_mirror, mirror_floor
 
 WIDTH, HEIGHT = 64, 48
 BASE = (0.9, 0.62, 0.3)
@@ -204,31 +204,13 @@ def test_a_mirror_shows_an_area_lights_shape_and_brightness_as_cycles_does(tmp_p
     engine's coverage IoU >= 0.9 and mean within 10%; with the light's Glossy visibility off, neither shows it."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    mirror = bpy.data.materials.new("mirror")
-    compat.enable_nodes(mirror)
-    principled = mirror.node_tree.nodes["Principled BSDF"]
-    principled.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    principled.inputs["Metallic"].default_value = 1.0
-    principled.inputs["Roughness"].default_value = 0.0
-    bpy.ops.mesh.primitive_plane_add(size=20.0)
-    bpy.context.object.data.materials.append(mirror)
+    mirror_floor(20.0)
     light = bpy.data.lights.new("panel", type="AREA")
     light.shape, light.size, light.size_y, light.energy = "RECTANGLE", 2.0, 1.0, 300.0
     lamp = bpy.data.objects.new("panel", light)
     lamp.location = (0.0, 2.0, 2.0)
     scene.collection.objects.link(lamp)
-    camera = bpy.data.cameras.new("camera")
-    scene.camera = bpy.data.objects.new("camera", camera)
-    scene.collection.objects.link(scene.camera)
-    scene.camera.location = (0.0, -4.0, 2.5)
-    scene.camera.rotation_euler = (math.radians(60.0), 0.0, 0.0)
-    scene.world = None
-    render = scene.render
-    render.resolution_x, render.resolution_y, render.resolution_percentage = WIDTH, HEIGHT, 100
-    scene.view_settings.view_transform = "Standard"
-    scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 16, False
-    scene.cycles.filter_width = 0.01  # each pixel sampled at its centre, as the tracer's one sample is: sharp edges
-    scene.weathervane.samples = "1"  # (its F12 default antialiases)
+    looking_into_the_mirror(WIDTH, HEIGHT, 16)
     images = {}
     for engine in ("CYCLES", "WEATHERVANE_TRACER"):
         scene.render.engine = engine

@@ -16,7 +16,7 @@ from mathutils import Vector
 
 from addon import compat
 from addon.convert import light_convert
-from tests.addon.f12_images import AT_THE_ENDS, f12_exr
+from tests.addon.f12_images import AT_THE_ENDS, f12_exr, looking_into_the_mirror, mirror_floor
 
 WIDTH, HEIGHT = 64, 48
 ANGLE = 8.0  # degrees: the disc about 13 pixels across at the default 50 mm lens
@@ -29,31 +29,13 @@ def _sun_over_a_mirror() -> bpy.types.Object:
     view; Cycles at 4 samples, each at its pixel's centre (a perfect mirror and the sun's disc converge at once) ->
     the sun."""
     scene = bpy.context.scene
-    mirror = bpy.data.materials.new("mirror")
-    compat.enable_nodes(mirror)
-    principled = mirror.node_tree.nodes["Principled BSDF"]
-    principled.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    principled.inputs["Metallic"].default_value = 1.0
-    principled.inputs["Roughness"].default_value = 0.0
-    bpy.ops.mesh.primitive_plane_add(size=40.0)
-    bpy.context.object.data.materials.append(mirror)
+    mirror_floor(40.0)
     light = bpy.data.lights.new("sun", type="SUN")
     light.energy, light.angle, light.color = STRENGTH, math.radians(ANGLE), COLOR
     sun = bpy.data.objects.new("sun", light)
     sun.rotation_euler = (math.radians(-60.0), 0.0, 0.0)  # its +Z (toward the light) 30 degrees up toward +Y
     scene.collection.objects.link(sun)
-    camera = bpy.data.cameras.new("camera")
-    scene.camera = bpy.data.objects.new("camera", camera)
-    scene.collection.objects.link(scene.camera)
-    scene.camera.location = (0.0, -4.0, 2.5)
-    scene.camera.rotation_euler = (math.radians(60.0), 0.0, 0.0)
-    scene.world = None
-    render = scene.render
-    render.resolution_x, render.resolution_y, render.resolution_percentage = WIDTH, HEIGHT, 100
-    scene.view_settings.view_transform = "Standard"
-    scene.cycles.device, scene.cycles.samples, scene.cycles.use_denoising = "CPU", 4, False
-    scene.cycles.filter_width = 0.01  # each pixel sampled at its centre, as the tracer's one sample is: sharp edges
-    scene.weathervane.samples = "1"  # (its F12 default antialiases)
+    looking_into_the_mirror(WIDTH, HEIGHT, 4)
     return sun
 
 
