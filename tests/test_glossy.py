@@ -66,10 +66,16 @@ def _furnace(
     white["glossy_source"] = source
     if shadowing is not None:
         white["glossy_shadowing"] = shadowing
+    return _plane_under_white_seen_at(view_degrees, white, samples)
+
+
+def _plane_under_white_seen_at(view_degrees: float, material: dict, samples: int) -> float:
+    """A plane of the material under a uniform white background, no lamp, seen at view_degrees from its normal by an
+    orthographic camera one pixel across, depth 1, at samples glossy pairs: the pixel's red."""
     angle = math.radians(view_degrees)
     document = {
-        "materials": {"white": white},
-        "objects": [{"name": "ground", "type": "plane", "material": "white"}],
+        "materials": {"plane": material},
+        "objects": [{"name": "plane", "type": "plane", "material": "plane"}],
         "lights": [{"type": "ambient", "intensity": 0.0}],
         "camera": {
             "location": [0.0, -50.0 * math.sin(angle), 50.0 * math.cos(angle)],
@@ -150,21 +156,7 @@ def _glass_furnace(view_degrees: float, roughness: float, distribution: str, sha
     view_degrees by an orthographic camera, depth 1: its reflected and refracted rays' weights at 64 pairs."""
     glass = {"color": [1, 1, 1], "specular": 0, "transmission": 1.0, "ior": 1.45, "glossy_energy": "single"}
     glass.update(transmission_roughness=roughness, transmission_distribution=distribution, glossy_shadowing=shadowing)
-    angle = math.radians(view_degrees)
-    document = {
-        "materials": {"glass": glass},
-        "objects": [{"name": "sheet", "type": "plane", "material": "glass"}],
-        "lights": [{"type": "ambient", "intensity": 0.0}],
-        "camera": {
-            "location": [0.0, -50.0 * math.sin(angle), 50.0 * math.cos(angle)],
-            "rotation": [view_degrees, 0.0, 0.0],
-            "type": "ORTHO",
-            "ortho_scale": 0.01,
-        },
-        "background": {"type": "solid", "color": [1.0, 1.0, 1.0]},
-        "render": {"width": 1, "height": 1, "depth": 1, "glossy_samples": 64},
-    }
-    return float(render(scene_from_dict(document), workers=1).image[0, 0, 0])
+    return _plane_under_white_seen_at(view_degrees, glass, 64)
 
 
 def _glass_albedo(view_degrees: float, roughness: float, distribution: str, separable: bool) -> float:
