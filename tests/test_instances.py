@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from tracer.geometry import meshbvh
 from tracer.geometry import transforms as tf
 from tracer.geometry.instances import InstancesKernel, instances_kernel
 from tracer.geometry.kernels import make_kernel, quiet
@@ -338,15 +339,41 @@ def test_many_small_meshes_merged_into_one_kernel_match_the_per_pixel_reference(
     np.testing.assert_allclose(render(scene, workers=1).image, expected, rtol=0, atol=1e-9)
 
 
+@pytest.mark.parametrize("leaves", ["objects", "triangles"])
 @pytest.mark.parametrize("settings", [{}, {"dtype": "float32"}, {"numerics": "robust"}])
-def test_merged_meshes_trace_the_same_bytes_as_a_leaf_per_object(settings: dict, monkeypatch) -> None:
+def test_merged_meshes_trace_the_same_bytes_as_a_leaf_per_object(settings: dict, leaves: str, monkeypatch) -> None:
+    """Merged into one kernel, with a leaf per object (these are all small) or the median splits of their triangles,
+    the same bytes as a kernel per object."""
+    if leaves == "triangles":
+        monkeypatch.setattr(meshbvh, "OBJECT_LEAF_TRIANGLES", 0)
+    preparation._KERNELS.clear()
     scene = scene_from_dict(many_small_meshes_document(7, 120, 48, 36)).with_render(**settings)
+    kernel = wavefront.TracedScene(scene).merged_starts[0][0]
+    assert (kernel.hierarchy.leaf_size == 12) == (leaves == "objects")  # the largest member: a box's 12 triangles
     merged = render(scene, workers=1)
     monkeypatch.setattr(preparation, "MERGE_MESHES_FROM", 10**9)
     preparation._KERNELS.clear()
     separate = render(scene, workers=1)
     assert merged.image.tobytes() == separate.image.tobytes()
     assert merged.rays == separate.rays
+
+
+def test_an_object_hierarchy_has_a_leaf_holding_each_object_whole_inside_its_box() -> None:
+    rng = np.random.default_rng(5)
+    sizes = rng.integers(1, 13, size=200)
+    starts = np.cumsum(sizes) - sizes
+    centres = rng.uniform(-20.0, 20.0, size=(sizes.size, 1, 1, 3))
+    triangles = np.repeat(centres, sizes, axis=0)[:, 0] + rng.uniform(-0.5, 0.5, size=(int(sizes.sum()), 3, 3))
+    tree = meshbvh.object_hierarchy(triangles, starts, sizes, np.dtype(np.float64))
+    assert tree.leaf_size == sizes.max()
+    leaves = (tree.left < 0).nonzero()[0]
+    held = [tree.leaf_triangles[tree.leaf_row[leaf]][tree.real[tree.leaf_row[leaf]]] for leaf in leaves]
+    assert sorted(tuple(row.tolist()) for row in held) == [
+        tuple(range(start, start + size)) for start, size in zip(starts.tolist(), sizes.tolist(), strict=True)
+    ]
+    for leaf, row in zip(leaves, held, strict=True):
+        corners = triangles[row].reshape(-1, 3)
+        assert np.all(tree.lower[:, leaf] < corners.min(axis=0)) and np.all(corners.max(axis=0) < tree.upper[:, leaf])
 
 
 def test_instanced_scenes_follow_the_schema_and_the_schema_refuses_what_the_loader_refuses() -> None:

@@ -33,6 +33,8 @@ from .meshpicture import TrianglePicture, View
 LEAF_TRIANGLES = 8
 SMALL_LEAF_TRIANGLES = 4
 SMALL_LEAVES_UP_TO = 1 << 17
+# merged objects of at most this many triangles each get a leaf per object (object_hierarchy)
+OBJECT_LEAF_TRIANGLES = 16
 MESH_HIERARCHY_TRIANGLES = 32  # a mesh of more triangles gets its own hierarchy; below, one test over all of them
 BIG = np.iinfo(np.int64).max
 PICTURES_KEPT = 8  # views per mesh kernel: the camera's and the lights'
@@ -177,6 +179,24 @@ class MeshHierarchy:
         self.leaf_triangles = order[wrapped]
 
 
+def object_hierarchy(triangles: np.ndarray, starts: np.ndarray, sizes: np.ndarray, dtype: np.dtype) -> MeshHierarchy:
+    """A hierarchy over objects' triangles (T, 3 vertices, 3), each object's a range [starts, starts + sizes) (k,)
+    of them, with a leaf per object: its boxes are the objects' (median splits of their centres), a leaf's row its
+    object's triangles (repeats pad it to the largest object's count). A small closed object is one leaf test for a
+    ray that reaches it, where median splits of its triangles make a few levels of boxes that all cover it."""
+    corners = triangles.reshape(-1, 3)
+    lower = np.minimum.reduceat(corners, starts * 3, axis=0)
+    upper = np.maximum.reduceat(corners, starts * 3, axis=0)
+    hierarchy = MeshHierarchy(None, dtype, boxes=(lower, upper), leaf_size=1)
+    objects = hierarchy.leaf_triangles[:, 0]  # (L,): each leaf's object
+    width = int(sizes.max())
+    counts = sizes.take(objects)[:, None]
+    hierarchy.leaf_triangles = starts.take(objects)[:, None] + np.arange(width)[None, :] % counts
+    hierarchy.real = np.arange(width)[None, :] < counts
+    hierarchy.leaf_size = width
+    return hierarchy
+
+
 def _ranges(starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
     """Every integer of the ranges [starts, stops) (n,), range after range."""
     lengths = stops - starts
@@ -193,13 +213,16 @@ class MeshKernel(Kernel):
     """A mesh's triangles behind their own hierarchy: hit() finds each ray's nearest triangle (part = its index in
     the mesh), as the whole-mesh kernel `inner` would; any_hit() only whether there is one."""
 
-    def __init__(self, inner: Kernel, mesh: tf.WorldTriangles) -> None:
+    def __init__(self, inner: Kernel, mesh: tf.WorldTriangles, hierarchy: MeshHierarchy | None = None) -> None:
+        """hierarchy: one over these triangles already made (by MergedMeshKernel); None: the median splits'."""
         self.inner = inner  # TrianglesKernel or WatertightTrianglesKernel: the test, the normals, the frame
         self.dtype = inner.dtype
         self.frame = inner.frame
         self.lower, self.upper = inner.lower, inner.upper
         self.count = len(mesh.triangles)
-        self.hierarchy = MeshHierarchy(np.asarray(mesh.triangles, dtype=np.float64), inner.dtype)
+        if hierarchy is None:
+            hierarchy = MeshHierarchy(np.asarray(mesh.triangles, dtype=np.float64), inner.dtype)
+        self.hierarchy = hierarchy
         self.packed = inner.pack(self.hierarchy.leaf_triangles)  # (9, L, K): each leaf's triangles, gathered once
         self.flat_packed = self.packed.reshape(9, -1, 1)  # (9, L K, 1): by slot, as packed_t takes them
         self.cost = 3.0 + 4.0 * np.log2(max(2, len(mesh.triangles)))
@@ -350,7 +373,11 @@ class MeshKernel(Kernel):
             )
             if not rays.size:
                 break
-            go_right = meets_right & (~meets_left | (near_right < near_left))
+            # the child entered first; for a shadow ray the one entered later: the ray starts on a surface, and the
+            # child it enters first usually holds that surface, which cannot block it (3,000 separate cubes under a
+            # world light: a third more shadow rays blocked by their first path, a third fewer pairs walked after)
+            later = near_right > near_left if any_hit else near_right < near_left
+            go_right = meets_right & (~meets_left | later)
             both = (meets_left & meets_right).nonzero()[0]
             if both.size:
                 passed_rays.append(rays.take(both))
@@ -458,9 +485,13 @@ class MergedMeshKernel(MeshKernel):
         triangles = np.concatenate([mesh.triangles for mesh in meshes])
         normals = np.concatenate([mesh.normals for mesh in meshes])
         merged = tf.WorldTriangles("", triangles, normals)
-        super().__init__(make(merged, dtype), merged)
+        starts = np.cumsum(sizes) - sizes  # (k,): each member's first triangle in the concatenation
+        hierarchy = None
+        if sizes.max() <= OBJECT_LEAF_TRIANGLES:
+            hierarchy = object_hierarchy(triangles, starts, sizes, dtype)
+        super().__init__(make(merged, dtype), merged, hierarchy)
         self.members = np.asarray(members, dtype=np.int64)
-        self.starts = np.cumsum(sizes) - sizes  # (k,): each member's first triangle in the concatenation
+        self.starts = starts
         self.member_of = np.repeat(np.arange(len(members)), sizes)  # (T,)
 
     def owners(self, part: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
