@@ -369,7 +369,7 @@ class MeshKernel(Kernel):
         nodes = np.zeros(count, dtype=np.int64)
         while rays.size:
             rays, nodes, (left, right, near_left, near_right, meets_left, meets_right) = self._step(
-                O, D, inverse, t_min, rays, nodes, best_t, best_part
+                O, D, inverse, t_min, rays, nodes, best_t, best_part, any_hit
             )
             if not rays.size:
                 break
@@ -394,7 +394,7 @@ class MeshKernel(Kernel):
                 keep &= best_part.take(rays) == BIG
             keep = keep.nonzero()[0]
             rays, nodes, (left, right, near_left, near_right, meets_left, meets_right) = self._step(
-                O, D, inverse, t_min, rays.take(keep), nodes.take(keep), best_t, best_part
+                O, D, inverse, t_min, rays.take(keep), nodes.take(keep), best_t, best_part, any_hit
             )
             if not rays.size:
                 break
@@ -404,13 +404,13 @@ class MeshKernel(Kernel):
             near = np.concatenate((near_left.take(on_left), near_right.take(on_right)))
         return self._found(best_t, best_part)
 
-    def _step(self, O, D, inverse, t_min, rays, nodes, best_t, best_part):
+    def _step(self, O, D, inverse, t_min, rays, nodes, best_t, best_part, any_hit=False):
         """One level of a walk: the leaves among nodes (P,) tested with their rays (P,), and the inner nodes' rays
         and nodes with their children's tests (_children; empty arrays where no inner node is left)."""
         is_leaf = self.hierarchy.left.take(nodes) < 0
         leaf = is_leaf.nonzero()[0]
         if leaf.size:
-            self._test_leaves(O, D, t_min, rays.take(leaf), nodes.take(leaf), best_t, best_part)
+            self._test_leaves(O, D, t_min, rays.take(leaf), nodes.take(leaf), best_t, best_part, any_hit)
             inner = (~is_leaf).nonzero()[0]
             rays, nodes = rays.take(inner), nodes.take(inner)
         return rays, nodes, self._children(O, inverse, rays, nodes, t_min, best_t) if rays.size else (None,) * 6
@@ -435,15 +435,28 @@ class MeshKernel(Kernel):
         found = best_part != BIG
         return np.where(found, best_t, np.inf).astype(self.dtype, copy=False), np.where(found, best_part, 0)
 
-    def _test_leaves(self, O, D, t_min, rays, nodes, best_t, best_part) -> None:
+    def _test_leaves(self, O, D, t_min, rays, nodes, best_t, best_part, any_hit: bool = False) -> None:
         """The triangles of leaves (P,) met by rays (P,): the nearest hit nearer than each ray's best so far replaces
         it, the lowest triangle index on equal t. In pieces of LEAF_SLOTS (pair, triangle) slots: the test's
         temporaries of a whole band's rays were the largest part of a million-triangle frame's memory; a ray whose
         pairs fall in two pieces keeps the same nearest hit and lowest index, which do not depend on the order."""
         pairs = LEAF_SLOTS // self.hierarchy.leaf_size
+        test = self._block_leaf_piece if any_hit else self._test_leaf_piece
         for start in range(0, rays.size, pairs):
             piece = slice(start, start + pairs)
-            self._test_leaf_piece(O, D, t_min, rays[piece], nodes[piece], best_t, best_part)
+            test(O, D, t_min, rays[piece], nodes[piece], best_t, best_part)
+
+    def _block_leaf_piece(self, O, D, t_min, rays, nodes, best_t, best_part) -> None:
+        """_test_leaf_piece for an any-hit walk: only whether a ray meets a triangle of its leaf before its limit
+        (best_t); a blocked ray's t is then one such hit's and its part 0. A slot past a leaf's triangles repeats
+        one of them, so every slot's hit is a hit of the leaf: no mask, no triangle indices."""
+        row = self.hierarchy.leaf_row.take(nodes)
+        O_r, D_r = O.take(rays, axis=1, mode="wrap"), D.take(rays, axis=1, mode="wrap")  # in range: no bounds check
+        t = self.inner.packed_t(O_r, D_r, self.packed.take(row, axis=1, mode="wrap"), t_min).min(axis=1)
+        blocked = (t < best_t.take(rays)).nonzero()[0]
+        chosen = rays.take(blocked)
+        best_t[chosen] = t.take(blocked)
+        best_part[chosen] = 0
 
     def _test_leaf_piece(self, O, D, t_min, rays, nodes, best_t, best_part) -> None:
         row = self.hierarchy.leaf_row.take(nodes)
