@@ -205,6 +205,45 @@ def test_the_two_level_walk_finds_what_testing_every_instance_finds(dtype: str, 
         np.testing.assert_array_equal(part, best_part)
 
 
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_the_bounding_sphere_test_keeps_every_pair_with_a_hit_and_drops_others(dtype: str) -> None:
+    """InstancesKernel._meets_sphere against the whole mesh's test in each instance's space: every (ray, instance)
+    pair with a hit in (t_min, limit) is kept, among them rays that graze the mesh and rays that start on it."""
+    dtype = np.dtype(dtype)
+    rng = np.random.default_rng(8)
+    doc = instanced_scene_document(2)
+    doc["objects"] = [
+        {"type": "instances", "mesh": "mesh0", "matrices": [_matrix(random.Random(k), k % 2 == 0) for k in range(40)]}
+    ]
+    primitive = tf.world_primitive(scene_from_dict(doc).objects[0], None)
+    kernel = instances_kernel(make_kernel, primitive, dtype)
+    whole = make_kernel(primitive.mesh, dtype)
+    O, D = _random_rays(rng, 4000, dtype)
+    surface = rng.integers(0, len(primitive.mesh.triangles), 1000)  # rays from points on the mesh itself
+    weights = rng.dirichlet((1.0, 1.0, 1.0), 1000)
+    on_mesh = np.einsum("nv,nvi->in", weights, primitive.mesh.triangles[surface])
+    # rays aimed just inside a triangle's corner farthest from the sphere's centre: the hits nearest the sphere
+    centre, _ = kernel.sphere
+    corners = primitive.mesh.triangles[rng.integers(0, len(primitive.mesh.triangles), 1000)]  # (n, 3, 3)
+    far = np.argmax(((corners - centre) ** 2).sum(axis=2), axis=1)
+    grazing = np.where(np.arange(3)[None, :] == far[:, None], 0.9998, 0.0001)
+    aimed = np.einsum("nv,nvi->in", grazing, corners)
+    limit = np.where(rng.random(4000) < 0.5, np.inf, rng.uniform(0.3, 1.5, 4000)).astype(dtype)
+    limit[1000:2000] = np.inf
+    kept_hits = dropped = 0
+    with quiet():
+        for k in range(kernel.instance_count):
+            origin, direction = kernel.to_local(O, D, np.full(4000, k))
+            origin[:, :1000] = on_mesh.astype(dtype)
+            direction[:, 1000:2000] = (aimed - origin[:, 1000:2000]).astype(dtype)
+            found_t, _ = whole._hit(origin, direction, 0.001, limit)
+            meets = kernel._meets_sphere(origin, direction, 0.001, limit)
+            assert meets[found_t < np.inf].all()
+            kept_hits += int((found_t < np.inf).sum())
+            dropped += int((~meets).sum())
+    assert kept_hits > 1000 and dropped > 1000  # both cases are there
+
+
 def test_instances_render_the_same_bytes_with_one_worker_or_two_and_in_every_mode() -> None:
     scene = scene_from_dict(instanced_scene_document(7, 64, 48))
     for settings in ({}, {"dtype": "float32"}, {"numerics": "robust"}, {"numerics": "robust", "dtype": "float32"}):

@@ -5,11 +5,12 @@ A hierarchy walked node by node costs NumPy calls per node, so its time grows wi
 visits, not with the rays: that is what made a 10,000-triangle mesh grow as n^0.58. Here every query keeps (ray,
 node) pairs and moves them down one level per step: one slab test over all pairs of a level, the leaves' triangles
 tested over all (pair, triangle) at once, the inner nodes' children as the next level's pairs. Before that walk each
-ray follows one path, always into the child it enters first, and tests that leaf: its hit (usually the nearest, or
-for a shadow ray any) prunes every node beyond it, and the walk starts from the children that path passed by, so no
-box is tested twice. A query costs a few dozen NumPy calls per level, about log2(n / leaf size) levels, and
-arithmetic in proportion to the pairs. Camera rays and shadow rays skip all of it where the mesh has a picture
-from their shared point or direction: a few triangle tests per ray and no box.
+ray follows one path, always into the child it enters first (a shadow ray: the one it enters later, away from the
+surface it starts on), and tests that leaf: its hit (usually the nearest, or for a shadow ray any) prunes every node
+beyond it, and the walk starts from the children that path passed by, so no box is tested twice. Many small objects
+merged into one kernel get a leaf each (object_hierarchy). A query costs a few dozen NumPy calls per level, about
+log2(n / leaf size) levels, and arithmetic in proportion to the pairs. Camera rays and shadow rays skip all of it
+where the mesh has a picture from their shared point or direction: a few triangle tests per ray and no box.
 The exact test per triangle is the mesh kernel's own (Moller-Trumbore as the seed writes it, or the watertight
 test of the robust numerics), with the same operations, so the hits are the ones the whole-mesh kernel finds:
 nearest t, then the lowest triangle index on ties.
@@ -356,7 +357,8 @@ class MeshKernel(Kernel):
 
     def _search(self, O, D, t_min, t_max, any_hit):
         """Rays (3, N) -> (t, part) (N,) through the hierarchy: first one path per ray, always into the child it
-        enters first, whose leaf usually holds its nearest hit (or, for a shadow ray, a hit at all); each child
+        enters first, whose leaf usually holds its nearest hit (any_hit: the child it enters later, whose leaf more
+        often holds a hit at all than the one around the ray's start); each child
         the path passed by (its box met too) is kept with its entry t, and afterwards these are walked a level at
         a time, each node's children tested as it is reached, leaving out every node that begins beyond the ray's
         best hit so far. Every node is box-tested once, by its parent."""
