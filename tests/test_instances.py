@@ -244,6 +244,25 @@ def test_the_bounding_sphere_test_keeps_every_pair_with_a_hit_and_drops_others(d
     assert kept_hits > 1000 and dropped > 1000  # both cases are there
 
 
+@pytest.mark.parametrize("any_hit", [False, True])
+def test_instances_queried_in_pieces_of_rays_give_what_one_query_of_them_all_gives(any_hit: bool, monkeypatch) -> None:
+    doc = instanced_scene_document(4)
+    doc["objects"] = [
+        {"type": "instances", "mesh": "mesh0", "matrices": [_matrix(random.Random(k), k % 3 == 0) for k in range(200)]}
+    ]
+    kernel = instances_kernel(
+        make_kernel, tf.world_primitive(scene_from_dict(doc).objects[0], None), np.dtype("float64")
+    )
+    O, D = _random_rays(np.random.default_rng(6), 3000, np.dtype("float64"))
+    limit = np.where(np.arange(3000) % 2 == 0, np.inf, 0.3 + np.arange(3000) % 5 * 0.3)
+    with quiet():
+        whole_t, whole_part = kernel.hit(O, D, 0.001, limit, any_hit=any_hit)
+        monkeypatch.setattr(meshbvh, "RAY_PIECE", 257)  # 12 pieces, the last one short
+        t, part = kernel.hit(O, D, 0.001, limit, any_hit=any_hit)
+    assert np.array_equal(t, whole_t) and np.array_equal(part, whole_part)
+    assert 0.1 < (t < np.inf).mean() < 0.95
+
+
 def test_instances_render_the_same_bytes_with_one_worker_or_two_and_in_every_mode() -> None:
     scene = scene_from_dict(instanced_scene_document(7, 64, 48))
     for settings in ({}, {"dtype": "float32"}, {"numerics": "robust"}, {"numerics": "robust", "dtype": "float32"}):

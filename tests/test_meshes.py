@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from tracer.frames import edits
-from tracer.geometry import meshpicture
+from tracer.geometry import meshbvh, meshpicture
 from tracer.geometry import transforms as tf
 from tracer.geometry.kernels import make_kernel, quiet
 from tracer.geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
@@ -69,6 +69,21 @@ def test_the_mesh_hierarchy_finds_the_whole_mesh_tests_hits(build, dtype, count,
             occluded, _ = kernel.hit(O, D, t_min, t_max, any_hit=True)
             assert np.array_equal(occluded < np.inf, hit)
     assert (expected_t < np.inf).mean() > 0.5  # of the unbounded queries
+
+
+@pytest.mark.parametrize("build", [make_kernel, make_robust_kernel])
+def test_a_walk_in_pieces_of_rays_finds_what_one_walk_of_them_all_finds(build, monkeypatch) -> None:
+    mesh = soup(300, 2)
+    kernel = MeshKernel(build(mesh, np.dtype("float64")), mesh)
+    O, D = rays(mesh, 4000, 2)
+    limit = np.where(np.arange(4000) % 3 == 0, np.inf, 1.5 + np.arange(4000) % 7 * 0.2)  # one per ray
+    with quiet():
+        whole = [kernel._search(O, D, 0.25, limit, any_hit) for any_hit in (False, True)]
+        monkeypatch.setattr(meshbvh, "RAY_PIECE", 333)  # 12 pieces, the last one short
+        pieces = [kernel._search(O, D, 0.25, limit, any_hit) for any_hit in (False, True)]
+    for (t, part), (piece_t, piece_part) in zip(whole, pieces, strict=True):
+        assert np.array_equal(t, piece_t) and np.array_equal(part, piece_part)
+    assert 0.2 < (whole[0][0] < np.inf).mean() < 0.95  # hits and misses both
 
 
 def mesh_scene(count: int, width: int, height: int) -> sc.Scene:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import meshbvh
 from . import transforms as tf
 from .kernels import (
     Kernel,
@@ -102,9 +103,20 @@ class InstancesKernel(MeshKernel):
         entered (no further than its best hit so far), follows the nearer child down to a leaf (keeping the other
         child it meets for a later round), and searches the leaf's instances; a round's leaves are searched in one
         batch. A ray stops once nothing it has met begins before its hit: in a dense forest, after the first leaf
-        or two, however many boxes lie behind."""
+        or two, however many boxes lie behind. Rays go in pieces of RAY_PIECE (each ray's hit is its own)."""
         count = ray_count(O, D)
         O, D = np.broadcast_to(O, (3, count)), np.broadcast_to(D, (3, count))
+        size = meshbvh.RAY_PIECE
+        if count <= size:
+            return self._hit_piece(O, D, t_min, t_max, any_hit)
+        found = [
+            self._hit_piece(O[:, piece], D[:, piece], t_min, t_max[piece] if np.ndim(t_max) else t_max, any_hit)
+            for piece in (slice(start, start + size) for start in range(0, count, size))
+        ]
+        return np.concatenate([t for t, _ in found]), np.concatenate([part for _, part in found])
+
+    def _hit_piece(self, O, D, t_min, t_max, any_hit):
+        count = O.shape[1]
         inverse = 1.0 / D
         best = np.array(np.broadcast_to(np.asarray(t_max, dtype=self.dtype), (count,)))  # the limit until a hit
         found = np.zeros(count, dtype=bool)
