@@ -86,6 +86,52 @@ def test_a_walk_in_pieces_of_rays_finds_what_one_walk_of_them_all_finds(build, m
     assert 0.2 < (whole[0][0] < np.inf).mean() < 0.95  # hits and misses both
 
 
+def joined_boxes(count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """count boxes (8 vertices, 12 triangles each) joined into one mesh, their triangles and vertices shuffled: the
+    vertices (8 count, 3) and faces (12 count, 3); the boxes overlap here and there."""
+    rng = np.random.default_rng(seed)
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=np.float64)
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    box = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    vertices = (corners[None] * rng.uniform(0.1, 0.4, (count, 1, 3)) + rng.uniform(-3, 3, (count, 1, 3))).reshape(-1, 3)
+    faces = (box[None] + 8 * np.arange(count)[:, None, None]).reshape(-1, 3)
+    shuffle = rng.permutation(len(vertices))
+    faces = np.argsort(shuffle)[faces][rng.permutation(len(faces))]
+    return vertices[shuffle], faces
+
+
+def test_a_mesh_of_many_small_parts_gets_a_leaf_per_part_and_finds_the_same_hits() -> None:
+    vertices, faces = joined_boxes(100, 4)
+    order, starts, sizes = meshbvh.small_parts(faces)
+    assert sizes.tolist() == [12] * 100
+    for start in starts.tolist():  # a part's triangles share their 8 vertices and no other
+        assert len(np.unique(faces[order[start : start + 12]])) == 8
+    triangles = vertices[faces]
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    mesh = tf.WorldTriangles("m", triangles, normals, source=(vertices, faces))
+    whole = make_kernel(mesh, np.dtype("float64"))
+    kernel = MeshKernel(whole, mesh)
+    assert kernel.hierarchy.leaf_size == 12
+    O, D = rays(mesh, 4000, 4)
+    with quiet():
+        expected_t, expected_part = whole.hit(O, D, 0.0, np.inf)
+        t, part = kernel.hit(O, D, 0.0, np.inf)
+        occluded, _ = kernel.hit(O, D, 0.0, np.inf, any_hit=True)
+    hit = expected_t < np.inf
+    assert np.array_equal(t, expected_t) and np.array_equal(part[hit], expected_part[hit])
+    assert np.array_equal(occluded < np.inf, hit) and 0.3 < hit.mean() < 0.95
+
+
+def test_connected_meshes_and_few_or_tiny_parts_keep_the_median_splits() -> None:
+    sphere = uv_sphere(2000)
+    faces = np.asarray(sphere.objects[1].triangles)
+    assert meshbvh.small_parts(faces) is None  # one part
+    assert meshbvh.small_parts(joined_boxes(40, 5)[1]) is None  # fewer than SMALL_PARTS_FROM parts
+    single = np.arange(3 * 200).reshape(-1, 3)  # 200 parts of one triangle: a leaf of 4 holds them already
+    assert meshbvh.small_parts(single) is None
+
+
 def mesh_scene(count: int, width: int, height: int) -> sc.Scene:
     return uv_sphere(count).with_render(width=width, height=height, depth=3)
 

@@ -34,8 +34,11 @@ from .meshpicture import TrianglePicture, View
 LEAF_TRIANGLES = 8
 SMALL_LEAF_TRIANGLES = 4
 SMALL_LEAVES_UP_TO = 1 << 17
-# merged objects of at most this many triangles each get a leaf per object (object_hierarchy)
+# merged objects of at most this many triangles each get a leaf per object (object_hierarchy), and so do the
+# connected parts of a mesh of at least SMALL_PARTS_FROM of them (small_parts: its labels settle within PART_ROUNDS)
 OBJECT_LEAF_TRIANGLES = 16
+SMALL_PARTS_FROM = 64
+PART_ROUNDS = 4
 MESH_HIERARCHY_TRIANGLES = 32  # a mesh of more triangles gets its own hierarchy; below, one test over all of them
 BIG = np.iinfo(np.int64).max
 PICTURES_KEPT = 8  # views per mesh kernel: the camera's and the lights'
@@ -183,22 +186,57 @@ class MeshHierarchy:
         self.leaf_triangles = order[wrapped]
 
 
-def object_hierarchy(triangles: np.ndarray, starts: np.ndarray, sizes: np.ndarray, dtype: np.dtype) -> MeshHierarchy:
+def object_hierarchy(
+    triangles: np.ndarray, starts: np.ndarray, sizes: np.ndarray, dtype: np.dtype, order: np.ndarray | None = None
+) -> MeshHierarchy:
     """A hierarchy over objects' triangles (T, 3 vertices, 3), each object's a range [starts, starts + sizes) (k,)
-    of them, with a leaf per object: its boxes are the objects' (median splits of their centres), a leaf's row its
-    object's triangles (repeats pad it to the largest object's count). A small closed object is one leaf test for a
-    ray that reaches it, where median splits of its triangles make a few levels of boxes that all cover it."""
-    corners = triangles.reshape(-1, 3)
+    of them (of order (T,), the triangles object by object, where given), with a leaf per object: its boxes are the
+    objects' (median splits of their centres), a leaf's row its object's triangles (repeats pad it to the largest
+    object's count). A small closed object is one leaf test for a ray that reaches it, where median splits of its
+    triangles make a few levels of boxes that all cover it."""
+    corners = (triangles if order is None else triangles.take(order, axis=0)).reshape(-1, 3)
     lower = np.minimum.reduceat(corners, starts * 3, axis=0)
     upper = np.maximum.reduceat(corners, starts * 3, axis=0)
     hierarchy = MeshHierarchy(None, dtype, boxes=(lower, upper), leaf_size=1)
     objects = hierarchy.leaf_triangles[:, 0]  # (L,): each leaf's object
     width = int(sizes.max())
     counts = sizes.take(objects)[:, None]
-    hierarchy.leaf_triangles = starts.take(objects)[:, None] + np.arange(width)[None, :] % counts
+    positions = starts.take(objects)[:, None] + np.arange(width)[None, :] % counts
+    hierarchy.leaf_triangles = positions if order is None else order.take(positions)
     hierarchy.real = np.arange(width)[None, :] < counts
     hierarchy.leaf_size = width
     return hierarchy
+
+
+def small_parts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """A mesh's faces (T, 3) vertex indices -> its connected parts (triangles sharing vertices) as (order (T,): the
+    triangles part by part, starts (k,), sizes (k,)) where it has at least SMALL_PARTS_FROM parts of at most
+    OBJECT_LEAF_TRIANGLES triangles each, more than a leaf's on average (3,000 cubes joined into one mesh); None
+    otherwise, where PART_ROUNDS rounds of passing each vertex the lowest label of its triangles do not settle (a
+    large connected mesh), and for meshes of more than SMALL_LEAVES_UP_TO triangles (a million triangles' rounds
+    would cost a quarter of a second)."""
+    count = len(faces)
+    if not SMALL_PARTS_FROM <= count <= SMALL_LEAVES_UP_TO:
+        return None
+    labels = np.arange(int(faces.max()) + 1)
+    for _ in range(PART_ROUNDS):
+        lowest = labels.take(faces).min(axis=1)  # (T,): each triangle's lowest label
+        settled = labels.copy()
+        for corner in range(3):
+            np.minimum.at(settled, faces[:, corner], lowest)
+        settled = settled.take(settled)  # a label is a vertex of the same part: its label is as low or lower
+        if np.array_equal(settled, labels):
+            break
+        labels = settled
+    else:
+        return None
+    part = labels.take(faces[:, 0])
+    names, part, sizes = np.unique(part, return_inverse=True, return_counts=True)
+    # parts of a leaf's size or less gain nothing from leaves of their own (the median splits keep them whole)
+    if names.size < SMALL_PARTS_FROM or sizes.max() > OBJECT_LEAF_TRIANGLES or sizes.mean() <= SMALL_LEAF_TRIANGLES:
+        return None
+    order = np.argsort(part, kind="stable")
+    return order, np.cumsum(sizes) - sizes, sizes
 
 
 def _ranges(starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
@@ -225,7 +263,13 @@ class MeshKernel(Kernel):
         self.lower, self.upper = inner.lower, inner.upper
         self.count = len(mesh.triangles)
         if hierarchy is None:
-            hierarchy = MeshHierarchy(np.asarray(mesh.triangles, dtype=np.float64), inner.dtype)
+            triangles = np.asarray(mesh.triangles, dtype=np.float64)
+            parts = None if mesh.source is None else small_parts(np.asarray(mesh.source[1], dtype=np.int64))
+            if parts is None:
+                hierarchy = MeshHierarchy(triangles, inner.dtype)
+            else:  # many small parts (objects joined into one mesh): a leaf per part
+                order, starts, sizes = parts
+                hierarchy = object_hierarchy(triangles, starts, sizes, inner.dtype, order)
         self.hierarchy = hierarchy
         self.packed = inner.pack(self.hierarchy.leaf_triangles)  # (9, L, K): each leaf's triangles, gathered once
         self.flat_packed = self.packed.reshape(9, -1, 1)  # (9, L K, 1): by slot, as packed_t takes them
