@@ -123,6 +123,14 @@ def test_a_mesh_of_many_small_parts_gets_a_leaf_per_part_and_finds_the_same_hits
     assert np.array_equal(occluded < np.inf, hit) and 0.3 < hit.mean() < 0.95
 
 
+def test_objects_get_a_leaf_each_only_where_that_makes_fewer_tests() -> None:
+    assert meshbvh.leaves_per_object(np.full(3000, 12))  # cubes
+    assert meshbvh.leaves_per_object(np.array([12, 6, 8] * 30))  # padded to 12: 1.4x the triangles' tests
+    assert not meshbvh.leaves_per_object(np.array([16] + [6] * 99))  # padding to 16 would be 2.6x the tests
+    assert not meshbvh.leaves_per_object(np.full(500, 3))  # a median leaf of 4 holds them already
+    assert not meshbvh.leaves_per_object(np.full(500, 17))  # too many for one leaf test
+
+
 def test_connected_meshes_and_few_or_tiny_parts_keep_the_median_splits() -> None:
     sphere = uv_sphere(2000)
     faces = np.asarray(sphere.objects[1].triangles)

@@ -34,8 +34,9 @@ from .meshpicture import TrianglePicture, View
 LEAF_TRIANGLES = 8
 SMALL_LEAF_TRIANGLES = 4
 SMALL_LEAVES_UP_TO = 1 << 17
-# merged objects of at most this many triangles each get a leaf per object (object_hierarchy), and so do the
-# connected parts of a mesh of at least SMALL_PARTS_FROM of them (small_parts: its labels settle within PART_ROUNDS)
+# merged objects of at most this many triangles each get a leaf per object (leaves_per_object, object_hierarchy), and
+# so do the connected parts of a mesh of at least SMALL_PARTS_FROM of them (small_parts: its labels settle within
+# PART_ROUNDS)
 OBJECT_LEAF_TRIANGLES = 16
 SMALL_PARTS_FROM = 64
 PART_ROUNDS = 4
@@ -208,13 +209,26 @@ def object_hierarchy(
     return hierarchy
 
 
+def leaves_per_object(sizes: np.ndarray) -> bool:
+    """Whether objects of these triangle counts (k,) are traced faster with a leaf each (object_hierarchy): at most
+    OBJECT_LEAF_TRIANGLES triangles each, more than a leaf of the median splits holds on average (smaller ones it keeps
+    whole already), and alike enough that padding every leaf to the largest at most doubles the triangle tests (and
+    the packed leaves' memory)."""
+    largest = int(sizes.max())
+    return (
+        largest <= OBJECT_LEAF_TRIANGLES
+        and sizes.mean() > SMALL_LEAF_TRIANGLES
+        and largest * sizes.size <= 2 * sizes.sum()
+    )
+
+
 def small_parts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """A mesh's faces (T, 3) vertex indices -> its connected parts (triangles sharing vertices) as (order (T,): the
-    triangles part by part, starts (k,), sizes (k,)) where it has at least SMALL_PARTS_FROM parts of at most
-    OBJECT_LEAF_TRIANGLES triangles each, more than a leaf's on average (3,000 cubes joined into one mesh); None
-    otherwise, where PART_ROUNDS rounds of passing each vertex the lowest label of its triangles do not settle (a
-    large connected mesh), and for meshes of more than SMALL_LEAVES_UP_TO triangles (a million triangles' rounds
-    would cost a quarter of a second)."""
+    triangles part by part, starts (k,), sizes (k,)) where it has at least SMALL_PARTS_FROM parts that are traced
+    faster with a leaf each (leaves_per_object: 3,000 cubes joined into one mesh); None otherwise, where PART_ROUNDS
+    rounds of passing each vertex the lowest label of its triangles do not settle (a large connected mesh), and for
+    meshes of more than SMALL_LEAVES_UP_TO triangles (a million triangles' rounds would cost a quarter of a
+    second)."""
     count = len(faces)
     if not SMALL_PARTS_FROM <= count <= SMALL_LEAVES_UP_TO:
         return None
@@ -232,8 +246,7 @@ def small_parts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] 
         return None
     part = labels.take(faces[:, 0])
     names, part, sizes = np.unique(part, return_inverse=True, return_counts=True)
-    # parts of a leaf's size or less gain nothing from leaves of their own (the median splits keep them whole)
-    if names.size < SMALL_PARTS_FROM or sizes.max() > OBJECT_LEAF_TRIANGLES or sizes.mean() <= SMALL_LEAF_TRIANGLES:
+    if names.size < SMALL_PARTS_FROM or not leaves_per_object(sizes):
         return None
     order = np.argsort(part, kind="stable")
     return order, np.cumsum(sizes) - sizes, sizes
@@ -556,7 +569,7 @@ class MergedMeshKernel(MeshKernel):
         merged = tf.WorldTriangles("", triangles, normals)
         starts = np.cumsum(sizes) - sizes  # (k,): each member's first triangle in the concatenation
         hierarchy = None
-        if sizes.max() <= OBJECT_LEAF_TRIANGLES:
+        if leaves_per_object(sizes):
             hierarchy = object_hierarchy(triangles, starts, sizes, dtype)
         super().__init__(make(merged, dtype), merged, hierarchy)
         self.members = np.asarray(members, dtype=np.int64)
