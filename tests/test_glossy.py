@@ -89,17 +89,23 @@ def _plane_under_white_seen_at(view_degrees: float, material: dict, samples: int
     return float(render(scene_from_dict(document), workers=1).image[0, 0, 0])
 
 
+def _hemisphere_grid(rows: int, columns: int) -> tuple[np.ndarray, np.ndarray]:
+    """A midpoint grid over the upper hemisphere in (cos theta, phi): cos theta (rows, columns) and the unit
+    directions (3, rows, columns); each cell covers (1 / rows) (2 pi / columns) of solid angle."""
+    mu = (np.arange(rows) + 0.5) / rows
+    phi = (np.arange(columns) + 0.5) / columns * 2.0 * math.pi
+    mu, phi = np.meshgrid(mu, phi, indexing="ij")
+    sin = np.sqrt(1.0 - mu * mu)
+    return mu, np.stack((sin * np.cos(phi), sin * np.sin(phi), mu))
+
+
 def _ggx_albedo(view_degrees: float, roughness: float, separable: bool = False) -> float:
     """The single-scattering GGX lobe's albedo along the view (Fresnel 1), integrated over the hemisphere of light
     directions on a fine midpoint grid in (cos theta, phi): the integral of D G2 / (4 cos theta_v) d omega, written
     from the formulas (Walter et al. 2007; Heitz 2014's height-correlated Smith G2)."""
     a2 = roughness**4
     cos_rows, phi_rows = 3000, 720
-    mu = (np.arange(cos_rows) + 0.5) / cos_rows
-    phi = (np.arange(phi_rows) + 0.5) / phi_rows * 2.0 * math.pi
-    mu, phi = np.meshgrid(mu, phi, indexing="ij")
-    sin = np.sqrt(1.0 - mu * mu)
-    light = np.stack((sin * np.cos(phi), sin * np.sin(phi), mu))
+    mu, light = _hemisphere_grid(cos_rows, phi_rows)
     theta = math.radians(view_degrees)
     view = np.array([0.0, math.sin(theta), math.cos(theta)])[:, None, None]
     half = light + view
@@ -230,12 +236,7 @@ def test_beckmann_visible_normals_follow_their_density() -> None:
         v = [math.sin(theta), 0.0, math.cos(theta)]
         full = [np.full(count, c) for c in v]
         m = glossy._beckmann_visible_normal(*full, np.full(count, alpha), u1, u2)
-        rows, columns = 2000, 360
-        mu = (np.arange(rows) + 0.5) / rows
-        phi = (np.arange(columns) + 0.5) / columns * 2.0 * math.pi
-        mu, phi = np.meshgrid(mu, phi, indexing="ij")
-        sin = np.sqrt(1.0 - mu * mu)
-        normals = np.stack((sin * np.cos(phi), sin * np.sin(phi), mu))
+        mu, normals = _hemisphere_grid(2000, 360)
         D = np.exp(-(1.0 - mu * mu) / (mu * mu * alpha * alpha)) / (math.pi * alpha * alpha * mu**4)
         density = D * np.maximum(0.0, normals[0] * v[0] + normals[2] * v[2])
         for sampled, moment in ((m[2], normals[2]), (m[0], normals[0]), (m[0] ** 2, normals[0] ** 2)):
