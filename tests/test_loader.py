@@ -91,6 +91,15 @@ MALFORMED = [
     ("objects/0", 7, "objects[0]: must be an object, got number 7"),
     ("materials", DELETE, "materials: is required"),
     ("materials/brass/color", [1.5, 0, 0], "materials.brass.color[0]: must be <= 1, got 1.5"),
+    # all floats: the vectors' fast path, which must name the same problems
+    ("materials/brass/color", [0.5, 1.0000001, 0.5], "materials.brass.color[1]: must be <= 1, got 1.0000001"),
+    ("materials/brass/color", [0.5, -0.25, 0.5], "materials.brass.color[1]: must be >= 0, got -0.25"),
+    ("materials/brass/color", [0.5, float("nan"), 0.5], "materials.brass.color[1]: must be a finite number, got nan"),
+    ("materials/brass/color", [0.5, float("inf"), 0.5], "materials.brass.color[1]: must be a finite number, got inf"),
+    ("objects/1/size", [1.0, 0.0, 3.0], "objects[1].size[1]: must be > 0, got 0"),
+    ("objects/1/size", [1.0, 1e-12, 3.0], "objects[1].size[1]: must be at least"),
+    ("objects/1/location", [0.0, 1e30, 0.0], "objects[1].location[1]: must be <= "),
+    ("lights/2/direction", [0.0, 0.0, 0.0], "lights[2].direction: must not be the zero vector, got [0, 0, 0]"),
     ("materials/brass/color", DELETE, "materials.brass.color: is required"),
     ("materials/brass/reflective", 2, "materials.brass.reflective: must be <= 1, got 2"),
     ("materials/brass/specular", -5, "materials.brass.specular: must be >= 0, got -5"),
@@ -230,3 +239,64 @@ def test_a_valid_mesh_checked_as_arrays_loads_the_same_scene_as_the_per_entry_lo
         with pytest.raises(SceneError) as error:
             scene_from_dict(broken)
         assert any(field in problem for problem in error.value.problems), error.value.problems
+
+
+def _meshes_document(count: int, seed: int) -> dict:
+    """The default scene with count small meshes (lists, as an export writes separate objects), some with integer
+    coordinates."""
+    rng = np.random.default_rng(seed)
+    document = default_scene_dict()
+    for k in range(count):
+        size = int(rng.integers(4, 9))
+        vertices = rng.uniform(-3, 3, (size, 3)).round(5).tolist()
+        if k % 3 == 0:
+            vertices[0] = [int(v) for v in rng.integers(-3, 3, 3)]
+        corners = rng.permuted(np.tile(np.arange(size), (2 * size, 1)), axis=1)[:, :3]
+        document["objects"].append({"name": f"m{k}", "type": "mesh", "material": "iron", "vertices": vertices,
+                                    "triangles": corners.tolist()})  # fmt: skip
+    return document
+
+
+def test_many_small_meshes_checked_in_bulk_load_the_scene_each_check_alone_loads(monkeypatch) -> None:
+    """Separate objects' meshes checked together (_meshes_in_bulk) give the scene, to its pickled bytes (what the
+    workers key their preparation on), that checking each mesh as arrays gives, and that the per-entry loop gives."""
+    import pickle
+
+    from tracer.scene import loader as loader_module
+
+    document = _meshes_document(40, 3)
+    bulk = scene_from_dict(document)
+    checked = loader_module._meshes_in_bulk(document["objects"])
+    assert len(checked) == 40
+    assert not any(vertices.flags.writeable or triangles.flags.writeable for vertices, triangles in checked.values())
+    monkeypatch.setattr(loader_module, "_meshes_in_bulk", lambda bodies: {})
+    one_by_one = scene_from_dict(document)
+    monkeypatch.setattr(loader_module, "_mesh_arrays", lambda *args: None)
+    loop = scene_from_dict(document)
+    assert bulk == one_by_one == loop
+    assert pickle.dumps(bulk, protocol=5) == pickle.dumps(one_by_one, protocol=5)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("triangles", [[0, 1, 2], [0, 1, 8]], "objects[31].triangles[1]: must be 3 vertex indices in 0..7"),
+        ("triangles", [[0, 1, 2], [0, 1, -1]], "objects[31].triangles[1]: must be 3 vertex indices in 0..7"),
+        ("triangles", [[0, 1, 2], [0, 1, True]], "objects[31].triangles[1]: must be 3 vertex indices in 0..7"),
+        ("triangles", [[0, 1, 2], [3, 3, 4]], "objects[31].triangles[1]: must span an area"),
+        ("vertices", "rows", "objects[31].vertices: must be a non-empty list of [x, y, z]"),
+    ],
+)
+def test_a_bad_mesh_among_many_is_named_as_alone(field: str, value: Any, message: str) -> None:
+    """One bad mesh among many (an index past its own vertices but within the meshes' joined ones, a boolean, a
+    sliver) leaves the bulk check to the one-by-one checks, which name the entry."""
+    document = _meshes_document(40, 5)
+    target = document["objects"][31]
+    target["vertices"] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0],
+                          [0.5, 0.0, 1.0], [0.0, 0.5, 1.0], [1.0, 0.5, 0.0]]  # fmt: skip
+    target["triangles"] = [[0, 1, 2], [2, 3, 5]]
+    scene_from_dict(document)  # valid as it stands
+    target[field] = value
+    with pytest.raises(SceneError) as caught:
+        scene_from_dict(document)
+    assert any(problem.startswith(message) for problem in caught.value.problems), caught.value.problems

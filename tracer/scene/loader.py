@@ -175,6 +175,17 @@ class _Reader:
         if not isinstance(value, list) or len(value) != length:
             self.fail(key, f"must be a list of {length} numbers, got {_show_shape(value)}")
             return (0.0,) * length
+        # the common case (finite floats within the limits) without a check_number per item: a material's colours,
+        # thousands of objects' positions
+        if all(type(item) is float and math.isfinite(item) for item in value):
+            least_item, most_item = min(value), max(value)
+            if (
+                (low is None or (least_item > low if low_open else least_item >= low))
+                and (high is None or most_item <= high)
+                and (least is None or least_item >= least)
+                and not nonzero
+            ):
+                return tuple(value)
         items = tuple(
             self.check_number(f"{key}[{i}]", item, low=low, high=high, low_open=low_open, least=least)
             for i, item in enumerate(value)
@@ -487,8 +498,13 @@ def _corner_array(reader: _Reader, key: str, count: int, what: str) -> np.ndarra
 
 
 def _object(
-    reader: _Reader, materials: dict[str, sc.Material], index: int, meshes: dict[str, sc.TriangleMesh] | None = None
+    reader: _Reader,
+    materials: dict[str, sc.Material],
+    index: int,
+    meshes: dict[str, sc.TriangleMesh] | None = None,
+    checked: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> sc.SceneObject | None:
+    """checked: meshes' arrays checked already, by id() of their bodies (_meshes_in_bulk)."""
     kinds = ("sphere", "plane", "cylinder", "box", "pyramid", "mesh", "instance", "instances")
     kind = reader.choice("type", kinds, None)
     if kind is None and "type" not in reader.data:
@@ -535,7 +551,7 @@ def _object(
     elif kind == "pyramid":
         result = sc.Pyramid(size=reader.lengths("size"), **common)
     elif kind == "mesh":
-        result = _mesh(reader, common, materials)
+        result = _mesh(reader, common, materials, None if checked is None else checked.get(id(reader.data)))
     elif kind in ("instance", "instances"):
         result = _instances(reader, common, meshes or {}, many=kind == "instances")
     reader.finish()
@@ -694,10 +710,16 @@ def _mesh_table(reader: _Reader | None, materials: dict[str, sc.Material]) -> di
     return meshes
 
 
-def _mesh(reader: _Reader, common: dict[str, Any], materials: dict[str, sc.Material]) -> sc.TriangleMesh:
+def _mesh(
+    reader: _Reader,
+    common: dict[str, Any],
+    materials: dict[str, sc.Material],
+    checked: tuple[np.ndarray, np.ndarray] | None = None,
+) -> sc.TriangleMesh:
+    """checked: this body's vertices and triangles as arrays, checked already (_meshes_in_bulk)."""
     raw_vertices = reader.raw("vertices")
     raw_triangles = reader.raw("triangles")
-    fast = _mesh_arrays(raw_vertices, raw_triangles)
+    fast = checked if checked is not None else _mesh_arrays(raw_vertices, raw_triangles)
     if fast is None:  # a document made in this process may hold arrays (a render's export): its problems named below
         raw_vertices = raw_vertices.tolist() if isinstance(raw_vertices, np.ndarray) else raw_vertices
         raw_triangles = raw_triangles.tolist() if isinstance(raw_triangles, np.ndarray) else raw_triangles
@@ -780,24 +802,37 @@ def _mesh_arrays(raw_vertices: Any, raw_triangles: Any) -> tuple[np.ndarray, np.
     vertices = _number_array(raw_vertices, (len(raw_vertices), 3))
     if vertices is None:
         return None
-    if isinstance(raw_triangles, np.ndarray):
-        if raw_triangles.dtype.kind not in "iu" or raw_triangles.shape != (len(raw_triangles), 3):
-            return None
-        triangles = raw_triangles.astype(np.int64, copy=False).view()
-    else:
-        try:
-            objects = np.asarray(raw_triangles, dtype=object)
-        except ValueError:
-            return None
-        if objects.shape != (len(raw_triangles), 3) or not set(map(type, objects.ravel().tolist())) <= {int}:
-            return None
-        try:
-            triangles = objects.astype(np.int64)
-        except OverflowError:
-            return None
-    if not (np.all(triangles >= 0) and np.all(triangles < len(vertices))):
+    triangles = _index_array(raw_triangles)
+    if triangles is None:
         return None
-    # the loop's cross product, in the same float64 operations
+    if not (np.all(triangles >= 0) and np.all(triangles < len(vertices))) or not _span_areas(vertices, triangles):
+        return None
+    vertices.flags.writeable = triangles.flags.writeable = False  # the mesh keeps these arrays, without a copy
+    return vertices, triangles
+
+
+def _index_array(raw: Any) -> np.ndarray | None:
+    """Triangles' vertex indices (T, 3) int64 from lists of JSON integers or an integer array of that shape (the
+    bounds are the caller's to check); None where they are not that."""
+    if isinstance(raw, np.ndarray):
+        if raw.dtype.kind not in "iu" or raw.shape != (len(raw), 3):
+            return None
+        return raw.astype(np.int64, copy=False).view()
+    try:
+        objects = np.asarray(raw, dtype=object)
+    except ValueError:
+        return None
+    if objects.shape != (len(raw), 3) or not set(map(type, objects.ravel().tolist())) <= {int}:
+        return None
+    try:
+        return objects.astype(np.int64)
+    except OverflowError:
+        return None
+
+
+def _span_areas(vertices: np.ndarray, triangles: np.ndarray) -> bool:
+    """Whether every triangle (T, 3) of vertices (V, 3) spans an area: the per-entry loop's cross product, in the
+    same float64 operations."""
     v0, v1, v2 = (vertices[triangles[:, k]] for k in range(3))
     e1, e2 = v1 - v0, v2 - v0
     normal = np.stack(
@@ -808,10 +843,45 @@ def _mesh_arrays(raw_vertices: Any, raw_triangles: Any) -> tuple[np.ndarray, np.
         ),
         axis=1,
     )
-    if np.any(np.all(normal == 0.0, axis=1)):
-        return None
-    vertices.flags.writeable = triangles.flags.writeable = False  # the mesh keeps these arrays, without a copy
-    return vertices, triangles
+    return not np.any(np.all(normal == 0.0, axis=1))
+
+
+def _meshes_in_bulk(bodies: list) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """The "mesh" objects whose vertices and triangles are lists (an export's small meshes: thousands of separate
+    objects), checked as one array each (_mesh_arrays' checks, the same arrays it would make): id(body) -> (vertices
+    (V, 3), triangles (T, 3)), read-only views of the joined arrays. {} where any of them fails a check: each is
+    then checked on its own, which names the problem. Checked one by one, 3,000 cubes cost 0.17 s of NumPy calls."""
+    chosen = [
+        body
+        for body in bodies
+        if isinstance(body, dict)
+        and body.get("type") == "mesh"
+        and isinstance(body.get("vertices"), list)
+        and isinstance(body.get("triangles"), list)
+        and body["vertices"]
+        and body["triangles"]
+    ]
+    if len(chosen) < 2:
+        return {}
+    vertex_counts = np.array([len(body["vertices"]) for body in chosen], dtype=np.int64)
+    triangle_counts = np.array([len(body["triangles"]) for body in chosen], dtype=np.int64)
+    vertex_rows = [row for body in chosen for row in body["vertices"]]
+    vertices = _number_array(vertex_rows, (len(vertex_rows), 3))
+    triangles = None if vertices is None else _index_array([row for body in chosen for row in body["triangles"]])
+    if triangles is None:
+        return {}
+    owners = np.repeat(np.arange(len(chosen)), triangle_counts)
+    if not (np.all(triangles >= 0) and np.all(triangles < vertex_counts.take(owners)[:, None])):
+        return {}
+    vertex_ends, triangle_ends = np.cumsum(vertex_counts), np.cumsum(triangle_counts)
+    if not _span_areas(vertices, triangles + (vertex_ends - vertex_counts).take(owners)[:, None]):
+        return {}
+    vertices.flags.writeable = triangles.flags.writeable = False  # the meshes keep views of these, without a copy
+    checked, vertex_start, triangle_start = {}, 0, 0
+    for body, vertex_end, triangle_end in zip(chosen, vertex_ends.tolist(), triangle_ends.tolist(), strict=True):
+        checked[id(body)] = (vertices[vertex_start:vertex_end], triangles[triangle_start:triangle_end])
+        vertex_start, triangle_start = vertex_end, triangle_end
+    return checked
 
 
 def _corner_normals(reader: _Reader, count: int) -> np.ndarray | None:
@@ -1379,8 +1449,9 @@ def scene_from_dict(data: Any, source: str = "scene", base: str | Path | None = 
         if not isinstance(raw_objects, list):  # an empty list is a scene of background only
             top.fail("objects", f"must be a list of objects, got {_show_shape(raw_objects)}")
         else:
+            checked = _meshes_in_bulk(raw_objects)
             for i, body in enumerate(raw_objects):
-                made = _object(_Reader(body, f"objects[{i}]", problems), materials, i, meshes)
+                made = _object(_Reader(body, f"objects[{i}]", problems), materials, i, meshes, checked)
                 if made is not None:
                     objects.append(made)
     names = [obj.name for obj in objects]
