@@ -14,6 +14,7 @@ from tracer.frames import edits
 from tracer.geometry import meshbvh, meshpicture
 from tracer.geometry import transforms as tf
 from tracer.geometry.kernels import make_kernel, quiet
+from tracer.geometry.kernels import slab as kernels_slab
 from tracer.geometry.meshbvh import MESH_HIERARCHY_TRIANGLES, MeshKernel
 from tracer.geometry.meshpicture import View
 from tracer.geometry.robust import make_robust_kernel
@@ -121,6 +122,73 @@ def test_a_mesh_of_many_small_parts_gets_a_leaf_per_part_and_finds_the_same_hits
     hit = expected_t < np.inf
     assert np.array_equal(t, expected_t) and np.array_equal(part[hit], expected_part[hit])
     assert np.array_equal(occluded < np.inf, hit) and 0.3 < hit.mean() < 0.95
+
+
+def grid_of_cubes(side: int, offset: float) -> tf.WorldTriangles:
+    """side x side unit cubes 1.5 apart at integer-and-a-half coordinates plus offset (far from the origin, large
+    offsets), joined: every box face lies on a plane that rays along the axes can graze."""
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=np.float64)
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    box = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    places = np.array([[1.5 * i, 1.5 * j, 0.0] for i in range(side) for j in range(side)]) + offset
+    vertices = (corners[None] + places[:, None]).reshape(-1, 3)
+    faces = (box[None] + 8 * np.arange(len(places))[:, None, None]).reshape(-1, 3)
+    triangles = vertices[faces]
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return tf.WorldTriangles("grid", triangles, normals, source=(vertices, faces))
+
+
+@pytest.mark.parametrize("offset", [0.0, 1000.25, -40000.5])
+def test_the_float32_box_tests_meet_every_box_the_float64_tests_meet(offset: float) -> None:
+    """The walk's slab tests run in float32 on boxes grown by its error bound (MeshKernel._grown_boxes). On rays
+    that graze the boxes' faces (origins on a face's plane, direction components exactly 0, far origins), every
+    (ray, node) the float64 test meets is met, and the walk finds the whole-mesh test's hits."""
+    mesh = grid_of_cubes(8, offset)
+    whole = make_kernel(mesh, np.dtype("float64"))
+    kernel = MeshKernel(whole, mesh)
+    tree = kernel.hierarchy
+    rng = np.random.default_rng(11)
+    count = 6000
+    # origins on the boxes' face planes (and far beyond the grid), directions along the axes or between them
+    faces = np.asarray(mesh.triangles).reshape(-1, 3)[rng.integers(0, len(mesh.triangles) * 3, count)]
+    O = faces.T + rng.integers(-1, 2, (3, count)) * rng.choice([0.5, 20.0, 3000.0], (3, count))
+    D = rng.integers(-1, 2, (3, count)).astype(np.float64) * rng.choice([1.0, 1e-9, 0.5], (3, count))
+    D[:, np.all(D == 0, axis=0)] = np.array([[1.0], [0.0], [0.0]])
+    with quiet():
+        boxes = kernel._box_rays(O, D)
+    assert boxes.lower.dtype == np.float32
+    reach = float(np.abs(O).max()) + float(np.abs(tree.upper).max())
+    assert np.all(boxes.lower <= tree.lower) and np.all(boxes.upper >= tree.upper)
+    assert np.all(tree.lower - boxes.lower <= reach * 2.0**-19)  # grown by the bound, not more
+    # and rays from 30,000 away through each node's box corners: float32 origins alone are 1e-3 off there
+    nodes = np.arange(tree.left.size)
+    corner = np.where(rng.integers(0, 2, (3, nodes.size)) == 1, tree.lower, tree.upper)
+    away = rng.normal(size=(3, nodes.size))
+    far_O = corner + 30000.123456789 * away / np.linalg.norm(away, axis=0)
+    with quiet():
+        far_boxes = kernel._box_rays(far_O, corner - far_O)
+        near, far = kernels_slab(far_O, 1.0 / (corner - far_O), tree.lower, tree.upper)
+        near32, far32 = kernels_slab(far_boxes.origins, far_boxes.inverses, far_boxes.lower, far_boxes.upper)
+        meets64, meets32 = near <= far, near32 <= far32
+        assert meets64.sum() > nodes.size // 2 and not np.any(meets64 & ~meets32)
+        for node in range(0, tree.left.size, 7):
+            near, far = kernels_slab(O, 1.0 / D, tree.lower[:, node : node + 1], tree.upper[:, node : node + 1])
+            near32, far32 = kernels_slab(
+                boxes.origins, boxes.inverses, boxes.lower[:, node : node + 1], boxes.upper[:, node : node + 1]
+            )
+            for t_min in (0.0, 1e-3):
+                meets64 = (near <= far) & (far > t_min) & (near <= 50.0)
+                meets32 = (near32 <= far32) & (far32 > t_min) & (near32 <= 50.0)
+                assert not np.any(meets64 & ~meets32), node
+        for t_min in (0.0, 1e-3):
+            expected_t, expected_part = whole.hit(O, D, t_min, np.inf)
+            t, part = kernel.hit(O, D, t_min, np.inf)
+            hit = expected_t < np.inf
+            assert np.array_equal(t, expected_t) and np.array_equal(part[hit], expected_part[hit])
+            occluded, _ = kernel.hit(O, D, t_min, np.inf, any_hit=True)
+            assert np.array_equal(occluded < np.inf, hit)
+    assert 0.05 < hit.mean() < 0.9
 
 
 def test_objects_get_a_leaf_each_only_where_that_makes_fewer_tests() -> None:
