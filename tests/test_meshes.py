@@ -87,6 +87,39 @@ def test_a_walk_in_pieces_of_rays_finds_what_one_walk_of_them_all_finds(build, m
     assert 0.2 < (whole[0][0] < np.inf).mean() < 0.95  # hits and misses both
 
 
+def test_the_scene_walk_and_the_box_tests_in_pieces_of_rays_give_what_all_rays_at_once_give(monkeypatch) -> None:
+    """The scene hierarchy's walk (Hierarchy._walk) and a kernel's oriented box test (Kernel.in_box) take a band's
+    rays in pieces: each kernel gets the same rays, in the same order, as from one walk of them all."""
+    from tracer.geometry import bvh
+    from tracer.geometry import kernels as kernels_module
+    from tracer.geometry.bvh import Hierarchy
+
+    monkeypatch.setattr(bvh, "FLAT_WALK_PAIRS", 0)  # the tree's walk, not the flat test of few rays
+    meshes = [soup(60, seed) for seed in range(5)]
+    meshes = [tf.WorldTriangles(f"m{k}", np.asarray(mesh.triangles) + 3.0 * k, mesh.normals)
+              for k, mesh in enumerate(meshes)]  # fmt: skip
+    scene_kernels = [MeshKernel(make_kernel(mesh, np.dtype("float64")), mesh) for mesh in meshes]
+    hierarchy = Hierarchy(scene_kernels, np.dtype("float64"))
+    rng = np.random.default_rng(5)
+    O = rng.uniform(-3, 15, (3, 5000))
+    D = rng.normal(size=(3, 5000))
+    limit = rng.uniform(1.0, 20.0, 5000)
+    rays = np.sort(rng.choice(5000, 4000, replace=False))
+    with quiet():
+        whole = hierarchy._walk(O, D, rays, 0.0, limit)
+        boxes = [kernel.in_box(O, D, 0.0, limit) for kernel in scene_kernels]
+        monkeypatch.setattr(meshbvh, "RAY_PIECE", 333)
+        monkeypatch.setattr(kernels_module, "BOX_PIECE", 333)
+        pieces = hierarchy._walk(O, D, rays, 0.0, limit)
+        box_pieces = [kernel.in_box(O, D, 0.0, limit) for kernel in scene_kernels]
+    assert sorted(index for index, _ in whole) == sorted(index for index, _ in pieces) == list(range(5))
+    expected = dict(whole)
+    for index, found in pieces:
+        assert np.array_equal(found, expected[index])
+    for found, expected_rays in zip(box_pieces, boxes, strict=True):
+        assert np.array_equal(found, expected_rays) and 100 < found.size < 5000
+
+
 def joined_boxes(count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """count boxes (8 vertices, 12 triangles each) joined into one mesh, their triangles and vertices shuffled: the
     vertices (8 count, 3) and faces (12 count, 3); the boxes overlap here and there."""

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import meshbvh
 from .kernels import (
     Kernel,
     PlaneKernel,
@@ -413,11 +414,26 @@ class Hierarchy:
         """The leaves' rays: rays (n,) -> (kernel index, rays (m,)) for each leaf whose box the rays meet within
         (t_min, limit]; limit is one number or one per ray of all N. The leaves are tested afterwards, so that
         kernels of one class share a batch (_evaluate)."""
-        sets: list[tuple[int, np.ndarray]] = []
         if self.root is None or rays.size == 0:
-            return sets
+            return []
         if rays.size * len(self.boxes[0]) <= FLAT_WALK_PAIRS:
             return self._flat_walk(O, D, rays, t_min, limit)
+        piece = meshbvh.RAY_PIECE
+        if rays.size <= piece:
+            return self._walk_piece(O, D, rays, t_min, limit)
+        # in pieces: a band's shadow rays of every light (millions) made each box test a few passes over arrays
+        # far larger than the caches (0.74 s of 3,000 cubes' 640x360 frame for a tree of 3 nodes)
+        joined: dict[int, list[np.ndarray]] = {}
+        for start in range(0, rays.size, piece):
+            for index, found in self._walk_piece(O, D, rays[start : start + piece], t_min, limit):
+                joined.setdefault(index, []).append(found)
+        return [(index, found[0] if len(found) == 1 else np.concatenate(found)) for index, found in joined.items()]
+
+    def _walk_piece(
+        self, O: np.ndarray, D: np.ndarray, rays: np.ndarray, t_min: float, limit: float | np.ndarray
+    ) -> list[tuple[int, np.ndarray]]:
+        """_walk over rays (n,) at once: a depth-first walk of the tree, each node's box tested on its rays."""
+        sets: list[tuple[int, np.ndarray]] = []
         O_n, D_n = (O, D) if rays.size == ray_count(O, D) else (take(O, rays), take(D, rays))
         limit_n = limit.take(rays) if isinstance(limit, np.ndarray) else limit
         # each entry carries its rays compacted, so deeper nodes gather from ever smaller arrays

@@ -126,6 +126,9 @@ def box_margin(size, dtype: np.dtype):
     return relative * size + 1e-9
 
 
+BOX_PIECE = 1 << 16  # rays per piece of an oriented box test (Kernel.in_box)
+
+
 def slab(O: np.ndarray, inverse: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Entry and exit t of rays (3, n) through a box; an axis giving NaN (0 * inf) is ignored, so nothing is lost."""
     a = (lower - O) * inverse
@@ -190,10 +193,20 @@ class Kernel:
         return t, part
 
     def in_box(self, O: np.ndarray, D: np.ndarray, t_min: float, t_max: float | np.ndarray) -> np.ndarray:
-        """Indices (n,) of the rays (3, N) that meet the oriented box within (t_min, t_max); needs a frame."""
+        """Indices (n,) of the rays (3, N) that meet the oriented box within (t_min, t_max); needs a frame. In pieces
+        of BOX_PIECE rays: a few passes over arrays of a band's shadow rays (millions) outgrow the caches."""
+        count = ray_count(O, D)
+        if count > BOX_PIECE:
+            found = []
+            for start in range(0, count, BOX_PIECE):
+                piece = slice(start, start + BOX_PIECE)
+                O_p, D_p = (O if O.shape[1] == 1 else O[:, piece]), (D if D.shape[1] == 1 else D[:, piece])
+                limit = t_max[piece] if np.ndim(t_max) else t_max
+                found.append(start + self.in_box(O_p, D_p, t_min, limit))
+            return np.concatenate(found)
         to_local, origin, lower, upper = self.frame
         near, far = slab(to_local @ (O - origin), 1.0 / (to_local @ D), lower, upper)
-        return indices(spread((near <= far) & (far > t_min) & (near < t_max), (ray_count(O, D),)))
+        return indices(spread((near <= far) & (far > t_min) & (near < t_max), (count,)))
 
     # Per-object parameters of a kernel class whose _hit works unchanged when each is given per ray ((3, N) for a
     # column, (N,) for a number): several objects of that class are then tested in one batch of NumPy calls.
