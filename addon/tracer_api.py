@@ -72,7 +72,13 @@ if BUILT:
     from weathervane_tracer.tracing.texturing import sample as sample_texture
     from weathervane_tracer.workers.parallel import Renderer, worker_count
     from weathervane_tracer.workers.pool import PoolClosedError, TaskFailedError, WorkerLostError
-    from weathervane_tracer.workers.resources import ResourceError, available_memory, check_resources
+    from weathervane_tracer.workers.resources import (
+        ResourceError,
+        available_memory,
+        check_resources,
+        scene_bytes,
+        scene_room,
+    )
 else:  # the repository's package
     from tracer.frames.incremental import TurningFrames
     from tracer.frames.progressive import EDITABLE_SAMPLES, KEPT_BYTES_PER_SAMPLE, ProgressiveRender, Samples
@@ -113,7 +119,7 @@ else:  # the repository's package
     from tracer.tracing.texturing import sample as sample_texture
     from tracer.workers.parallel import Renderer, worker_count
     from tracer.workers.pool import PoolClosedError, TaskFailedError, WorkerLostError
-    from tracer.workers.resources import ResourceError, available_memory, check_resources
+    from tracer.workers.resources import ResourceError, available_memory, check_resources, scene_bytes, scene_room
 
 # Importing multiprocessing (the tracer's workers do) lists the __main__ module of the moment again as
 # `__mp_main__`. Where that is the module of a script Blender runs (`blender --python script.py`, an add-on enabled
@@ -174,7 +180,9 @@ __all__ = [
     "pyramid_vertices",
     "reduce_keys",
     "sample_texture",
+    "scene_bytes",
     "scene_from_dict",
+    "scene_room",
     "sensor_size",
     "simulate",
     "sweep_stale_temporaries",

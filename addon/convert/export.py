@@ -355,6 +355,10 @@ class MemoryBudget:
         self.extra = extra
         self.workers = tracer.worker_count(settings.workers)
         self.available = tracer.available_memory()
+        # what the scene may take before the check itself is asked (it decides near the bound, and words a refusal)
+        self.room = -1.0
+        if self.available is not None:
+            self.room = tracer.scene_room(self.settings, self.workers, self.available, extra=extra) * (1 - 1e-9) - 1
         self.cancelled = cancelled
         self.triangles = self.instances = 0
         self.meshes: dict[str, int] = {}  # a geometry's name -> its triangles
@@ -379,7 +383,7 @@ class MemoryBudget:
 
     def check(self) -> None:
         """Raises ResourceError (one line) when what is counted so far cannot fit in the memory free at the start."""
-        if self.available is None:
+        if self.available is None or tracer.scene_bytes(self.triangles, self.instances) < self.room:
             return
         counted = {"triangles": self.triangles, "instances": self.instances, "available": self.available}
         try:

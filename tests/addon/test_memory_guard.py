@@ -135,3 +135,31 @@ def test_the_rendered_views_check_counts_the_views_size_and_its_kept_ray_trees(m
         assert session.error is None and session.document is not None
     finally:
         session.close()
+
+
+def test_the_budgets_bound_refuses_exactly_where_the_check_itself_refuses(monkeypatch: pytest.MonkeyPatch) -> None:
+    """MemoryBudget asks check_resources only near its precomputed room (the export counts every geometry): around
+    the bound, in steps of one triangle, it refuses exactly the counts the check itself refuses."""
+    from addon.convert.export import MemoryBudget
+
+    subdivided_cube(1)
+    available = 300_000_000
+    monkeypatch.setattr(tracer_api, "available_memory", lambda: available)
+    budget = MemoryBudget(bpy.context.scene)
+    settings, workers = budget.settings, budget.workers
+    limit = int(resources.scene_room(settings, workers, available) / resources.BYTES_PER_TRIANGLE)
+    outcomes = set()
+    for triangles in range(limit - 3, limit + 4):
+        budget.triangles, budget.instances = triangles, 1
+        try:
+            resources.check_resources(settings, workers, triangles=triangles, instances=1, available=available)
+            refused = False
+        except resources.ResourceError:
+            refused = True
+        outcomes.add(refused)
+        if refused:
+            with pytest.raises(resources.ResourceError):
+                budget.check()
+        else:
+            budget.check()
+    assert outcomes == {True, False}

@@ -177,6 +177,20 @@ def _size(count: int) -> str:
     return f"{count} bytes"
 
 
+def scene_room(
+    settings: sc.RenderSettings,
+    workers: int,
+    available: int,
+    frames: int = 1,
+    output: str | None = None,
+    extra: int = 0,
+) -> float:
+    """The scene bytes (scene_bytes) that fit beside the render in the memory available: check_resources passes
+    while the scene needs less (a bound for callers that count a scene as they find it; the check itself decides
+    near it)."""
+    return available / HEADROOM - memory_needed(settings, workers, frames, output) - extra
+
+
 def check_resources(
     settings: sc.RenderSettings,
     workers: int,
