@@ -205,6 +205,51 @@ def test_the_two_level_walk_finds_what_testing_every_instance_finds(dtype: str, 
         np.testing.assert_array_equal(part, best_part)
 
 
+def test_the_float32_box_tests_of_instances_meet_every_box_the_float64_tests_meet() -> None:
+    """The instances' walk tests its nodes' and instances' boxes in float32 on boxes grown by the test's error bound
+    (InstancesKernel._box_rays, kernels.grown_float32). Rays from 30,000 away through the boxes' corners: every box
+    the float64 test meets is met; and those rays and rays between the instances find brute force's hits."""
+    from tracer.geometry.kernels import slab
+
+    rng = np.random.default_rng(8)
+    doc = instanced_scene_document(5)
+    doc["objects"] = [
+        {"type": "instances", "mesh": "mesh0", "matrices": [_matrix(random.Random(k), k % 3 == 0) for k in range(300)]}
+    ]
+    primitive = tf.world_primitive(scene_from_dict(doc).objects[0], None)
+    kernel = instances_kernel(make_kernel, primitive, np.dtype(np.float64))
+    lower64 = np.concatenate((kernel.child_boxes[:6].reshape(3, -1), kernel.box_lower), axis=1)
+    upper64 = np.concatenate((kernel.child_boxes[6:].reshape(3, -1), kernel.box_upper), axis=1)
+    corner = np.where(rng.integers(0, 2, lower64.shape) == 1, lower64, upper64)
+    away = rng.normal(size=corner.shape)
+    O = corner + 30000.123456789 * away / np.linalg.norm(away, axis=0)
+    D = corner - O
+    with quiet():
+        boxes = kernel._box_rays(O, D)
+        lower32 = np.concatenate((boxes.child_boxes[:6].reshape(3, -1), boxes.box_lower), axis=1)
+        upper32 = np.concatenate((boxes.child_boxes[6:].reshape(3, -1), boxes.box_upper), axis=1)
+        assert lower32.dtype == np.float32 and np.all(lower32 <= lower64) and np.all(upper32 >= upper64)
+        near, far = slab(O, 1.0 / D, lower64, upper64)
+        near32, far32 = slab(boxes.origins, boxes.inverses, lower32, upper32)
+        assert (near <= far).sum() > corner.shape[1] // 2 and not np.any((near <= far) & ~(near32 <= far32))
+        whole = make_kernel(primitive.mesh, np.dtype(np.float64))
+        O_between, D_between = _random_rays(rng, 2000, np.dtype(np.float64))
+        for origins, directions in ((O, D), (O_between, D_between)):
+            count = origins.shape[1]
+            t, part = kernel.hit(origins, directions, 0.001, np.inf)
+            best_t = np.full(count, np.inf)
+            best_part = np.zeros(count, dtype=np.int64)
+            for k in range(kernel.instance_count):
+                origin, direction = kernel.to_local(origins, directions, np.full(count, k))
+                found_t, found_triangle = whole._hit(origin, direction, 0.001, np.inf)
+                nearer = found_t < best_t
+                best_t[nearer] = found_t[nearer]
+                best_part[nearer] = k * kernel.triangles + np.asarray(found_triangle)[nearer]
+            np.testing.assert_array_equal(t, best_t)
+            np.testing.assert_array_equal(part, best_part)
+            assert (best_t < np.inf).sum() > count // 10
+
+
 @pytest.mark.parametrize("dtype", ["float64", "float32"])
 def test_the_bounding_sphere_test_keeps_every_pair_with_a_hit_and_drops_others(dtype: str) -> None:
     """InstancesKernel._meets_sphere against the whole mesh's test in each instance's space: every (ray, instance)

@@ -13,6 +13,8 @@ and its box, not its triangles.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from . import meshbvh
@@ -21,9 +23,11 @@ from .kernels import (
     Kernel,
     box_margin,
     dot,
+    grown_float32,
     indices,
     interpolated_corners,
     make_kernel,
+    origins_exponent,
     ray_count,
     slab,
     unit,
@@ -32,6 +36,16 @@ from .kernels import (
 from .meshbvh import MeshHierarchy, MeshKernel
 
 INSTANCES_PER_LEAF = 4
+
+
+class InstanceBoxRays(NamedTuple):
+    """A walk's rays and boxes as its slab tests take them (InstancesKernel._box_rays)."""
+
+    origins: np.ndarray  # (3, n)
+    inverses: np.ndarray  # (3, n): 1 / direction
+    child_boxes: np.ndarray  # (12, M): each node's children's boxes, as InstancesKernel.child_boxes
+    box_lower: np.ndarray  # (3, K): each instance's box
+    box_upper: np.ndarray
 
 
 class InstancesKernel(MeshKernel):
@@ -44,6 +58,7 @@ class InstancesKernel(MeshKernel):
         self.dtype = dtype
         self.frame = None
         self.pictures = {}
+        self.grown: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}  # _box_rays' float32 boxes
         self.triangles = local.count
         self.count = len(instances.matrices) * local.count
         self.instance_count = len(instances.matrices)
@@ -117,15 +132,15 @@ class InstancesKernel(MeshKernel):
 
     def _hit_piece(self, O, D, t_min, t_max, any_hit):
         count = O.shape[1]
-        inverse = 1.0 / D
         best = np.array(np.broadcast_to(np.asarray(t_max, dtype=self.dtype), (count,)))  # the limit until a hit
         found = np.zeros(count, dtype=bool)
         instance = np.zeros(count, dtype=np.int64)
         triangle = np.zeros(count, dtype=np.int64)
+        boxes = self._box_rays(O, D)
         tree = self.top
-        near, far = slab(O, inverse, tree.lower[:, :1], tree.upper[:, :1])
+        near, far = slab(O, 1.0 / D, tree.lower[:, :1], tree.upper[:, :1])
         pool_rays = indices((near <= far) & (far > t_min) & (near < best))
-        rays_data = np.concatenate((O, inverse))
+        rays_data = np.concatenate((boxes.origins, boxes.inverses))
         pool_nodes = np.zeros(pool_rays.size, dtype=np.int64)
         pool_near = near.take(pool_rays)
         while pool_rays.size:
@@ -147,21 +162,39 @@ class InstancesKernel(MeshKernel):
                 pool_nodes.take(left_over),
                 pool_near.take(left_over),
             )
-            rays, leaves, passed = self._descend(rays_data, t_min, best, rays, nodes)
+            rays, leaves, passed = self._descend(rays_data, boxes.child_boxes, t_min, best, rays, nodes)
             if passed[0].size:
                 pool_rays = np.concatenate((pool_rays, passed[0]))
                 pool_nodes = np.concatenate((pool_nodes, passed[1]))
                 pool_near = np.concatenate((pool_near, passed[2]))
             if rays.size:
-                self._search_leaves(O, D, inverse, t_min, rays, leaves, best, found, instance, triangle, any_hit)
+                self._search_leaves(O, D, boxes, t_min, rays, leaves, best, found, instance, triangle, any_hit)
         t = np.where(found, best, self.dtype.type(np.inf))
         part = np.where(found, instance * self.triangles + triangle, 0)
         return t, part
 
-    def _descend(self, rays_data, t_min, best, rays, nodes):
+    def _box_rays(self, O: np.ndarray, D: np.ndarray) -> InstanceBoxRays:
+        """The rays (3, n) and the boxes as the walk's slab tests take them: in float32 where the tracing is
+        float64, the boxes grown so that every box the float64 test meets is met (kernels.grown_float32: half the
+        bytes gathered; the same hits); the tracing dtype's own otherwise."""
+        if self.dtype != np.float64:
+            return InstanceBoxRays(O, 1.0 / D, self.child_boxes, self.box_lower, self.box_upper)
+        exponent = origins_exponent(O)
+        found = self.grown.get(exponent)
+        if found is None:
+            bound = 2.0**exponent + max(float(np.abs(self.lower).max()), float(np.abs(self.upper).max()))
+            children = grown_float32(self.child_boxes[:6], self.child_boxes[6:], bound)
+            found = (np.concatenate(children), *grown_float32(self.box_lower, self.box_upper, bound))
+            if len(self.grown) >= meshbvh.GROWN_KEPT:
+                self.grown.pop(next(iter(self.grown)))
+            self.grown[exponent] = found
+        return InstanceBoxRays(O.astype(np.float32), (1.0 / D).astype(np.float32), *found)
+
+    def _descend(self, rays_data, child_boxes, t_min, best, rays, nodes):
         """Rays (n,) from nodes (n,) down to a leaf each, always into the nearer child met (within (t_min, the ray's
         best]); -> the rays that reached a leaf, their leaves, and (rays, nodes, near) of the other children met.
-        rays_data (6, N): every ray's origin and 1 / direction, gathered once a level; both children's boxes too."""
+        rays_data (6, N): every ray's origin and 1 / direction, gathered once a level; both children's boxes too
+        (child_boxes (12, M), as self.child_boxes)."""
         tree = self.top
         passed_rays, passed_nodes, passed_near = [], [], []
         leaf_rays, leaf_nodes = [], []
@@ -178,7 +211,7 @@ class InstancesKernel(MeshKernel):
                     break
             count = rays.size
             ray = rays_data.take(rays, axis=1)  # (6, n)
-            boxes = self.child_boxes.take(nodes, axis=1).reshape(2, 3, 2, count)  # lower/upper, axis, child, ray
+            boxes = child_boxes.take(nodes, axis=1).reshape(2, 3, 2, count)  # lower/upper, axis, child, ray
             near, far = slab(ray[:3, None, :], ray[3:, None, :], boxes[0], boxes[1])  # (2 children, n)
             meets = (near <= far) & (far > t_min) & (near <= best.take(rays))
             meets_left, meets_right = meets[0], meets[1]
@@ -193,9 +226,10 @@ class InstancesKernel(MeshKernel):
         passed = (_join(passed_rays, np.int64), _join(passed_nodes, np.int64), _join(passed_near, self.dtype))
         return _join(leaf_rays, np.int64), _join(leaf_nodes, np.int64), passed
 
-    def _search_leaves(self, O, D, inverse, t_min, rays, leaves, best, found, instance, triangle, any_hit) -> None:
-        """The instances of leaves (n,) met by rays (n,): each pair whose instance box the ray meets searched in the
-        mesh, and each ray's least (t, instance, triangle) kept in best, found, instance, triangle."""
+    def _search_leaves(self, O, D, boxes, t_min, rays, leaves, best, found, instance, triangle, any_hit) -> None:
+        """The instances of leaves (n,) met by rays (n,): each pair whose instance box the ray meets (boxes: as
+        _box_rays gives them) searched in the mesh, and each ray's least (t, instance, triangle) kept in best, found,
+        instance, triangle."""
         tree = self.top
         row = tree.leaf_row.take(leaves)
         slots = indices(tree.real.take(row, axis=0).ravel())
@@ -203,10 +237,10 @@ class InstancesKernel(MeshKernel):
         members = tree.leaf_triangles.take(row, axis=0).ravel().take(slots)
         limit = best.take(pair_rays)
         near, far = slab(
-            O.take(pair_rays, axis=1),
-            inverse.take(pair_rays, axis=1),
-            self.box_lower.take(members, axis=1),
-            self.box_upper.take(members, axis=1),
+            boxes.origins.take(pair_rays, axis=1),
+            boxes.inverses.take(pair_rays, axis=1),
+            boxes.box_lower.take(members, axis=1),
+            boxes.box_upper.take(members, axis=1),
         )
         meets = indices((near <= far) & (far > t_min) & (near <= limit))
         if not meets.size:

@@ -18,14 +18,13 @@ nearest t, then the lowest triangle index on ties.
 
 from __future__ import annotations
 
-import math
 from collections import OrderedDict
 from typing import NamedTuple
 
 import numpy as np
 
 from . import transforms as tf
-from .kernels import Kernel, box_margin, ray_count, slab, take
+from .kernels import Kernel, box_margin, grown_float32, origins_exponent, ray_count, slab, take
 from .meshpicture import TrianglePicture, View
 
 # triangles per leaf: 4 rather than 8 costs one more level of box tests and halves the triangle tests of each leaf
@@ -51,7 +50,7 @@ PAIRS = 1 << 17  # (ray, triangle) pairs per pass of a picture search: its tempo
 # rays per walk of a hierarchy: a walk gathers its rays' numbers at random from arrays of all of them, which for a
 # band's 17 shadow rays a point (a million and more) no longer fit the caches (a forest's 640x480 frame 9.9 -> 3.7 s)
 RAY_PIECE = 1 << 16
-GROWN_KEPT = 2  # float32 box sets per mesh kernel (_grown_boxes): the camera's reach and the scene's
+GROWN_KEPT = 2  # float32 box sets per kernel (_box_rays): the camera's reach and the scene's
 
 
 class MeshHierarchy:
@@ -305,7 +304,7 @@ class MeshKernel(Kernel):
         filled = self.hierarchy.real.ravel().nonzero()[0]
         self.slots = np.empty(self.count, dtype=np.int64)
         self.slots[self.slot_triangle.take(filled)] = filled
-        self.grown: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # _grown_boxes' boxes by the origins' reach
+        self.grown: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # _box_rays' float32 boxes by the origins' reach
         self.pictures: OrderedDict[View, TrianglePicture | None] = OrderedDict()
         self.asked: dict[View, int] = {}  # rays that asked for a view's picture before it was made
 
@@ -488,40 +487,20 @@ class MeshKernel(Kernel):
 
     def _box_rays(self, O: np.ndarray, D: np.ndarray) -> BoxRays:
         """The rays (3, n) and the nodes' boxes as the walk's slab tests take them: in float32 where the tracing is
-        float64 (half the bytes each test gathers and computes: 12% off 3,000 cubes' frame), with the boxes grown so
-        that every box the float64 test meets is met (_grown_boxes); the tracing dtype's own otherwise."""
+        float64 (half the bytes each test gathers and computes: 12% off 3,000 cubes' frame), the boxes grown so that
+        every box the float64 test meets is met (kernels.grown_float32); the tracing dtype's own otherwise."""
         tree = self.hierarchy
         if self.dtype != np.float64 or not O.size:
             return BoxRays(O, 1.0 / D, tree.lower, tree.upper)
-        # every origin within 2**e of 0: one set of grown boxes serves all rays whose origins are that near
-        exponent = math.frexp(float(np.abs(O).max()))[1]
-        lower, upper = self._grown_boxes(exponent)
-        return BoxRays(O.astype(np.float32), (1.0 / D).astype(np.float32), lower, upper)
-
-    def _grown_boxes(self, exponent: int) -> tuple[np.ndarray, np.ndarray]:
-        """The nodes' float64 boxes as float32 boxes around them, grown for rays whose origins lie within 2**exponent
-        of 0 (kept: a frame's rays need one or two sizes).
-
-        Error bound: the float32 test computes t = fl(fl(l - o) inv) with o and inv rounded to float32, which is
-        the exact t of a plane moved by at most 2^-24 |o| + 3.01 2^-24 (|l| + |o|). Every box grown by 2^-21 (R_o +
-        R_box) (R_o the origins' reach, R_box the root box's), rounded outward, therefore enters no later and leaves
-        no earlier than the float64 test finds (which is itself within 2^-51 of exact); an axis a zero direction
-        component makes NaN or infinite is likewise at most as strict. The walk then visits every node the float64
-        walk visits, maybe a few more, and the leaves' float64 tests find the same hits."""
+        exponent = origins_exponent(O)
         found = self.grown.get(exponent)
         if found is None:
-            tree = self.hierarchy
             reach = max(float(np.abs(tree.lower[:, 0]).max()), float(np.abs(tree.upper[:, 0]).max()))
-            grow = (2.0**exponent + reach) * 2.0**-21
-            down, up = np.float32(-np.inf), np.float32(np.inf)
-            found = (
-                np.nextafter((tree.lower - grow).astype(np.float32), down),
-                np.nextafter((tree.upper + grow).astype(np.float32), up),
-            )
+            found = grown_float32(tree.lower, tree.upper, 2.0**exponent + reach)
             if len(self.grown) >= GROWN_KEPT:
                 self.grown.pop(next(iter(self.grown)))
             self.grown[exponent] = found
-        return found
+        return BoxRays(O.astype(np.float32), (1.0 / D).astype(np.float32), *found)
 
     def _step(self, O, D, boxes, t_min, rays, nodes, best_t, best_part, any_hit=False):
         """One level of a walk: the leaves among nodes (P,) tested with their rays (P,), and the inner nodes' rays
