@@ -326,7 +326,8 @@ class MeshKernel(Kernel):
         if not rays.size:
             return t, part
         limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
-        O_r, D_r = take(O, rays), take(D, rays)
+        # every ray in the box (most, where the scene's walk chose them): no gather of the arrays again
+        O_r, D_r = (O, D) if rays.size == count else (take(O, rays), take(D, rays))
         if views is not None:
             listed, which = views[0], views[1].take(rays)
             groups = [(listed[k], (which == k).nonzero()[0]) for k in np.unique(which).tolist()]
