@@ -280,9 +280,21 @@ def test_many_small_meshes_checked_in_bulk_load_the_scene_each_check_alone_loads
 @pytest.mark.parametrize(
     ("field", "value", "message"),
     [
-        ("triangles", [[0, 1, 2], [0, 1, 8]], "objects[31].triangles[1]: must be 3 vertex indices in 0..7"),
-        ("triangles", [[0, 1, 2], [0, 1, -1]], "objects[31].triangles[1]: must be 3 vertex indices in 0..7"),
-        ("triangles", [[0, 1, 2], [0, 1, True]], "objects[31].triangles[1]: must be 3 vertex indices in 0..7"),
+        (
+            "triangles",
+            [[0, 1, 2], [0, 1, 8]],
+            "objects[31].triangles[1]: must be 3 vertex indices in 0..7, got [0, 1, 8]",
+        ),
+        (
+            "triangles",
+            [[0, 1, 2], [0, 1, -1]],
+            "objects[31].triangles[1]: must be 3 vertex indices in 0..7, got [0, 1, -1]",
+        ),
+        (
+            "triangles",
+            [[0, 1, 2], [0, 1, True]],
+            "objects[31].triangles[1]: must be 3 vertex indices in 0..7, got [0, 1, true]",
+        ),
         ("triangles", [[0, 1, 2], [3, 3, 4]], "objects[31].triangles[1]: must span an area"),
         ("vertices", "rows", "objects[31].vertices: must be a non-empty list of [x, y, z]"),
     ],

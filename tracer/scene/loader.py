@@ -760,7 +760,8 @@ def _mesh(
                 else:
                     reader.fail(
                         key,
-                        f"must be 3 vertex indices in 0..{len(vertices) - 1}, got {_show(triangle)}"
+                        f"must be 3 vertex indices in 0..{len(vertices) - 1}, "
+                        f"got [{', '.join(_show(k) for k in triangle)}]"
                         if valid
                         else f"must be a list of 3 vertex indices, got {_show_shape(triangle)}",
                     )
