@@ -120,6 +120,44 @@ def test_the_scene_walk_and_the_box_tests_in_pieces_of_rays_give_what_all_rays_a
         assert np.array_equal(found, expected_rays) and 100 < found.size < 5000
 
 
+def test_small_meshes_placed_in_one_pass_have_the_bits_of_one_at_a_time() -> None:
+    """tf.world_primitives places the small meshes together (_placed_together): each mesh's world triangles,
+    normals, frame and source equal world_primitive's for it alone, bit for bit, whatever its rotation and location
+    (some -0.0, some turned with the vane) and whatever meshes come before it; a large mesh and the primitives are
+    placed alone."""
+    from tracer.scene.loader import default_scene_dict
+
+    rng = np.random.default_rng(12)
+    document = default_scene_dict()
+    for k in range(60):
+        size = int(rng.integers(4, 9))
+        corners = rng.permuted(np.tile(np.arange(size), (2 * size, 1)), axis=1)[:, :3]
+        body = {"name": f"m{k}", "type": "mesh", "material": "iron",
+                "vertices": rng.uniform(-3, 3, (size, 3)).round(4).tolist(), "triangles": corners.tolist()}  # fmt: skip
+        if k % 3:
+            body["location"] = rng.uniform(-5, 5, 3).tolist()
+            body["rotation"] = [-0.0, float(rng.uniform(-180, 180)), 0.0] if k % 2 else rng.uniform(-90, 90, 3).tolist()
+        document["objects"].append(body)
+    big = next(obj for obj in uv_sphere(5000).objects if isinstance(obj, sc.TriangleMesh))
+    assert len(big.triangles) > tf.PLACED_TOGETHER_TRIANGLES
+    document["objects"].append({"name": "big", "type": "mesh", "material": "iron",
+                                "vertices": np.asarray(big.vertices).tolist(),
+                                "triangles": np.asarray(big.triangles).tolist()})  # fmt: skip
+    document["vane"]["parts"] = [*document["vane"]["parts"], "m4", "m5"]
+    document["vane"]["heading"] = 37.5
+    scene = scene_from_dict(document)
+    together = tf.world_primitives(scene)
+    for obj, placed in zip(scene.objects, together, strict=True):
+        alone = tf.world_primitive(obj, scene.vane)
+        assert type(placed) is type(alone) and placed == alone
+        if isinstance(alone, tf.WorldTriangles):
+            assert placed.triangles.tobytes() == alone.triangles.tobytes()
+            assert placed.normals.tobytes() == alone.normals.tobytes()
+            assert not placed.triangles.flags.writeable and not placed.normals.flags.writeable
+            assert (placed.rotation, placed.location) == (alone.rotation, alone.location)
+            assert placed.cache_key == alone.cache_key
+
+
 def joined_boxes(count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """count boxes (8 vertices, 12 triangles each) joined into one mesh, their triangles and vertices shuffled: the
     vertices (8 count, 3) and faces (12 count, 3); the boxes overlap here and there."""

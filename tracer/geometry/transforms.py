@@ -211,6 +211,9 @@ class WorldInstances(sc.ArraysByBits):
 
 WorldPrimitive = WorldSphere | WorldPlane | WorldCylinder | WorldTriangles | WorldInstances
 
+# meshes of at most this many triangles are placed in one pass (world_primitives): per-mesh NumPy calls dominate them,
+# while a larger mesh's own pass is all arithmetic (and joining would copy it)
+PLACED_TOGETHER_TRIANGLES = 4096
 BOX_TRIANGLES = (
     # two counter-clockwise triangles per face, seen from outside; corners indexed by (x, y, z) bits
     (0, 1, 3), (0, 3, 2),  # -X
@@ -272,7 +275,13 @@ def _triangles(
     for axis in range(3):
         row = rotation[axis]
         world[:, axis] = location[axis] + (row[0] * x + row[1] * y + row[2] * z)
-    triangles = world[np.asarray(faces, dtype=np.int64).reshape(-1, 3)]  # (T, 3 vertices, 3)
+    triangles, normals = _with_normals(world[np.asarray(faces, dtype=np.int64).reshape(-1, 3)])
+    return WorldTriangles(material, triangles, normals, rotation, location, source)
+
+
+def _with_normals(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World triangles (T, 3 vertices, 3) -> themselves and their unit normals (T, 3), both read-only: cross,
+    length and the division per component in the reference's order ((0, 0, 0) where a triangle has no area)."""
     v0 = triangles[:, 0]
     ax, ay, az = (triangles[:, 1] - v0).T  # sub(v1, v0)
     bx, by, bz = (triangles[:, 2] - v0).T
@@ -282,8 +291,37 @@ def _triangles(
     area = size > 0.0
     normals = np.divide(n, size[:, None], out=np.zeros_like(n), where=area[:, None])  # (0, 0, 0) where no area
     for array in (triangles, normals):
-        array.flags.writeable = False  # made here and owned: WorldTriangles keeps them without a copy
-    return WorldTriangles(material, triangles, normals, rotation, location, source)
+        array.flags.writeable = False  # made here and owned: WorldTriangles keeps them (or views) without a copy
+    return triangles, normals
+
+
+def _placed_together(meshes: list[sc.TriangleMesh], vane: sc.Vane | None) -> list[WorldTriangles]:
+    """Many meshes' world triangles in one pass over their joined vertices: each vertex placed by its own mesh's
+    frame with _triangles' operations in its order (elementwise, so the same bits as one mesh at a time), each
+    mesh's triangles and normals read-only views of the joined ones. Thousands of separate objects took 40 us each
+    one at a time (a scene's preparation after one of 3,000 cubes moved: 0.12 of 0.22 s)."""
+    frames = [object_frame(mesh, vane) for mesh in meshes]
+    vertices = [np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3) for mesh in meshes]
+    faces = [np.asarray(mesh.triangles, dtype=np.int64).reshape(-1, 3) for mesh in meshes]
+    vertex_counts = np.array([len(array) for array in vertices])
+    triangle_counts = np.array([len(array) for array in faces])
+    local = np.concatenate(vertices)
+    x, y, z = local[:, 0], local[:, 1], local[:, 2]
+    rotations = np.repeat(np.array([rotation for rotation, _ in frames], dtype=np.float64), vertex_counts, axis=0)
+    locations = np.repeat(np.array([location for _, location in frames], dtype=np.float64), vertex_counts, axis=0)
+    world = np.empty_like(local)
+    for axis in range(3):
+        row = rotations[:, axis]
+        world[:, axis] = locations[:, axis] + (row[:, 0] * x + row[:, 1] * y + row[:, 2] * z)
+    offsets = np.repeat(np.cumsum(vertex_counts) - vertex_counts, triangle_counts)
+    triangles, normals = _with_normals(world[np.concatenate(faces) + offsets[:, None]])
+    placed, start = [], 0
+    for mesh, (rotation, location), count in zip(meshes, frames, triangle_counts.tolist(), strict=True):
+        piece = slice(start, start + count)
+        source = (mesh.vertices, mesh.triangles)
+        placed.append(WorldTriangles(mesh.material, triangles[piece], normals[piece], rotation, location, source))
+        start += count
+    return placed
 
 
 def world_primitive(obj: sc.SceneObject, vane: sc.Vane | None) -> WorldPrimitive:
@@ -352,7 +390,18 @@ def _read_only(array: np.ndarray) -> np.ndarray:
 
 
 def world_primitives(scene: sc.Scene) -> list[WorldPrimitive]:
-    return [world_primitive(obj, scene.vane) for obj in scene.objects]
+    """world_primitive of every object; the meshes of at most PLACED_TOGETHER_TRIANGLES triangles placed in one pass
+    (_placed_together: the same arrays, bit for bit)."""
+    objects = scene.objects
+    small = [
+        index
+        for index, obj in enumerate(objects)
+        if type(obj) is sc.TriangleMesh and len(obj.triangles) <= PLACED_TOGETHER_TRIANGLES
+    ]
+    placed: dict[int, WorldPrimitive] = {}
+    if len(small) > 1:
+        placed = dict(zip(small, _placed_together([objects[index] for index in small], scene.vane), strict=True))
+    return [placed[index] if index in placed else world_primitive(obj, scene.vane) for index, obj in enumerate(objects)]
 
 
 def world_corner_normals(obj: sc.SceneObject, vane: sc.Vane | None) -> np.ndarray | None:
