@@ -26,8 +26,8 @@ from .kernels import (
     grown_float32,
     indices,
     interpolated_corners,
+    kept_grown,
     make_kernel,
-    origins_exponent,
     ray_count,
     slab,
     unit,
@@ -179,16 +179,14 @@ class InstancesKernel(MeshKernel):
         bytes gathered; the same hits); the tracing dtype's own otherwise."""
         if self.dtype != np.float64:
             return InstanceBoxRays(O, 1.0 / D, self.child_boxes, self.box_lower, self.box_upper)
-        exponent = origins_exponent(O)
-        found = self.grown.get(exponent)
-        if found is None:
-            bound = 2.0**exponent + max(float(np.abs(self.lower).max()), float(np.abs(self.upper).max()))
-            children = grown_float32(self.child_boxes[:6], self.child_boxes[6:], bound)
-            found = (np.concatenate(children), *grown_float32(self.box_lower, self.box_upper, bound))
-            if len(self.grown) >= meshbvh.GROWN_KEPT:
-                self.grown.pop(next(iter(self.grown)))
-            self.grown[exponent] = found
+        reach = max(float(np.abs(self.lower).max()), float(np.abs(self.upper).max()))
+        found = kept_grown(self.grown, O, reach, self._grown)
         return InstanceBoxRays(O.astype(np.float32), (1.0 / D).astype(np.float32), *found)
+
+    def _grown(self, bound: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The children's boxes (12, M) and the instances' (3, K) each, grown for _box_rays (grown_float32)."""
+        children = grown_float32(self.child_boxes[:6], self.child_boxes[6:], bound)
+        return (np.concatenate(children), *grown_float32(self.box_lower, self.box_upper, bound))
 
     def _descend(self, rays_data, child_boxes, t_min, best, rays, nodes):
         """Rays (n,) from nodes (n,) down to a leaf each, always into the nearer child met (within (t_min, the ray's

@@ -149,6 +149,23 @@ def origins_exponent(O: np.ndarray) -> int:
     return math.frexp(float(np.abs(O).max()) if O.size else 0.0)[1]
 
 
+GROWN_KEPT = 2  # grown box sets a kernel keeps (kept_grown): the camera's reach and the scene's
+
+
+def kept_grown(kept: dict[int, tuple], O: np.ndarray, reach: float, make) -> tuple:
+    """The float32 boxes make(bound) gives (grown_float32 of a kernel's boxes) for rays whose origins (3, n) lie within
+    2**e of 0 (e = origins_exponent(O), bound = 2**e + reach, reach the boxes' own), made once per e and kept in kept,
+    the last GROWN_KEPT of them (a frame's rays need one or two)."""
+    exponent = origins_exponent(O)
+    found = kept.get(exponent)
+    if found is None:
+        found = make(2.0**exponent + reach)
+        if len(kept) >= GROWN_KEPT:
+            kept.pop(next(iter(kept)))
+        kept[exponent] = found
+    return found
+
+
 def grown_float32(lower: np.ndarray, upper: np.ndarray, bound: float) -> tuple[np.ndarray, np.ndarray]:
     """Boxes (lower, upper, any shape) -> float32 boxes around them for a float32 slab test that meets every box
     the float64 test meets, for rays whose origins and the boxes lie within bound of 0 in each coordinate.

@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import transforms as tf
-from .kernels import Kernel, box_margin, grown_float32, origins_exponent, ray_count, slab, take
+from .kernels import Kernel, box_margin, grown_float32, kept_grown, ray_count, slab, take
 from .meshpicture import TrianglePicture, View
 
 # triangles per leaf: 4 rather than 8 costs one more level of box tests and halves the triangle tests of each leaf
@@ -50,7 +50,6 @@ PAIRS = 1 << 17  # (ray, triangle) pairs per pass of a picture search: its tempo
 # rays per walk of a hierarchy: a walk gathers its rays' numbers at random from arrays of all of them, which for a
 # band's 17 shadow rays a point (a million and more) no longer fit the caches (a forest's 640x480 frame 9.9 -> 3.7 s)
 RAY_PIECE = 1 << 16
-GROWN_KEPT = 2  # float32 box sets per kernel (_box_rays): the camera's reach and the scene's
 
 
 class MeshHierarchy:
@@ -493,15 +492,9 @@ class MeshKernel(Kernel):
         tree = self.hierarchy
         if self.dtype != np.float64 or not O.size:
             return BoxRays(O, 1.0 / D, tree.lower, tree.upper)
-        exponent = origins_exponent(O)
-        found = self.grown.get(exponent)
-        if found is None:
-            reach = max(float(np.abs(tree.lower[:, 0]).max()), float(np.abs(tree.upper[:, 0]).max()))
-            found = grown_float32(tree.lower, tree.upper, 2.0**exponent + reach)
-            if len(self.grown) >= GROWN_KEPT:
-                self.grown.pop(next(iter(self.grown)))
-            self.grown[exponent] = found
-        return BoxRays(O.astype(np.float32), (1.0 / D).astype(np.float32), *found)
+        reach = max(float(np.abs(tree.lower[:, 0]).max()), float(np.abs(tree.upper[:, 0]).max()))
+        lower, upper = kept_grown(self.grown, O, reach, lambda bound: grown_float32(tree.lower, tree.upper, bound))
+        return BoxRays(O.astype(np.float32), (1.0 / D).astype(np.float32), lower, upper)
 
     def _step(self, O, D, boxes, t_min, rays, nodes, best_t, best_part, any_hit=False):
         """One level of a walk: the leaves among nodes (P,) tested with their rays (P,), and the inner nodes' rays
