@@ -15,7 +15,8 @@ In a real Blender window (Debian's 3.4.1 under Xvfb, the default layout of a ful
 Rendered shading), the same edits and an orbit as the user makes them, each timed from the change (a property set,
 or a key sent with event_simulate) to each stage: view_update's export, the hand-over, view_draw's draw of the
 change's first image and of its finished one, and the end of the view's draw (a POST_PIXEL handler: Blender then
-composites the window and swaps); clicks that select start no trace; playback of 10 frames for 5 s:
+composites the window and swaps); clicks that select start no trace; playback of 10 frames for 5 s; and what one
+draw of the view costs Blender (Rendered shading with the overlays on and off, Solid) and the engine's share of it:
 
     xvfb-run -a -s "-screen 0 1920x1080x24" blender --factory-startup --enable-event-simulate \
         --python scripts/bench_viewport.py -- --repeats 3
@@ -142,6 +143,7 @@ def main() -> int:
 # --- in a real window -----------------------------------------------------------------------------------------------
 
 FINISHED = ("Weathervane Tracer: done", "Weathervane Tracer: edit")
+REDRAWS = 10  # draws of the view per timing of Blender's draw
 
 
 class Window:
@@ -166,7 +168,8 @@ class Window:
             def wrapped(session, *arguments, _original=original, _name=name, **keywords):
                 started = time.perf_counter()
                 answer = _original(session, *arguments, **keywords)
-                info = (started, time.perf_counter(), session.progressive.generation, answer)
+                drawn = getattr(session._texture_level, "generation", None)  # the scene of the image it showed
+                info = (started, time.perf_counter(), session.progressive.generation, answer, drawn)
                 self.record(_name, info)
                 return answer
 
@@ -290,16 +293,24 @@ class Window:
         def step():
             # Space over the view, as the user starts and stops it: an operator called under a context override
             # while the view traces can crash Blender (tests/addon/gui_session.py's tracing_quiet says why)
-            if "started" not in state:
+            if "keyed" not in state:  # keyed first, then Space once the view is idle again (as a user would)
                 keyed_turn()
+                bpy.context.scene.frame_set(1)
+                state["keyed"] = self.idle(0.3)
+                return 0.05
+            if "started" not in state:
+                if state["keyed"]() is not None:
+                    return 0.05
                 state.update(first=len(self.log), started=time.perf_counter())
-                _keys("SPACE")()
+                _keys("ESC", "SPACE")()  # Esc: the splash screen of --factory-startup would take the Space
                 return 0.05
             if time.perf_counter() - state["started"] < 5.0:
                 return 0.05
             _keys("SPACE")()
             events = self.log[state["first"] :]
-            frames = {info[2] for _, k, info in events if k == "draw" and not info[3].endswith("updating")}
+            # each new image on screen: a draw of a level not drawn before (while the frames come faster than they
+            # are traced, the status says "updating" over each newly finished frame's image)
+            frames = {info[4] for _, k, info in events if k == "draw"} - {None}
             draws = sum(1 for _, k, _ in events if k == "drawn")
             self.results.setdefault("playback", []).append(
                 {"frames a second": len(frames) / 5.0, "view draws a second": draws / 5.0}
@@ -308,10 +319,40 @@ class Window:
 
         return step
 
+    def redraw_costs(self):
+        """A step: with the view finished, Blender's own draw of it (wm.redraw_timer, the 3D View's region) in
+        Rendered shading with the overlays on and off, and in Solid shading, and the engine's share of the Rendered
+        draw (ViewportSession.draw): what an edit's "updating" waits for after view_update."""
+
+        def step():
+            window, area, region = view3d()
+            space = area.spaces.active
+            first = len(self.log)
+            costs = {}
+            for label, shading, overlays in (
+                ("rendered, overlays on", "RENDERED", True),
+                ("rendered, overlays off", "RENDERED", False),
+                ("solid, overlays on", "SOLID", True),
+            ):
+                space.shading.type, space.overlay.show_overlays = shading, overlays
+                with bpy.context.temp_override(window=window, area=area, region=region):
+                    bpy.ops.wm.redraw_timer(type="DRAW", iterations=2)  # a shading's first draws set it up
+                    started = time.perf_counter()
+                    bpy.ops.wm.redraw_timer(type="DRAW", iterations=REDRAWS)
+                costs[label] = (time.perf_counter() - started) / REDRAWS
+            space.shading.type, space.overlay.show_overlays = "RENDERED", True
+            draws = [info[1] - info[0] for _, kind, info in self.log[first:] if kind == "draw"]
+            costs["the engine's draw"] = statistics.median(draws) if draws else float("nan")
+            self.results.setdefault("region draw", []).append(costs)
+            return None
+
+        return step
+
     def report(self) -> None:
         for name, runs in self.results.items():
             keys = [key for key in runs[0] if all(key in run for run in runs)]
-            figures = ", ".join(f"{key} {statistics.median(run[key] for run in runs):.2f}" for key in keys)
+            places = 4 if name == "region draw" else 2  # the engine's share of a draw is a millisecond
+            figures = ", ".join(f"{key} {statistics.median(run[key] for run in runs):.{places}f}" for key in keys)
             print(f"  {name:22} {figures}", flush=True)
 
 
@@ -380,6 +421,8 @@ def window_main(options: argparse.Namespace) -> int:
             harness.idle(),
         ]
     steps += [harness.playback(), harness.idle()]
+    for _ in range(options.repeats):
+        steps += [harness.redraw_costs(), harness.idle()]
     harness.steps = steps
     bpy.app.timers.register(harness.run, first_interval=0.5)
     bpy.app.timers.register(_sleep_as_blender_does, first_interval=0.0, persistent=True)
