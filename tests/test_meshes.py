@@ -442,6 +442,15 @@ def test_meshes_are_equal_by_their_arrays_bits() -> None:
     assert pickle.loads(pickle.dumps(one)) == one
     moved = replace(one, vertices=np.where(one.vertices == 0.0, -0.0, one.vertices))  # -0.0 where 0.0 was
     assert moved != one
+    # the hash and digest are kept per object and never pickled (a str's hash differs between processes); a field
+    # that is not an array (the name), or an array moved to another field, still makes another mesh
+    assert hash(one) == hash(one) and "_hash" in one.__dict__
+    state = one.__getstate__()
+    assert "_hash" not in state and "_contents_digest" not in state
+    assert replace(one, name="other") != one and hash(replace(one, name="other")) != hash(one)
+    assert replace(one, normals=None) != one and replace(one, normals=None) == replace(two, normals=None)
+    coloured = replace(one, normals=None, colors=one.normals.astype(np.float32))
+    assert coloured != replace(one, normals=None) and coloured.contents_digest() != one.contents_digest()
     old = uv_sphere(300)
     new = replace(old, objects=(old.objects[0], replace(old.objects[1], location=(0.0, 0.0, 2.5))))
     assert edits.edits_between(old, new) == [edits.TransformEdit("mesh", (0.0, 0.0, 2.5), (0.0, 0.0, 0.0))]

@@ -7,7 +7,9 @@ linear RGB in [0, 1]. Every object has a location, a rotation, a size of its own
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
+from operator import attrgetter
 from typing import Literal
 
 import numpy as np
@@ -204,15 +206,14 @@ def same_arrays(a: np.ndarray | None, b: np.ndarray | None) -> bool:
 ARRAY_COMPARISONS = [0]
 
 
-def array_digest(array: np.ndarray | None) -> bytes:
-    """A 16-byte digest of an array's shape, dtype and bits (b"" for None): equal arrays, equal digests."""
+def _add_array(digest, array: np.ndarray | None) -> None:
+    """An array's dtype, shape and bits into a running digest (None: a mark of its own)."""
     if array is None:
-        return b""
+        digest.update(b"None;")
+        return
     contiguous = np.ascontiguousarray(array)
-    digest = hashlib.blake2b(digest_size=16)
-    digest.update(f"{contiguous.dtype.str}{contiguous.shape}".encode())
+    digest.update(f"{contiguous.dtype.str}{contiguous.shape};".encode())
     digest.update(contiguous.reshape(-1).view(np.uint8).data)
-    return digest.digest()
 
 
 class ArraysByBits:
@@ -227,14 +228,25 @@ class ArraysByBits:
     UNCOMPARED: tuple[str, ...] = ()
 
     def _plain(self) -> tuple:
-        left_out = self.ARRAYS + self.UNCOMPARED
-        return tuple(getattr(self, f.name) for f in fields(self) if f.name not in left_out)
+        """The other fields' values, in their order (a getter made once per class: dataclasses.fields() on each
+        call cost half of hashing a scene's 3,000 objects, which a worker does for every new scene)."""
+        getter = _PLAIN_GETTERS.get(self.__class__)
+        if getter is None:
+            left_out = self.ARRAYS + self.UNCOMPARED
+            names = [f.name for f in fields(self) if f.name not in left_out]
+            many = attrgetter(*names) if names else (lambda _: ())
+            getter = _PLAIN_GETTERS[self.__class__] = many if len(names) != 1 else (lambda value: (many(value),))
+        return getter(self)
 
     def contents_digest(self) -> bytes:
-        """The digests of the ARRAYS, joined; computed on first use and kept (the arrays are read-only)."""
+        """A 16-byte digest of the ARRAYS' shapes, dtypes and bits (equal arrays, equal digests), in one pass over
+        them; computed on first use and kept (the arrays are read-only)."""
         kept = self.__dict__.get("_contents_digest")
         if kept is None:
-            kept = b"".join(array_digest(getattr(self, name)) for name in self.ARRAYS)
+            digest = hashlib.blake2b(digest_size=16)
+            for name in self.ARRAYS:
+                _add_array(digest, getattr(self, name))
+            kept = digest.digest()
             object.__setattr__(self, "_contents_digest", kept)
         return kept
 
@@ -250,13 +262,23 @@ class ArraysByBits:
         )
 
     def __hash__(self) -> int:
-        return hash((self._plain(), self.contents_digest()))
+        """Computed on first use and kept, as the digest (the object is frozen, its fields too)."""
+        kept = self.__dict__.get("_hash")
+        if kept is None:
+            kept = hash((self._plain(), self.contents_digest()))
+            object.__setattr__(self, "_hash", kept)
+        return kept
 
     def __getstate__(self) -> dict:
-        """Pickled without the kept digest (a worker computes its own where it needs one)."""
+        """Pickled without the kept digest and hash (a worker computes its own where it needs them: a str's hash
+        differs from process to process)."""
         state = dict(self.__dict__)
         state.pop("_contents_digest", None)
+        state.pop("_hash", None)
         return state
+
+
+_PLAIN_GETTERS: dict[type, Callable[[object], tuple]] = {}  # ArraysByBits._plain's, by class
 
 
 INTERPOLATIONS = ("linear", "closest")  # Blender's Image Texture interpolation Linear, Closest
