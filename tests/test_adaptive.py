@@ -9,7 +9,7 @@ import pytest
 
 from tracer.scene.loader import default_scene, scene_from_dict
 from tracer.workers import adaptive
-from tracer.workers.parallel import render
+from tracer.workers.parallel import Renderer, bands, render
 
 
 def test_disagreeing_pixels_are_both_sides_of_an_edge_and_nothing_flat() -> None:
@@ -84,3 +84,31 @@ def test_the_threshold_is_checked_with_a_clear_message() -> None:
     }
     with pytest.raises(SceneError, match="adaptive_threshold"):
         scene_from_dict(document)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_the_second_pass_is_told_to_progress_and_shown_run_by_run_and_gives_the_same_image(workers: int) -> None:
+    """An F12 display follows both passes: one count over the first pass's bands and the second pass's runs, and
+    each run's rows shown as it finishes."""
+    scene = default_scene().with_render(width=96, height=72, samples=16, adaptive_threshold=0.005)
+    told, shown = [], []
+    with Renderer(workers) as renderer:
+        result = renderer.render(
+            scene,
+            lambda done, total: told.append((done, total)),
+            None,
+            lambda image, rows: shown.append((image.copy(), rows)),
+        )
+        pieces = renderer.pixel_pieces(scene.render)
+    first_bands = len(bands(scene.with_render(samples=1).render))
+    totals = {total for _, total in told}
+    assert totals == {first_bands + pieces}
+    done = [d for d, _ in told]
+    assert done == sorted(done) and done[-1] == first_bands + pieces and len(done) == first_bands + pieces
+    # the second pass's runs: every traced-again pixel's row shown, and the last image shown is the result's
+    flagged = adaptive.grown(adaptive.disagreeing(render(scene.with_render(samples=1), workers=1).image, 0.005))
+    second = shown[first_bands:]
+    assert len(second) == pieces
+    assert set(np.flatnonzero(flagged.any(axis=1))) <= set(np.concatenate([rows for _, rows in second]).tolist())
+    assert np.array_equal(second[-1][0], result.image)
+    assert np.array_equal(result.image, render(scene, workers=1).image)

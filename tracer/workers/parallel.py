@@ -373,8 +373,18 @@ class Renderer:
             scene = shutter.still(scene)  # poses all alike: the same bytes as without them
         if adaptive.applies(scene.render) and volume is None:
             started = time.perf_counter()
+            # one count over both passes: the first pass's bands, then the runs of the pixels traced again
+            pieces = self.pixel_pieces(scene.render)
+            first_bands = len(bands(scene.with_render(samples=adaptive.base_samples(scene.render.samples)).render))
+            total = first_bands + pieces
+            told = after = None
+            if progress is not None:
+                told = lambda done, _: progress(done, total)  # noqa: E731
+                after = lambda done, count: progress(total - count + done, total)  # noqa: E731
             image, rays, share = adaptive.render(
-                lambda first: self.render(first, progress, None, band_done), self.render_pixels, scene
+                lambda first: self.render(first, told, None, band_done),
+                lambda full, pixels, base: self.render_pixels(full, pixels, base, after, band_done, pieces),
+                scene,
             )
             result = _result(image, rays, time.perf_counter() - started)
             result.adaptive = share
@@ -421,22 +431,45 @@ class Renderer:
             self._prepared = (scene_bytes, headings, TracedScene(scene, headings))
         return self._prepared[2]
 
-    def render_pixels(self, scene: sc.Scene, pixels: np.ndarray, base: np.ndarray) -> RenderResult:
+    def render_pixels(
+        self,
+        scene: sc.Scene,
+        pixels: np.ndarray,
+        base: np.ndarray,
+        progress: Progress | None = None,
+        band_done: BandDone | None = None,
+        pieces: int | None = None,
+    ) -> RenderResult:
         """The image base (height, width, 3), or (height, width, 4) with alpha for a scene that has one, with the
         flat pixels (P,) traced again in scene: bit for bit the scene's whole image where no other pixel can differ
-        from base (footprint.py)."""
+        from base (footprint.py). pieces: traced in that many runs of the pixels (at most one a pixel), each told to
+        progress(done, runs) and band_done(image so far, its rows) as it finishes (an adaptive F12's second pass,
+        which a display follows as it follows bands); None: a run per worker."""
+        count = min(len(pixels), self.workers if pieces is None else pieces)
+        runs = np.array_split(np.asarray(pixels), count) if count else []
         if self.workers > 1:
             self._start_pool()
-            return self._submit_pixels(scene, pixels, base).finish()
+            return self._submit_pixels(scene, runs, base, pixels).finish(progress, band_done)
         started = time.perf_counter()
         image = base.copy()
+        flat = image.reshape(-1, image.shape[-1])
         counts = RayCounts()
-        if len(pixels):  # none: the scene's image is base (nothing to prepare)
-            colors, counts = self._prepared_here(scene).render_pixels(pixels, band_samples(scene.render))
-            image.reshape(-1, image.shape[-1])[pixels] = colors[:, : image.shape[-1]]
+        prepared = self._prepared_here(scene) if runs else None  # no pixels: the image is base, nothing to prepare
+        for done, run in enumerate(runs, 1):
+            colors, run_counts = prepared.render_pixels(run, band_samples(scene.render))
+            flat[run] = colors[:, : image.shape[-1]]
+            counts.add(run_counts)
+            if band_done is not None:
+                band_done(_colour(image), np.unique(run // image.shape[1]))
+            if progress is not None:
+                progress(done, len(runs))
         result = _result(image, counts, time.perf_counter() - started)
         result.retraced = (base, np.asarray(pixels))
         return result
+
+    def pixel_pieces(self, settings: sc.RenderSettings) -> int:
+        """The runs an adaptive frame's second pass is traced in: as many as its bands, at least one a worker."""
+        return max(len(bands(settings)), self.workers)
 
     def render_frames(self, scenes: Iterable[sc.Scene]) -> Iterator[RenderResult]:
         """render() for each scene in turn, results in order. With workers the next frame's bands wait in the
@@ -546,15 +579,13 @@ class Renderer:
         frame.planes = planes
         return frame
 
-    def _submit_pixels(self, scene: sc.Scene, pixels: np.ndarray, base: np.ndarray) -> _Frame:
-        """A frame of base with pixels traced again, in a task per worker (none for no pixels)."""
+    def _submit_pixels(self, scene: sc.Scene, runs: list[np.ndarray], base: np.ndarray, pixels: np.ndarray) -> _Frame:
+        """A frame of base with pixels traced again, a task for each run of them (none for no pixels)."""
         pool = self._start_pool()
         started = time.perf_counter()
         message, scene_file = self._scenes.message(scene)
         descriptors = () if scene_file is None else (scene_file.descriptor,)
-        count = min(len(pixels), self.workers)
-        pieces_of = np.array_split(pixels, count) if count else []
-        tasks = [(piece, pool.submit(_render_pixels, (message, piece), descriptors)) for piece in pieces_of]
+        tasks = [(run, pool.submit(_render_pixels, (message, run), descriptors)) for run in runs]
         base_pixels = (base, np.asarray(pixels))
         return _Frame(pool, base.copy(), tasks, None, started, pixels=True, base=base_pixels, scene_file=scene_file)
 
@@ -645,6 +676,8 @@ class _Frame:
                     colors, piece_counts = task.result
                     channels = self.image.shape[-1]  # 4 where base carries alpha
                     self.image.reshape(-1, channels)[where[id(task)]] = colors[:, :channels]
+                    if band_done is not None:
+                        band_done(_colour(self.image), np.unique(where[id(task)] // self.image.shape[1]))
                 else:
                     band, piece_counts, band_touched = task.result
                     if isinstance(band, tuple):  # no shared file: the band's rows of the passes came back too
