@@ -15,6 +15,10 @@ from . import light_convert, material_convert, world_convert
 _updates = [0]  # depsgraph updates seen
 _converted: dict[tuple[str, str], list[str]] = {}  # (kind, name) -> notes, until that data-block changes
 _listing: dict[str, object] = {"update": -1, "scene": None, "rows": []}
+_glass: dict[str, bool] = {}  # material name -> whether it lets light through (transmission), as last converted
+# a glass material's note while Cycles' Light Paths > Caustics > Refractive is on (its default): the tracer's glass
+# casts the shadow Cycles casts with it off (F12's line says the same)
+GLASS_SHADOW = "shadow opaque: as Refractive Caustics off"
 
 
 @bpy.app.handlers.persistent
@@ -54,7 +58,9 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
 
     Converted once per data-block and kept until a depsgraph update changes it; the listing itself is made again only
     after an update, never on a redraw."""
-    if _listing["update"] == _updates[0] and _listing["scene"] == blender_scene.name:
+    # Cycles' default lets light through glass into its shadow; the tracer's glass casts Cycles' shadow with it off
+    caustics = bool(getattr(getattr(blender_scene, "cycles", None), "caustics_refractive", False))
+    if _listing["update"] == _updates[0] and _listing["scene"] == (blender_scene.name, caustics):
         return _listing["rows"]
     rows, materials, lights = [], {}, {}
     for obj in _rendered_objects(blender_scene):
@@ -65,7 +71,10 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
                 materials.setdefault(material.name, material)
     for name in sorted(materials):
         material = materials[name]
-        rows.append(("MATERIAL", name, _notes("material", name, lambda m=material: _material_notes(m, blender_scene))))
+        notes = _notes("material", name, lambda m=material: _material_notes(m, blender_scene))
+        if caustics and _glass.get(name):
+            notes = [*notes, GLASS_SHADOW]
+        rows.append(("MATERIAL", name, notes))
     # beside the add-on's vane the Lights panel's lights and the vane's Background render, not the scene's own
     settings = getattr(blender_scene, "weathervane", None)
     vane = build.has_vane()
@@ -88,7 +97,7 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
             lambda: world_convert.convert_world(world, blender_scene=blender_scene)[2],
         )
         rows.append(("WORLD", world.name if world else "no world (black)", notes))
-    _listing.update(update=_updates[0], scene=blender_scene.name, rows=rows)
+    _listing.update(update=_updates[0], scene=(blender_scene.name, caustics), rows=rows)
     return rows
 
 
@@ -119,7 +128,9 @@ def _materials_of(obj):
 
 
 def _material_notes(material, blender_scene) -> list[str]:
-    return material_convert.convert_material(material, blender_scene=blender_scene)[1]
+    converted, notes = material_convert.convert_material(material, blender_scene=blender_scene)
+    _glass[material.name] = converted.get("transmission", 0.0) > 0.0
+    return notes
 
 
 def summary_line(rows, characters: int | None = None, fits=None) -> str:

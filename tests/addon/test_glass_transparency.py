@@ -231,7 +231,9 @@ def test_transparent_shadows_off_is_named() -> None:
     assert notes == ["Transparent Shadows off: its shadow lets 1 - alpha through"]
 
 
-def test_the_conversion_panel_no_longer_names_glass_and_alpha_but_names_subsurface() -> None:
+def test_the_conversion_panel_names_glass_only_for_its_shadow_and_names_subsurface() -> None:
+    """Glass and alpha convert as Cycles renders them; what differs is glass's shadow while Cycles' Refractive
+    Caustics (on by default) lets light through it, which the panel names as F12's line does."""
     scene = bpy.context.scene
     scene.render.engine = ENGINE
     names = []
@@ -246,10 +248,16 @@ def test_the_conversion_panel_no_longer_names_glass_and_alpha_but_names_subsurfa
         mesh.materials.append(material)
         scene.collection.objects.link(bpy.data.objects.new(name, mesh))
         names.append(material.name)
+    scene.cycles.caustics_refractive = False
     bpy.context.view_layer.update()
     rows = {name: notes for kind, name, notes in conversion_report.scene_conversion(scene) if kind == "MATERIAL"}
     tinted = ["glass tint: the opaque part's colour"] if bpy.app.version >= (4, 0, 0) else []  # sqrt(0.8) vs 0.8
     assert rows[names[0]] == [] and rows[names[1]] == tinted
+    assert rows[names[2]] == ["subsurface: rendered as the opaque base"]
+    scene.cycles.caustics_refractive = True  # Cycles' default
+    bpy.context.view_layer.update()
+    rows = {name: notes for kind, name, notes in conversion_report.scene_conversion(scene) if kind == "MATERIAL"}
+    assert rows[names[0]] == [conversion_report.GLASS_SHADOW] and rows[names[1]] == [*tinted, rows[names[0]][0]]
     assert rows[names[2]] == ["subsurface: rendered as the opaque base"]
 
 
