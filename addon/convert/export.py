@@ -132,9 +132,9 @@ class ExportNotes:
 
 
 def named_problems(problems: list[str], document: dict, world=None) -> list[str]:
-    """The loader's problems with `objects[3]` replaced by the Blender object's name (`object "Suzanne"`) and
-    `background` by the World's and its picture's (`World "Sky", image "forest.exr"`), which is what the user can
-    find in the Outliner and the Image editor."""
+    """The loader's problems with `objects[3]` replaced by the Blender object's name (`object "Suzanne"`),
+    `background` by the World's and its picture's (`World "Sky", image "forest.exr"`) and `render.width` by Output
+    Properties' Resolution X, which is what the user can find in the Outliner, the Image editor and Properties."""
     names = [obj.get("name", "?") for obj in document.get("objects", [])]
 
     def name(match: re.Match) -> str:
@@ -142,11 +142,17 @@ def named_problems(problems: list[str], document: dict, world=None) -> list[str]
         return f'object "{names[index]}"' if index < len(names) else match.group(0)
 
     named = [re.sub(r"objects\[(\d+)\]", name, problem) for problem in problems]
+    # the image's size is Output Properties' Resolution times its %
+    named = [re.sub(r"^render\.(width|height)(?=:)", _resolution_field, problem) for problem in named]
     if world is not None:
         image = world_convert.picture_name(world)
         where = f'World "{world.name}"' + (f', image "{image}"' if image else "")
         named = [re.sub(r"^background(\.(image|pixels))?(?=[.:])", where, problem) for problem in named]
     return named
+
+
+def _resolution_field(match: re.Match) -> str:
+    return f"Resolution {'X' if match.group(1) == 'width' else 'Y'} x % (Output Properties)"
 
 
 def _render_hidden_objects() -> set[int]:

@@ -134,7 +134,9 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             document = scene_document(bpy.context, depsgraph, blender_scene, notes, budget, arrays=True, motion=moves)
             scene = tracer.scene_from_dict(export.as_json_types(document), "scene")
         except tracer.SceneError as error:
-            self._nothing_rendered("; ".join(named_problems(error.problems, document, blender_scene.world)[:4]))
+            self._nothing_rendered(
+                "Weathervane Tracer: " + "; ".join(named_problems(error.problems, document, blender_scene.world)[:4])
+            )
             return
         except tracer.ResourceError as error:  # refused before its arrays were read: nothing started
             self._nothing_rendered(f"Weathervane Tracer: not started: {error}")

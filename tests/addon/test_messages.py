@@ -83,3 +83,17 @@ def test_a_notes_button_shows_the_whole_note_and_copies_it() -> None:
     with pytest.raises(RuntimeError, match="No note to copy"):  # bad input: a clear line, no traceback
         bpy.ops.weathervane.conversion_note(note="  ")
     assert bpy.ops.weathervane.conversion_note(note=NOTE) == {"FINISHED"}
+
+
+def test_f12_of_a_resolution_beyond_the_format_names_blenders_field_whole() -> None:
+    """The refusal names what the user sets (Output Properties' Resolution and its %), not the scene format's
+    render.width, with the engine's name first; nothing is rendered."""
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    render = bpy.context.scene.render
+    render.engine = "WEATHERVANE_TRACER"
+    render.resolution_x, render.resolution_y, render.resolution_percentage = 20000, 1080, 100
+    with pytest.raises(RuntimeError) as raised:
+        bpy.ops.render.render()
+    message = str(raised.value).strip().removeprefix("Error: ")
+    assert message == "Weathervane Tracer: Resolution X x % (Output Properties): must be <= 16384, got 20000"
+    assert messages.render_window_text() == message

@@ -270,7 +270,7 @@ def test_problems_name_the_blender_object_not_the_export_index() -> None:
     problems = ["objects[1].vertices[3]: must be 3 finite numbers", "render.width: must be >= 1"]
     assert named_problems(problems, document) == [
         'object "Suzanne".vertices[3]: must be 3 finite numbers',
-        "render.width: must be >= 1",
+        "Resolution X x % (Output Properties): must be >= 1",
     ]
 
 
