@@ -288,6 +288,7 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
             return {"CANCELLED"}
         target = Path(bpy.path.abspath(self.filepath))
         swept = tracer.sweep_stale_temporaries(target.parent)
+        beside = None
         try:
             picture = document.get("background", {}).get("image")
             if picture:  # a World's picture (world_convert.background_for_json): a .npy beside the scene file
@@ -302,7 +303,8 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
         except OSError as error:
             report(self, {"ERROR"}, f"cannot write {target}: {error.strerror or error}")
             return {"CANCELLED"}
-        wrote = f"Wrote {target}" + (f"; removed {swept} temporary file(s) a killed export had left" if swept else "")
+        wrote = f"Wrote {target}" + (f" and the World's picture beside it, {beside.name}" if beside else "")
+        wrote += f"; removed {swept} temporary file(s) a killed export had left" if swept else ""
         left_out = camera.unsupported(context.scene)
         if left_out:
             report(self, {"WARNING"}, f"{wrote}; the tracer does not render: {', '.join(left_out)}")

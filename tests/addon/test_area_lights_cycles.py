@@ -196,7 +196,7 @@ def _picture_world(scene) -> np.ndarray:
     return texels[::-1, :, :3]  # Blender's rows run from the bottom
 
 
-def test_the_worlds_picture_goes_to_f12_as_an_array_and_to_json_documents_as_a_npy_file(tmp_path: Path) -> None:
+def test_the_worlds_picture_goes_to_f12_as_an_array_and_to_json_documents_as_a_npy_file(tmp_path: Path, capfd) -> None:
     from addon.convert import export, world_convert
     from tracer.scene.loader import load_scene, scene_from_dict
 
@@ -216,4 +216,6 @@ def test_the_worlds_picture_goes_to_f12_as_an_array_and_to_json_documents_as_a_n
     target = tmp_path / "scene.json"
     assert bpy.ops.weathervane.export(filepath=str(target)) == {"FINISHED"}  # File > Export: the .npy beside it
     assert (tmp_path / "scene.world.npy").is_file()
+    reported = capfd.readouterr()  # the report names both files: the scene file needs its picture
+    assert f"Wrote {target} and the World's picture beside it, scene.world.npy" in reported.out + reported.err
     assert np.array_equal(load_scene(target).background.image, expected)
