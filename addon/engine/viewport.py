@@ -13,6 +13,7 @@ is ("Sample 4/16"), as Cycles' viewport does. F12 reads only its own settings.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import threading
 import time
@@ -153,7 +154,9 @@ class ViewportSession:
             samples = min(width * height * pixel * shadows, self._editable_samples)
             budget = MemoryBudget(depsgraph.scene, size=self._view_size, extra=samples * self._kept_bytes)
         try:
-            document = scene_document(context, depsgraph, depsgraph.scene, budget=budget)
+            # arrays as NumPy arrays (as F12's): a textured, subdivided scene's lists cost 0.3 s a change to make,
+            # serialize for the key and read back, before the view could show "updating"
+            document = scene_document(context, depsgraph, depsgraph.scene, budget=budget, arrays=True)
         except tracer.ResourceError as refusal:  # too large for the free memory: not read
             self.error, self.document = f"Weathervane Tracer: not started: {refusal}", None  # as F12 says it
             return
@@ -165,7 +168,7 @@ class ViewportSession:
             return
         document.pop("camera", None)
         self.document, self.error = document, None
-        self._scene_key = json.dumps(document, sort_keys=True)
+        self._scene_key = json.dumps(document, sort_keys=True, default=_array_key)
 
     def show(self, region, view, playing: bool = False) -> None:
         """Hand the scene as seen from this view to the tracing thread, if it differs from the one shown. playing:
@@ -183,8 +186,10 @@ class ViewportSession:
         if key == self._shown_key:
             return
         document = {**self.document, **json.loads(view_part)}
+        from ..convert.export import as_json_types
+
         try:
-            scene = tracer.scene_from_dict(document, "viewport")
+            scene = tracer.scene_from_dict(as_json_types(document), "viewport")
         except tracer.SceneError as error:
             from ..convert.export import named_problems
 
@@ -253,6 +258,32 @@ class ViewportSession:
             return f"Weathervane Tracer: {sample} ({level.seconds:.2f} s)"
         where = f"1/{level.divisor} resolution"
         return f"Weathervane Tracer: {f'{sample}, ' if sample else ''}{where} ({level.seconds:.2f} s)"
+
+
+def _array_key(value) -> str | float | int:
+    """json.dumps' default for a document with arrays: a NumPy number as itself, an array as its dtype, shape and a
+    digest of its bits (kept for a read-only array seen again, such as a World's picture: 2 MB and more to digest)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if not isinstance(value, np.ndarray):
+        raise TypeError(f"not JSON: {type(value).__name__}")
+    kept = _digests.get(id(value))
+    if kept is not None and kept[0] is value:
+        return kept[1]
+    digest = hashlib.blake2b(np.ascontiguousarray(value).data, digest_size=16).hexdigest()
+    key = f"{value.dtype.str}{value.shape}:{digest}"
+    read_only, base = True, value
+    while isinstance(base, np.ndarray) and read_only:
+        read_only, base = not base.flags.writeable, base.base
+    if read_only and base is None:  # nothing can change its bits while it is kept here
+        while len(_digests) >= DIGESTS_KEPT:
+            _digests.pop(next(iter(_digests)))
+        _digests[id(value)] = (value, key)
+    return key
+
+
+DIGESTS_KEPT = 16
+_digests: dict[int, tuple[np.ndarray, str]] = {}  # id(array) -> (the array, kept alive: its id stays its own; key)
 
 
 def view_samples(settings) -> tracer.Samples:

@@ -405,11 +405,13 @@ def capture_rendered() -> float | None:
     viewport = sys.modules["weathervane.engine.viewport"]
     (session,) = list(viewport._sessions)
     view = area.spaces.active.region_3d
-    document = dict(session.document)
+    document = dict(session.document)  # its arrays as NumPy's: written as lists, a World's picture as a .npy file
+    world_convert = sys.modules["weathervane.convert.world_convert"]
+    document["background"] = world_convert.background_for_json(document["background"])
     document["camera"] = viewport.view_camera(view.view_matrix, view.window_matrix, region.width, region.height)
     document["render"] = {**document["render"], "width": region.width, "height": region.height}
     with open(os.path.join(WORK, "rendered-scene.json"), "w") as file:
-        json.dump(document, file)
+        json.dump(document, file, default=lambda value: value.tolist())
     place = {"x": region.x, "y": region.y, "width": region.width, "height": region.height, "window": window.height}
     # the last operator's panel (Reset's "Adjust Last Operation") drawn over the view's corner, in window pixels
     # (hiding it with show_region_hud crashes Blender 3.4.1 when the view then goes Rendered)

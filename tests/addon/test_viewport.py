@@ -332,3 +332,29 @@ def test_a_views_gpu_texture_is_freed_on_the_main_thread_only_wherever_its_sessi
         assert freed_on == ["MainThread"], ending
         freed_on.clear()
     assert not viewport._textures
+
+
+def test_the_views_scene_key_tells_arrays_apart_by_their_bits() -> None:
+    """The view's document carries NumPy arrays (a texture's pixels, a mesh's vertices, a World's picture); its key
+    names each by dtype, shape and a digest of its bits, so that equal arrays give the same key (no new trace) and
+    any changed bit another; a read-only array's digest is kept, a writeable one's (or a view of one) made again."""
+    key = lambda document: json.dumps(document, sort_keys=True, default=viewport._array_key)  # noqa: E731
+    pixels = np.linspace(0.0, 1.0, 48, dtype=np.float32).reshape(4, 4, 3).copy()
+    same = pixels.copy()
+    assert key({"pixels": pixels}) == key({"pixels": same})
+    assert key({"pixels": pixels}) != key({"pixels": pixels.astype(np.float64)})
+    assert key({"pixels": pixels}) != key({"pixels": pixels.reshape(16, 3)})
+    signed = pixels.copy()
+    signed[0, 0, 0] = -0.0  # 0.0 there before: equal as numbers, another bit
+    assert key({"pixels": signed}) != key({"pixels": pixels})
+    before = key({"pixels": same})
+    same[1, 1, 1] += 0.5  # writeable: changed in place, its key follows
+    assert key({"pixels": same}) != before and id(same) not in viewport._digests
+    view = same[:2]
+    view.flags.writeable = False  # its memory is still same's, which can change: not kept
+    key({"pixels": view})
+    assert id(view) not in viewport._digests
+    pixels.flags.writeable = False
+    key({"pixels": pixels})
+    assert viewport._digests[id(pixels)][0] is pixels
+    assert key({"n": np.float32(0.5), "k": np.int64(3)}) == key({"n": 0.5, "k": 3})
