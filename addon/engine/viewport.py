@@ -262,7 +262,7 @@ class ViewportSession:
 
 def _array_key(value) -> str | float | int:
     """json.dumps' default for a document with arrays: a NumPy number as itself, an array as its dtype, shape and a
-    digest of its bits (kept for a read-only array seen again, such as a World's picture: 2 MB and more to digest)."""
+    digest of its bits (kept for a large read-only array seen again, such as a World's picture)."""
     if isinstance(value, np.generic):
         return value.item()
     if not isinstance(value, np.ndarray):
@@ -275,15 +275,18 @@ def _array_key(value) -> str | float | int:
     read_only, base = True, value
     while isinstance(base, np.ndarray) and read_only:
         read_only, base = not base.flags.writeable, base.base
-    if read_only and base is None:  # nothing can change its bits while it is kept here
+    if read_only and base is None and value.nbytes >= DIGEST_KEPT_FROM:  # nothing can change its bits while kept
         while len(_digests) >= DIGESTS_KEPT:
             _digests.pop(next(iter(_digests)))
         _digests[id(value)] = (value, key)
     return key
 
 
-DIGESTS_KEPT = 16
-_digests: dict[int, tuple[np.ndarray, str]] = {}  # id(array) -> (the array, kept alive: its id stays its own; key)
+# digests kept for read-only arrays of at least DIGEST_KEPT_FROM bytes (a World's picture, a large texture: 1-4 ms a
+# MB to digest), at most DIGESTS_KEPT of them: each is kept alive here, so that its id stays its own
+DIGEST_KEPT_FROM = 1 << 20
+DIGESTS_KEPT = 4
+_digests: dict[int, tuple[np.ndarray, str]] = {}  # id(array) -> (the array, its key)
 
 
 def view_samples(settings) -> tracer.Samples:

@@ -356,5 +356,13 @@ def test_the_views_scene_key_tells_arrays_apart_by_their_bits() -> None:
     assert id(view) not in viewport._digests
     pixels.flags.writeable = False
     key({"pixels": pixels})
-    assert viewport._digests[id(pixels)][0] is pixels
+    assert id(pixels) not in viewport._digests  # small: digested each time
+    picture = np.linspace(0.0, 1.0, 3 << 18, dtype=np.float32).reshape(512, 512, 3)  # a World's picture: 3 MB
+    picture.flags.writeable = False  # a view of linspace's array: read-only, but its base is writeable
+    key({"pixels": picture})
+    assert id(picture) not in viewport._digests
+    picture = picture.copy()
+    picture.flags.writeable = False
+    picture_key = key({"pixels": picture})
+    assert viewport._digests[id(picture)][0] is picture and key({"pixels": picture}) == picture_key
     assert key({"n": np.float32(0.5), "k": np.int64(3)}) == key({"n": 0.5, "k": 3})
