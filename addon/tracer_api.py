@@ -64,6 +64,7 @@ if BUILT:
         SpotLight,
         Texture,
         WorldLight,
+        immutable,
     )
     from weathervane_tracer.scene.wind import Gusts, Wind, WindKey
     from weathervane_tracer.tracing.cryptomatte import layer_header as cryptomatte_layer_header
@@ -111,6 +112,7 @@ else:  # the repository's package
         SpotLight,
         Texture,
         WorldLight,
+        immutable,
     )
     from tracer.scene.wind import Gusts, Wind, WindKey
     from tracer.tracing.cryptomatte import layer_header as cryptomatte_layer_header
@@ -175,6 +177,7 @@ __all__ = [
     "default_scene",
     "documented_background_direction",
     "euler_xyz_from_matrix",
+    "immutable",
     "load_scene",
     "object_frame",
     "pyramid_vertices",

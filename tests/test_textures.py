@@ -659,3 +659,35 @@ def test_a_rotated_mapping_turns_the_scaled_uv_before_the_offset(interpolation: 
     a, b = turned_u * 3, turned_v * 3
     edges = np.minimum(np.abs(a - np.round(a)), np.abs(b - np.round(b))) > 1e-6
     assert np.array_equal(found[edges], checker_expected(turned_u, turned_v, 3.0, [1, 0, 0], [0, 0, 1])[edges])
+
+
+def test_a_large_read_only_inline_texture_is_converted_once_and_a_changed_one_again() -> None:
+    """A document's texture given as a read-only array of 1 MB or more (the Rendered view hands the same one over on
+    every change) is converted and checked once: the next load takes the same linear texels; a writeable array, or
+    another array with other bits, is converted again, and a bad texel is refused every time."""
+    from tracer.scene import loader
+
+    pixels = np.full((512, 512, 3), 0.5, dtype=np.float32)  # 3 MB
+    pixels[0, 0] = [0.25, 0.5, 1.0]
+    writeable = pixels.copy()
+    pixels.flags.writeable = False
+
+    def texels(values: np.ndarray, colorspace: str = "sRGB") -> np.ndarray:
+        document = quad_document({"pixels": values, "colorspace": colorspace})
+        return scene_from_dict(document).materials["tex"].texture.pixels
+
+    first = texels(pixels)
+    assert texels(pixels) is first and np.array_equal(first, tx.linear_pixels(pixels, "sRGB"))
+    assert np.array_equal(texels(pixels, "linear"), pixels) and texels(pixels, "linear") is not first
+    assert texels(writeable) is not texels(writeable) and np.array_equal(texels(writeable), first)
+    other = pixels.copy()
+    other[1, 1] = [1.0, 0.0, 0.0]
+    other.flags.writeable = False
+    assert not np.array_equal(texels(other), first)
+    bad = pixels.copy()
+    bad[2, 3, 1] = np.nan
+    bad.flags.writeable = False
+    for _ in range(2):
+        with pytest.raises(SceneError, match=r"texel \(row 2, column 3\)"):
+            texels(bad)
+    assert len(loader._checked_texels) <= loader.TEXELS_KEPT

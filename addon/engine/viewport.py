@@ -272,10 +272,7 @@ def _array_key(value) -> str | float | int:
         return kept[1]
     digest = hashlib.blake2b(np.ascontiguousarray(value).data, digest_size=16).hexdigest()
     key = f"{value.dtype.str}{value.shape}:{digest}"
-    read_only, base = True, value
-    while isinstance(base, np.ndarray) and read_only:
-        read_only, base = not base.flags.writeable, base.base
-    if read_only and base is None and value.nbytes >= DIGEST_KEPT_FROM:  # nothing can change its bits while kept
+    if value.nbytes >= DIGEST_KEPT_FROM and tracer.immutable(value):  # nothing can change its bits while kept
         while len(_digests) >= DIGESTS_KEPT:
             _digests.pop(next(iter(_digests)))
         _digests[id(value)] = (value, key)

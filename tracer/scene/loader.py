@@ -346,6 +346,9 @@ def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
         values = _texture_pixels(reader, pixels)
         if values is None:
             return None
+        kept = _checked_texels.get((id(values), colorspace))
+        if kept is not None and kept[0] is values:  # the same pixels, already found a picture
+            return sc.Texture(pixels=kept[1], interpolation=interpolation, extension=extension, **mapping)
     try:
         linear = tx.linear_pixels(values, colorspace)
     except tx.TextureFileError as error:
@@ -361,7 +364,20 @@ def _texture(reader: _Reader | None, base: Path | None) -> sc.Texture | None:
         reader.fail("image" if image is not None else "pixels", problem)
         return None
     linear.flags.writeable = False  # the texture keeps it, without a copy
+    if image is None and values.nbytes >= KEPT_TEXELS_FROM and sc.immutable(values):
+        while len(_checked_texels) >= TEXELS_KEPT:
+            _checked_texels.pop(next(iter(_checked_texels)))
+        _checked_texels[(id(values), colorspace)] = (values, linear)
     return sc.Texture(pixels=linear, interpolation=interpolation, extension=extension, source=source, **mapping)
+
+
+# A document's inline texture given as a read-only array of at least KEPT_TEXELS_FROM bytes is converted and checked
+# once: the Rendered view hands the same array over on every change, and a 4096 x 4096 picture's conversion took
+# 0.25 s (up to 1 s beside the view's tracing). At most TEXELS_KEPT of them; each input kept alive with its result,
+# so that its id stays its own, and nothing can change its bits (scene.immutable)
+KEPT_TEXELS_FROM = 1 << 20
+TEXELS_KEPT = 4
+_checked_texels: dict[tuple[int, str], tuple[np.ndarray, np.ndarray]] = {}
 
 
 def _procedural_texture(reader: _Reader) -> sc.Texture | None:

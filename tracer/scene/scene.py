@@ -168,7 +168,7 @@ def frozen_array(values: object, dtype: type, shape: tuple[int, ...]) -> np.ndar
     and whose memory no writeable array can change (the loader's, or a mesh's passed on by dataclasses.replace), is
     kept without a copy; anything else is copied, so that no caller's array can change a scene once it is made."""
     array = values if isinstance(values, np.ndarray) else np.asarray(values, dtype=dtype)
-    if not (array.dtype == dtype and array.flags.c_contiguous and _immutable(array)):
+    if not (array.dtype == dtype and array.flags.c_contiguous and immutable(array)):
         array = np.array(array, dtype=dtype, order="C", copy=True)
     if array.size == 0:  # an empty mesh (a scene made in code): its other axes still hold
         array = np.zeros(tuple(0 if n == -1 else n for n in shape), dtype=dtype)
@@ -178,7 +178,7 @@ def frozen_array(values: object, dtype: type, shape: tuple[int, ...]) -> np.ndar
     return array
 
 
-def _immutable(array: np.ndarray) -> bool:
+def immutable(array: np.ndarray) -> bool:
     """Whether nothing can write into the array's memory: it and every array it views are read-only, down to one
     that owns its memory."""
     while isinstance(array, np.ndarray):
