@@ -216,7 +216,7 @@ class WEATHERVANE_OT_import(bpy.types.Operator, JsonFileBrowser):
     """Build the weathervane from a tracer scene file (.json) in its own collection"""
 
     bl_idname = "weathervane.import_scene"
-    bl_label = "Import Weathervane Scene"
+    bl_label = "Import Weathervane"
 
     @reports_errors
     def execute(self, context):
@@ -260,7 +260,7 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
     """Write the scene as a tracer scene file (.json)"""
 
     bl_idname = "weathervane.export"
-    bl_label = "Export Weathervane Scene"
+    bl_label = "Export Weathervane"
     filename_ext = ".json"
     filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
 
