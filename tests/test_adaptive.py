@@ -112,3 +112,43 @@ def test_the_second_pass_is_told_to_progress_and_shown_run_by_run_and_gives_the_
     assert set(np.flatnonzero(flagged.any(axis=1))) <= set(np.concatenate([rows for _, rows in second]).tolist())
     assert np.array_equal(second[-1][0], result.image)
     assert np.array_equal(result.image, render(scene, workers=1).image)
+
+
+def _cube_under_the_world() -> dict:
+    """A cube on a ground under a uniform world light (its contact shadow), 96x72."""
+    return {
+        "materials": {"white": {"color": [0.8, 0.8, 0.8], "specular": 0}, "red": {"color": [0.8, 0.2, 0.2]}},
+        "objects": [
+            {"name": "ground", "type": "plane", "material": "white", "size": [20, 20]},
+            {"name": "cube", "type": "box", "material": "red", "location": [0, 0, 0.5], "size": [1, 1, 1]},
+        ],
+        "lights": [{"type": "world", "intensity": 1.0, "samples": 16}],
+        "camera": {"location": [3.5, -3.5, 3.0], "rotation": [60, 0, 45], "lens": 35},
+        "background": {"type": "solid", "color": [0.9, 0.9, 0.9]},
+        "render": {"width": 96, "height": 72, "depth": 1, "samples": 16, "adaptive_threshold": 0.005},
+    }
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_under_a_world_light_the_pixels_to_trace_again_are_flagged_by_the_steady_pass(workers: int) -> None:
+    """Each pixel turns the world light's directions (noise, which more samples of the pixel do not lessen): the
+    pixels traced again are the ones a pass with the world light unshadowed and its directions the same everywhere
+    flags, not the noise's; they are the uniform render's, the others the first pass's, and the progress counts the
+    flagging pass too."""
+    scene = scene_from_dict(_cube_under_the_world())
+    assert adaptive.steadied(scene)
+    told = []
+    with Renderer(workers) as renderer:
+        result = renderer.render(scene, lambda done, total: told.append((done, total)))
+        pieces = renderer.pixel_pieces(scene.render)
+    first = render(scene.with_render(samples=1, adaptive_threshold=0.0), workers=1).image
+    steady = render(scene.with_render(samples=1, adaptive_threshold=0.0, adaptive_flags=True), workers=1).image
+    flagged = adaptive.grown(adaptive.disagreeing(steady, 0.005))
+    noisy = adaptive.grown(adaptive.disagreeing(first, 0.005))
+    assert 0.0 < flagged.mean() < 0.25 < 0.75 < noisy.mean()  # measured 12% (the cube's outline) against 91%
+    assert result.adaptive == pytest.approx(flagged.mean())
+    uniform = render(scene.with_render(adaptive_threshold=0.0), workers=1).image
+    assert np.array_equal(result.image[flagged], uniform[flagged])
+    assert np.array_equal(result.image[~flagged], first[~flagged])
+    first_bands = len(bands(scene.with_render(samples=1).render))
+    assert told[-1] == (2 * first_bands + pieces, 2 * first_bands + pieces)

@@ -98,7 +98,8 @@ def hemisphere_directions(samples: int) -> list[sc.Vec3]:
     hemisphere, z = (i + 0.5) / samples (Archimedes: uniform in z is uniform over the hemisphere's area) turning by
     the golden angle, so that every direction has a height of its own (an occluder's edge is resolved to 1 / samples
     in z, where a grid of the same count resolves 1 / sqrt(samples)). 2 / samples times the sum of z f over them
-    estimates the cosine-weighted mean of f (exactly, for f = 1: the midpoint rule on a linear function)."""
+    estimates the cosine-weighted mean of f (exactly, for f = 1: the midpoint rule on a linear function). Each
+    pixel turns the spiral about the normal by an angle of its own (camera.world_turn), keeping the heights."""
     directions = []
     for i in range(samples):
         z = (i + 0.5) / samples

@@ -686,6 +686,9 @@ class RenderSettings:
     # samples * slices strata a pixel, and this slice traces `samples` of them, a different set in each slice and
     # pixel (camera.py's strata); None: the grid is the samples' own. Set by the shutter, not read from scene files.
     time_slice: tuple[int, int] | None = None
+    # adaptive sampling's pass that flags the pixels to trace again (adaptive.steadied): the world light unshadowed
+    # and its directions not turned pixel by pixel (camera.world_turns). Set by adaptive, not read from scene files.
+    adaptive_flags: bool = False
     # adaptive sampling (tracer/workers/adaptive.py): 0 every pixel at `samples`; above 0, every pixel at a quarter
     # of them first and the full count again where neighbouring pixels differ by more than this (linear units)
     adaptive_threshold: float = 0.0

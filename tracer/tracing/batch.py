@@ -118,7 +118,9 @@ class Hits:
     the shading normals (N itself where nothing changes them); obj, part (n,) the object and its primitive (a mesh's
     triangle); material (n,) each hit's row in the material table; surface: robust numerics' (distance, scale) (n,)
     for offset_origins, else None; colors, specular_colors, emission (3, n): the surfaces' colours there
-    (specular_colors None unless the scene is coloured, emission None unless emissive)."""
+    (specular_colors None unless the scene is coloured, emission None unless emissive); image_pixel (n,), in
+    scenes with a world light: the flat pixel j * W + i of the camera sample each hit belongs to (its turn of the
+    world light's directions, camera.world_turns)."""
 
     P: np.ndarray
     V: np.ndarray
@@ -131,6 +133,7 @@ class Hits:
     colors: np.ndarray
     specular_colors: np.ndarray | None
     emission: np.ndarray | None
+    image_pixel: np.ndarray | None = None
 
     @property
     def geometric(self) -> np.ndarray | None:
@@ -152,4 +155,5 @@ class Hits:
             take(self.colors, rows),
             _columns(self.specular_colors, rows),
             _columns(self.emission, rows),
+            _columns(self.image_pixel, rows),
         )

@@ -216,13 +216,21 @@ class WorldSample(DirectedLight):
     def toward(self, P: np.ndarray) -> np.ndarray:
         raise ValueError("a world sample's direction depends on each point's normal: vector_at()")
 
+    def basis(self, N: np.ndarray, turn: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The frame (e1, e2, n) (3, n each, float64) of the points of normals N that the light's directions are
+        in: n = N / |N|, and facing_basis(n) turned about n by each point's turn (2, n): cos and sin
+        (camera.world_turns; the reference's operations); None: not turned."""
+        n = np.asarray(N, dtype=np.float64)
+        n = n / np.sqrt(x_y_z_squared(n))
+        e1, e2 = facing_basis(n)
+        if turn is None:
+            return e1, e2, n
+        cos, sin = turn
+        return cos * e1 + sin * e2, cos * e2 - sin * e1, n
+
     def vector_at(self, P: np.ndarray, N: np.ndarray, shared: dict[int, tuple]) -> np.ndarray:
-        """The unit direction (3, n) at each point of the normals N: x e1 + y e2 + z n, with n = N / |N| and e1, e2
-        facing_basis(n) (float64, the reference's operations), shared by the light's samples."""
-        if self.source not in shared:
-            n = np.asarray(N, dtype=np.float64)
-            n = n / np.sqrt(x_y_z_squared(n))
-            shared[self.source] = (*facing_basis(n), n)
+        """The unit direction (3, n) at each point of the normals N: x e1 + y e2 + z n in the frame basis() made,
+        shared[source] (the caller's: it knows each point's pixel)."""
         e1, e2, n = shared[self.source]
         x, y, z = self.local
         return (x * e1 + y * e2 + z * n).astype(P.dtype, copy=False)

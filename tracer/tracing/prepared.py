@@ -117,6 +117,7 @@ class PreparedScene:
     glossy_pairs: np.ndarray | None = field(init=False, default=None)
     world_pairs: np.ndarray | None = field(init=False, default=None)  # a lobe of the world alone: fewer
     rough_glass: bool = field(init=False, default=False)  # some glass has a roughness (glossy.glass_rays)
+    world_lit: bool = field(init=False, default=False)  # a world light: its directions turn pixel by pixel
     diffuse_bounces: int = field(init=False, default=0)  # render.diffuse_bounces (glossy.diffuse_rays)
     transmission_roughness: np.ndarray | None = field(init=False, default=None)  # (rows,) float64
     transmission_beckmann: np.ndarray | None = field(init=False, default=None)  # (rows,) bool: Beckmann rough glass
@@ -167,6 +168,7 @@ class PreparedScene:
         _smooth_normals(self, objects, placed.primitives, placed.vanes)
         _textures(self, objects, placed.primitives)
         self.lights = prepare_lights(self.scene, self.dtype)
+        self.world_lit = any(isinstance(light, sc.WorldLight) for light in self.scene.lights)
         self.seen_lights = emitters.prepare(self.scene, self.dtype)
         self.seen_suns = emitters.prepare_suns(self.scene)
         # the documented arithmetic (one intensity per point) unless a light or a material needs colours

@@ -248,6 +248,20 @@ def instance_normal(placed: PlainInstances, part: int, corners: list, P: sc.Vec3
     return _unit_or_none(_affine(placed.cofactors[instance], n, False))
 
 
+def world_direction(
+    settings: sc.RenderSettings, light: sc.WorldLight, local: sc.Vec3, N: sc.Vec3, pixel: int, sample: int
+) -> sc.Vec3:
+    """A world light's direction local (x, y, z) in the frame of the normal N at sample `sample` of the flat pixel:
+    x e1 + y e2 + z n, n = N / |N| and e1, e2 facing_basis(n) turned about n by the pixel's turn (camera.world_turn;
+    not in adaptive sampling's flagging pass, render.adaptive_flags)."""
+    n = normalize(N)
+    e1, e2 = lightsamples.facing_basis(n)
+    if not settings.adaptive_flags:
+        cos, sin = cam.world_turn(settings, pixel, sample, lightsamples.world_share(settings, light.samples))
+        e1, e2 = tuple(cos * e1[k] + sin * e2[k] for k in range(3)), tuple(cos * e2[k] - sin * e1[k] for k in range(3))
+    return tuple(local[0] * e1[k] + local[1] * e2[k] + local[2] * n[k] for k in range(3))
+
+
 def spot_attenuation(cosine: float, spot: sc.SpotLight) -> float:
     """Cycles' spot attenuation at a point seen from the light at this cosine to the axis (docs/scene-format.md).
 
@@ -336,6 +350,7 @@ class ReferenceTracer:
         self.colored = _colored(scene)
         self.lights = light_samples(scene)
         self.camera_sample = 0  # the pixel's sample being traced: which world directions it takes
+        self.image_pixel = 0  # the flat pixel j * W + i being traced: its turn of the world directions
         self.glossy_pairs = lightsamples.glossy_pairs(scene.render.glossy_samples)
         self.sky = True  # a miss brings the background (False: nothing, for the passes' split of a tree)
         self.seen_lights, self.seen_suns = seen_in_mirrors(scene)
@@ -451,9 +466,7 @@ class ReferenceTracer:
                     falloff = 1.0 / dot(light_vector, light_vector)
                     factor = falloff if not isinstance(light, sc.SpotLight) else factor * falloff
             elif isinstance(light, sc.WorldLight):  # a direction of P's hemisphere, the background's radiance along it
-                n = normalize(N)
-                e1, e2 = lightsamples.facing_basis(n)
-                light_vector = tuple(where[0] * e1[k] + where[1] * e2[k] + where[2] * n[k] for k in range(3))
+                light_vector = world_direction(self.settings, light, where, N, self.image_pixel, self.camera_sample)
                 t_max = INF
                 if light.radiance == "background":
                     radiance = self.background(light_vector)
@@ -467,7 +480,9 @@ class ReferenceTracer:
                 light_vector = where
                 t_max = INF
             through = 1.0  # the share of the light that passes partly transparent surfaces (alpha < 1)
-            if self.shadow_alpha:
+            if self.settings.adaptive_flags and isinstance(light, sc.WorldLight):
+                pass  # adaptive sampling's flagging pass: the world light unshadowed
+            elif self.shadow_alpha:
                 through = shadow_through(self, P, light_vector, t_max)
                 if through <= 0.0:
                     continue
@@ -699,6 +714,7 @@ class ReferenceTracer:
     def pixel(self, i: int, j: int) -> sc.Color:
         """The box-filtered mean of the pixel's samples (r, g, b), and alpha where the scene has one."""
         total = [0.0, 0.0, 0.0, 0.0]
+        self.image_pixel = j * self.settings.width + i
         for s in range(self.settings.samples):
             self.camera_sample = s  # the world light's share of directions (lightsamples.world_share)
             x, y = cam.sample_position(self.settings, i, j, s)

@@ -305,6 +305,7 @@ class PassTracer(ReferenceTracer):
         writes them from its first sample, on the centre); and the samples' own SamplePasses (their Cryptomatte
         names)."""
         samples = []
+        self.image_pixel = j * self.settings.width + i  # its turn of the world light's directions
         for s in range(self.settings.samples):
             self.camera_sample = s  # the world light's share of directions (lightsamples.world_share)
             self.serial = cam.sample_serial(self.settings, i, j, s)  # rough glass's rotations

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry import camera as cam
 from ..geometry import lightsamples
 from ..geometry.footprint import Footprint
 from ..geometry.kernels import dot, indices, take
@@ -80,10 +81,10 @@ def find_intensity(
     the world's directions) add through them, shadowed as the diffuse terms are (the scene is then coloured).
     The reason for 9 parameters: the hits, the bookkeeping every stage carries (samples, counts, footprint, frames), and
     the three things a caller may ask for beside the intensity (the exponents, the split, the glossy lobes)."""
-    P, N, V = hits.P, hits.S, hits.V
+    P, N = hits.P, hits.S
     count = P.shape[1]
     length_n = np.sqrt(dot(N, N))
-    terms = _light_terms(scene, P, N, V, specular, length_n, samples)
+    terms = _light_terms(scene, hits, specular, length_n, samples)
     own = [term for term in terms if term is not None]
     normals = N if hits.geometric is None else hits.geometric
     lit = shadows.reached(scene, own, P, normals, hits.surface, counts, footprint, samples, frames)
@@ -103,17 +104,13 @@ def find_intensity(
 
 
 def _light_terms(
-    scene: PreparedScene,
-    P: np.ndarray,
-    N: np.ndarray,
-    V: np.ndarray,
-    specular: np.ndarray,
-    length_n: np.ndarray,
-    samples: np.ndarray,
+    scene: PreparedScene, hits: Hits, specular: np.ndarray, length_n: np.ndarray, samples: np.ndarray
 ) -> list[LightTerm | None]:
-    """Each light's LightTerm at the points P with normals N and V (3, n), in the scene's order (None: ambient).
-    samples: the camera samples (n,) the points belong to: a world direction shared out among a pixel's samples
-    (lightsamples.world_share) counts at the points of its samples alone, g times (N.L g)."""
+    """Each light's LightTerm at the hits' points P with shading normals S and V (3, n), in the scene's order (None:
+    ambient). samples: the camera samples (n,) the points belong to: a world direction shared out among a pixel's
+    samples (lightsamples.world_share) counts at the points of its samples alone, g times (N.L g), turned by their
+    pixel's turn (camera.world_turns)."""
+    P, N, V = hits.P, hits.S, hits.V
     settings = scene.scene.render
     keys: dict[int, np.ndarray] = {}  # each share's key mod g at the points
     length_v = np.sqrt(dot(V, V))
@@ -125,13 +122,21 @@ def _light_terms(
         if light.ambient:
             terms.append(None)
             continue
-        L = light.vector_at(P, N, shared)  # a directional L broadcasts
+        if light.highlight:
+            L = light.vector_at(P, N, shared)  # a directional L broadcasts
+        else:  # a world direction, turned by each point's pixel
+            share = lightsamples.world_share(settings, light.count)
+            if light.source not in shared:
+                turn = None
+                if not settings.adaptive_flags:
+                    turn = cam.world_turns(settings, hits.image_pixel, samples % settings.samples, share)
+                shared[light.source] = light.basis(N, turn)
+            L = light.vector_at(P, N, shared)
         NL = dot(N, L)
         length_l = np.sqrt(dot(L, L))
         color = light.color if not light.world else surfaces.background(scene, L, None) * light.color
         if not light.highlight:  # the world's light: a diffuse term only
             diffuse_gate = NL > 0.0
-            share = lightsamples.world_share(settings, light.count)
             if share > 1:
                 if share not in keys:
                     keys[share] = lightsamples.sharing_key(settings, samples % settings.samples) % share

@@ -36,29 +36,25 @@ def reached(
     counts, footprint and frames every query of the tracer carries.
 
     Robust numerics start each shadow ray just off the surface (offset_origins), on the light's side, and search
-    t from 0; the documented ones start on the surface and search t from 0.001 (listing 3.2)."""
+    t from 0; the documented ones start on the surface and search t from 0.001 (listing 3.2). In adaptive
+    sampling's flagging pass (render.adaptive_flags) the world light reaches every point it faces, with no ray."""
     lights = directed(scene.lights)
+    unshadowed = scene.scene.render.adaptive_flags  # the world light's directions (its samples have no highlight)
     t_min = 0.0 if scene.robust else SHADOW_T_MIN
     shadows, origins, vectors, limits, bits, views, runs = [], [], [], [], [], [], []
     start = 0  # where the light's rays start in the query of all lights
     for light, term in zip(lights, terms, strict=True):
         L, needed = term.L, term.needed
-        origin, vector = _shadow_rays(scene, light, L, needed, P, N, surface)
-        if footprint is not None:  # the whole segment: a blocker that moves in could block it anywhere
-            footprint.record(samples.take(needed), origin, vector, t_min, light.t_max, light=light.source)
         own = None if frames is None else RayFrames.of(needed, frames)  # the light's rays by frame
-        tally(counts, "shadow", needed.size, own)
-        # planes first, light by light (a shared direction keeps their test cheap); then only the rays that
-        # the light's coverage grid cannot rule out go on to the hierarchy, all lights in one batch
-        whole = [] if light.grid is None else light.grid.whole  # what the light's picture leaves out
-        blocked = scene.shadow_hierarchy.blocked_by_planes(origin, vector, t_min, light.t_max, whole, own)
-        if light.grid is None:
-            rest, covering = indices(~blocked), None
+        if unshadowed and not light.highlight:  # reached wherever needed: no ray
+            origin = vector = np.empty((3, 0), dtype=scene.dtype)
+            blocked, rest, covering = np.zeros(needed.size, dtype=bool), needed[:0], None
         else:
-            rest, covering = light.covering(origin, vector)
-            keep = indices(~blocked.take(rest))
-            rest = rest.take(keep)
-            covering = None if covering is None else covering.take(keep)
+            origin, vector = _shadow_rays(scene, light, L, needed, P, N, surface)
+            if footprint is not None:  # the whole segment: a blocker that moves in could block it anywhere
+                footprint.record(samples.take(needed), origin, vector, t_min, light.t_max, light=light.source)
+            tally(counts, "shadow", needed.size, own)
+            blocked, rest, covering = _outside_planes_and_grid(scene, light, origin, vector, t_min, own)
         bits.append(None if covering is None else (light.grid.kernels, covering))
         shadows.append((needed, blocked, rest))
         if own is not None:
@@ -81,15 +77,19 @@ def reached(
     # which light's point or direction each ray shares, for the meshes' pictures
     which = np.repeat(np.arange(len(views)), [rest.size for *_, rest in shadows])
     one = len(shadows) == 1  # one light: its arrays as they are, its limit one number
-    blocked_by_objects = hierarchy.occluded(
-        origins[0] if one else np.concatenate(origins, axis=1),
-        vectors[0] if one else np.concatenate(vectors, axis=1),
-        t_min,
-        lights[0].t_max if one else np.concatenate(limits),
-        planes=False,
-        sets=sets,
-        views=(views, which),
-        frames=RayFrames.joined(runs) if runs else None,
+    blocked_by_objects = (
+        np.zeros(0, dtype=bool)
+        if not start
+        else hierarchy.occluded(
+            origins[0] if one else np.concatenate(origins, axis=1),
+            vectors[0] if one else np.concatenate(vectors, axis=1),
+            t_min,
+            lights[0].t_max if one else np.concatenate(limits),
+            planes=False,
+            sets=sets,
+            views=(views, which),
+            frames=RayFrames.joined(runs) if runs else None,
+        )
     )
     lit, start = [], 0
     for needed, blocked, rest in shadows:
@@ -99,6 +99,26 @@ def reached(
         reaching[needed] = ~blocked
         lit.append(reaching)
     return lit
+
+
+def _outside_planes_and_grid(
+    scene: PreparedScene,
+    light: DirectedLight,
+    origin: np.ndarray,
+    vector: np.ndarray,
+    t_min: float,
+    own: RayFrames | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """A light's shadow rays (3, k) against the planes first (a shared direction keeps their test cheap), then its
+    coverage grid: which are blocked by a plane (k,), the rays (r,) the grid cannot rule out, which go on to the
+    hierarchy with every light's, and the grid's kernel bits for them (None without a grid)."""
+    whole = [] if light.grid is None else light.grid.whole  # what the light's picture leaves out
+    blocked = scene.shadow_hierarchy.blocked_by_planes(origin, vector, t_min, light.t_max, whole, own)
+    if light.grid is None:
+        return blocked, indices(~blocked), None
+    rest, covering = light.covering(origin, vector)
+    keep = indices(~blocked.take(rest))
+    return blocked, rest.take(keep), None if covering is None else covering.take(keep)
 
 
 def _shadow_rays(

@@ -90,6 +90,12 @@ class TracedScene(PreparedScene):
             if self.rough_glass:  # each camera sample's global index: its rough glass hits' pair rotations
                 known = pixels if rows is None else cam.band_pixels(settings, rows)
                 batch.serial = np.arange(total) if known is None else cam.sample_serials(settings, known)
+        image_pixel = None  # each camera sample's flat pixel: its turn of the world light's directions
+        if self.world_lit and not settings.adaptive_flags:
+            known = pixels if rows is None else cam.band_pixels(settings, rows)
+            if known is None:
+                raise ValueError("a scene with a world light traces rows or pixels it knows (their turns)")
+            image_pixel = np.repeat(np.asarray(known, dtype=np.int64), settings.samples)
         culling = _Culling(self, rows, pixels, frames, total)
         first = True
         while batch.size:
@@ -120,6 +126,8 @@ class TracedScene(PreparedScene):
             else:
                 batch = batch.with_rays(origin=None, direction=None)
             hits = surfaces.hits(self, P, V, obj, part)
+            if image_pixel is not None:
+                hits.image_pixel = image_pixel.take(batch.pixel)
             if glass:
                 see_through.add_local(self, color, hits, batch, counts, footprint, frames, recorder, first)
                 batch = see_through.continuing(self, hits, batch)
@@ -258,7 +266,8 @@ class TracedScene(PreparedScene):
             else:
                 directions = cam.band_directions(camera, settings, rows, columns).astype(self.dtype)
         pixels = None
-        if not cam.shares_origin(camera) or (columns is not None and self.rough_glass):  # trace() needs them
+        # trace() needs them: a camera's own starts, rough glass's rotations and the world light's turns
+        if not cam.shares_origin(camera) or (columns is not None and (self.rough_glass or self.world_lit)):
             pixels = cam.band_pixels(settings, rows, columns)
         # whole rows: the screen rectangles cull them
         at = (

@@ -373,16 +373,21 @@ class Renderer:
             scene = shutter.still(scene)  # poses all alike: the same bytes as without them
         if adaptive.applies(scene.render) and volume is None:
             started = time.perf_counter()
-            # one count over both passes: the first pass's bands, then the runs of the pixels traced again
+            # one count over every pass: the first pass's bands (and its steady pass's), then the runs of the
+            # pixels traced again; the steady pass is not shown
             pieces = self.pixel_pieces(scene.render)
             first_bands = len(bands(scene.with_render(samples=adaptive.base_samples(scene.render.samples)).render))
-            total = first_bands + pieces
-            told = after = None
+            total = first_bands * (2 if adaptive.steadied(scene) else 1) + pieces
+            after = None
             if progress is not None:
-                told = lambda done, _: progress(done, total)  # noqa: E731
                 after = lambda done, count: progress(total - count + done, total)  # noqa: E731
+
+            def whole(first: sc.Scene, index: int) -> RenderResult:
+                told = None if progress is None else lambda done, _: progress(index * first_bands + done, total)
+                return self.render(first, told, None, band_done if index == 0 else None)
+
             image, rays, share = adaptive.render(
-                lambda first: self.render(first, told, None, band_done),
+                whole,
                 lambda full, pixels, base: self.render_pixels(full, pixels, base, after, band_done, pieces),
                 scene,
             )
