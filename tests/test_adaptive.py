@@ -20,9 +20,22 @@ def test_disagreeing_pixels_are_both_sides_of_an_edge_and_nothing_flat() -> None
     expected = np.zeros((6, 8), dtype=bool)
     expected[:, 4:6] = True
     np.testing.assert_array_equal(flagged, expected)
-    alpha = np.zeros((3, 3, 4))
-    alpha[1, 1, 3] = 1.0  # alpha alone differs: the pixel and its eight neighbours
-    assert adaptive.disagreeing(alpha, 0.5).all()
+    alpha = np.zeros((5, 5, 4))
+    alpha[2, 2, 3] = 1.0  # alpha alone differs: the pixel and its eight neighbours (each 0.5 from a midpoint)
+    flagged = adaptive.disagreeing(alpha, 0.4)
+    assert flagged[1:4, 1:4].all() and flagged.sum() == 9
+    assert np.flatnonzero(adaptive.disagreeing(alpha, 0.5)).tolist() == [12]
+
+
+def test_a_smooth_gradient_is_not_flagged_and_a_line_a_pixel_wide_is() -> None:
+    """A lamp's falloff: 0.01 a pixel along x and 0.007 along y (each above the threshold from pixel to pixel), a
+    midpoint of its neighbours everywhere; a line one pixel wide across it differs from theirs by its own step."""
+    y, x = np.mgrid[0:8, 0:10]
+    image = np.repeat((0.2 + 0.01 * x + 0.007 * y)[..., None], 3, axis=2)
+    assert not adaptive.disagreeing(image, 0.005).any()
+    image[:, 4] += 0.02
+    flagged = adaptive.disagreeing(image, 0.005)
+    assert flagged[:, 3:6].all() and not flagged[:, :3].any() and not flagged[:, 6:].any()
 
 
 def test_grown_adds_the_eight_neighbours() -> None:

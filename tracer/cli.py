@@ -187,8 +187,9 @@ def _settings_parser() -> argparse.ArgumentParser:
         "--adaptive",
         type=_threshold,
         metavar="THRESHOLD",
-        help="adaptive sampling: every pixel at a few samples first, --samples only where neighbouring pixels differ "
-        "by more than THRESHOLD (linear; 0.005 keeps the default frame's error; 0: off)",
+        help="adaptive sampling: every pixel at a few samples first, --samples only where a pixel differs by more "
+        "than THRESHOLD from the midpoint of two opposite neighbours (linear; edges, not smooth gradients; 0.005 keeps "
+        "the default frame's error; 0: off)",
     )
     settings.add_argument("--workers", type=_integer(0, 256), help="worker processes over bands of rows; 0: all cores")
     settings.add_argument("--dtype", choices=sc.DTYPES, help="floating-point precision of the tracing")

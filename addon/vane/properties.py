@@ -360,8 +360,8 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     noise_threshold: FloatProperty(
         name="Threshold",
         description="Noise threshold of adaptive sampling (render.adaptive_threshold): every pixel at 1 sample first, "
-        "then Samples only where neighbouring pixels differ by more than this (edges, texture detail, penumbrae); 0 "
-        "traces every pixel at Samples",
+        "then Samples only where a pixel differs by more than this from the midpoint of two opposite neighbours "
+        "(edges, texture detail, penumbrae; not smooth gradients); 0 traces every pixel at Samples",
         min=0.0,
         max=1.0,
         precision=4,

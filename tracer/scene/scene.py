@@ -690,7 +690,8 @@ class RenderSettings:
     # and its directions not turned pixel by pixel (camera.world_turns). Set by adaptive, not read from scene files.
     adaptive_flags: bool = False
     # adaptive sampling (tracer/workers/adaptive.py): 0 every pixel at `samples`; above 0, every pixel at a quarter
-    # of them first and the full count again where neighbouring pixels differ by more than this (linear units)
+    # of them first and the full count again where a pixel differs by more than this (linear units) from the midpoint
+    # of two opposite neighbours
     adaptive_threshold: float = 0.0
 
 

@@ -1,8 +1,8 @@
 """A scene with adaptive sampling (render.adaptive_threshold > 0) -> its image in two passes: every pixel at a few
-samples (base_samples), then, where that image's neighbouring pixels differ by more than the threshold (edges,
-texture detail, penumbrae, blur; and their neighbours), the full count, which replaces the first pass's there
-(those pixels are then the uniform render's, to the byte). Whitted's (1980) adaptive supersampling, by pixels:
-flat areas cost their first pass only."""
+samples (base_samples), then, where a pixel of that image differs by more than the threshold from the midpoint of
+two opposite neighbours (edges, texture detail, penumbrae, blur; not smooth gradients; and their neighbours), the
+full count, which replaces the first pass's there (those pixels are then the uniform render's, to the byte).
+Whitted's (1980) adaptive supersampling, by pixels: flat areas cost their first pass only."""
 
 from __future__ import annotations
 
@@ -42,16 +42,21 @@ def steadied(scene: sc.Scene) -> bool:
 
 
 def disagreeing(image: np.ndarray, threshold: float) -> np.ndarray:
-    """(height, width) bool: the pixels of an image (height, width, channels) that differ from one of their eight
-    neighbours by more than threshold in some channel (alpha included): both sides of an edge."""
+    """(height, width) bool: the pixels of an image (height, width, channels) that differ by more than threshold,
+    in some channel (alpha included), from the midpoint of their two neighbours on one of the four lines through
+    them (the row, the column, the diagonals): both sides of an edge (each half its step from that midpoint) and a
+    feature a pixel wide, but not a smooth gradient, which more samples would not change (an area lamp's falloff
+    over a checker floor under a forest picture, 960x540: 59% of the pixels traced again when any neighbour
+    differing by 0.005 flagged, 28% with the midpoints)."""
     height, width = image.shape[:2]
-    padded = np.pad(image, ((1, 1), (1, 1), (0, 0)), mode="edge")  # the image's edge compares with itself
+    # beyond its edge the image goes on as it went (its last step again): a gradient is no edge there either
+    padded = np.pad(image, ((1, 1), (1, 1), (0, 0)), mode="reflect", reflect_type="odd")
+    centre = padded[1 : 1 + height, 1 : 1 + width]
     flagged = np.zeros((height, width), dtype=bool)
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            if dy or dx:
-                neighbour = padded[1 + dy : 1 + dy + height, 1 + dx : 1 + dx + width]
-                flagged |= np.abs(image - neighbour).max(axis=-1) > threshold
+    for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        ahead = padded[1 + dy : 1 + dy + height, 1 + dx : 1 + dx + width]
+        behind = padded[1 - dy : 1 - dy + height, 1 - dx : 1 - dx + width]
+        flagged |= np.abs(centre - 0.5 * (ahead + behind)).max(axis=-1) > threshold
     return flagged
 
 
