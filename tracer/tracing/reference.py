@@ -16,6 +16,7 @@ from ..geometry import lightsamples
 from ..geometry import transforms as tf
 from ..geometry.transforms import add, cross, dot, length, scale, sub
 from ..scene import scene as sc
+from ..scene import world_light
 from . import reference_glossy
 
 INF = math.inf
@@ -248,6 +249,31 @@ def instance_normal(placed: PlainInstances, part: int, corners: list, P: sc.Vec3
     return _unit_or_none(_affine(placed.cofactors[instance], n, False))
 
 
+def world_light_sample(
+    tracer: ReferenceTracer, light: sc.WorldLight, local: sc.Vec3, N: sc.Vec3
+) -> tuple[sc.Vec3, sc.Color]:
+    """A world light's direction local at the normal N of the sample being traced (world_direction), and its
+    colour: the light's colour times, where it takes the background's radiance, that radiance along the direction;
+    under an image background (world_light.backgrounds) the blurred radiance along it times the irradiance at N over
+    2 / count times the sum of z R over all the light's directions (shading._world_radiance's operations)."""
+    settings, pixel, sample = tracer.settings, tracer.image_pixel, tracer.camera_sample
+    direction = world_direction(settings, light, local, N, pixel, sample)
+    if light.radiance != "background":
+        return direction, light.color
+    if tracer.world_pictures is None:
+        radiance = tracer.background(direction)
+    else:
+        blurred, irradiance = tracer.world_pictures
+        directions = lightsamples.hemisphere_directions(light.samples)
+        mean = [0.0, 0.0, 0.0]
+        for other in directions:
+            seen = environment(blurred, world_direction(settings, light, other, N, pixel, sample))
+            mean = [mean[c] + (2.0 / len(directions) * other[2]) * seen[c] for c in range(3)]
+        at_normal, along = environment(irradiance, normalize(N)), environment(blurred, direction)
+        radiance = tuple(along[c] * (at_normal[c] / mean[c] if mean[c] > 0.0 else 0.0) for c in range(3))
+    return direction, tuple(radiance[c] * light.color[c] for c in range(3))
+
+
 def world_direction(
     settings: sc.RenderSettings, light: sc.WorldLight, local: sc.Vec3, N: sc.Vec3, pixel: int, sample: int
 ) -> sc.Vec3:
@@ -355,6 +381,7 @@ class ReferenceTracer:
         self.sky = True  # a miss brings the background (False: nothing, for the passes' split of a tree)
         self.seen_lights, self.seen_suns = seen_in_mirrors(scene)
         self.world_pairs = lightsamples.glossy_pairs(min(4, scene.render.glossy_samples))  # a lobe of the world
+        self.world_pictures = world_light.backgrounds(scene)  # under a picture: the world light's (blurred, irradiance)
         # shadow rays pass partly transparent surfaces (shadow_through) where some material has alpha < 1
         self.shadow_alpha = any(m.alpha < 1.0 for m in scene.materials.values())
         self.serial = 0  # the camera sample being traced (camera.sample_serial): rough glass's rotations
@@ -466,11 +493,8 @@ class ReferenceTracer:
                     falloff = 1.0 / dot(light_vector, light_vector)
                     factor = falloff if not isinstance(light, sc.SpotLight) else factor * falloff
             elif isinstance(light, sc.WorldLight):  # a direction of P's hemisphere, the background's radiance along it
-                light_vector = world_direction(self.settings, light, where, N, self.image_pixel, self.camera_sample)
+                light_vector, color = world_light_sample(self, light, where, N)
                 t_max = INF
-                if light.radiance == "background":
-                    radiance = self.background(light_vector)
-                    color = tuple(radiance[c] * light.color[c] for c in range(3))
             elif emitter is not None:  # an area light's sample point: a one-sided cosine emitter, inverse square
                 light_vector = sub(where, P)
                 t_max = 1.0

@@ -13,7 +13,7 @@ from ..geometry.footprint import Footprint
 from ..geometry.kernels import dot, indices, take
 from . import glossy, shadows, surfaces
 from .batch import Hits
-from .lights import LightTerm, directed
+from .lights import LightTerm, WorldSample, directed
 from .prepared import PreparedScene
 from .rays import RayCounts
 
@@ -118,6 +118,7 @@ def _light_terms(
     terms: list[LightTerm | None] = []
     toward_eye = None  # V / |V|, the same for every light's half vector
     shared: dict[int, tuple] = {}  # what the samples of one light share at each point (a disk's, a hemisphere's axes)
+    factors: dict[int, np.ndarray] = {}  # a world light's irradiance over its directions' mean blurred radiance
     for light in scene.lights:
         if light.ambient:
             terms.append(None)
@@ -134,7 +135,12 @@ def _light_terms(
             L = light.vector_at(P, N, shared)
         NL = dot(N, L)
         length_l = np.sqrt(dot(L, L))
-        color = light.color if not light.world else surfaces.background(scene, L, None) * light.color
+        if not light.world:
+            color = light.color
+        elif scene.world_pictures is None:
+            color = surfaces.background(scene, L, None) * light.color
+        else:  # under a picture: the irradiance, shared out by the blurred radiance along each direction
+            color = (_world_radiance(scene, light, L, shared, factors) * light.color).astype(scene.dtype, copy=False)
         if not light.highlight:  # the world's light: a diffuse term only
             diffuse_gate = NL > 0.0
             if share > 1:
@@ -171,6 +177,26 @@ def _light_terms(
         needed = indices(reaches & (factor > 0.0) if light.attenuated else reaches)
         terms.append(LightTerm(L, NL, length_l, diffuse_gate, gate, cosine, needed, factor, color))
     return terms
+
+
+def _world_radiance(
+    scene: PreparedScene, light: WorldSample, L: np.ndarray, shared: dict[int, tuple], factors: dict[int, np.ndarray]
+) -> np.ndarray:
+    """A world light's radiance (3, n) float64 along its direction L (3, n) at each point under an image background
+    (world_light.backgrounds): the blurred radiance along L times the irradiance at the point's normal over 2 / count
+    times the sum of z R over all the light's directions (0 where that is 0), kept in factors for its other
+    directions. Its directions that reach a point then add up to the irradiance there, exactly in the open; those an
+    object hides take their blurred radiance's share of it (the reference's world_light_sample)."""
+    blurred, irradiance = scene.world_pictures
+    if light.source not in factors:
+        e1, e2, n = shared[light.source]
+        directions = lightsamples.hemisphere_directions(light.count)
+        mean = np.zeros(n.shape)
+        for x, y, z in directions:
+            mean = mean + (2.0 / len(directions) * z) * surfaces.environment(blurred, x * e1 + y * e2 + z * n)
+        at_normal = surfaces.environment(irradiance, n)
+        factors[light.source] = np.divide(at_normal, mean, out=np.zeros_like(at_normal), where=mean > 0.0)
+    return surfaces.environment(blurred, L) * factors[light.source]
 
 
 def _glossy_light(
