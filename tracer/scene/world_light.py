@@ -1,13 +1,15 @@
-"""An image background -> the two small pictures a world light under it is lit by: its radiance blurred to the
-spacing of the light's directions, and its irradiance by normal (the cosine-weighted mean radiance about each
-direction), both equirectangular and looked up as the background is.
+"""An image background -> what a world light under it is lit by: the irradiance by normal (the cosine-weighted mean
+radiance about each direction), a small equirectangular picture looked up as the background is, and a smooth,
+positive weight over directions (that irradiance to second order in spherical harmonics: a quadratic in the
+direction) by which a point's directions share its irradiance out.
 
 Sixteen directions over a hemisphere sample a sharp picture badly: a forest picture's bright gaps made the open
-ground's estimate 1.7 times its cosine-weighted mean with the same directions at every point, and noise of 150% of it
-with the directions turned pixel by pixel. A point's world light is therefore its irradiance, exact in the open,
-times the share of it that its open directions carry, each direction weighted by the blurred radiance along it
-(tracing/lights.py): the ground in the open is lit exactly and smoothly, and what an object hides is still weighted
-toward the bright side of the sky. Plain NumPy reductions, no BLAS: the same bits in every process.
+ground's estimate 1.77 times Cycles' with the same directions at every point, and noise of 150% of it with the
+directions turned pixel by pixel. A point's world light is therefore its irradiance, exact in the open, times the
+share of the weight its open directions carry (tracing/shading.py): the ground in the open is lit exactly and
+without noise, and what an object hides is still weighted toward the bright side of the sky. Because the weight is
+a quadratic, its sum over a point's directions is a few products with the directions' moments, not a lookup per
+direction. Plain NumPy sums, no BLAS: the same bits in every process.
 """
 
 from __future__ import annotations
@@ -15,55 +17,127 @@ from __future__ import annotations
 import itertools
 import math
 from collections import OrderedDict
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from . import scene as sc
 
-ROWS, COLUMNS = 32, 64  # the pictures' texels: 5.6 degrees each, finer than either changes
-BLUR_DEGREES = 30.0  # the blur's radius: about the angle between the 16 directions' neighbours
+ROWS, COLUMNS = 32, 64  # the irradiance picture's texels: 5.6 degrees each, finer than an irradiance changes
 CHUNK = 256  # output texels per pass (their weights over every texel: 256 x 2,048)
-KEPT = 2  # backgrounds whose pictures a process keeps (a view's edits, a worker's frames: 90 ms each for 1024 x 512)
-_KEPT: OrderedDict[sc.Background, tuple[sc.Background, sc.Background]] = OrderedDict()
+KEPT = 2  # backgrounds whose lighting a process keeps (a view's edits, a worker's frames: 60 ms each for 1024 x 512)
+WEIGHT_FLOOR = 0.02  # the weight's least value, of its mean: second order rings below 0 around a sun
+# the real spherical harmonics of orders 0-2 as polynomials of the unit direction (x, y, z)
+SH = (0.282095, 0.488603, 1.092548, 0.315392, 0.546274)
 
 
-def backgrounds(scene: sc.Scene) -> tuple[sc.Background, sc.Background] | None:
-    """The scene's pictures as image backgrounds (blurred radiance, irradiance), with the background's rotation and
-    strength, looked up linearly; None unless the background is an image and a world light takes its radiance."""
+@dataclass(frozen=True, eq=False)
+class WorldLighting:
+    """irradiance: the picture of the cosine-weighted mean radiance by normal (ROWS, COLUMNS), as an image
+    background with the background's rotation and strength; the weight of a direction d (world frame, rotation and
+    strength in): constant (3,) + linear (3 channels, 3) . d + d^T quadratic (3 channels, 3, 3) d, per channel."""
+
+    irradiance: sc.Background
+    constant: np.ndarray
+    linear: np.ndarray
+    quadratic: np.ndarray
+
+    def weight(self, d: sc.Vec3) -> sc.Color:
+        """The weight of the unit direction d, per channel, in Python floats (the reference's; shading.py sums the
+        same polynomial by moments)."""
+        out = []
+        for k in range(3):
+            a, b = self.quadratic[k].tolist(), self.linear[k].tolist()
+            value = float(self.constant[k])
+            value += b[0] * d[0] + b[1] * d[1] + b[2] * d[2]
+            value += sum(d[p] * (a[p][0] * d[0] + a[p][1] * d[1] + a[p][2] * d[2]) for p in range(3))
+            out.append(value)
+        return (out[0], out[1], out[2])
+
+
+_KEPT: OrderedDict[sc.Background, WorldLighting] = OrderedDict()
+
+
+def lighting(scene: sc.Scene) -> WorldLighting | None:
+    """The scene's WorldLighting; None unless the background is an image and a world light takes its radiance."""
     background = scene.background
     lit = any(isinstance(light, sc.WorldLight) and light.radiance == "background" for light in scene.lights)
     if background.type != "image" or not lit:
         return None
     if background not in _KEPT:
-        made = pictures(background.image)
-        _KEPT[background] = tuple(replace(background, image=picture, interpolation="linear") for picture in made)
+        _KEPT[background] = _made(background)
         while len(_KEPT) > KEPT:
             _KEPT.popitem(last=False)
     _KEPT.move_to_end(background)
     return _KEPT[background]
 
 
-def pictures(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """An equirectangular picture (H, W, 3) (row 0 the zenith) -> (blurred radiance, irradiance), (ROWS, COLUMNS,
-    3) float32 each, same layout. Each is a normalized weighted mean over the picture's texels binned to ROWS x
-    COLUMNS by solid angle: the blur with weights max(0, cos a - cos BLUR_DEGREES), the irradiance with max(0, cos a)
-    (a the angle between the texel's direction and the output's): a uniform picture gives itself in both."""
+def _made(background: sc.Background) -> WorldLighting:
+    picture, solid = irradiance(background.image)
+    constant, linear, quadratic = _second_order(picture, solid)
+    # the lookups turn a direction d to Rz(rotation) d: the polynomial in the world's frame is Rz^T A Rz, Rz^T b
+    angle = math.radians(background.rotation)
+    turn = np.array([[math.cos(angle), -math.sin(angle), 0.0], [math.sin(angle), math.cos(angle), 0.0], [0, 0, 1.0]])
+    linear = np.stack([_product(turn.T, b[:, None])[:, 0] for b in linear])
+    quadratic = np.stack([_product(_product(turn.T, a), turn) for a in quadratic])
+    strength = background.strength
+    return WorldLighting(
+        replace(background, image=picture, interpolation="linear"),
+        constant * strength,
+        linear * strength,
+        quadratic * strength,
+    )
+
+
+def irradiance(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """An equirectangular picture (H, W, 3) (row 0 the zenith) -> its irradiance picture (ROWS, COLUMNS, 3) float32,
+    same layout, and the solid angle of each texel (ROWS * COLUMNS,): at each texel's direction the mean of the
+    picture's texels binned to ROWS x COLUMNS weighted by max(0, cos a) and their solid angle (a the angle between
+    the two directions): a uniform picture gives itself."""
     binned, solid = _binned(image)
     directions = _directions(ROWS, COLUMNS).reshape(-1, 3)
     values = binned.reshape(-1, 3)
-    blur_floor = math.cos(math.radians(BLUR_DEGREES))
-    blurred = np.empty_like(values)
-    irradiance = np.empty_like(values)
+    out = np.empty_like(values)
     for first in range(0, directions.shape[0], CHUNK):
-        cosine = _cosines(directions, first)
-        for out, floor in ((blurred, blur_floor), (irradiance, 0.0)):
-            weight = np.maximum(cosine - floor, 0.0) * solid[None, :]
-            total = weight.sum(axis=1)
-            for channel in range(3):
-                out[first : first + CHUNK, channel] = (weight * values[None, :, channel]).sum(axis=1) / total
-    shape = (ROWS, COLUMNS, 3)
-    return blurred.reshape(shape).astype(np.float32), irradiance.reshape(shape).astype(np.float32)
+        weight = np.maximum(_cosines(directions, first), 0.0) * solid[None, :]
+        total = weight.sum(axis=1)
+        for channel in range(3):
+            out[first : first + CHUNK, channel] = (weight * values[None, :, channel]).sum(axis=1) / total
+    return out.reshape(ROWS, COLUMNS, 3).astype(np.float32), solid
+
+
+def _second_order(picture: np.ndarray, solid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The irradiance picture (ROWS, COLUMNS, 3) projected on the spherical harmonics of orders 0-2 (each texel
+    its solid angle), as the polynomial c + b . d + d^T A d per channel -> c (3,), b (3, 3), A (3, 3, 3), raised
+    where needed so that it is at least WEIGHT_FLOOR of its mean over the sphere."""
+    x, y, z = (_directions(ROWS, COLUMNS).reshape(-1, 3)[:, axis] for axis in range(3))
+    y00, y1, y2, y20, y22 = SH
+    basis = (y00 + 0 * x, y1 * y, y1 * z, y1 * x, y2 * x * y, y2 * y * z, y20 * (3 * z * z - 1), y2 * x * z)
+    basis = (*basis, y22 * (x * x - y * y))
+    values = picture.reshape(-1, 3).astype(np.float64)
+    coefficients = np.array([[(f * values[:, k] * solid).sum() for f in basis] for k in range(3)])  # (3, 9)
+    constant = np.empty(3)
+    linear = np.empty((3, 3))
+    quadratic = np.empty((3, 3, 3))
+    for k, (l00, l1y, l1z, l1x, lxy, lyz, l20, lxz, l22) in enumerate(coefficients):
+        constant[k] = y00 * l00 - y20 * l20
+        linear[k] = (y1 * l1x, y1 * l1y, y1 * l1z)
+        quadratic[k] = [
+            [y22 * l22, y2 * lxy / 2, y2 * lxz / 2],
+            [y2 * lxy / 2, -y22 * l22, y2 * lyz / 2],
+            [y2 * lxz / 2, y2 * lyz / 2, 3 * y20 * l20],
+        ]
+        grid = np.stack((x, y, z))
+        weights = constant[k] + (linear[k][:, None] * grid).sum(axis=0)
+        weights = weights + (grid * _product(quadratic[k], grid)).sum(axis=0)
+        floor = WEIGHT_FLOOR * max(float((weights * solid).sum() / solid.sum()), 0.0)
+        constant[k] += max(0.0, floor - float(weights.min()))
+    return constant, linear, quadratic
+
+
+def _product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a (3, 3) times b (3, m), row by row as sums of products (no BLAS)."""
+    return a[:, 0, None] * b[0] + a[:, 1, None] * b[1] + a[:, 2, None] * b[2]
 
 
 def _cosines(directions: np.ndarray, first: int) -> np.ndarray:

@@ -254,22 +254,22 @@ def world_light_sample(
 ) -> tuple[sc.Vec3, sc.Color]:
     """A world light's direction local at the normal N of the sample being traced (world_direction), and its
     colour: the light's colour times, where it takes the background's radiance, that radiance along the direction;
-    under an image background (world_light.backgrounds) the blurred radiance along it times the irradiance at N over
-    2 / count times the sum of z R over all the light's directions (shading._world_radiance's operations)."""
+    under an image background (world_light.lighting) the direction's weight times the irradiance at N over 2 / count
+    times the sum of z weight over all the light's directions (what shading._world_radiance sums by moments)."""
     settings, pixel, sample = tracer.settings, tracer.image_pixel, tracer.camera_sample
     direction = world_direction(settings, light, local, N, pixel, sample)
     if light.radiance != "background":
         return direction, light.color
-    if tracer.world_pictures is None:
+    lighting = tracer.world_lighting
+    if lighting is None:
         radiance = tracer.background(direction)
     else:
-        blurred, irradiance = tracer.world_pictures
         directions = lightsamples.hemisphere_directions(light.samples)
         mean = [0.0, 0.0, 0.0]
         for other in directions:
-            seen = environment(blurred, world_direction(settings, light, other, N, pixel, sample))
+            seen = lighting.weight(world_direction(settings, light, other, N, pixel, sample))
             mean = [mean[c] + (2.0 / len(directions) * other[2]) * seen[c] for c in range(3)]
-        at_normal, along = environment(irradiance, normalize(N)), environment(blurred, direction)
+        at_normal, along = environment(lighting.irradiance, normalize(N)), lighting.weight(direction)
         radiance = tuple(along[c] * (at_normal[c] / mean[c] if mean[c] > 0.0 else 0.0) for c in range(3))
     return direction, tuple(radiance[c] * light.color[c] for c in range(3))
 
@@ -381,7 +381,7 @@ class ReferenceTracer:
         self.sky = True  # a miss brings the background (False: nothing, for the passes' split of a tree)
         self.seen_lights, self.seen_suns = seen_in_mirrors(scene)
         self.world_pairs = lightsamples.glossy_pairs(min(4, scene.render.glossy_samples))  # a lobe of the world
-        self.world_pictures = world_light.backgrounds(scene)  # under a picture: the world light's (blurred, irradiance)
+        self.world_lighting = world_light.lighting(scene)  # under a picture: what the world light is lit by
         # shadow rays pass partly transparent surfaces (shadow_through) where some material has alpha < 1
         self.shadow_alpha = any(m.alpha < 1.0 for m in scene.materials.values())
         self.serial = 0  # the camera sample being traced (camera.sample_serial): rough glass's rotations

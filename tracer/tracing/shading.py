@@ -118,7 +118,7 @@ def _light_terms(
     terms: list[LightTerm | None] = []
     toward_eye = None  # V / |V|, the same for every light's half vector
     shared: dict[int, tuple] = {}  # what the samples of one light share at each point (a disk's, a hemisphere's axes)
-    factors: dict[int, np.ndarray] = {}  # a world light's irradiance over its directions' mean blurred radiance
+    factors: dict[int, tuple] = {}  # a world light's weight in each point's frame, and its irradiance over their mean
     for light in scene.lights:
         if light.ambient:
             terms.append(None)
@@ -137,10 +137,10 @@ def _light_terms(
         length_l = np.sqrt(dot(L, L))
         if not light.world:
             color = light.color
-        elif scene.world_pictures is None:
+        elif scene.world_lighting is None:
             color = surfaces.background(scene, L, None) * light.color
-        else:  # under a picture: the irradiance, shared out by the blurred radiance along each direction
-            color = (_world_radiance(scene, light, L, shared, factors) * light.color).astype(scene.dtype, copy=False)
+        else:  # under a picture: the irradiance, shared out by a smooth weight over the directions
+            color = (_world_radiance(scene, light, shared, factors) * light.color).astype(scene.dtype, copy=False)
         if not light.highlight:  # the world's light: a diffuse term only
             diffuse_gate = NL > 0.0
             if share > 1:
@@ -180,23 +180,38 @@ def _light_terms(
 
 
 def _world_radiance(
-    scene: PreparedScene, light: WorldSample, L: np.ndarray, shared: dict[int, tuple], factors: dict[int, np.ndarray]
+    scene: PreparedScene, light: WorldSample, shared: dict[int, tuple], factors: dict[int, tuple]
 ) -> np.ndarray:
-    """A world light's radiance (3, n) float64 along its direction L (3, n) at each point under an image background
-    (world_light.backgrounds): the blurred radiance along L times the irradiance at the point's normal over 2 / count
-    times the sum of z R over all the light's directions (0 where that is 0), kept in factors for its other
-    directions. Its directions that reach a point then add up to the irradiance there, exactly in the open; those an
-    object hides take their blurred radiance's share of it (the reference's world_light_sample)."""
-    blurred, irradiance = scene.world_pictures
+    """A world light's radiance (3, n) float64 along its direction at each point under an image background
+    (world_light.lighting): its weight there times the irradiance at the point's normal over 2 / count times the
+    sum of z weight over all the light's directions (0 where that is 0). The weight is a quadratic in the direction,
+    c + beta . x + x^T B x in the point's turned frame (x the direction's local coordinates), so that sum is a few
+    products with the directions' moments; kept in factors for the light's other directions. Its directions that
+    reach a point then add up to the irradiance there, exactly in the open; those an object hides take their weight's
+    share of it (the reference's world_light_sample sums the same polynomial direction by direction)."""
+    lighting = scene.world_lighting
     if light.source not in factors:
-        e1, e2, n = shared[light.source]
+        frame = shared[light.source]
+        along = [sum(lighting.quadratic[:, :, r, None] * u[r] for r in range(3)) for u in frame]  # A u: (3, 3, n)
+        bilinear = {(p, q): (frame[p][None] * along[q]).sum(axis=1) for p in range(3) for q in range(p, 3)}
+        linear = [(lighting.linear[:, :, None] * u[None]).sum(axis=1) for u in frame]  # b . u: (3, n)
         directions = lightsamples.hemisphere_directions(light.count)
-        mean = np.zeros(n.shape)
-        for x, y, z in directions:
-            mean = mean + (2.0 / len(directions) * z) * surfaces.environment(blurred, x * e1 + y * e2 + z * n)
-        at_normal = surfaces.environment(irradiance, n)
-        factors[light.source] = np.divide(at_normal, mean, out=np.zeros_like(at_normal), where=mean > 0.0)
-    return surfaces.environment(blurred, L) * factors[light.source]
+        weights = [2.0 / len(directions) * local[2] for local in directions]
+        mean = lighting.constant[:, None] * sum(weights)
+        for p in range(3):
+            mean = mean + linear[p] * sum(w * local[p] for w, local in zip(weights, directions, strict=True))
+            for q in range(p, 3):
+                moment = sum(w * local[p] * local[q] for w, local in zip(weights, directions, strict=True))
+                mean = mean + bilinear[p, q] * (moment if p == q else 2.0 * moment)
+        at_normal = surfaces.environment(lighting.irradiance, frame[2])
+        factor = np.divide(at_normal, mean, out=np.zeros_like(at_normal), where=mean > 0.0)
+        factors[light.source] = (bilinear, linear, factor)
+    bilinear, linear, factor = factors[light.source]
+    x = light.local
+    weight = lighting.constant[:, None] + linear[0] * x[0] + linear[1] * x[1] + linear[2] * x[2]
+    for (p, q), value in bilinear.items():
+        weight = weight + value * (x[p] * x[q] if p == q else 2.0 * x[p] * x[q])
+    return weight * factor
 
 
 def _glossy_light(
