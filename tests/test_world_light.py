@@ -81,3 +81,21 @@ def test_a_sun_in_the_picture_leaves_every_weight_above_its_floor() -> None:
     for d in rng.normal(size=(400, 3)):
         weights.append(lighting.weight(tuple(float(c) for c in d / np.linalg.norm(d)))[0])
     assert min(weights) > 0.0
+
+
+def test_a_read_only_picture_given_again_finds_its_lighting_without_reading_its_bits() -> None:
+    """A view's edits hand the same read-only picture over in a new background: the lighting is found by the
+    picture's identity (no digest of its bits); another picture, or another rotation, gets its own."""
+    picture = np.full((32, 64, 3), 0.4, dtype=np.float32)
+    picture[3, 7] = 30.0
+    picture.flags.writeable = False
+    first = _lit(picture)
+    comparisons = sc.ARRAY_COMPARISONS[0]
+    assert _lit(picture) is first and sc.ARRAY_COMPARISONS[0] == comparisons
+    assert _lit(picture, rotation=10.0) is not first
+    brighter = picture * 2.0
+    brighter.flags.writeable = False
+    assert _lit(brighter) is not first
+    assert environment(_lit(brighter).irradiance, (0.0, 0.0, 1.0))[0] == pytest.approx(
+        2.0 * environment(first.irradiance, (0.0, 0.0, 1.0))[0], rel=1e-6
+    )
