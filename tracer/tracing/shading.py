@@ -135,25 +135,18 @@ def _light_terms(
             L = light.vector_at(P, N, shared)
         NL = dot(N, L)
         length_l = np.sqrt(dot(L, L))
-        if not light.world:
-            color = light.color
-        elif scene.world_lighting is None:
-            color = surfaces.background(scene, L, None) * light.color
-        else:  # under a picture: the irradiance, shared out by a smooth weight over the directions
-            color = (_world_radiance(scene, light, shared, factors) * light.color).astype(scene.dtype, copy=False)
-        if not light.highlight:  # the world's light: a diffuse term only
+        if not light.highlight:  # the world's light: a diffuse term only, its radiance where the term counts
             diffuse_gate = NL > 0.0
             if share > 1:
                 if share not in keys:
                     keys[share] = lightsamples.sharing_key(settings, samples % settings.samples) % share
                 diffuse_gate &= keys[share] == light.index % share
                 NL = NL * share
-            terms.append(
-                LightTerm(
-                    L, NL, length_l, diffuse_gate, np.zeros_like(diffuse_gate), NL, indices(diffuse_gate), None, color
-                )
-            )
+            needed = indices(diffuse_gate)
+            color = _world_color(scene, light, L, needed, shared, factors) if light.world else light.color
+            terms.append(LightTerm(L, NL, length_l, diffuse_gate, np.zeros_like(diffuse_gate), NL, needed, None, color))
             continue
+        color = light.color
         gate = shiny.copy()
         if settings.gate_specular:
             gate &= NL > 0.0
@@ -179,10 +172,30 @@ def _light_terms(
     return terms
 
 
-def _world_radiance(
-    scene: PreparedScene, light: WorldSample, shared: dict[int, tuple], factors: dict[int, tuple]
+def _world_color(
+    scene: PreparedScene,
+    light: WorldSample,
+    L: np.ndarray,
+    needed: np.ndarray,
+    shared: dict[int, tuple],
+    factors: dict[int, tuple],
 ) -> np.ndarray:
-    """A world light's radiance (3, n) float64 along its direction at each point under an image background
+    """A world direction's colour (3, n) at the points needed (k,) (0 elsewhere: its term counts nowhere else): the
+    background's radiance along L (3, n), or under an image background _world_radiance, times the light's colour."""
+    color = np.zeros((3, L.shape[1]), dtype=scene.dtype)
+    if needed.size:
+        if scene.world_lighting is None:
+            radiance = surfaces.background(scene, L, needed)
+        else:  # under a picture: the irradiance, shared out by a smooth weight over the directions
+            radiance = _world_radiance(scene, light, shared, factors, needed)
+        color[:, needed] = radiance * light.color
+    return color
+
+
+def _world_radiance(
+    scene: PreparedScene, light: WorldSample, shared: dict[int, tuple], factors: dict[int, tuple], needed: np.ndarray
+) -> np.ndarray:
+    """A world light's radiance (3, k) float64 along its direction at the points needed under an image background
     (world_light.lighting): its weight there times the irradiance at the point's normal over 2 / count times the
     sum of z weight over all the light's directions (0 where that is 0). The weight is a quadratic in the direction,
     c + beta . x + x^T B x in the point's turned frame (x the direction's local coordinates), so that sum is a few
@@ -208,10 +221,10 @@ def _world_radiance(
         factors[light.source] = (bilinear, linear, factor)
     bilinear, linear, factor = factors[light.source]
     x = light.local
-    weight = lighting.constant[:, None] + linear[0] * x[0] + linear[1] * x[1] + linear[2] * x[2]
+    weight = lighting.constant[:, None] + sum(take(linear[p], needed) * x[p] for p in range(3))
     for (p, q), value in bilinear.items():
-        weight = weight + value * (x[p] * x[q] if p == q else 2.0 * x[p] * x[q])
-    return weight * factor
+        weight = weight + take(value, needed) * (x[p] * x[q] if p == q else 2.0 * x[p] * x[q])
+    return weight * take(factor, needed)
 
 
 def _glossy_light(
