@@ -347,3 +347,35 @@ def test_glass_rotations_differ_by_sample_and_depth_and_keep_the_pairs_stratifie
     u1 = rotated(pairs[:, 0], turns[0, 0])
     assert np.all((u1 >= 0.0) & (u1 < 1.0))
     assert sorted(np.floor(u1 * 16).astype(int).tolist()) == list(range(16))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_glossy_pairs_shared_out_among_a_pixels_samples_match_the_reference(seed: int) -> None:
+    """lightsamples.shared_pairs: 4 or 16 camera samples a pixel take a path's first glossy surface's (and first
+    bounce's) pairs in turn, each at its share; the per-pixel reference does the same."""
+    document = _glossy_document(seed)
+    document["render"]["glossy_samples"] = 8 if seed % 2 else 16
+    scene = scene_from_dict(document).with_render(samples=4 if seed % 2 else 16, width=6, height=5)
+    assert_matches_reference(scene)
+
+
+def test_shared_glossy_pairs_cost_one_ray_each_a_pixel_and_give_the_one_sample_value() -> None:
+    """A rough white plane under a uniform white sky, one pixel at 16 samples and 16 pairs: each pair traced once
+    for the pixel (as one sample sends), not 16 times each, and the pixel's value the one sample's (every point of
+    the plane sees the same sky)."""
+    white = {"color": [0.0, 0.0, 0.0], "specular": 0, "glossy": [1.0, 1.0, 1.0], "roughness": 0.5}
+    document = {
+        "materials": {"plane": white},
+        "objects": [{"name": "plane", "type": "plane", "material": "plane"}],
+        "lights": [{"type": "ambient", "intensity": 0.0}],
+        "camera": {"location": [0.0, -30.0, 40.0], "rotation": [36.87, 0.0, 0.0], "type": "ORTHO", "ortho_scale": 0.01},
+        "background": {"type": "solid", "color": [1.0, 1.0, 1.0]},
+        "render": {"width": 1, "height": 1, "depth": 1, "glossy_samples": 16},
+    }
+    one = render(scene_from_dict(document), workers=1)
+    document["render"]["samples"] = 16
+    shared = render(scene_from_dict(document), workers=1)
+    # (a pair whose ray would leave below the horizon sends none: 15 of the 16 here, 240 without the sharing)
+    assert 12 <= shared.rays.reflection == one.rays.reflection <= 16 and shared.rays.camera == 16
+    assert shared.image[0, 0, 0] == pytest.approx(one.image[0, 0, 0], abs=1e-12)
+    assert 0.3 < one.image[0, 0, 0] < 1.0 + 1e-9

@@ -119,6 +119,14 @@ def world_share(settings: sc.RenderSettings, directions: int) -> int:
     return math.gcd(settings.samples * slices, directions)
 
 
+def shared_pairs(settings: sc.RenderSettings, count: int, sample: int) -> tuple[range, float]:
+    """The glossy pairs camera sample `sample` of a pixel takes at a path's first glossy surface or diffuse bounce,
+    and each one's share: shared out among the pixel's samples as the world light's directions are (world_share g),
+    range(key mod g, count, g) at g / count each (16 samples, 16 pairs: one ray each, 16 a pixel, not 256)."""
+    share = world_share(settings, count)
+    return range(sharing_key(settings, sample) % share, count, share), share / count
+
+
 def sharing_key(settings: sc.RenderSettings, sample: int | np.ndarray) -> int | np.ndarray:
     """A camera sample's place among the pixel's strata for world_share: sample s of the pixel (in a time slice k of
     T, s T + k: over the slices every key once)."""

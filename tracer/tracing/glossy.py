@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry import lightsamples
 from ..geometry.kernels import indices, take
 from . import surfaces
 from .batch import Hits
@@ -164,16 +165,17 @@ def samples(lobes: Lobes, u1: np.ndarray, u2: np.ndarray) -> tuple[np.ndarray, n
 
 
 def sample_rays(
-    scene: PreparedScene, lobes: Lobes, chosen: np.ndarray
+    scene: PreparedScene, lobes: Lobes, chosen: np.ndarray, keys: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The reflection rays of the lobes: every pair of scene.glossy_pairs at a hit whose chosen (k,) is -1 (a path's
-    first glossy surface), the chosen pair alone elsewhere -> the rays' lobes (j,) (indices into the lobes), their
-    pairs (j,), unit world directions (3, j) and weights (3, j): F G2 / G1(v) times the boost, divided by the
-    number of rays the hit sends; only rays of weight > 0."""
+    """The reflection rays of the lobes: at a hit whose chosen (k,) is -1 (a path's first glossy surface) the pairs
+    of scene.glossy_pairs its camera sample takes (keys (k,): their sharing keys, lightsamples.shared_pairs), the
+    chosen pair alone elsewhere -> the rays' lobes (j,) (indices into the lobes), their pairs (j,), unit world
+    directions (3, j) and weights (3, j): F G2 / G1(v) times the boost, times the pair's share; only rays of weight
+    > 0."""
     pairs = scene.glossy_pairs
     count = len(pairs)
     fresh = chosen < 0
-    lobe, pair = _ray_pairs(chosen, count)
+    lobe, pair, every = _ray_pairs(chosen, count, keys, lightsamples.world_share(scene.scene.render, count))
     one = lobes.take(lobe)
     directions, weight = samples(one, pairs[:, 0].take(pair), pairs[:, 1].take(pair))
     lx, ly, lz = directions
@@ -182,7 +184,7 @@ def sample_rays(
     hx, hy, hz = lx + vx, ly + vy, lz + vz
     h_length = np.sqrt(hx * hx + hy * hy + hz * hz)
     VH = (vx * hx + vy * hy + vz * hz) / np.where(h_length > 0.0, h_length, 1.0)
-    share = np.where(fresh.take(lobe), 1.0 / count, 1.0)
+    share = np.where(fresh.take(lobe), every, 1.0)
     value = fresnel(one, VH) * (weight * share) * one.boost
     keep = indices((weight > 0.0) & np.any(value > 0.0, axis=0))
     return lobe.take(keep), pair.take(keep), take(D, keep), take(value, keep)
@@ -213,13 +215,14 @@ def environment(scene: PreparedScene, lobes: Lobes) -> np.ndarray:
 
 
 def diffuse_rays(
-    scene: PreparedScene, hits: Hits, rows: np.ndarray, chosen: np.ndarray
+    scene: PreparedScene, hits: Hits, rows: np.ndarray, chosen: np.ndarray, keys: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The diffuse bounce rays of hits rows (k,): for every pair at a path's first glossy or diffuse bounce (chosen
-    -1), else the path's pair, the cosine-weighted direction (sqrt(u1) cos 2 pi u2, sqrt(u1) sin 2 pi u2,
-    sqrt(1 - u1)) about the shading normal turned toward the viewer (the albedo times the mean of what they bring
-    is the indirect light: Lambert's 1 / pi and the cosine cancel the density) -> the rays' hits (j,) (indices into
-    rows), pairs (j,), unit directions (3, j) and shares (j,) (1 / pairs, or 1)."""
+    """The diffuse bounce rays of hits rows (k,): for each pair its camera sample takes (keys (k,), as sample_rays)
+    at a path's first glossy or diffuse bounce (chosen -1), else the path's pair, the cosine-weighted direction
+    (sqrt(u1) cos 2 pi u2, sqrt(u1) sin 2 pi u2, sqrt(1 - u1)) about the shading normal turned toward the viewer
+    (the albedo times the mean of what they bring is the indirect light: Lambert's 1 / pi and the cosine cancel the
+    density) -> the rays' hits (j,) (indices into rows), pairs (j,), unit directions (3, j) and shares (j,) (the
+    pair's share, or 1)."""
     S = np.asarray(take(hits.S, rows), np.float64)
     V = np.asarray(take(hits.V, rows), np.float64)
     n = np.where(_dot(S, V) < 0.0, -S, S)
@@ -228,12 +231,12 @@ def diffuse_rays(
     pairs = scene.glossy_pairs
     count = len(pairs)
     fresh = chosen < 0
-    hit, pair = _ray_pairs(chosen, count)
+    hit, pair, every = _ray_pairs(chosen, count, keys, lightsamples.world_share(scene.scene.render, count))
     u1, u2 = pairs[:, 0].take(pair), pairs[:, 1].take(pair)
     r, phi = np.sqrt(u1), 2.0 * math.pi * u2
     x, y, z = r * np.cos(phi), r * np.sin(phi), np.sqrt(1.0 - u1)
     D = x * e1[:, hit] + y * e2[:, hit] + z * n[:, hit]
-    return hit, pair, D, np.where(fresh.take(hit), 1.0 / count, 1.0)
+    return hit, pair, D, np.where(fresh.take(hit), every, 1.0)
 
 
 def glass_rays(
@@ -272,7 +275,7 @@ def glass_rays(
         albedo = (weight_r + weight_t).mean(axis=0)
         gain = np.where(multiscatter & (albedo > 0.0), 1.0 / np.where(albedo > 0.0, albedo, 1.0), 1.0)
     fresh = chosen < 0
-    hit, pair = _ray_pairs(chosen, count)
+    hit, pair, _ = _ray_pairs(chosen, count, np.zeros(chosen.size, dtype=np.int64), 1)
     u1 = rotated(pairs[:, 0].take(pair), rotation[0].take(hit))
     u2 = rotated(pairs[:, 1].take(pair), rotation[1].take(hit))
     split = _glass_split(v[:, hit], eta.take(hit), alpha.take(hit), u1, u2, separable.take(hit), beckmann.take(hit))
@@ -299,15 +302,18 @@ def rotated(u: np.ndarray, offset: np.ndarray) -> np.ndarray:
     return np.where(moved >= 1.0, moved - 1.0, moved)
 
 
-def _ray_pairs(chosen: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """The rays of hits whose chosen pair (k,) is -1 (a path's first glossy surface or bounce: every one of the count
-    pairs) or a pair of its path (that one) -> each ray's hit (j,) and pair (j,), a hit's rays together in pair
-    order."""
-    fresh = chosen < 0
-    hit = np.concatenate((np.repeat(indices(fresh), count), indices(~fresh)))
-    pair = np.concatenate((np.tile(np.arange(count), int(fresh.sum())), chosen.take(indices(~fresh))))
+def _ray_pairs(chosen: np.ndarray, count: int, keys: np.ndarray, share: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """The rays of hits whose chosen pair (k,) is -1 (a path's first glossy surface or bounce: the count / share
+    pairs p = key mod share + share t its camera sample takes, keys (k,), lightsamples.shared_pairs; every pair at
+    share 1) or a pair of its path (that one) -> each ray's hit (j,) and pair (j,), a hit's rays together in pair
+    order, and a fresh ray's share of its hit's light (share / count)."""
+    fresh = indices(chosen < 0)
+    per = count // share
+    first = np.repeat(keys.take(fresh) % share, per) + share * np.tile(np.arange(per), fresh.size)
+    hit = np.concatenate((np.repeat(fresh, per), indices(chosen >= 0)))
+    pair = np.concatenate((first, chosen.take(indices(chosen >= 0))))
     order = np.argsort(hit, kind="stable")
-    return hit.take(order), pair.take(order)
+    return hit.take(order), pair.take(order), share / count
 
 
 def _glass_split(

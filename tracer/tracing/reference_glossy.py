@@ -22,6 +22,7 @@ class Tracing(Protocol):
     rays: dict[str, int]
     settings: sc.RenderSettings
     serial: int  # the camera sample being traced (camera.sample_serial)
+    camera_sample: int  # its sample of the pixel: which glossy pairs a path's first glossy surface takes
 
     def trace_ray(
         self,
@@ -396,17 +397,17 @@ def rays(
     and the ray's state as trace_ray carries them."""
     if lobe is None:
         lobe = lobe_at(material, S, V, tracer.glossy_pairs)
-    return traced(tracer, P, lobe_rays(lobe, tracer.glossy_pairs, path), depth, layers)
+    first = lightsamples.shared_pairs(tracer.settings, len(tracer.glossy_pairs), tracer.camera_sample)
+    return traced(tracer, P, lobe_rays(lobe, tracer.glossy_pairs, path, first), depth, layers)
 
 
-def lobe_rays(lobe: Lobe, pairs: list[tuple[float, float]], path: tuple) -> list[tuple]:
-    """A glossy lobe's reflection rays: every pair at a path's first glossy surface (its pair -1), each ray then
-    carrying its pair, else the path's pair alone (ray()'s weights) -> (direction, weight, path) each (glossy rays:
-    they see no lights)."""
+def lobe_rays(lobe: Lobe, pairs: list[tuple[float, float]], path: tuple, first: tuple[range, float]) -> list[tuple]:
+    """A glossy lobe's reflection rays: at a path's first glossy surface (its pair -1) the pairs the camera sample
+    takes and their share (first: lightsamples.shared_pairs), each ray then carrying its pair, else the path's pair
+    alone (ray()'s weights) -> (direction, weight, path) each (glossy rays: they see no lights)."""
     if lobe.v[2] <= 0.0:
         return []
-    chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
-    share = 1.0 / len(pairs) if path[0] < 0 else 1.0
+    chosen, share = first if path[0] < 0 else ((path[0],), 1.0)
     made = []
     for index in chosen:
         found = ray(lobe, *pairs[index], share)
@@ -429,19 +430,22 @@ def diffuse(
     the ray's state as trace_ray carries them."""
     if depth <= 0:
         return (0.0, 0.0, 0.0)
-    return traced(tracer, P, bounce_rays(tracer.glossy_pairs, V, S, albedo, path), depth, layers)
+    first = lightsamples.shared_pairs(tracer.settings, len(tracer.glossy_pairs), tracer.camera_sample)
+    return traced(tracer, P, bounce_rays(tracer.glossy_pairs, V, S, albedo, path, first), depth, layers)
 
 
-def bounce_rays(pairs: list[tuple[float, float]], V: sc.Vec3, S: sc.Vec3, albedo: sc.Color, path: tuple) -> list:
-    """A hit's diffuse bounce rays (glossy.diffuse_rays, one ray at a time): per pair (all at a path's first glossy
-    surface or bounce, else the path's), the cosine-weighted direction about S turned toward V, weighted by the
-    albedo over the number of rays -> (direction, weight, path) each, diffuse rays of the next bounce."""
+def bounce_rays(
+    pairs: list[tuple[float, float]], V: sc.Vec3, S: sc.Vec3, albedo: sc.Color, path: tuple, first: tuple[range, float]
+) -> list:
+    """A hit's diffuse bounce rays (glossy.diffuse_rays, one ray at a time): per pair (those the camera sample takes
+    at a path's first glossy surface or bounce, first as lobe_rays takes it, else the path's), the cosine-weighted
+    direction about S turned toward V, weighted by the albedo times the pair's share -> (direction, weight, path)
+    each, diffuse rays of the next bounce."""
     if not any(c > 0.0 for c in albedo):
         return []
     n = _unit(S if _dot(S, V) >= 0.0 else (-S[0], -S[1], -S[2]))
     e1, e2 = lightsamples.facing_basis(n)
-    chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
-    share = 1.0 / len(pairs) if path[0] < 0 else 1.0
+    chosen, share = first if path[0] < 0 else ((path[0],), 1.0)
     made = []
     for index in chosen:
         u1, u2 = pairs[index]

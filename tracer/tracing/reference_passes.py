@@ -9,6 +9,7 @@ import math
 from dataclasses import dataclass
 
 from ..geometry import camera as cam
+from ..geometry import lightsamples
 from ..geometry import transforms as tf
 from ..geometry.transforms import add, dot, length, scale, sub
 from ..scene import scene as sc
@@ -136,12 +137,13 @@ class PassTracer(ReferenceTracer):
         if depth <= 0 or shaded <= 0.0:
             return
         rays = []
+        first = lightsamples.shared_pairs(self.settings, len(self.glossy_pairs), self.camera_sample)
         if material.traces_glossy:
             lobe = reference_glossy.lobe_at(material, S, V, self.glossy_pairs)
-            rays += reference_glossy.lobe_rays(lobe, self.glossy_pairs, NEW_PATH)
+            rays += reference_glossy.lobe_rays(lobe, self.glossy_pairs, NEW_PATH, first)
         if self.settings.diffuse_bounces > 0:
             albedo = tuple(c * (1.0 - material.reflective) for c in material.color)
-            rays += reference_glossy.bounce_rays(self.glossy_pairs, V, S, albedo, NEW_PATH)
+            rays += reference_glossy.bounce_rays(self.glossy_pairs, V, S, albedo, NEW_PATH, first)
         for direction, weight, path in rays:
             surface, sky = self.split_ray(P, direction, depth - 1, 0, path)
             for c in range(3):

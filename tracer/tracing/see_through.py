@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry import camera as cam
+from ..geometry import lightsamples
 from ..geometry.footprint import Footprint
 from ..geometry.kernels import dot, indices, take
 from ..geometry.rayframes import RayFrames
@@ -227,7 +228,7 @@ def _diffuse_rays(
     rows = indices(go & (batch.bounces < scene.diffuse_bounces) & np.any(albedo > 0.0, axis=0))
     if not rows.size:
         return None
-    hit, pair, D, share = glossy.diffuse_rays(scene, hits, rows, batch.sample.take(rows))
+    hit, pair, D, share = glossy.diffuse_rays(scene, hits, rows, batch.sample.take(rows), _keys(scene, batch, rows))
     rows = rows.take(hit)
     weight = take(base, rows) * take(albedo, rows) * share.astype(scene.dtype, copy=False)
     rays = _child(scene, hits, batch, shaded, rows, D.astype(scene.dtype, copy=False), weight,
@@ -276,7 +277,8 @@ def _glossy_rays(
     lobes = lobes.take(indices(traced & go.take(lobes.rows) & (shaded.take(lobes.rows) > 0.0) & lobes.facing))
     if not lobes.rows.size:
         return None
-    lobe, pair, D, weight = glossy.sample_rays(scene, lobes, batch.sample.take(lobes.rows))
+    keys = _keys(scene, batch, lobes.rows)
+    lobe, pair, D, weight = glossy.sample_rays(scene, lobes, batch.sample.take(lobes.rows), keys)
     if not lobe.size:
         return None
     rows = lobes.rows.take(lobe)
@@ -284,6 +286,13 @@ def _glossy_rays(
     D = D.astype(scene.dtype, copy=False)
     rays = _child(scene, hits, batch, shaded, rows, D, weight, batch.left.take(rows) - 1, False, 1, pair)
     return rays if rays.lamps is None else rays.with_rays(lamps=np.zeros(rows.size, dtype=bool))  # the lobe had them
+
+
+def _keys(scene: PreparedScene, batch: RayBatch, rows: np.ndarray) -> np.ndarray:
+    """The sharing keys (k,) of the camera samples the rays rows belong to (lightsamples.sharing_key): which of
+    the glossy pairs a path's first glossy surface or bounce takes."""
+    settings = scene.scene.render
+    return np.asarray(lightsamples.sharing_key(settings, batch.pixel.take(rows) % settings.samples), dtype=np.int64)
 
 
 def _child(
