@@ -422,16 +422,24 @@ def test_adaptive_samplings_flagging_pass_matches_the_reference(seed: int) -> No
     assert_matches_reference(scene_from_dict(_world_lit_document(seed)).with_render(adaptive_flags=True))
 
 
-def _open_ground(objects: list[dict], samples: int = 64, **light: object) -> float:
-    """The ground's colour straight under a camera looking down at the origin, lit by a white world light only."""
-    document = {
+def _white_ground(
+    objects: list[dict], samples: int = 16, at: tuple[float, float] = (0.0, 0.0), across: float = 0.01, **light: object
+) -> dict:
+    """A white ground and objects under a white world light only, seen straight down by an orthographic camera
+    across metres wide over the point at, one pixel."""
+    return {
         "materials": {"white": {"color": [1.0, 1.0, 1.0], "specular": 0}},
         "objects": [{"name": "ground", "type": "plane", "material": "white"}, *objects],
         "lights": [{"type": "world", "intensity": 1.0, "samples": samples, **light}],
-        "camera": {"location": [0.0, 0.0, 50.0], "rotation": [0.0, 0.0, 0.0], "type": "ORTHO", "ortho_scale": 0.01},
+        "camera": {"location": [*at, 50.0], "rotation": [0.0, 0.0, 0.0], "type": "ORTHO", "ortho_scale": across},
         "background": {"type": "solid", "color": [1.0, 1.0, 1.0]},
         "render": {"width": 1, "height": 1, "depth": 0},
     }
+
+
+def _open_ground(objects: list[dict], samples: int = 64, **light: object) -> float:
+    """The ground's colour straight under a camera looking down at the origin, lit by a white world light only."""
+    document = _white_ground(objects, samples, **light)
     return float(render(scene_from_dict(document), workers=1).image[0, 0, 0])
 
 
@@ -482,14 +490,8 @@ def test_the_world_lights_contact_shadow_beside_a_wall_is_the_view_factor_not_ba
     step wherever one direction's shadow edge fell."""
     wall = {"name": "wall", "type": "box", "material": "white", "location": [-5.0, 0.0, 0.5]}
     wall.update(size=[10.0, 2000.0, 1.0], visible_camera=False)
-    document = {
-        "materials": {"white": {"color": [1.0, 1.0, 1.0], "specular": 0}},
-        "objects": [{"name": "ground", "type": "plane", "material": "white"}, wall],
-        "lights": [{"type": "world", "intensity": 1.0, "samples": 16}],
-        "camera": {"location": [1.0, 0.0, 50.0], "rotation": [0.0, 0.0, 0.0], "type": "ORTHO", "ortho_scale": 20.0},
-        "background": {"type": "solid", "color": [1.0, 1.0, 1.0]},
-        "render": {"width": 50, "height": 500, "depth": 0},
-    }
+    document = _white_ground([wall], at=(1.0, 0.0), across=20.0)
+    document["render"].update(width=50, height=500)
     image = render(scene_from_dict(document), workers=1).image[..., 0]
     d = (np.arange(50) + 0.5) * 0.04  # each column's distance from the wall (pixels of 4 cm)
     view_factor = (1.0 - d / np.sqrt(d * d + 1.0)) / 2.0
@@ -531,14 +533,7 @@ def test_shared_world_directions_cost_one_ray_each_a_pixel_and_give_the_one_samp
     rays, not 256), and the pixel's value the one sample's (the same directions from points 2.5 mm apart)."""
     sphere = {"name": "ball", "type": "sphere", "material": "white", "location": [0.0, 0.0, 1.2], "radius": 1.0}
     sphere["visible_camera"] = False
-    document = {
-        "materials": {"white": {"color": [1.0, 1.0, 1.0], "specular": 0}},
-        "objects": [{"name": "ground", "type": "plane", "material": "white"}, sphere],
-        "lights": [{"type": "world", "intensity": 1.0, "samples": 16}],
-        "camera": {"location": [0.0, 0.0, 50.0], "rotation": [0.0, 0.0, 0.0], "type": "ORTHO", "ortho_scale": 0.01},
-        "background": {"type": "solid", "color": [1.0, 1.0, 1.0]},
-        "render": {"width": 1, "height": 1, "depth": 0},
-    }
+    document = _white_ground([sphere])
     one = render(scene_from_dict(document), workers=1)
     document["render"]["samples"] = 16
     shared = render(scene_from_dict(document), workers=1)
