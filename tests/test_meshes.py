@@ -387,6 +387,24 @@ def test_a_deep_stack_of_triangles_is_walked_not_pictured() -> None:
     assert (t < np.inf).all()
 
 
+def test_an_area_light_at_shadows_16_gets_each_of_its_views_pictured_once(monkeypatch) -> None:
+    """A mesh under an area light at Shadows 16 is seen from 17 views (the camera and the light's 16 points): each
+    view's picture is made once in a render and kept (meshbvh.PICTURE_BYTES), not made again band after band once
+    more than PICTURES_KEPT views take turns."""
+    light = sc.AreaLight(location=(2.0, -2.0, 5.0), direction=(-0.3, 0.3, -1.0), size=(2.0, 2.0), intensity=8.0)
+    scene = replace(uv_sphere(400), lights=(light,)).with_render(width=160, height=120, shadow_samples=16)
+    made: list[View] = []
+    build = meshpicture.TrianglePicture.build.__func__
+
+    def counted(cls, corners, lower, upper, slots, view, *rest):
+        made.append(view)
+        return build(cls, corners, lower, upper, slots, view, *rest)
+
+    monkeypatch.setattr(meshpicture.TrianglePicture, "build", classmethod(counted))
+    render(scene, workers=1)
+    assert len(set(made)) == 17 and len(made) == 17
+
+
 # ---- meshes as arrays: vertices, triangles and corner fields as NumPy arrays -----------------------------------------
 
 

@@ -43,7 +43,13 @@ SMALL_PARTS_FROM = 64
 PART_ROUNDS = 4
 MESH_HIERARCHY_TRIANGLES = 32  # a mesh of more triangles gets its own hierarchy; below, one test over all of them
 BIG = np.iinfo(np.int64).max
-PICTURES_KEPT = 8  # views per mesh kernel: the camera's and the lights'
+# views per mesh kernel whose pictures are kept whatever their size (the camera's and the lights'), and more while
+# all of them take at most PICTURE_BYTES: a light of a size at Shadows 16 is 16 views, one per sample point, and
+# keeping 8 rebuilt every picture for every band (a glass ball and a Suzanne under an area light: 799 pictures made
+# in one 160x90 render, 3.6 of its 12 s)
+PICTURES_KEPT = 8
+PICTURE_BYTES = 64 << 20
+VIEWS_COUNTED = 1024  # views whose asking rays are counted; beyond, the count starts again (a moving view's names)
 PICTURE_PAYOFF = 0.5  # rays per triangle that a view's queries bring before its picture is made
 # (ray, leaf) pairs times the triangles per leaf, per pass of a walk's leaf tests: a pass's temporaries (256 KB
 # each in float64) stay in a core's cache, where 8 times more cost 64 rather than 43 ns a triangle test (3,000
@@ -268,6 +274,10 @@ def _segments(ufunc: np.ufunc, values: np.ndarray, starts: np.ndarray, stops: np
     return ufunc.reduceat(padded, np.stack((starts, stops), axis=1).ravel(), axis=0)[0::2]
 
 
+def _picture_bytes(picture: TrianglePicture | None) -> int:
+    return 0 if picture is None else picture.starts.nbytes + picture.entries.nbytes
+
+
 class BoxRays(NamedTuple):
     """A walk's rays and boxes as its slab tests take them (MeshKernel._box_rays)."""
 
@@ -309,6 +319,7 @@ class MeshKernel(Kernel):
         self.grown: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # _box_rays' float32 boxes by the origins' reach
         self.pictures: OrderedDict[View, TrianglePicture | None] = OrderedDict()
         self.asked: dict[View, int] = {}  # rays that asked for a view's picture before it was made
+        self.picture_bytes = 0  # what the kept pictures take
 
     def bounds(self):
         return self.lower, self.upper
@@ -352,13 +363,14 @@ class MeshKernel(Kernel):
 
     def picture(self, view: View, rays: int) -> TrianglePicture | None:
         """The mesh seen in view, or None: made (for about as many rays as this query brings) once the rays that
-        asked for it add up to PICTURE_PAYOFF times the triangles, and kept (a few views: the camera and the
-        lights). Making one costs about a microsecond per triangle and saves about two per ray, so a
-        million-triangle mesh walks its first frame's rays and an animation's later frames use the pictures."""
+        asked for it add up to PICTURE_PAYOFF times the triangles, and kept (PICTURES_KEPT views, and more within
+        PICTURE_BYTES: the camera and the lights' sample points). Making one costs about a microsecond per triangle
+        and saves about two per ray, so a million-triangle mesh walks its first frame's rays and an animation's later
+        frames use the pictures."""
         if view in self.pictures:
             self.pictures.move_to_end(view)
             return self.pictures[view]
-        if len(self.asked) > 4 * PICTURES_KEPT:  # a moving view (the viewport's camera) asks under ever new names
+        if len(self.asked) > VIEWS_COUNTED:  # a moving view (the viewport's camera) asks under ever new names
             self.asked.clear()
         self.asked[view] = self.asked.get(view, 0) + rays
         if self.asked[view] < PICTURE_PAYOFF * self.count:
@@ -372,8 +384,12 @@ class MeshKernel(Kernel):
             corners, self.lower, self.upper, self.slots, view, self.dtype, rays
         )
         del corners
-        if len(self.pictures) > PICTURES_KEPT:
-            self.pictures.popitem(last=False)
+        self.picture_bytes += _picture_bytes(made)
+        while len(self.pictures) > PICTURES_KEPT and self.picture_bytes > PICTURE_BYTES:
+            dropped, picture = self.pictures.popitem(last=False)
+            self.picture_bytes -= _picture_bytes(picture)
+            # earned again before it is made again: views taken in turn beyond the budget are not all rebuilt each query
+            self.asked.pop(dropped, None)
         return made
 
     def _find(self, O, D, t_min, t_max, any_hit, view: View | None):
