@@ -133,6 +133,37 @@ def test_random_scene_passes_with_blender_fields_match_the_reference(seed: int) 
     check_against_reference(scene)
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_passes_where_a_pixels_samples_share_out_lights_samples_match_the_reference(seed: int) -> None:
+    """16 camera samples a pixel taking a world light's directions and an area light's points in turn
+    (lightsamples.world_share): each pass as the reference's, the Shadow pass too (every light of a size weighs its
+    one share at each point, whichever of its samples the point's camera sample takes)."""
+    from tests.test_lights_and_world import _soft_document
+
+    document = _soft_document(seed)
+    document["lights"].append({"type": "world", "intensity": 0.6, "samples": 16})
+    document["render"].update(width=8, height=6, shadow_samples=16)
+    document["render"].pop("border", None)
+    check_against_reference(scene_from_dict(with_passes(document, seed, samples=16)))
+
+
+def test_the_shadow_pass_is_1_on_open_ground_where_a_pixels_samples_share_out_the_lights() -> None:
+    """Open ground under a world light and an area light, 16 samples a pixel sharing out their 16 directions and
+    points: every sample of every light reaches every point, so the Shadow pass is 1."""
+    document = {
+        "materials": {"white": {"color": [1.0, 1.0, 1.0], "specular": 0}},
+        "objects": [{"name": "ground", "type": "plane", "material": "white"}],
+        "lights": [
+            {"type": "world", "intensity": 1.0, "samples": 16},
+            {"type": "area", "location": [0.0, 0.0, 2.0], "direction": [0.0, 0.0, -1.0], "size": 1.0, "intensity": 3.0},
+        ],
+        "camera": {"location": [0.0, 0.0, 5.0], "rotation": [0.0, 0.0, 0.0], "type": "ORTHO", "ortho_scale": 0.5},
+        "background": {"type": "solid", "color": [1.0, 1.0, 1.0]},
+        "render": {"width": 4, "height": 3, "depth": 0, "samples": 16, "shadow_samples": 16, "passes": ["shadow"]},
+    }
+    assert np.array_equal(render(scene_from_dict(document), workers=1).passes["shadow"], np.ones((3, 4, 1)))
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_glossy_bouncing_and_mirrored_light_passes_match_the_reference(seed: int) -> None:
     """Glossy lobes (traced and of the world), rough glass, diffuse bounces and area lights seen in mirrors: each

@@ -25,13 +25,16 @@ from ..scene import scene as sc
 @dataclass
 class PreparedLight:
     """What every traced light has: its intensity, colour (3, 1) in the tracing dtype, the scene light it is (or is
-    a sample of: its index in scene.lights) and its share of that light (1 / samples for a light of a size, the
-    Shadow pass's weight)."""
+    a sample of: its index in scene.lights), its share of that light (1 / samples for a light of a size, the
+    Shadow pass's weight), and which of that light's samples it is, of how many (lightsamples.world_share gives a
+    sample of a light of a size, or a world direction, to some of a pixel's camera samples)."""
 
     intensity: float
     color: np.ndarray
     source: int = 0
     weight: float = 1.0
+    index: int = 0
+    count: int = 1
 
     ambient: ClassVar[bool] = False  # no direction: its term is its intensity, it casts no shadow
     highlight: ClassVar[bool] = True  # a Phong / Blinn-Phong highlight besides the diffuse term
@@ -209,8 +212,6 @@ class WorldSample(DirectedLight):
 
     local: tuple[float, float, float] = (0.0, 0.0, 1.0)
     world: bool = True  # the background's radiance along it times its colour; False: its colour alone
-    index: int = 0  # which of its light's directions (lightsamples.world_share gives it to some camera samples)
-    count: int = 1  # its light's directions
     highlight: ClassVar[bool] = False
 
     def toward(self, P: np.ndarray) -> np.ndarray:
@@ -260,17 +261,14 @@ def prepare_lights(scene: sc.Scene, dtype: np.dtype) -> list[PreparedLight]:
             directions = lightsamples.hemisphere_directions(light.samples)
             share, weight = 2.0 * light.intensity / len(directions), 1.0 / len(directions)
             world = light.radiance == "background"
-            made = [
-                WorldSample(share, color, weight=weight, local=local, world=world, index=i, count=len(directions))
-                for i, local in enumerate(directions)
-            ]
+            made = [WorldSample(share, color, weight=weight, local=local, world=world) for local in directions]
         else:  # a sun of an angle: its samples' directions (one: the direction itself)
             directions = lightsamples.sun_directions(light, samples)
             share = light.intensity / len(directions) if len(directions) > 1 else light.intensity
             weight = 1.0 / len(directions)
             made = [DirectionalSample(share, color, weight=weight, vector=column(d, dtype)) for d in directions]
-        for sample in made:
-            sample.source = source
+        for index, sample in enumerate(made):
+            sample.source, sample.index, sample.count = source, index, len(made)
         lights.extend(made)
     return lights
 

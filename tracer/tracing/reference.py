@@ -463,7 +463,7 @@ class ReferenceTracer:
         ambient, lights_diffuse = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]  # the coloured mode's terms apart (split)
         lights, reached = 0, 0
         shine = [0.0, 0.0, 0.0]  # through the glossy lobe
-        for light, where, intensity, weight, emitter, disk in self.lights:
+        for light, where, intensity, weight, emitter, disk, index, count in self.lights:
             color = light.color
             if isinstance(light, sc.AmbientLight):
                 total += light.intensity
@@ -471,10 +471,10 @@ class ReferenceTracer:
                 ambient_sum += light.intensity
                 ambient = [ambient[c] + light.intensity * color[c] for c in range(3)]
                 continue
-            if isinstance(light, sc.WorldLight):  # disk: the direction's index
-                share = lightsamples.world_share(self.settings, light.samples)
-                if share > 1:  # shared out among the pixel's samples: this sample's directions, share times
-                    if disk % share != lightsamples.sharing_key(self.settings, self.camera_sample) % share:
+            if index is not None:  # a light of a size's sample or a world direction: which, of how many
+                share = lightsamples.world_share(self.settings, count)
+                if share > 1:  # shared out among the pixel's samples: this sample's, share times
+                    if index % share != lightsamples.sharing_key(self.settings, self.camera_sample) % share:
                         continue
                     intensity, weight = intensity * share, weight * share
             lights += weight
@@ -887,9 +887,11 @@ def glass_split(
 
 def light_samples(scene: sc.Scene) -> list[tuple]:
     """Each light as find_intensities visits it: (light, where: a point light's location or a directional
-    light's direction, intensity, weight, emitter, disk), a light of a size once per sample (lightsamples.py)
-    with 1 / samples of its intensity and of its weight in the Shadow pass; emitter: an area light's unit
-    normal; disk: a point or spot light's sample offset (radius * (a, b)) on the disk facing each point."""
+    light's direction, intensity, weight, emitter, disk, index, count), a light of a size once per sample
+    (lightsamples.py) with 1 / samples of its intensity and of its weight in the Shadow pass; emitter: an area
+    light's unit normal; disk: a point or spot light's sample offset (radius * (a, b)) on the disk facing each point;
+    index, count: which of the light's samples (a world light's: its directions), of how many
+    (lightsamples.world_share gives it to some of a pixel's samples), None for a light of no size."""
     samples = scene.render.shadow_samples
     made = []
     for light in scene.lights:
@@ -897,24 +899,31 @@ def light_samples(scene: sc.Scene) -> list[tuple]:
             points = lightsamples.area_points(light, samples)
             normal = lightsamples.area_frame(light)[0]
             share = light.intensity / len(points) if len(points) > 1 else light.intensity
-            made.extend((light, point, share, 1.0 / len(points), normal, None) for point in points)
+            made.extend(
+                (light, point, share, 1.0 / len(points), normal, None, i, len(points)) for i, point in enumerate(points)
+            )
         elif isinstance(light, sc.DirectionalLight):
             directions = lightsamples.sun_directions(light, samples)
             share = light.intensity / len(directions) if len(directions) > 1 else light.intensity
-            made.extend((light, direction, share, 1.0 / len(directions), None, None) for direction in directions)
+            made.extend(
+                (light, direction, share, 1.0 / len(directions), None, None, i, len(directions))
+                for i, direction in enumerate(directions)
+            )
         elif isinstance(light, sc.WorldLight):  # directions in each point's normal frame
             directions = lightsamples.hemisphere_directions(light.samples)
             share = 2.0 * light.intensity / len(directions)
-            # the sixth: the direction's index (lightsamples.world_share gives it to some of a pixel's samples)
-            made.extend((light, local, share, 1.0 / len(directions), None, i) for i, local in enumerate(directions))
+            made.extend(
+                (light, local, share, 1.0 / len(directions), None, None, i, len(directions))
+                for i, local in enumerate(directions)
+            )
         elif isinstance(light, sc.PointLight | sc.SpotLight) and light.radius > 0.0 and samples > 1:
             offsets = lightsamples.disk_offsets(samples)
             share = light.intensity / len(offsets)
-            for a, b in offsets:
+            for i, (a, b) in enumerate(offsets):
                 disk = (light.radius * a, light.radius * b)
-                made.append((light, light.location, share, 1.0 / len(offsets), None, disk))
+                made.append((light, light.location, share, 1.0 / len(offsets), None, disk, i, len(offsets)))
         else:
-            made.append((light, getattr(light, "location", None), light.intensity, 1.0, None, None))
+            made.append((light, getattr(light, "location", None), light.intensity, 1.0, None, None, None, 1))
     return made
 
 

@@ -13,7 +13,7 @@ from ..geometry.footprint import Footprint
 from ..geometry.kernels import dot, indices, take
 from . import glossy, shadows, surfaces
 from .batch import Hits
-from .lights import LightTerm, WorldSample, directed
+from .lights import DirectedLight, LightTerm, WorldSample, directed
 from .prepared import PreparedScene
 from .rays import RayCounts
 
@@ -107,9 +107,10 @@ def _light_terms(
     scene: PreparedScene, hits: Hits, specular: np.ndarray, length_n: np.ndarray, samples: np.ndarray
 ) -> list[LightTerm | None]:
     """Each light's LightTerm at the hits' points P with shading normals S and V (3, n), in the scene's order (None:
-    ambient). samples: the camera samples (n,) the points belong to: a world direction shared out among a pixel's
-    samples (lightsamples.world_share) counts at the points of its samples alone, g times (N.L g), turned by their
-    pixel's turn (camera.world_turns)."""
+    ambient). samples: the camera samples (n,) the points belong to: a world direction or a sample of a light of a
+    size shared out among a pixel's samples (lightsamples.world_share) counts at the points of its samples alone, g
+    times (N.L g, or its attenuation factor times g); a world direction is turned by its point's pixel's turn
+    (camera.world_turns)."""
     P, N, V = hits.P, hits.S, hits.V
     settings = scene.scene.render
     keys: dict[int, np.ndarray] = {}  # each share's key mod g at the points
@@ -138,9 +139,7 @@ def _light_terms(
         if not light.highlight:  # the world's light: a diffuse term only, its radiance where the term counts
             diffuse_gate = NL > 0.0
             if share > 1:
-                if share not in keys:
-                    keys[share] = lightsamples.sharing_key(settings, samples % settings.samples) % share
-                diffuse_gate &= keys[share] == light.index % share
+                diffuse_gate &= _taken(keys, settings, samples, share, light)
                 NL = NL * share
             needed = indices(diffuse_gate)
             color = _world_color(scene, light, L, needed, shared, factors) if light.world else light.color
@@ -166,10 +165,25 @@ def _light_terms(
         # a shadow ray only where this light could add something: the result is the listing's, with fewer rays
         diffuse_gate = NL > 0.0
         factor = light.attenuation(L, length_l)
+        share = lightsamples.world_share(settings, light.count)
+        if share > 1:  # a sample of a light of a size, shared out as the world's directions are: g times its terms
+            taken = _taken(keys, settings, samples, share, light)
+            diffuse_gate &= taken
+            gate &= taken
+            factor = share if factor is None else factor * share
         reaches = diffuse_gate | gate
         needed = indices(reaches & (factor > 0.0) if light.attenuated else reaches)
         terms.append(LightTerm(L, NL, length_l, diffuse_gate, gate, cosine, needed, factor, color))
     return terms
+
+
+def _taken(keys: dict[int, np.ndarray], settings, samples: np.ndarray, share: int, light: DirectedLight) -> np.ndarray:
+    """Whether each point's camera sample (samples (n,)) takes this sample of its light, shared out among a pixel's
+    samples g = share at a time (lightsamples.world_share): its sharing key mod g is the sample's index mod g. The
+    keys mod g are kept in keys for the other lights."""
+    if share not in keys:
+        keys[share] = lightsamples.sharing_key(settings, samples % settings.samples) % share
+    return keys[share] == light.index % share
 
 
 def _world_color(
@@ -282,17 +296,16 @@ def _shadow_share(
         reached = [light_reached * through for light_reached, through in zip(reached, throughs, strict=True)]
     share = np.zeros(count, dtype=scene.dtype)
     settings = scene.scene.render
-    weights = [
-        light.weight * (lightsamples.world_share(settings, light.count) if not light.highlight else 1)
-        for light in directed(scene.lights)
-    ]
-    if all(weight == 1.0 for weight in weights):
+    lights = directed(scene.lights)
+    if all(light.weight == 1.0 for light in lights):
         for light_reached in reached:
             share += light_reached
         return share / len(reached) if reached else np.ones(count, dtype=scene.dtype)
-    for light_reached, weight in zip(reached, weights, strict=True):
-        share += light_reached * weight
-    return share / sum(weights)
+    # a sample shared out among a pixel's samples reaches its points for g of its light's samples; its light's
+    # samples still weigh 1 together at every point (the reference's sum of the samples it takes)
+    for light_reached, light in zip(reached, lights, strict=True):
+        share += light_reached * (light.weight * lightsamples.world_share(settings, light.count))
+    return share / sum(light.weight for light in lights)
 
 
 def _plain(
@@ -320,6 +333,8 @@ def _plain(
             continue
         light_lit = next(shadow_rays)
         diffuse = light.intensity * term.NL / (length_n * term.length_l)
+        if term.factor is not None:  # no attenuation here: a shared sample's g
+            diffuse = diffuse * term.factor
         if passing is not None:
             through = next(passing)
             diffuse = diffuse * through
@@ -327,6 +342,8 @@ def _plain(
         gate = term.gate
         gate &= light_lit
         highlight = light.intensity * np.power(np.where(gate, term.cosine, 1.0), exponent)
+        if term.factor is not None:
+            highlight = highlight * term.factor
         if passing is not None:
             highlight = highlight * through
         intensity = np.where(gate, intensity + highlight, intensity)
