@@ -200,6 +200,32 @@ class Built:
 
     changed: list[str] = dataclasses.field(default_factory=list)  # "resolution 1920x1080 -> 640x480"
     kept: list[str] = dataclasses.field(default_factory=list)  # "resolution 1280x720 (the file's: 640x480)"
+    engine: list[str] = dataclasses.field(default_factory=list)  # the file's render settings: "Samples 16 -> 1"
+
+
+# The engine's settings (Render Properties > Weathervane Tracer) that a Build takes from the scene file, which its
+# result line names where they change
+ENGINE_SETTINGS = ("depth", "samples", "noise_threshold", "shadow_samples", "model", "numerics", "precision", "workers")
+
+
+def _engine_values(settings) -> dict:
+    return {key: getattr(settings, key) for key in ENGINE_SETTINGS}
+
+
+def _engine_changes(settings, before: dict) -> list[str]:
+    """Each engine setting that differs from before, as Render Properties names it and shows its values."""
+    changes = []
+    for key, old in before.items():
+        new = getattr(settings, key)
+        if _same(old, new):
+            continue
+        prop = settings.bl_rna.properties[key]
+        if prop.type == "ENUM":
+            shown = [prop.enum_items[value].name for value in (old, new)]
+        else:
+            shown = [f"{value:.4g}" if isinstance(value, float) else str(value) for value in (old, new)]
+        changes.append(f"{prop.name} {shown[0]} -> {shown[1]}")
+    return changes
 
 
 # The scene's own settings (Output and Color Management, not the add-on's) that a Build sets: each one's name in the
@@ -461,7 +487,9 @@ def build(context, scene, source: str = "", keep: bool = False, overwrite: bool 
             name = lights.object_name("DIRECTIONAL", index)
             obj = lights.create("DIRECTIONAL", light.intensity, name, collection, light.direction)
             entry.kind, entry.intensity, entry.object_name = "DIRECTIONAL", light.intensity, obj.name
+    before = _engine_values(settings)
     _fill_settings(context, scene)
+    result.engine = _engine_changes(settings, before)
     return result
 
 

@@ -203,10 +203,13 @@ class WEATHERVANE_OT_scene_file_browse(bpy.types.Operator, JsonFileBrowser):
 
 
 def _scene_settings_line(result) -> str:
-    """The scene settings a Build changed and those it kept (the user's own), for its result line."""
+    """The scene settings a Build changed and those it kept (the user's own), and the engine settings it took from
+    the file, for its result line."""
     line = ""
     if result.changed:
         line += "; changed " + ", ".join(result.changed)
+    if result.engine:
+        line += "; the file's render settings: " + ", ".join(result.engine)
     if result.kept:
         line += "; kept your " + ", ".join(result.kept) + " (Reset sets these)"
     return line

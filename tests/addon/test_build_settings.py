@@ -97,6 +97,18 @@ def test_build_into_a_factory_scene_sets_the_files_resolution_and_names_each_cha
     assert "kept your" not in line
 
 
+def test_build_names_the_render_settings_it_takes_from_the_file() -> None:
+    """A scene's engine settings at the defaults for scenes the add-on did not build (Samples 16, Threshold 0.005):
+    Build takes the documented vane's (1 sample, no threshold) and its result line names both, as Render Properties
+    names them; a second Build (a rebuild: the render settings kept) names none."""
+    settings = bpy.context.scene.weathervane
+    settings.samples, settings.noise_threshold = "16", 0.005
+    line = build_line()
+    assert (settings.samples, settings.noise_threshold) == ("1", 0.0)
+    assert "; the file's render settings: Samples 16 -> 1, Threshold 0.005 -> 0" in line
+    assert "the file's render settings" not in build_line()
+
+
 def test_build_keeps_what_the_user_set_and_names_it() -> None:
     """The user's 1280x720 at 50%, 30 fps and Filmic with exposure 1 stay through Build; the line names each kept
     value beside the file's; the curved parts are segmented for the user's resolution, and the wind's start is at
