@@ -64,7 +64,7 @@ def lighting(scene: sc.Scene) -> WorldLighting | None:
     lit = any(isinstance(light, sc.WorldLight) and light.radiance == "background" for light in scene.lights)
     if background.type != "image" or not lit:
         return None
-    key = _key(background)
+    key = background_key(background)
     if key not in _KEPT:
         _KEPT[key] = (background, _made(background))  # the background kept too: its image's id stays its own
         while len(_KEPT) > KEPT:
@@ -73,7 +73,7 @@ def lighting(scene: sc.Scene) -> WorldLighting | None:
     return _KEPT[key][1]
 
 
-def _key(background: sc.Background) -> object:
+def background_key(background: sc.Background) -> object:
     """What finds a background's lighting again: a read-only picture that owns its memory (the loader's, given again
     on each edit of a view) by its identity, with what else the lighting depends on; else the background itself,
     by its picture's bits (a digest of an 8k picture's 400 MB costs about 0.5 s)."""

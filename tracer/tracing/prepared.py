@@ -42,10 +42,7 @@ from .recorder import view_axis
 # triangles as one mesh, walking the scene's hierarchy node by node in Python. Below it (the default vane's 13
 # objects) a leaf per object, as the small scenes' benchmarks were tuned
 MERGE_MESHES_FROM = 64
-MERGE_SIZE_FACTOR = 8.0
-# a glossy lobe of the world alone (a dielectric's few percent) samples at most this many pairs: its untraced
-# lookups of a smooth world need few, and 16 made the factory cube's frame 1.4x its time without the lobe
-WORLD_GLOSSY_PAIRS = 4  # merged: meshes at most this many times the group's median size (their boxes' longest side)
+MERGE_SIZE_FACTOR = 8.0  # merged: meshes at most this many times the group's median size (their boxes' longest side)
 
 
 @dataclass(frozen=True)
@@ -540,7 +537,7 @@ def _materials(prepared: PreparedScene, objects: tuple[sc.SceneObject, ...]) -> 
             lightsamples.glossy_pairs(prepared.scene.render.glossy_samples), dtype=np.float64
         )
         prepared.world_pairs = np.asarray(
-            lightsamples.glossy_pairs(min(WORLD_GLOSSY_PAIRS, prepared.scene.render.glossy_samples)), dtype=np.float64
+            lightsamples.glossy_pairs(lightsamples.world_glossy_pairs(prepared.scene)), dtype=np.float64
         )
         prepared.colored = True
     # diffuse bounces (glossy.diffuse_rays): several rays per camera sample, at the glossy pairs

@@ -15,8 +15,8 @@ from ..geometry import camera as cam
 from ..geometry import lightsamples
 from ..geometry import transforms as tf
 from ..geometry.transforms import add, cross, dot, length, scale, sub
+from ..scene import picture_levels, world_light
 from ..scene import scene as sc
-from ..scene import world_light
 from . import reference_glossy
 
 INF = math.inf
@@ -380,7 +380,7 @@ class ReferenceTracer:
         self.glossy_pairs = lightsamples.glossy_pairs(scene.render.glossy_samples)
         self.sky = True  # a miss brings the background (False: nothing, for the passes' split of a tree)
         self.seen_lights, self.seen_suns = seen_in_mirrors(scene)
-        self.world_pairs = lightsamples.glossy_pairs(min(4, scene.render.glossy_samples))  # a lobe of the world
+        self.world_pairs = lightsamples.glossy_pairs(lightsamples.world_glossy_pairs(scene))  # a lobe of the world
         self.world_lighting = world_light.lighting(scene)  # under a picture: what the world light is lit by
         # shadow rays pass partly transparent surfaces (shadow_through) where some material has alpha < 1
         self.shadow_alpha = any(m.alpha < 1.0 for m in scene.materials.values())
@@ -415,14 +415,14 @@ class ReferenceTracer:
                     closest_t, closest_object, closest_part = t, index, part
         return closest_object, closest_part, closest_t
 
-    def background(self, D: sc.Vec3) -> sc.Color:
+    def background(self, D: sc.Vec3, solid_angle: float | None = None) -> sc.Color:
         background = self.scene.background
         if background.type == "none":
             return (0.0, 0.0, 0.0)
         if background.type == "solid":
             return background.color
-        if background.type == "image":
-            return environment(background, D)
+        if background.type == "image":  # blurred to the solid angle a glossy sample stands for, where given
+            return blurred_environment(background, D, solid_angle) if solid_angle else environment(background, D)
         direction = self.documented_direction if background.type == "documented" else D
         k = min(max(direction[2], 0.0), 1.0)
         h, z = background.horizon, background.zenith
@@ -953,6 +953,20 @@ def environment(background: sc.Background, D: sc.Vec3) -> sc.Color:
     if background.strength != 1.0:
         color = tuple(k * background.strength for k in color)
     return color
+
+
+def blurred_environment(background: sc.Background, D: sc.Vec3, solid_angle: float) -> sc.Color:
+    """An image background's colour along D blurred to solid_angle (picture_levels): environment() at the two levels
+    around picture_levels.level's, a + (b - a) t between them (a alone where t is 0); surfaces.blurred_environment's
+    operations."""
+    chain = picture_levels.levels(background)
+    level = min(picture_levels.level(solid_angle, background), len(chain) - 1)
+    low = math.floor(level)
+    a = environment(chain[low], D)
+    if level - low <= 0.0:
+        return a
+    b = environment(chain[low + 1], D)
+    return tuple(a[k] + (b[k] - a[k]) * (level - low) for k in range(3))
 
 
 def render_reference(scene: sc.Scene) -> list[list[sc.Color]]:

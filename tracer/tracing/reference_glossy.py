@@ -350,11 +350,13 @@ def lobe_at(material: sc.Material, S: sc.Vec3, V: sc.Vec3, pairs: list[tuple[flo
 
 
 def environment(lobe: Lobe, pairs: list[tuple[float, float]], background) -> sc.Color:
-    """A lobe of glossy_source "world": the mean over the pairs of F G2 / G1(v) times background(direction) along
-    each sampled direction (nothing traced), times the gain."""
+    """A lobe of glossy_source "world": the mean over the pairs of F G2 / G1(v) times background(direction, solid
+    angle) along each sampled direction (nothing traced; a picture blurred to the solid angle the sample stands for,
+    1 / (pairs pdf), pdf = G1(v) D(h) / (4 v.z) of the visible normals' sampling), times the gain."""
     total = [0.0, 0.0, 0.0]
     if lobe.v[2] <= 0.0:
         return (0.0, 0.0, 0.0)
+    a2 = lobe.alpha * lobe.alpha
     for u1, u2 in pairs:
         local, weight = lobe.sample(u1, u2)
         if not weight > 0.0:
@@ -362,7 +364,10 @@ def environment(lobe: Lobe, pairs: list[tuple[float, float]], background) -> sc.
         half = tuple(local[k] + lobe.v[k] for k in range(3))
         h_length = math.sqrt(_dot(half, half))
         F = lobe.fresnel(_dot(lobe.v, half) / h_length if h_length > 0.0 else 0.0)
-        sky = background(lobe.world(local))
+        cos_h = (local[2] + lobe.v[2]) / (h_length if h_length > 0.0 else 1.0)
+        d = cos_h * cos_h * (a2 - 1.0) + 1.0
+        density = a2 / (math.pi * d * d) / (4.0 * lobe.v[2] * (1.0 + smith_lambda(lobe.v[2], a2)))
+        sky = background(lobe.world(local), 1.0 / (len(pairs) * density) if density > 0.0 else math.inf)
         total = [total[c] + F[c] * weight * sky[c] for c in range(3)]
     return tuple(total[c] / len(pairs) * lobe.gain[c] for c in range(3))
 
