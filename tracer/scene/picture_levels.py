@@ -12,7 +12,7 @@ from collections import OrderedDict
 import numpy as np
 
 from . import scene as sc
-from .world_light import KEPT, background_key
+from .world_light import kept
 
 # the level a sample reads: half the log2 of its solid angle over a texel's, plus this (Colbert and Krivanek's bias:
 # a sample's footprint spans about twice its share of the lobe, which keeps neighbouring samples' blurs overlapping)
@@ -24,13 +24,7 @@ _KEPT: OrderedDict[object, tuple[sc.Background, list[sc.Background]]] = OrderedD
 def levels(background: sc.Background) -> list[sc.Background]:
     """The background at each level: itself first, then its picture halved again and again (bilinear, float32) down to
     one texel's height, kept for KEPT backgrounds a process (by identity where the picture is read-only)."""
-    key = background_key(background)
-    if key not in _KEPT:
-        _KEPT[key] = (background, _made(background))  # the background kept too: its image's id stays its own
-        while len(_KEPT) > KEPT:
-            _KEPT.popitem(last=False)
-    _KEPT.move_to_end(key)
-    return _KEPT[key][1]
+    return kept(_KEPT, background, _made)
 
 
 def _made(background: sc.Background) -> list[sc.Background]:

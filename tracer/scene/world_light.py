@@ -17,11 +17,15 @@ from __future__ import annotations
 import itertools
 import math
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import TypeVar
 
 import numpy as np
 
 from . import scene as sc
+
+T = TypeVar("T")
 
 ROWS, COLUMNS = 32, 64  # the irradiance picture's texels: 5.6 degrees each, finer than an irradiance changes
 CHUNK = 256  # output texels per pass (their weights over every texel: 256 x 2,048)
@@ -64,13 +68,19 @@ def lighting(scene: sc.Scene) -> WorldLighting | None:
     lit = any(isinstance(light, sc.WorldLight) and light.radiance == "background" for light in scene.lights)
     if background.type != "image" or not lit:
         return None
+    return kept(_KEPT, background, _made)
+
+
+def kept(cache: OrderedDict, background: sc.Background, make: Callable[[sc.Background], T]) -> T:
+    """make(background), kept in cache under background_key for the last KEPT backgrounds (the background kept too:
+    its image's id stays its own)."""
     key = background_key(background)
-    if key not in _KEPT:
-        _KEPT[key] = (background, _made(background))  # the background kept too: its image's id stays its own
-        while len(_KEPT) > KEPT:
-            _KEPT.popitem(last=False)
-    _KEPT.move_to_end(key)
-    return _KEPT[key][1]
+    if key not in cache:
+        cache[key] = (background, make(background))
+        while len(cache) > KEPT:
+            cache.popitem(last=False)
+    cache.move_to_end(key)
+    return cache[key][1]
 
 
 def background_key(background: sc.Background) -> object:
