@@ -3,6 +3,7 @@ size, a newer scene supersedes an older one, failures come back as one line, and
 
 from __future__ import annotations
 
+import itertools
 import multiprocessing
 import threading
 from contextlib import contextmanager
@@ -44,6 +45,38 @@ def test_every_level_is_the_plain_render_of_the_scene_at_that_size(workers: int)
         assert progressive.error is None and not progressive.busy
     finally:
         progressive.close()
+
+
+def test_the_level_being_traced_reports_its_bands_as_they_finish() -> None:
+    """ProgressiveRender.tracing: while a level is traced, its divisor and samples and how many of its bands are
+    done (what the view's status shows of the level after the one drawn); each level seen at its start and its end."""
+    seen: list = []
+    progressive = ProgressiveRender(2, on_level=lambda level: seen.append(("level", level.divisor)))
+    watching = threading.Event()
+
+    def watch() -> None:
+        while not watching.is_set():
+            tracing = progressive.tracing
+            if tracing is not None and (not seen or seen[-1] != tracing):
+                seen.append(tracing)
+            watching.wait(0.001)
+
+    watcher = threading.Thread(target=watch)
+    watcher.start()
+    try:
+        generation = progressive.show(small_scene(0.0, 320, 240))
+        assert progressive.wait(120)
+    finally:
+        watching.set()
+        watcher.join()
+        progressive.close()
+    reports = [item for item in seen if not isinstance(item, tuple)]
+    assert {report.generation for report in reports} == {generation}
+    full = [report for report in reports if report.divisor == 1]
+    assert full[-1].done == full[-1].total > 1 and full[-1].sample == full[-1].samples == 4
+    assert any(0 < report.done < report.total for report in full)  # a share part of the way
+    pairs = itertools.pairwise(full)
+    assert all(a.done <= b.done for a, b in pairs if (a.divisor, a.sample) == (b.divisor, b.sample))
 
 
 def test_a_newer_scene_supersedes_the_one_being_traced() -> None:

@@ -36,6 +36,7 @@ FIRST_LEVEL_WAIT = 0.0
 EDIT_WAIT = 0.0  # the same for a change answered from the kept ray trees (a slow one's 1/8 level comes first)
 WORLD_VIEW_SAMPLES = 4  # the fewest world-light directions the view traces to (F12's: 16)
 INTERMEDIATE_SECONDS = 1.0  # a level between the first drawn and the full one is drawn after this long without a draw
+PROGRESS_SECONDS = 2.0  # the status's share of the level being traced is drawn again this often (a draw: ~0.13 s)
 # the longest a closing view waits for its tracing thread's current piece (a piece of kept ray trees: well under 1 s)
 CLOSE_WAIT = 2.0
 PLAYBACK_DIVISOR = 4  # while an animation plays, each frame is traced at 1/4 of the view's width and height alone
@@ -119,6 +120,8 @@ class ViewportSession:
         self._shown_key: str | None = None
         self._texture_level = None  # the level whose texture _textures holds for this session
         self._drawn_at = 0.0  # when a level was last drawn (time.perf_counter)
+        self._status_at = 0.0  # when the status was last drawn
+        self._drawn_tracing = None  # the progress of the level being traced that the status last showed
         self.status = ""  # the status line last drawn
         self._view_size: tuple[int, int] | None = None  # the region's (width, height) when last shown
         self._editable_samples, self._kept_bytes = tracer.EDITABLE_SAMPLES, tracer.KEPT_BYTES_PER_SAMPLE
@@ -223,6 +226,7 @@ class ViewportSession:
 
         draw_texture_2d(texture, (0, 0), region.width, region.height)
         self.status = self._status(level)
+        self._status_at, self._drawn_tracing = time.perf_counter(), getattr(self.progressive, "tracing", None)
         return self.status
 
     def news(self) -> bool:
@@ -232,8 +236,16 @@ class ViewportSession:
         level, drawn = self.progressive.latest(), self._texture_level
         if self.progressive.error is not None and self.progressive.error != self.status:
             return True
-        if level is None or level is drawn:
+        if level is None:
             return False
+        if level is drawn:  # the status's share of the next level, every PROGRESS_SECONDS while it changes
+            tracing = self.progressive.tracing
+            return (
+                not level.final
+                and tracing is not None
+                and tracing != self._drawn_tracing
+                and time.perf_counter() - self._status_at >= PROGRESS_SECONDS
+            )
         return (
             level.final
             or drawn is None
@@ -255,9 +267,21 @@ class ViewportSession:
         if level.final:  # done, even while the ray trees for edits are kept in the background
             return f"Weathervane Tracer: done in {level.seconds:.2f} s" + (f" ({sample})" if sample else "")
         if level.divisor == 1:
-            return f"Weathervane Tracer: {sample} ({level.seconds:.2f} s)"
-        where = f"1/{level.divisor} resolution"
-        return f"Weathervane Tracer: {f'{sample}, ' if sample else ''}{where} ({level.seconds:.2f} s)"
+            return f"Weathervane Tracer: {sample} ({level.seconds:.2f} s)" + self._next(level)
+        where = f"{sample}, 1/{level.divisor} resolution" if sample else f"1/{level.divisor} resolution"
+        return f"Weathervane Tracer: {where} ({level.seconds:.2f} s)" + self._next(level)
+
+    def _next(self, level) -> str:
+        """How far the level after the one drawn is (its share of bands done), where the scene's is being traced:
+        "; next: Sample 4/4, 40%"; nothing otherwise."""
+        tracing = getattr(self.progressive, "tracing", None)
+        if tracing is None or tracing.generation != level.generation or not tracing.total or not self.progressive.busy:
+            return ""
+        if tracing.samples > 1 and tracing.divisor == 1:
+            what = f"Sample {tracing.sample}/{tracing.samples}"
+        else:
+            what = "full size" if tracing.divisor == 1 else f"1/{tracing.divisor} resolution"
+        return f"; next: {what}, {100 * tracing.done // tracing.total}%"
 
 
 def _array_key(value) -> str | float | int:

@@ -16,6 +16,7 @@ from mathutils import Matrix
 
 from addon import compat
 from addon.engine import viewport
+from tracer.frames.progressive import Tracing
 from tracer.geometry import camera as cam
 from tracer.scene import scene as sc
 from tracer.scene.loader import scene_from_dict
@@ -170,6 +171,17 @@ def test_the_status_line_never_shows_a_previous_scenes_figures_and_says_done_wit
     assert session._status(level(8, 2, 0.03, 1, 1, 16)) == "Weathervane Tracer: Sample 1/16, 1/8 resolution (0.03 s)"
     assert session._status(level(1, 2, 1.2, 24, 4, 16, False)) == "Weathervane Tracer: Sample 4/16 (1.20 s)"
     assert session._status(level(1, 2, 3.5, 24, 16, 16)) == "Weathervane Tracer: done in 3.50 s (Sample 16/16)"
+    # the level after the one drawn, as its bands finish: its share (the view redraws for it every few seconds)
+    session.progressive.tracing = Tracing(2, 1, 16, 16, done=3, total=8)
+    assert session._status(level(1, 2, 1.2, 24, 4, 16, False)) == (
+        "Weathervane Tracer: Sample 4/16 (1.20 s); next: Sample 16/16, 37%"
+    )
+    session.progressive.tracing = Tracing(2, 2, 1, 16, done=1, total=4)
+    assert session._status(level(8, 2, 0.03, 1, 1, 16)) == (
+        "Weathervane Tracer: Sample 1/16, 1/8 resolution (0.03 s); next: 1/2 resolution, 25%"
+    )
+    session.progressive.busy = False  # nothing traced: no share
+    assert session._status(level(1, 2, 1.2, 24, 4, 16, False)) == "Weathervane Tracer: Sample 4/16 (1.20 s)"
 
 
 def test_the_view_traces_to_its_own_samples_from_one_sample_of_everything_and_f12_keeps_its_own(

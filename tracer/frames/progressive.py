@@ -139,6 +139,19 @@ def level_scene(scene: sc.Scene, divisor: int) -> sc.Scene:
 
 
 @dataclass(frozen=True)
+class Tracing:
+    """The level being traced: its scene's generation, divisor and samples (the most of any kind, of the most the
+    scene is traced to), and how many of its bands are done, of how many."""
+
+    generation: int
+    divisor: int
+    sample: int
+    samples: int
+    done: int = 0
+    total: int = 0
+
+
+@dataclass(frozen=True)
 class Level:
     """One finished level: image (height / divisor, width / divisor, 3) linear floats, rows from the top."""
 
@@ -176,6 +189,7 @@ class ProgressiveRender:
         self._editing = False  # the newest scene is being compared with the kept ray trees, or answered from them
         self._closed = False
         self.error: str | None = None  # the last scene's failure, one line (not enough memory, a worker lost)
+        self.tracing: Tracing | None = None  # the level being traced, or the last one (set band by band)
         self._thread = threading.Thread(target=self._run, daemon=True, name="weathervane-progressive")
         self._thread.start()
 
@@ -341,7 +355,13 @@ class ProgressiveRender:
         """One level of job (scene, generation, hand-over time, target samples, check) on the pool, delivered; last:
         the scene's finished image."""
         scene, generation, handed_over, target, check = job
-        result = renderer.render(with_samples(level_scene(scene, divisor), samples), progress=check)
+
+        def progress(done: int = 0, total: int = 0) -> None:
+            check()
+            self.tracing = Tracing(generation, divisor, samples.most, target.most, done, total)
+
+        progress()
+        result = renderer.render(with_samples(level_scene(scene, divisor), samples), progress=progress)
         count = result.image.shape[0] * result.image.shape[1]
         level = Level(result.image, divisor, generation, 0.0, count, samples.most, target.most, last)
         self._deliver(level, handed_over)
