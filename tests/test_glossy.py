@@ -421,3 +421,11 @@ def test_a_rough_lobe_of_the_world_reflects_its_integral_over_the_picture_not_co
     error, sharp_error = np.abs(blurred / integral - 1.0), np.abs(sharp / integral - 1.0)
     assert error.max() < 0.15 and error.mean() < 0.05, (error.max(), error.mean())
     assert sharp_error.max() > 0.3, sharp_error.max()
+
+
+@pytest.mark.parametrize("samples", [4, 16])
+def test_a_lobe_of_the_worlds_pairs_shared_out_among_a_pixels_samples_match_the_reference(samples: int) -> None:
+    """4 or 16 camera samples a pixel take a world lobe's 16 pairs in turn (lightsamples.shared_pairs), each reading
+    the picture blurred for its share of the whole lobe; the per-pixel reference does the same."""
+    scene = _rough_plane_under_a_picture(0.4).with_render(width=8, height=4, samples=samples)
+    assert_matches_reference(scene)

@@ -190,12 +190,18 @@ def sample_rays(
     return lobe.take(keep), pair.take(keep), take(D, keep), take(value, keep)
 
 
-def environment(scene: PreparedScene, lobes: Lobes) -> np.ndarray:
-    """What lobes of glossy_source "world" reflect of the background (3, k): the mean over scene.world_pairs of F
-    G2 / G1(v) times the background along each sampled direction (no ray traced: nothing blocks it), times the
-    multiscatter gain from the same samples; 0 where the viewer is below the horizon."""
+def environment(scene: PreparedScene, lobes: Lobes, keys: np.ndarray) -> np.ndarray:
+    """What lobes of glossy_source "world" reflect of the background (3, k): the mean over the scene.world_pairs their
+    camera samples take (keys (k,): their sharing keys; the pairs p = key mod g + g t, lightsamples.shared_pairs) of
+    F G2 / G1(v) times the background along each sampled direction (no ray traced: nothing blocks it), times the
+    multiscatter gain from all the pairs; 0 where the viewer is below the horizon."""
     lobes.boost = _boost(lobes, scene.world_pairs)
     local, weight = lobes.sampled  # (3, m, k), (m, k)
+    pairs = weight.shape[0]  # every pair's: the pixel's samples hold them all, each standing for 1 / pairs of the lobe
+    share = lightsamples.world_share(scene.scene.render, pairs)
+    if share > 1:  # the pairs p = key mod g + g t of each lobe's camera sample: (3, m / g, k), (m / g, k)
+        chosen = (keys % share)[None, :] + share * np.arange(pairs // share)[:, None]
+        local, weight = np.take_along_axis(local, chosen[None], axis=1), np.take_along_axis(weight, chosen, axis=0)
     lx, ly, lz = local
     vx, vy, vz = lobes.v
     hx, hy, hz = lx + vx, ly + vy, lz + vz
@@ -212,7 +218,7 @@ def environment(scene: PreparedScene, lobes: Lobes) -> np.ndarray:
     D = np.where(weight > 0.0, D, lobes.n[:, None])  # a sample of weight 0 looks up nothing of its own
     background = scene.scene.background
     if background.type == "image":  # the picture blurred to each sample's share of its lobe
-        solid_angles = np.where(weight > 0.0, _sample_solid_angle(lobes, local, h_length, count), 0.0)
+        solid_angles = np.where(weight > 0.0, _sample_solid_angle(lobes, local, h_length, pairs), 0.0)
         sky = surfaces.blurred_environment(background, D.reshape(3, -1), solid_angles.ravel())
         sky = sky.reshape(3, count, size)
     else:

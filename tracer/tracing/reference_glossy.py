@@ -349,15 +349,17 @@ def lobe_at(material: sc.Material, S: sc.Vec3, V: sc.Vec3, pairs: list[tuple[flo
     return lobe
 
 
-def environment(lobe: Lobe, pairs: list[tuple[float, float]], background) -> sc.Color:
-    """A lobe of glossy_source "world": the mean over the pairs of F G2 / G1(v) times background(direction, solid
-    angle) along each sampled direction (nothing traced; a picture blurred to the solid angle the sample stands for,
-    1 / (pairs pdf), pdf = G1(v) D(h) / (4 v.z) of the visible normals' sampling), times the gain."""
+def environment(lobe: Lobe, pairs: list[tuple[float, float]], background, tracer: Tracing) -> sc.Color:
+    """A lobe of glossy_source "world": the mean over the pairs the tracer's camera sample takes
+    (lightsamples.shared_pairs) of F G2 / G1(v) times background(direction, solid angle) along each sampled direction
+    (nothing traced; a picture blurred to the solid angle the sample stands for, 1 / (pairs pdf), pdf = G1(v) D(h) /
+    (4 v.z) of the visible normals' sampling), times the gain."""
     total = [0.0, 0.0, 0.0]
     if lobe.v[2] <= 0.0:
         return (0.0, 0.0, 0.0)
     a2 = lobe.alpha * lobe.alpha
-    for u1, u2 in pairs:
+    taken, _ = lightsamples.shared_pairs(tracer.settings, len(pairs), tracer.camera_sample)
+    for u1, u2 in (pairs[index] for index in taken):
         local, weight = lobe.sample(u1, u2)
         if not weight > 0.0:
             continue
@@ -369,7 +371,7 @@ def environment(lobe: Lobe, pairs: list[tuple[float, float]], background) -> sc.
         density = a2 / (math.pi * d * d) / (4.0 * lobe.v[2] * (1.0 + smith_lambda(lobe.v[2], a2)))
         sky = background(lobe.world(local), 1.0 / (len(pairs) * density) if density > 0.0 else math.inf)
         total = [total[c] + F[c] * weight * sky[c] for c in range(3)]
-    return tuple(total[c] / len(pairs) * lobe.gain[c] for c in range(3))
+    return tuple(total[c] / len(taken) * lobe.gain[c] for c in range(3))
 
 
 def ray(lobe: Lobe, u1: float, u2: float, share: float) -> tuple[sc.Vec3, sc.Color] | None:

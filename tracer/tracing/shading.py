@@ -97,7 +97,7 @@ def find_intensity(
     settings = scene.scene.render
     exponent = specular * settings.coef if settings.model == "blinn-phong" else specular
     if lobes is not None:
-        lobes.light = _glossy_light(scene, terms, lit, throughs, lobes)
+        lobes.light = _glossy_light(scene, terms, lit, throughs, lobes, samples)
     if scene.colored:
         return _colored(scene, terms, lit, count, length_n, exponent, split, throughs)
     return _plain(scene, terms, lit, count, length_n, exponent, split, throughs)
@@ -247,16 +247,20 @@ def _glossy_light(
     lit: list[np.ndarray],
     throughs: list[np.ndarray] | None,
     lobes: glossy.Lobes,
+    samples: np.ndarray,
 ) -> np.ndarray:
     """The lights' sum through the traced glossy lobes (3, k): each light's intensity, attenuation, colour and share
     that passes (glossy.light_factor per unit of intensity), where its shadow ray reached the point; the background
-    through the lobes of the world alone (glossy.environment)."""
+    through the lobes of the world alone (glossy.environment, its pairs shared out among a pixel's camera samples:
+    samples (n,), each point's)."""
     rows = lobes.rows
     total = np.zeros((3, rows.size), dtype=np.float64)
     traced = lobes.traced
     if not traced.all():  # lobes of the world alone: the background along their samples
         world = indices(~traced)
-        total[:, world] = glossy.environment(scene, lobes.take(world))
+        settings = scene.scene.render
+        keys = lightsamples.sharing_key(settings, samples.take(rows.take(world)) % settings.samples)
+        total[:, world] = glossy.environment(scene, lobes.take(world), np.asarray(keys, dtype=np.int64))
     shadow_rays = iter(lit)
     passing = None if throughs is None else iter(throughs)
     for light, term in zip(scene.lights, terms, strict=True):
