@@ -716,7 +716,7 @@ class ReferenceTracer:
             local = tuple(local[c] + material.emission[c] for c in range(3))
         if lobe is not None:
             if not lobe.traced:  # the background along its samples, untraced
-                lobe.shine = reference_glossy.environment(lobe, self.world_pairs, self.background, self)
+                lobe.shine = reference_glossy.environment(lobe, self.world_pairs, self)
             local = tuple(local[c] + lobe.shine[c] for c in range(3))
         if depth <= 0:
             return local

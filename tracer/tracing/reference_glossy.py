@@ -24,6 +24,8 @@ class Tracing(Protocol):
     serial: int  # the camera sample being traced (camera.sample_serial)
     camera_sample: int  # its sample of the pixel: which glossy pairs a path's first glossy surface takes
 
+    def background(self, D: sc.Vec3, solid_angle: float | None = None) -> sc.Color: ...
+
     def trace_ray(
         self,
         O: sc.Vec3,
@@ -349,11 +351,11 @@ def lobe_at(material: sc.Material, S: sc.Vec3, V: sc.Vec3, pairs: list[tuple[flo
     return lobe
 
 
-def environment(lobe: Lobe, pairs: list[tuple[float, float]], background, tracer: Tracing) -> sc.Color:
+def environment(lobe: Lobe, pairs: list[tuple[float, float]], tracer: Tracing) -> sc.Color:
     """A lobe of glossy_source "world": the mean over the pairs the tracer's camera sample takes
-    (lightsamples.shared_pairs) of F G2 / G1(v) times background(direction, solid angle) along each sampled direction
-    (nothing traced; a picture blurred to the solid angle the sample stands for, 1 / (pairs pdf), pdf = G1(v) D(h) /
-    (4 v.z) of the visible normals' sampling), times the gain."""
+    (lightsamples.shared_pairs) of F G2 / G1(v) times tracer.background(direction, solid angle) along each sampled
+    direction (nothing traced; a picture blurred to the solid angle the sample stands for, 1 / (pairs pdf),
+    pdf = G1(v) D(h) / (4 v.z) of the visible normals' sampling), times the gain."""
     total = [0.0, 0.0, 0.0]
     if lobe.v[2] <= 0.0:
         return (0.0, 0.0, 0.0)
@@ -369,7 +371,7 @@ def environment(lobe: Lobe, pairs: list[tuple[float, float]], background, tracer
         cos_h = (local[2] + lobe.v[2]) / (h_length if h_length > 0.0 else 1.0)
         d = cos_h * cos_h * (a2 - 1.0) + 1.0
         density = a2 / (math.pi * d * d) / (4.0 * lobe.v[2] * (1.0 + smith_lambda(lobe.v[2], a2)))
-        sky = background(lobe.world(local), 1.0 / (len(pairs) * density) if density > 0.0 else math.inf)
+        sky = tracer.background(lobe.world(local), 1.0 / (len(pairs) * density) if density > 0.0 else math.inf)
         total = [total[c] + F[c] * weight * sky[c] for c in range(3)]
     return tuple(total[c] / len(taken) * lobe.gain[c] for c in range(3))
 

@@ -265,7 +265,7 @@ class PassTracer(ReferenceTracer):
             lobe.traced = material.traces_glossy
         self.find_intensities(P, S, V, material.specular, split, lobe)
         if lobe is not None and not lobe.traced:
-            lobe.shine = reference_glossy.environment(lobe, self.world_pairs, self.background, self)
+            lobe.shine = reference_glossy.environment(lobe, self.world_pairs, self)
         keep = 1.0 - material.reflective
         color = material.color
         tint = color if material.specular_color is None or not self.colored else material.specular_color
