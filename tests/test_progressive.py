@@ -47,31 +47,27 @@ def test_every_level_is_the_plain_render_of_the_scene_at_that_size(workers: int)
         progressive.close()
 
 
-def test_the_level_being_traced_reports_its_bands_as_they_finish() -> None:
+def test_the_level_being_traced_reports_its_bands_as_they_finish(monkeypatch) -> None:
     """ProgressiveRender.tracing: while a level is traced, its divisor and samples and how many of its bands are
-    done (what the view's status shows of the level after the one drawn); each level seen at its start and its end."""
-    seen: list = []
-    progressive = ProgressiveRender(2, on_level=lambda level: seen.append(("level", level.divisor)))
-    watching = threading.Event()
+    done (what the view's status shows of the level after the one drawn), set at its start and as each band ends.
+    Every report the thread makes is recorded (no polling: a busy machine would miss some)."""
+    reports: list = []
 
-    def watch() -> None:
-        while not watching.is_set():
-            tracing = progressive.tracing
-            if tracing is not None and (not seen or seen[-1] != tracing):
-                seen.append(tracing)
-            watching.wait(0.001)
+    def recorded(*args, **kwargs):
+        report = progressive_module.Tracing.__wrapped__(*args, **kwargs)
+        reports.append(report)
+        return report
 
-    watcher = threading.Thread(target=watch)
-    watcher.start()
+    recorded.__wrapped__ = progressive_module.Tracing
+    monkeypatch.setattr(progressive_module, "Tracing", recorded)
+    progressive = ProgressiveRender(2)
     try:
         generation = progressive.show(small_scene(0.0, 320, 240))
         assert progressive.wait(120)
     finally:
-        watching.set()
-        watcher.join()
         progressive.close()
-    reports = [item for item in seen if not isinstance(item, tuple)]
-    assert {report.generation for report in reports} == {generation}
+    assert reports and {report.generation for report in reports} == {generation}
+    assert progressive.tracing is reports[-1]
     full = [report for report in reports if report.divisor == 1]
     assert full[-1].done == full[-1].total > 1 and full[-1].sample == full[-1].samples == 4
     assert any(0 < report.done < report.total for report in full)  # a share part of the way
