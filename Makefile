@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # Blender 3.4.1 and what its (the system's) Python needs for the add-on tests, and a virtual screen for the GUI test
 SYSTEM_PACKAGES := blender python3-numpy python3-pytest xvfb
 
-.PHONY: demo test test-slow lint bench bench-adaptive bench-compare bench-peers bench-animation bench-stages bench-meshes bench-reliability bench-viewport bench-scenes bench-cluster corpus docs study addon system-deps blender-wheels clean
+.PHONY: demo test test-slow test-blenders lint bench bench-adaptive bench-compare bench-peers bench-animation bench-stages bench-meshes bench-reliability bench-viewport bench-scenes bench-cluster corpus docs study addon system-deps blender-wheels clean
 
 # Blender versions as bpy wheels besides 5.0.1 (tests/addon/wheels.txt): one virtual environment each
 BPY_WHEELS := $(shell sed -e 's/\#.*//' tests/addon/wheels.txt)
@@ -55,6 +55,12 @@ test: lint system-deps blender-wheels
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
+
+# the whole add-on suite in every Blender (`make test` runs it whole in 3.4.1, 4.5 and 5.0.1, and the files that go
+# through the version branches in 4.2 and 4.4)
+test-blenders: system-deps blender-wheels
+	WEATHERVANE_FULL_SUITES=1 $(BIN)/python -m pytest -q tests/addon tests/test_blender.py::test_addon_suite_passes_inside_blender_34 \
+		tests/test_blender.py::test_addon_suite_passes_in_the_bpy_wheel
 
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_tracer.py
