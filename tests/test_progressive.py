@@ -73,6 +73,10 @@ def test_the_level_being_traced_reports_its_bands_as_they_finish(monkeypatch) ->
     assert any(0 < report.done < report.total for report in full)  # a share part of the way
     pairs = itertools.pairwise(full)
     assert all(a.done <= b.done for a, b in pairs if (a.divisor, a.sample) == (b.divisor, b.sample))
+    # each level's reports carry its start, one time a level, later level by level
+    starts = {(report.divisor, report.sample): report.started for report in reports}
+    assert len(starts) == len({(report.divisor, report.sample, report.started) for report in reports})
+    assert list(starts.values()) == sorted(starts.values()) and min(starts.values()) > 0
 
 
 def test_a_newer_scene_supersedes_the_one_being_traced() -> None:

@@ -36,7 +36,10 @@ FIRST_LEVEL_WAIT = 0.0
 EDIT_WAIT = 0.0  # the same for a change answered from the kept ray trees (a slow one's 1/8 level comes first)
 WORLD_VIEW_SAMPLES = 4  # the fewest world-light directions the view traces to (F12's: 16)
 INTERMEDIATE_SECONDS = 1.0  # a level between the first drawn and the full one is drawn after this long without a draw
-PROGRESS_SECONDS = 2.0  # the status's share of the level being traced is drawn again this often (a draw: ~0.13 s)
+# The status's share of the level being traced is drawn again this often, unless the level is estimated to finish
+# within it: its image is drawn then anyway, and each draw takes the trace's CPU (a 1321x759 view in software OpenGL:
+# 0.13-0.2 s)
+PROGRESS_SECONDS = 2.0
 # the longest a closing view waits for its tracing thread's current piece (a piece of kept ray trees: well under 1 s)
 CLOSE_WAIT = 2.0
 PLAYBACK_DIVISOR = 4  # while an animation plays, each frame is traced at 1/4 of the view's width and height alone
@@ -239,12 +242,13 @@ class ViewportSession:
         if level is None:
             return False
         if level is drawn:  # the status's share of the next level, every PROGRESS_SECONDS while it changes
-            tracing = self.progressive.tracing
+            tracing, now = self.progressive.tracing, time.perf_counter()
             return (
                 not level.final
                 and tracing is not None
                 and tracing != self._drawn_tracing
-                and time.perf_counter() - self._status_at >= PROGRESS_SECONDS
+                and now - self._status_at >= PROGRESS_SECONDS
+                and tracing.seconds_left(now) >= PROGRESS_SECONDS
             )
         return (
             level.final

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import random
+import time
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -182,6 +183,29 @@ def test_the_status_line_never_shows_a_previous_scenes_figures_and_says_done_wit
     )
     session.progressive.busy = False  # nothing traced: no share
     assert session._status(level(1, 2, 1.2, 24, 4, 16, False)) == "Weathervane Tracer: Sample 4/16 (1.20 s)"
+
+
+def test_the_share_of_the_next_level_is_drawn_again_only_while_that_level_is_far_from_done() -> None:
+    """A drawn level's status is drawn again for the next level's share every PROGRESS_SECONDS, but not when that
+    level is estimated (its bands so far at their pace) to finish sooner: its image is drawn then anyway, and each
+    draw of the window takes the trace's CPU."""
+    now = time.perf_counter()
+    drawn = SimpleNamespace(final=False, generation=2)
+    session = viewport.ViewportSession.__new__(viewport.ViewportSession)
+    session.status, session._texture_level, session._drawn_tracing = "", drawn, None
+    session._status_at = now - viewport.PROGRESS_SECONDS - 0.5  # the status drawn 2.5 s ago
+    session.progressive = SimpleNamespace(error=None, latest=lambda: drawn, tracing=None)
+    # 1 of 8 bands in 1 s: about 7 s left
+    session.progressive.tracing = Tracing(2, 1, 4, 4, done=1, total=8, started=now - 1.0)
+    assert session.news()
+    # 7 of 8 bands in 3 s: about 0.4 s left
+    session.progressive.tracing = Tracing(2, 1, 4, 4, done=7, total=8, started=now - 3.0)
+    assert not session.news()
+    # no band yet: as long as anything
+    session.progressive.tracing = Tracing(2, 1, 4, 4, done=0, total=8, started=now - 3.0)
+    assert session.news()
+    session._status_at = now - 0.5  # drawn half a second ago: not yet
+    assert not session.news()
 
 
 def test_the_view_traces_to_its_own_samples_from_one_sample_of_everything_and_f12_keeps_its_own(

@@ -149,6 +149,11 @@ class Tracing:
     samples: int
     done: int = 0
     total: int = 0
+    started: float = 0.0  # time.perf_counter() as the level began
+
+    def seconds_left(self, now: float) -> float:
+        """The level's seconds still to trace, estimated from its bands so far at their pace (inf before the first)."""
+        return (now - self.started) * (self.total - self.done) / self.done if self.done else float("inf")
 
 
 @dataclass(frozen=True)
@@ -356,9 +361,11 @@ class ProgressiveRender:
         the scene's finished image."""
         scene, generation, handed_over, target, check = job
 
+        started = time.perf_counter()
+
         def progress(done: int = 0, total: int = 0) -> None:
             check()
-            self.tracing = Tracing(generation, divisor, samples.most, target.most, done, total)
+            self.tracing = Tracing(generation, divisor, samples.most, target.most, done, total, started)
 
         progress()
         result = renderer.render(with_samples(level_scene(scene, divisor), samples), progress=progress)
