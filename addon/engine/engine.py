@@ -19,6 +19,13 @@ from . import messages, viewport
 from .workers import spawn_with_blenders_python
 
 
+def say(engine: bpy.types.RenderEngine, info: str) -> None:
+    """What F12 is doing, in the render window's header and the status bar, as Cycles says "Synchronizing object" and
+    "Sample 3/16": the export and the preparation before the first band (on a large scene, seconds in which the
+    image is still empty), then the bands, then the time."""
+    engine.update_stats("Weathervane Tracer", info)
+
+
 class RenderCancelledError(Exception):
     pass
 
@@ -127,6 +134,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
 
         blender_scene = depsgraph.scene
         messages.clear_render_window()  # a previous F12's refusal is not about this render
+        say(self, "exporting the scene")
         notes = ExportNotes()
         budget = MemoryBudget(blender_scene, cancelled=lambda: cancelled(self))
         try:
@@ -156,6 +164,8 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             messages.report_whole(
                 self, {"WARNING"}, f"Weathervane Tracer: {'; '.join([*said, notes.line()] if notes.line() else said)}"
             )
+        objects, lights = len(scene.objects), len(scene.lights)
+        say(self, f"preparing {objects:,} object{'s' * (objects != 1)} and {lights} light{'s' * (lights != 1)}")
         region = border_region(blender_scene.render, width, height)
         if region is not None:
             self._render_region(scene, region)
@@ -163,7 +173,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
 
         def progress(done: int, total: int) -> None:
             self.update_progress(done / total)
-            self.update_stats("Weathervane Tracer", f"band {done}/{total}")
+            say(self, f"band {done}/{total}")
             if cancelled(self):
                 raise RenderCancelledError
 
@@ -246,7 +256,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             whole = self.get_result()
             for key, value in pass_map.cryptomatte_metadata(scene, view_layer.name).items():
                 whole.stamp_data_add_field(key, value)
-        self.update_stats("Weathervane Tracer", f"{result.seconds * 1000:.0f} ms, {result.rays.total} rays")
+        say(self, f"{result.seconds * 1000:.0f} ms, {result.rays.total} rays")
 
     def _nothing_rendered(self, text: str) -> None:
         """F12 made no image: the whole text in the Info editor and over the render window's empty image, a short line
@@ -280,7 +290,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
             shown[..., 3] = np.flipud(alpha[height - y1 : height - y0, x0:x1])
         _write(render_result, shown)
         self.end_result(render_result)
-        self.update_stats("Weathervane Tracer", f"{result.seconds * 1000:.0f} ms, render border {x1 - x0}x{y1 - y0}")
+        say(self, f"{result.seconds * 1000:.0f} ms, render border {x1 - x0}x{y1 - y0}")
 
 
 def _playing(context) -> bool:

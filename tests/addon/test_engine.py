@@ -255,6 +255,28 @@ def test_f12_writes_each_band_once_where_blender_takes_only_lists(tmp_path: Path
         assert written == [frame] * (count + 1 if seconds == 0 else 2)  # the frame after bands, and at the end
 
 
+def test_f12_says_what_it_is_doing_from_the_export_to_the_last_band(monkeypatch) -> None:
+    """The render window's header (update_stats) names each stage before the image has pixels: the export, then the
+    preparation with the scene's counts (the tracer's scene: the vane's objects and its lights), then every band in
+    order, then the time."""
+    import re
+
+    from addon.engine import engine
+    from tracer.workers.parallel import bands
+
+    said = []
+    say = engine.say
+    monkeypatch.setattr(engine, "say", lambda render_engine, info: said.append(info) or say(render_engine, info))
+    engine_scene(workers=1)
+    assert bpy.ops.render.render() == {"FINISHED"}
+    tracer_scene = default_scene().with_render(width=64, height=48)
+    objects, lights = len(tracer_scene.objects), len(tracer_scene.lights)
+    count = len(bands(tracer_scene.render))
+    assert said[:2] == ["exporting the scene", f"preparing {objects} objects and {lights} lights"], said
+    assert said[2:-1] == [f"band {done}/{count}" for done in range(1, count + 1)], said
+    assert re.fullmatch(r"\d+ ms, \d+ rays", said[-1]), said
+
+
 def test_an_image_handed_over_as_an_openexr_file_is_read_by_blender_exactly(tmp_path: Path) -> None:
     """Blender 3.4's F12 hands its bands over as float OpenEXR files (engine.exr_bytes): Blender's own reader gives
     back every float, the top row first in the file and last in Blender's bottom-up pixels."""
