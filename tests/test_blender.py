@@ -95,7 +95,7 @@ SUITE_OF_A_MIDDLE_WHEEL = (
     "test_engine.py",
     "test_scene_export.py",
     "test_shading_convert.py",  # Principled inputs by version
-    "test_glass_transparency.py",  # transparent shadows (a material setting up to 4.1)
+    "test_glass_transparency.py",  # Transparent Shadows: a Cycles setting up to 4.1, the material's from 4.2
     "test_motion_blur.py",
     "test_render_passes.py",  # pass names by version
     "test_messages.py",
