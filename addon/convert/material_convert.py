@@ -377,7 +377,7 @@ def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, 
     if node.bl_idname in TEXTURE_NODES:  # a procedural texture (or a ramp, HSV) on other coordinates than the UV map
         found = texture_input(socket, label, [], uv_only=False)
         if found is not None:
-            notes.append(f"{TEXTURE_NAMES[node.bl_idname]} on {label}: mean colour")
+            notes.append(f"{TEXTURE_NAMES[node.bl_idname]} on {label}: mean colour{_by_uv_hint(node)}")
             return texture_mean(found)
     if node.bl_idname == "ShaderNodeAttribute" and _unknown_attribute(material, node):
         return (0.0, 0.0, 0.0)  # Cycles reads an attribute that no mesh has (an empty name too) as 0
@@ -510,6 +510,14 @@ def _uv_coordinates(texture_node, unlinked_uv: bool = True) -> str | None:
     if node.bl_idname == "ShaderNodeUVMap" and not getattr(node, "from_instancer", False):
         return getattr(node, "uv_map", "")
     return None
+
+
+def _by_uv_hint(node) -> str:
+    """For a note on a Checker or Gradient Texture left on Generated coordinates (its Vector unlinked, as a new node
+    comes): how the artist makes the tracer render it, which it does by the UV map."""
+    if node.bl_idname not in ("ShaderNodeTexChecker", "ShaderNodeTexGradient") or _source(node.inputs["Vector"])[0]:
+        return ""
+    return " (it reads Generated coordinates; linked from Texture Coordinate > UV it renders)"
 
 
 def _mix_sockets(node):

@@ -189,7 +189,10 @@ def test_a_checker_by_uv_becomes_the_formats_checker() -> None:
     )
     material.node_tree.links.remove(node.inputs["Vector"].links[0])  # Generated coordinates: its mean, named
     document, notes = material_convert.convert_material(material)
-    assert "texture" not in document and notes == ["checker texture on Base Color: mean colour"]
+    assert "texture" not in document and notes == [
+        "checker texture on Base Color: mean colour (it reads Generated coordinates; linked from Texture Coordinate > "
+        "UV it renders)"
+    ]
     assert document["color"] == pytest.approx(
         [(a + b) / 2 * k for a, b in zip(RED[:3], BLUE[:3], strict=True)], abs=1e-6
     )
