@@ -56,8 +56,8 @@ test: lint system-deps blender-wheels
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
 
-# the whole add-on suite in every Blender (`make test` runs it whole in 3.4.1, 4.5 and 5.0.1, and the files that go
-# through the version branches in 4.2 and 4.4)
+# the whole add-on suite in every Blender (`make test` runs it whole in 3.4.1 and 5.0.1, and the files that go
+# through the version branches in 4.2, 4.4 and 4.5)
 test-blenders: system-deps blender-wheels
 	WEATHERVANE_FULL_SUITES=1 $(BIN)/python -m pytest -q tests/addon tests/test_blender.py::test_addon_suite_passes_inside_blender_34 \
 		tests/test_blender.py::test_addon_suite_passes_in_the_bpy_wheel

@@ -9,10 +9,12 @@ import shutil
 import subprocess
 import sys
 import textwrap
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from pathlib import Path
 
 import pytest
+
+from tests.conftest import in_background
 
 ROOT = Path(__file__).resolve().parents[1]
 BLENDER = shutil.which("blender")
@@ -73,7 +75,7 @@ def test_legacy_zip_installs_and_builds_in_blender_34(dist: Path, tmp_path: Path
 
 @needs_blender_34
 def test_addon_suite_passes_inside_blender_34() -> None:
-    result = _suites()["3.4.1"].result()
+    result = background_runs()["3.4.1"].result()
     assert "Blender 3.4" in result.stdout
     assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
     assert " passed" in result.stdout and " failed" not in result.stdout
@@ -85,11 +87,10 @@ def wheel_versions() -> list[str]:
     return [line.split("#")[0].strip() for line in lines if line.split("#")[0].strip()]
 
 
-# The wheel whose Blender runs the whole add-on suite besides Debian's 3.4.1 and the main .venv's 5.0.1: the newest 4.x
-# LTS, whose code paths (addon/compat.py: Principled v2, layered actions, EEVEE Next) are 4.4's too. The other wheels
-# run SUITE_OF_A_MIDDLE_WHEEL, the files that go through compat.py's version branches and the export of a scene, in
-# `make test`; `make test-blenders` (WEATHERVANE_FULL_SUITES=1) runs the whole suite in each of them.
-FULL_SUITE_WHEEL = "4.5.15"
+# The Blenders at the ends of the supported range, Debian's 3.4.1 and the main .venv's 5.0.1, run the whole add-on
+# suite in `make test`. The wheels between them run SUITE_OF_A_MIDDLE_WHEEL, the files that go through compat.py's
+# version branches and the export of a scene; `make test-blenders` (WEATHERVANE_FULL_SUITES=1) runs the whole suite in
+# each of them.
 SUITE_OF_A_MIDDLE_WHEEL = (
     "test_addon.py",  # install, Build, Bake: the keyframes through compat.fcurves_of (layered actions from 4.4)
     "test_engine.py",
@@ -106,26 +107,22 @@ SUITE_OF_A_MIDDLE_WHEEL = (
 def suite_files(version: str) -> list[str]:
     """The add-on test files that `make test` runs in a Blender -> paths (the folder: all of them)."""
     folder = ROOT / "tests" / "addon"
-    if version in ("3.4.1", FULL_SUITE_WHEEL) or os.environ.get("WEATHERVANE_FULL_SUITES") == "1":
+    if version == "3.4.1" or os.environ.get("WEATHERVANE_FULL_SUITES") == "1":
         return [str(folder)]
     return [str(folder / name) for name in SUITE_OF_A_MIDDLE_WHEEL]
 
 
-_running: dict[str, Future] = {}
-
-
-def _suites() -> dict[str, Future]:
-    """The add-on suite in Debian's Blender 3.4.1 and in each bpy wheel that is installed, one Blender at a time,
-    started when the tests are collected (tests/conftest.py; pytest's own tests leave the second of the two cores
-    idle about half of the time, which the suites take) -> each Blender's future subprocess.CompletedProcess."""
-    if _running:
-        return _running
-    commands = {}
+def background_runs() -> dict[str, Future]:
+    """The add-on suite in Debian's Blender 3.4.1 and in each bpy wheel that is installed, queued in the session's
+    background runs (tests/conftest.py: one Blender at a time, started as the tests are collected) -> each Blender's
+    future subprocess.CompletedProcess."""
+    runs = {}
     if BLENDER is not None:
         runner = str(ROOT / "tests" / "addon" / "run_in_blender.py")
-        commands["3.4.1"] = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python", runner,
-                             "--", "-q", *suite_files("3.4.1")]  # fmt: skip
-    for version in sorted(wheel_versions(), key=lambda version: version != FULL_SUITE_WHEEL):  # the long one first
+        command = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python", runner,
+                   "--", "-q", *suite_files("3.4.1")]  # fmt: skip
+        runs["3.4.1"] = in_background("suite 3.4.1", command, cwd=ROOT, timeout=1200)
+    for version in wheel_versions():
         python = ROOT / f".venv-bpy-{version}" / "bin" / "python"
         if python.exists():
             script = textwrap.dedent(f"""
@@ -135,12 +132,8 @@ def _suites() -> dict[str, Future]:
                 arguments = ["-q", "-p", "no:cacheprovider", "--rootdir", {str(ROOT)!r}, *{suite_files(version)!r}]
                 sys.exit(int(pytest.main(arguments)))
             """)
-            commands[version] = [str(python), "-c", script]
-    pool = ThreadPoolExecutor(max_workers=1)
-    for name, command in commands.items():
-        _running[name] = pool.submit(subprocess.run, command, capture_output=True, text=True, cwd=ROOT, timeout=1200)
-    pool.shutdown(wait=False)
-    return _running
+            runs[version] = in_background(f"suite {version}", [str(python), "-c", script], cwd=ROOT, timeout=1200)
+    return runs
 
 
 @pytest.mark.parametrize("version", wheel_versions())
@@ -150,7 +143,7 @@ def test_addon_suite_passes_in_the_bpy_wheel(version: str) -> None:
         pytest.skip(
             f"no {python.parent.parent.name}: `make blender-wheels` (part of `make test`) installs bpy {version}"
         )
-    result = _suites()[version].result()
+    result = background_runs()[version].result()
     assert f"Blender {version}" in result.stdout, result.stdout[-2000:] + result.stderr[-2000:]
     assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-4000:]
     assert " passed" in result.stdout and " failed" not in result.stdout

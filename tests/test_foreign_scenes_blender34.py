@@ -5,30 +5,44 @@ the numbers measured in 3.4.1."""
 
 from __future__ import annotations
 
+import atexit
+import functools
 import json
 import os
 import re
 import shutil
-import subprocess
+import tempfile
+from concurrent.futures import Future
 from pathlib import Path
 
 import pytest
 
 from tests.addon.foreign_scenes import SCENES
+from tests.conftest import in_background
 
 ROOT = Path(__file__).resolve().parents[1]
 BLENDER = shutil.which("blender")
 CHECKED = [name for name in SCENES if name != "flat_suzanne"]  # flat_suzanne is smooth_suzanne's Cycles reference
 
 
-@pytest.fixture(scope="module")
-def inner(tmp_path_factory) -> dict:
-    """The suite's outcome in Blender 3.4.1: {"outcomes": {test id: (outcome, line)}, "measured": {...}, ...}."""
+@functools.cache
+def report_folder() -> Path:
+    """Where the run in 3.4.1 writes its numbers and its pytest's temporaries (removed when this process exits)."""
+    folder = Path(tempfile.mkdtemp(prefix="weathervane-foreign34-"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return folder
+
+
+def background_runs() -> Future | None:
+    """The suite in Blender 3.4.1, queued in the session's background runs (tests/conftest.py) -> the future of its
+    subprocess.CompletedProcess; None without Debian's blender."""
     if BLENDER is None:
-        pytest.skip("Debian's blender (3.4.1) is not installed: `make test` installs it with apt-get as root")
-    folder = tmp_path_factory.mktemp("foreign34")
-    report = folder / "measured.json"
-    environment = {**os.environ, "WEATHERVANE_FOREIGN_SCENES": "1", "WEATHERVANE_FOREIGN_REPORT": str(report)}
+        return None
+    environment = {
+        **os.environ,
+        "WEATHERVANE_FOREIGN_SCENES": "1",
+        "WEATHERVANE_FOREIGN_REPORT": str(report_folder() / "measured.json"),
+    }
     environment["COLUMNS"] = "400"  # the short summary keeps each failure's message
     command = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1"]
     command += ["--python", str(ROOT / "tests" / "addon" / "run_in_blender.py"), "--"]
@@ -36,10 +50,19 @@ def inner(tmp_path_factory) -> dict:
         "-q",
         "-rA",
         "--basetemp",
-        str(folder / "tmp"),
+        str(report_folder() / "tmp"),
         str(ROOT / "tests" / "addon" / "test_foreign_scenes.py"),
     ]
-    run = subprocess.run(command, capture_output=True, text=True, cwd=ROOT, env=environment, timeout=600)
+    return in_background("foreign scenes 3.4.1", command, cwd=ROOT, env=environment, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def inner() -> dict:
+    """The suite's outcome in Blender 3.4.1: {"outcomes": {test id: (outcome, line)}, "measured": {...}, ...}."""
+    running = background_runs()
+    if running is None:
+        pytest.skip("Debian's blender (3.4.1) is not installed: `make test` installs it with apt-get as root")
+    run = running.result()
     assert "Blender 3.4" in run.stdout, run.stdout[-2000:] + run.stderr[-2000:]
     outcomes = {}
     for line in run.stdout.splitlines():
@@ -47,6 +70,7 @@ def inner(tmp_path_factory) -> dict:
         if found:
             outcomes[found.group(2)] = (found.group(1), line)
     assert outcomes, run.stdout[-3000:] + run.stderr[-3000:]
+    report = report_folder() / "measured.json"
     measured = json.loads(report.read_text()) if report.exists() else {}
     return {"outcomes": outcomes, "measured": measured, "tail": run.stdout[-1500:]}
 
