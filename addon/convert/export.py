@@ -595,9 +595,9 @@ def _mesh_object(placed: mesh_export.Placed, source: _Source, export: _Export) -
     slots, used = placed.slots_of(len(slot_materials))
     first = export.material(slot_materials[used[0]])
     names = [export.material(material) for material in slot_materials] if len(used) > 1 else [first]
-    fields = placed.fields(
-        arrays=export.arrays, uvs=_textured(names, export.materials), colors=_colored(names, export.materials)
-    )
+    uvs = _textured(names, export.materials)
+    fields = placed.fields(arrays=export.arrays, uvs=uvs, colors=_colored(names, export.materials))
+    _note_generated(placed, uvs, source.original, export.notes)
     body = {"name": "", "type": "mesh", "material": first, **fields}
     if len(used) > 1:
         body["materials"] = names
@@ -606,15 +606,31 @@ def _mesh_object(placed: mesh_export.Placed, source: _Source, export: _Export) -
     return body
 
 
-def _textured(names, materials: dict) -> bool | str:
+def _textured(names, materials: dict) -> bool | str | mesh_export.GeneratedUVs:
     """Which corner UVs the meshes of these scene-file materials carry: the UV map a texture of theirs reads (its
-    "uv_map": a UV Map node's), True for the default one, False where none has a texture read by UV."""
+    "uv_map": a UV Map node's), True for the default one, their Generated coordinates for a checker's or a gradient's
+    that reads them (mesh_export.GENERATED), False where none has a texture read by UV."""
     for name in names:
         for key in ("texture", "emission_texture"):
             texture = materials.get(name, {}).get(key)
             if texture is not None and "attribute" not in texture:
+                if texture.get("uv_map") == mesh_export.GENERATED:
+                    return mesh_export.GeneratedUVs(texture["checker"]["scale"] if "checker" in texture else None)
                 return texture.get("uv_map") or True
     return False
+
+
+def _note_generated(placed: mesh_export.Placed, uvs, obj, notes: ExportNotes) -> None:
+    """Names what a mesh's UVs from Generated coordinates cannot say: a checker's 3D cells on triangles that lie
+    along no axis of the texture space, and an object whose shape its modifiers (or a curve's or text's own
+    texture space) make, where Cycles may read the coordinates from the shape before the modifiers."""
+    if not isinstance(uvs, mesh_export.GeneratedUVs):
+        return
+    name = obj.name
+    if placed.generated_uvs(uvs)[1]:
+        notes.not_expressed("a checker on Generated coordinates, 2D on faces along no axis of its texture space", name)
+    if obj.type != "MESH" or len(getattr(obj, "modifiers", ())):
+        notes.not_expressed("Generated coordinates from the shape after modifiers", name)
 
 
 def _colored(names, materials: dict) -> str | None:
@@ -676,6 +692,7 @@ def _instance_groups(geometry: _Geometry, placements: list, export: _Export, col
         mesh_key = materials if materials[0] == "many" else ("one",)
         if mesh_key not in entries:
             entries[mesh_key] = _mesh_entry(geometry, local, materials, members[0][1], collected)
+            _note_generated(local, _textured(_names(materials), collected.materials), first.original, export.notes)
         body = {"name": "", "type": "instances", "mesh": entries[mesh_key]}
         body["matrices"] = matrices[usable, :3, :].reshape(-1, 12).tolist()
         if materials[0] == "one":
@@ -748,7 +765,7 @@ def _mesh_entry(geometry: _Geometry, local: mesh_export.Placed, materials: tuple
     while name in collected.meshes:
         count += 1
         name = f"{geometry.stem}#{count}"
-    names = [materials[1]] if materials[0] == "one" else list(materials[1])
+    names = _names(materials)
     entry = local.fields(
         arrays=collected.arrays, uvs=_textured(names, collected.materials), colors=_colored(names, collected.materials)
     )
@@ -760,6 +777,11 @@ def _mesh_entry(geometry: _Geometry, local: mesh_export.Placed, materials: tuple
         entry["material_indices"] = slots.tolist()
     collected.meshes[name] = entry
     return name
+
+
+def _names(materials: tuple) -> list[str]:
+    """A group's materials key ("one", name) or ("many", names) -> the scene-file materials' names."""
+    return [materials[1]] if materials[0] == "one" else list(materials[1])
 
 
 def _invertible(matrices: np.ndarray, min_determinant: float) -> np.ndarray:

@@ -35,16 +35,17 @@ unlinked, or from Texture Coordinate > UV or a UV Map node naming no map), flat 
 Mix (Mix or Multiply blend, a constant factor, a constant other colour), becomes the material's "texture": the
 image's linear pixels (sRGB byte images decoded; float, Non-Color and Linear images as they are) through that Mix,
 times the same factors as the colour (color = texture's mean), Closest or Linear (Cubic and Smart: Linear, named),
-Repeat, Extend or Clip. A Checker or Gradient Texture read by the UV map (linked from Texture Coordinate UV or a UV
-Map node; unlinked, procedural textures read Generated coordinates) becomes the format's checker or gradient, a
-Gradient through a Color Ramp (Linear, Constant) the ramp's stops. A Mapping node rotating about Z alone between the
-UV source and any of these becomes the texture's uv_scale, uv_offset and uv_rotation. A Color Ramp or
+Repeat, Extend or Clip. A Checker or Gradient Texture read by the UV map (linked from Texture Coordinate UV or a UV Map
+node) or by Generated coordinates (unlinked, as a new node comes, or from Texture Coordinate > Generated: "uv_map"
+GENERATED, which the meshes' export turns into corner UVs, mesh_export.generated_uvs) becomes the format's checker or
+gradient, a Gradient through a Color Ramp (Linear, Constant) the ramp's stops. A Mapping node rotating about Z alone
+between the UV source and any of these becomes the texture's uv_scale, uv_offset and uv_rotation. A Color Ramp or
 Hue/Saturation/Value node between an image or a checker and the input is applied to its texels or colours (exact for
-Closest images and checkers; named on Linear images, where the node maps the interpolated colour). The same on
-Emission Color and the Emission shader's Color becomes "emission_texture", times the strength. Anything else (other
-coordinates, Mirror, other nodes in between) keeps the texture's mean colour, named (the means computed once per
-image or attribute and kept in a cache). A Color Attribute node (or an Attribute node naming a colour attribute)
-becomes an "attribute" texture of the meshes' corner colours, through the Mix nodes after it.
+Closest images and checkers; named on Linear images, where the node maps the interpolated colour). The same on Emission
+Color and the Emission shader's Color becomes "emission_texture", times the strength. Anything else (other coordinates,
+Mirror, other nodes in between) keeps the texture's mean colour, named (the means computed once per image or attribute
+and kept in a cache). A Color Attribute node (or an Attribute node naming a colour attribute) becomes an "attribute"
+texture of the meshes' corner colours, through the Mix nodes after it.
 
 Glass and transparency are shares of the same sum: Glass BSDF (Color, IOR) and Refraction BSDF (its Fresnel
 reflection added, named) are a clear dielectric of weight 1; Principled's Transmission t is one of weight (1 - m) t
@@ -71,6 +72,7 @@ from .. import compat
 from .. import tracer_api as tracer
 from ..vane import materials
 from . import node_tree
+from .mesh_export import GENERATED
 from .node_tree import hue_saturation
 
 ROUGH_MIRROR = 0.1  # at or below: a mirror
@@ -377,7 +379,7 @@ def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, 
     if node.bl_idname in TEXTURE_NODES:  # a procedural texture (or a ramp, HSV) on other coordinates than the UV map
         found = texture_input(socket, label, [], uv_only=False)
         if found is not None:
-            notes.append(f"{TEXTURE_NAMES[node.bl_idname]} on {label}: mean colour{_by_uv_hint(node)}")
+            notes.append(f"{TEXTURE_NAMES[node.bl_idname]} on {label}: mean colour")
             return texture_mean(found)
     if node.bl_idname == "ShaderNodeAttribute" and _unknown_attribute(material, node):
         return (0.0, 0.0, 0.0)  # Cycles reads an attribute that no mesh has (an empty name too) as 0
@@ -436,6 +438,7 @@ GRADIENTS = {  # Blender's Gradient Texture types -> the scene format's
     "QUADRATIC_SPHERE": "quadratic_sphere",
     "SPHERICAL": "spherical",
 }
+SPHERES = ("QUADRATIC_SPHERE", "SPHERICAL")  # the gradients that read z: on UVs (u, v, 0), exact on Generated never
 # A colour fed to a factor input: Cycles takes its luminance with the scene-linear space's coefficients (Rec. 709, the
 # default OpenColorIO config's in 3.4 to 5.0)
 LUMINANCE = np.asarray([0.2126, 0.7152, 0.0722])
@@ -457,7 +460,7 @@ def _uv_mapping(texture_node, unlinked_uv: bool = True, procedural: bool = False
     u and v); None where it does not (a procedural texture also where the Mapping moves z: it reads (u, v, 0))."""
     node, _ = _source(texture_node.inputs["Vector"])
     if node is None or node.bl_idname != "ShaderNodeMapping":
-        uv_map = _uv_coordinates(texture_node, unlinked_uv)
+        uv_map = _uv_coordinates(texture_node, unlinked_uv, generated=procedural)
         return None if uv_map is None else ({"uv_map": uv_map} if uv_map else {})
     kind = node.vector_type
     values = {name: _constant_vector(node.inputs.get(name)) for name in ("Location", "Rotation", "Scale")}
@@ -498,26 +501,21 @@ def _constant_vector(socket) -> list[float] | None:
     return None if value is None else list(value)
 
 
-def _uv_coordinates(texture_node, unlinked_uv: bool = True) -> str | None:
+def _uv_coordinates(texture_node, unlinked_uv: bool = True, generated: bool = False) -> str | None:
     """The UV map a texture node reads: "" for the mesh's default (its Vector unlinked: an Image Texture; procedural
     textures read Generated coordinates there: unlinked_uv False; a Texture Coordinate's UV output; a UV Map node
-    that names no map), a UV Map node's map by name; None where it reads other coordinates."""
+    that names no map), a UV Map node's map by name; with generated, mesh_export.GENERATED where it reads Generated
+    coordinates (unlinked, or a Texture Coordinate's Generated output); None where it reads other coordinates."""
     node, output = _source(texture_node.inputs["Vector"])
     if node is None:
-        return "" if unlinked_uv else None
+        return "" if unlinked_uv else GENERATED if generated else None
     if node.bl_idname == "ShaderNodeTexCoord":
-        return "" if output.name == "UV" and getattr(node, "object", None) is None else None
+        if getattr(node, "object", None) is not None:
+            return None
+        return "" if output.name == "UV" else GENERATED if generated and output.name == "Generated" else None
     if node.bl_idname == "ShaderNodeUVMap" and not getattr(node, "from_instancer", False):
         return getattr(node, "uv_map", "")
     return None
-
-
-def _by_uv_hint(node) -> str:
-    """For a note on a Checker or Gradient Texture left on Generated coordinates (its Vector unlinked, as a new node
-    comes): how the artist makes the tracer render it, which it does by the UV map."""
-    if node.bl_idname not in ("ShaderNodeTexChecker", "ShaderNodeTexGradient") or _source(node.inputs["Vector"])[0]:
-        return ""
-    return " (it reads Generated coordinates; linked from Texture Coordinate > UV it renders)"
 
 
 def _mix_sockets(node):
@@ -597,6 +595,8 @@ def texture_input(
         mapping = _uv_mapping(node, False, True)
         if (uv_only and mapping is None) or node.gradient_type not in GRADIENTS:
             return None
+        if uv_only and (mapping or {}).get("uv_map") == GENERATED and node.gradient_type in SPHERES:
+            return None  # a sphere reads z too, which the meshes' UVs do not carry: its mean (uv_only False)
         gradient = {"type": GRADIENTS[node.gradient_type], "stops": [0.0, 1.0], "interpolation": "linear"}
         return np.asarray([[[0.0] * 3], [[1.0] * 3]]), "closest", "repeat", {"gradient": gradient}, mapping or {}
     if kind == "ShaderNodeValToRGB":

@@ -23,6 +23,19 @@ import numpy as np
 
 from .. import compat
 
+# A texture's "uv_map" where it reads Blender's Generated coordinates (a Checker or Gradient Texture's Vector unlinked,
+# or from Texture Coordinate > Generated): its meshes' corner "uvs" are then made from their positions in their
+# texture space (generated_uvs). A UV map of this very name is read as Generated coordinates.
+GENERATED = "<Generated>"
+
+
+@dataclass(frozen=True)
+class GeneratedUVs:
+    """A request for corner UVs from Generated coordinates (Placed.fields): a checker's scale, whose 3D cells each
+    triangle's third axis folds into u; None for a gradient, which reads x and y alone."""
+
+    checker_scale: float | None = None
+
 
 @dataclass(frozen=True)
 class MeshArrays:
@@ -38,6 +51,20 @@ class MeshArrays:
     # the render default (what a Color Attribute node of no name reads)
     colors: dict = field(default_factory=dict)
     memo: dict = field(default_factory=dict, compare=False, repr=False)
+    # the texture space (location (3,), size (3,)) Generated coordinates span, Blender's; None where unknown
+    texspace: tuple | None = None
+
+    def generated(self) -> np.ndarray | None:
+        """Each triangle corner's Generated coordinates (T, 3, 3) float64, as Cycles makes them: (p - location) /
+        (2 size) + 1/2, an axis of size 0 at 1/2; None without a texture space. Made once, when first asked."""
+        if self.texspace is None:
+            return None
+        found = self.memo.get("generated")
+        if found is None:
+            location, size = (np.asarray(part, dtype=np.float64) for part in self.texspace)
+            factor = np.divide(0.5, size, out=np.zeros(3), where=size != 0.0)
+            found = self.memo["generated"] = self.vertices[self.triangles] * factor - (location * factor - 0.5)
+        return found
 
     @property
     def all_used(self) -> bool:
@@ -141,6 +168,7 @@ def read(obj) -> MeshArrays | None:
             corner_normals[flat] = face_normals.astype(np.float64).reshape(count, 1, 3)[flat]
         uvs, uv_maps = _corner_uvs(mesh, loop_triangles, count)
         colors = _corner_colors(mesh, loop_triangles, count, triangles)
+        texspace = (tuple(mesh.texspace_location), tuple(mesh.texspace_size))
     finally:
         obj.to_mesh_clear()
     return MeshArrays(
@@ -151,6 +179,7 @@ def read(obj) -> MeshArrays | None:
         uvs=uvs,
         uv_maps=uv_maps,
         colors=colors,
+        texspace=texspace,
     )
 
 
@@ -170,6 +199,10 @@ class Placed:
     uv_maps: dict = field(default_factory=dict)  # name -> (T, 3, 2) float64 each UV map's of the kept triangles
     colors: dict = field(default_factory=dict)  # name -> (T, 3, 3) float64 corner colours of the kept triangles
     memo: dict = field(default_factory=dict, compare=False, repr=False)  # what fields() and slots_of() made
+    # the mesh in its own space, which triangles were kept (None: all) and their corners' order: for generated_uvs
+    source: MeshArrays | None = field(default=None, compare=False, repr=False)
+    kept_rows: np.ndarray | None = field(default=None, compare=False, repr=False)
+    corner_order: tuple = (0, 1, 2)
 
     @property
     def nbytes(self) -> int:
@@ -192,6 +225,9 @@ class Placed:
             found["colors"] = self._corners(corner_colors, ("color lists", colors), arrays)
         if not uvs:
             return found
+        if isinstance(uvs, GeneratedUVs):
+            found["uvs"] = self._corners(self.generated_uvs(uvs)[0], ("uv lists", uvs), arrays)
+            return found
         # a UV map by name (a UV Map node's): one the mesh lacks reads (0, 0) below, as Cycles reads a missing one
         corners = self.uv_maps.get(uvs) if isinstance(uvs, str) else self.uvs
         if corners is None:
@@ -199,6 +235,45 @@ class Placed:
             if corners is None:
                 corners = self.memo["zero uvs"] = np.zeros((len(self.triangles), 3, 2))
         found["uvs"] = self._corners(corners, ("uv lists", uvs), arrays)
+        return found
+
+    def generated_uvs(self, request: GeneratedUVs) -> tuple[np.ndarray, int]:
+        """Corner UVs (T, 3, 2) from Blender's Generated coordinates (the mesh's own positions across its texture
+        space, [0, 1] on each axis, as Cycles makes them), and how many triangles they are not exact on.
+
+        A gradient reads x and y alone: (x, y), exact everywhere. Cycles' checker is 3D: a cell's colour follows the
+        parity of its x, y and z cells alike, so a triangle with one axis constant (every face of a plane or a box
+        in its texture space) reads the other two as (u, v), the constant axis's parity folded into u as one cell
+        more (the same cells to a millionth of one). A triangle that no axis is constant on takes its thinnest axis
+        at its corners' mean: it is counted, for the note that names it."""
+        found = self.memo.get(request)
+        if found is not None:
+            return found
+        generated = self.source.generated() if self.source is not None else None
+        if generated is None:  # no texture space known: the positions themselves (never the case for a mesh)
+            generated = np.zeros((len(self.triangles), 3, 3))
+            off = len(self.triangles)
+            found = self.memo[request] = (generated[:, :, :2], off)
+            return found
+        if self.kept_rows is not None:
+            generated = generated[self.kept_rows]
+        generated = generated[:, list(self.corner_order)]
+        if request.checker_scale is None:
+            found = self.memo[request] = (np.ascontiguousarray(generated[:, :, :2]), 0)
+            return found
+        extent = generated.max(axis=1) - generated.min(axis=1)  # (T, 3)
+        flat = extent == 0.0
+        axis = np.where(flat.any(axis=1), flat.argmax(axis=1), extent.argmin(axis=1))  # (T,) the axis folded in
+        off = int(np.count_nonzero(~flat.any(axis=1)))
+        rows = np.arange(len(axis))
+        depth = generated[rows, :, axis].mean(axis=1)  # (T,) the folded axis's value (a flat one's exactly)
+        scale = request.checker_scale
+        parity = np.abs(np.floor((depth * scale + 1e-6) * 0.999999)) % 2  # Cycles' svm_checker cell of that axis
+        others = np.array([[1, 2], [0, 2], [0, 1]])[axis]  # (T, 2) the two axes read, in order
+        uvs = np.take_along_axis(generated, others[:, None, :], axis=2)
+        if scale != 0.0:
+            uvs[:, :, 0] += (parity / scale)[:, None]
+        found = self.memo[request] = (uvs, off)
         return found
 
     def _corners(self, corners: np.ndarray, key: tuple, arrays: bool):
@@ -327,7 +402,11 @@ def place(arrays: MeshArrays, matrix=None) -> Placed:
 
     uv_maps = {name: kept(corners) for name, corners in arrays.uv_maps.items()}
     colors = {name: kept(corners) for name, corners in arrays.colors.items()}
-    return Placed(placed_vertices, remapped, normals, slots, dropped, uvs, uv_maps, colors)
+    rows = None if everything else spans_area
+    return Placed(
+        placed_vertices, remapped, normals, slots, dropped, uvs, uv_maps, colors,
+        source=arrays, kept_rows=rows, corner_order=tuple(order),
+    )  # fmt: skip
 
 
 def in_world(arrays: MeshArrays, matrix) -> tuple[dict, np.ndarray, int]:

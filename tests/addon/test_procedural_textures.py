@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from addon import compat
-from addon.convert import material_convert
+from addon.convert import material_convert, mesh_export
 from tests.addon.f12_images import f12_exr
 
 ENGINE = "WEATHERVANE_TRACER"
@@ -139,6 +139,46 @@ def image_plane(between: str | None) -> bpy.types.Material:
     return material
 
 
+def on_generated(material, node) -> None:
+    """node's Vector left unlinked, as a new node comes: Generated coordinates."""
+    for link in list(node.inputs["Vector"].links):
+        material.node_tree.links.remove(link)
+
+
+def generated_checker_on(obj, scale: float) -> bpy.types.Material:
+    """A Checker Texture (red and blue, this scale) on Generated coordinates on Base Color of obj's only material."""
+    material, shader = new_material(obj)
+    node = material.node_tree.nodes.new("ShaderNodeTexChecker")
+    node.inputs["Color1"].default_value, node.inputs["Color2"].default_value = RED, BLUE
+    node.inputs["Scale"].default_value = scale
+    material.node_tree.links.new(node.outputs["Color"], shader.inputs["Base Color"])
+    return material
+
+
+def cube_from_a_corner(kind: str = "cube") -> bpy.types.Object:
+    """Blender's default cube (or a UV sphere) seen from a corner by a perspective camera (its three faces toward
+    the camera each along an axis of the texture space), lit by a sun from the camera's side."""
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = SIZE
+    scene.render.resolution_percentage = 100
+    scene.world = None
+    if kind == "cube":
+        bpy.ops.mesh.primitive_cube_add(size=2.0)
+    else:
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0)
+    obj = bpy.context.active_object
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location = (5.0, -5.0, 4.2)
+    camera.rotation_euler = (math.radians(60.0), 0.0, math.radians(45.0))
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 3.0, 0.0
+    sun.rotation_euler = (math.radians(50.0), 0.0, math.radians(30.0))
+    scene.collection.objects.link(sun)
+    return obj
+
+
 def f12(engine: str, path: Path) -> np.ndarray:
     scene = bpy.context.scene
     scene.render.engine = engine
@@ -187,15 +227,10 @@ def test_a_checker_by_uv_becomes_the_formats_checker() -> None:
     assert document["color"] == pytest.approx(
         [(a + b) / 2 * k for a, b in zip(RED[:3], BLUE[:3], strict=True)], abs=1e-6
     )
-    material.node_tree.links.remove(node.inputs["Vector"].links[0])  # Generated coordinates: its mean, named
-    document, notes = material_convert.convert_material(material)
-    assert "texture" not in document and notes == [
-        "checker texture on Base Color: mean colour (it reads Generated coordinates; linked from Texture Coordinate > "
-        "UV it renders)"
-    ]
-    assert document["color"] == pytest.approx(
-        [(a + b) / 2 * k for a, b in zip(RED[:3], BLUE[:3], strict=True)], abs=1e-6
-    )
+    material.node_tree.links.remove(node.inputs["Vector"].links[0])  # Generated coordinates: the meshes' UVs made
+    document, notes = material_convert.convert_material(material)  # from them (mesh_export.generated_uvs)
+    assert notes == [] and document["texture"]["uv_map"] == mesh_export.GENERATED
+    assert document["texture"]["checker"]["scale"] == pytest.approx(3.7)
 
 
 def test_a_gradient_through_a_colour_ramp_becomes_the_ramps_stops() -> None:
@@ -341,6 +376,66 @@ def test_f12_shows_the_checker_as_cycles_does(tmp_path, scale: float, mapping: s
     overlap = iou(first, expected)
     print(f"checker {scale} {mapping} {turn}: {message}; Color1 IoU {overlap:.4f}, share {expected.mean():.3f}")
     assert 0.3 < expected.mean() < 0.7 and overlap >= 0.95, f"{message}; IoU {overlap:.4f}"
+
+
+@pytest.mark.parametrize("scale", [5.0, 3.7])  # z's cell even at 5 (z is 1/2 on a flat plane), odd at 3.7
+def test_f12_shows_a_checker_on_generated_coordinates_as_cycles_does_on_a_plane(tmp_path, scale: float) -> None:
+    material, node = checker(scale)
+    on_generated(material, node)
+    tracer, cycles = both(tmp_path)
+    message = compare_means(tracer, cycles)
+    first, expected = tracer[..., 0] > tracer[..., 2], cycles[..., 0] > cycles[..., 2]
+    overlap = iou(first, expected)
+    print(f"checker {scale} on Generated, a plane: {message}; Color1 IoU {overlap:.4f}, share {expected.mean():.3f}")
+    assert 0.3 < expected.mean() < 0.7 and overlap >= 0.95, f"{message}; IoU {overlap:.4f}"
+
+
+@pytest.mark.parametrize("scale", [5.0, 3.7])  # the faces at 0 and 1 of each axis: cells 0 and 4, or 0 and 3
+def test_f12_shows_a_checker_on_generated_coordinates_as_cycles_does_on_the_default_cube(tmp_path, scale) -> None:
+    """Each face lies along an axis of the cube's texture space: the 3D checker is exact there, and nothing is
+    named."""
+    cube = cube_from_a_corner()
+    generated_checker_on(cube, scale)
+    from addon.convert import export
+
+    notes = export.ExportNotes()
+    document = export.scene_document(bpy.context, notes=notes)
+    assert "Generated" not in notes.line(), notes.line()
+    assert document is not None
+    tracer, cycles = both(tmp_path)
+    on = cycles.sum(axis=2) > 0.0  # the cube's pixels (no world: black around it)
+    first, expected = (tracer[..., 0] > tracer[..., 2]) & on, (cycles[..., 0] > cycles[..., 2]) & on
+    overlap = iou(first, expected)
+    print(f"checker {scale} on Generated, the cube: Color1 IoU {overlap:.4f}, share {expected.sum() / on.sum():.3f}")
+    assert 0.3 < expected.sum() / on.sum() < 0.7 and overlap >= 0.93, f"IoU {overlap:.4f}"
+
+
+def test_a_checker_on_generated_coordinates_of_a_sphere_is_named() -> None:
+    sphere = cube_from_a_corner("sphere")
+    generated_checker_on(sphere, 5.0)
+    from addon.convert import export
+
+    notes = export.ExportNotes()
+    export.scene_document(bpy.context, notes=notes)
+    assert "a checker on Generated coordinates, 2D on faces along no axis of its texture space (Sphere)" in notes.line()
+    sphere.modifiers.new("Subdivision", "SUBSURF")
+    notes = export.ExportNotes()
+    export.scene_document(bpy.context, notes=notes)
+    assert "Generated coordinates from the shape after modifiers (Sphere)" in notes.line()
+
+
+def test_f12_shows_a_gradient_on_generated_coordinates_as_cycles_does_and_names_a_spheres(tmp_path) -> None:
+    material = gradient("DIAGONAL", "LINEAR")
+    node = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeTexGradient")
+    on_generated(material, node)
+    tracer, cycles = both(tmp_path)
+    message = compare_means(tracer, cycles)
+    overlap = iou(tracer[..., 0] > tracer[..., 2], cycles[..., 0] > cycles[..., 2])
+    print(f"diagonal gradient on Generated: {message}; IoU {overlap:.4f}")
+    assert overlap >= 0.95, f"{message}; IoU {overlap:.4f}"
+    node.gradient_type = "SPHERICAL"  # reads z, which UVs do not carry: its mean, named
+    document, notes = material_convert.convert_material(material)
+    assert "texture" not in document and notes == ["colour ramp on Base Color: mean colour"]
 
 
 @pytest.mark.parametrize(("kind", "ramp"), [("LINEAR", None), ("SPHERICAL", "LINEAR"), ("RADIAL", "CONSTANT")])
