@@ -410,6 +410,34 @@ def test_f12_shows_a_checker_on_generated_coordinates_as_cycles_does_on_the_defa
     assert 0.3 < expected.sum() / on.sum() < 0.7 and overlap >= 0.93, f"IoU {overlap:.4f}"
 
 
+def test_f12_shows_a_checker_on_generated_coordinates_of_instances_as_cycles_does(tmp_path) -> None:
+    """The plane in a collection instanced three times (the meshes table's path), one of them mirrored (its corners
+    swapped) and one turned: each instance reads the plane's own Generated coordinates, as in Cycles."""
+    material, node = checker(3.7)
+    on_generated(material, node)
+    plane = bpy.data.objects["Plane"]
+    plane.scale = (0.45, 0.45, 1.0)
+    collection = bpy.data.collections.new("Tiles")
+    collection.objects.link(plane)
+    bpy.context.scene.collection.objects.unlink(plane)
+    for number, (x, y, mirrored, turn) in enumerate(((-0.5, 0.5, 1, 0), (0.5, 0.5, -1, 0), (0.0, -0.5, 1, 30))):
+        tile = bpy.data.objects.new(f"Tile{number}", None)
+        tile.instance_type, tile.instance_collection = "COLLECTION", collection
+        tile.location, tile.scale = (x, y, 0.0), (mirrored, 1.0, 1.0)
+        tile.rotation_euler = (0.0, 0.0, math.radians(turn))
+        bpy.context.scene.collection.objects.link(tile)
+    from addon.convert import export
+
+    document = export.scene_document(bpy.context)
+    assert [body["type"] for body in document["objects"]] == ["instances"] and len(document["meshes"]) == 1
+    tracer, cycles = both(tmp_path)
+    on = cycles.sum(axis=2) > 0.0
+    first, expected = (tracer[..., 0] > tracer[..., 2]) & on, (cycles[..., 0] > cycles[..., 2]) & on
+    overlap = iou(first, expected)
+    print(f"checker 3.7 on Generated, 3 instances: Color1 IoU {overlap:.4f}, share {expected.sum() / on.sum():.3f}")
+    assert 0.3 < expected.sum() / on.sum() < 0.7 and overlap >= 0.95, f"IoU {overlap:.4f}"
+
+
 def test_a_checker_on_generated_coordinates_of_a_sphere_is_named() -> None:
     sphere = cube_from_a_corner("sphere")
     generated_checker_on(sphere, 5.0)
