@@ -174,8 +174,10 @@ _conversions: OrderedDict[tuple, tuple[dict, list[str], int, tuple[int, ...]]] =
 def _converted(material, export: _Export) -> tuple[dict, list[str]]:
     """A Blender material -> (scene-file material, what it approximates), converted from its node tree once and kept
     until a depsgraph update changes the material, its node tree, any node group or image, a mesh (where it averages
-    a colour attribute) or the scene (the add-on's own materials, read against the panel's). One with animation is
-    kept per frame. A conversion takes about 0.13 ms: 3,000 materials would cost every F12 and moved object 0.4 s."""
+    a colour attribute) or, for the add-on's own materials (read against the panel's entries), the scene; the
+    highlight model and coef that every conversion reads are in the key, so a change of another scene setting (an
+    engine switch, a resolution) keeps them. One with animation is kept per frame. A conversion takes about 0.13 ms:
+    3,000 materials would cost every F12 and moved object 0.4 s."""
     cache = mesh_export.CACHE
     original = material.original or material  # an evaluated object's slots hold evaluated copies
     tree = original.node_tree
@@ -188,7 +190,9 @@ def _converted(material, export: _Export) -> tuple[dict, list[str]]:
     else:
         document, said = material_convert.convert_material(material)
         if cache.enabled:
-            watched = [original.as_pointer(), mesh_export.SHADING, mesh_export.SCENE]
+            watched = [original.as_pointer(), mesh_export.SHADING]
+            if original.get("weathervane_material") is not None:  # read against the panel's entries: the scene's
+                watched.append(mesh_export.SCENE)
             if tree is not None:
                 watched.append(tree.as_pointer())
                 if any(node.bl_idname in _ATTRIBUTE_NODES for node in tree.nodes):

@@ -365,6 +365,29 @@ def test_materials_are_converted_once_until_they_change(monkeypatch) -> None:
     changed = document()
     assert [name for name in converted if name] == ["Paint2"]
     assert changed["materials"]["blender:Paint1"] == first["materials"]["blender:Paint1"]
+    # a scene setting that no conversion reads (an update of the scene in the depsgraph): none converted again
+    converted.clear()
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.engine = 1280, "WEATHERVANE_TRACER"
+    document()
+    assert [name for name in converted if name] == []
+    scene.weathervane.model = "phong"  # the highlight model, which every conversion reads: all of them again
+    document()
+    assert sorted(name for name in converted if name) == [f"Paint{k}" for k in range(4)]
+
+
+def test_the_vanes_own_material_on_an_object_of_the_users_follows_the_panels_colour() -> None:
+    """Its conversion is kept between exports (the scene is watched for the add-on's own materials alone), yet a
+    colour changed in the panel (which changes the material's nodes too) is the next export's colour."""
+    assert bpy.ops.weathervane.build() == {"FINISHED"}
+    settings = bpy.context.scene.weathervane
+    own = next(m for m in bpy.data.materials if m.get("weathervane_material") == settings.materials[0].name)
+    bpy.ops.mesh.primitive_cube_add(location=(5.0, 0.0, 0.0))
+    bpy.context.object.data.materials.append(own)
+    before = document()["materials"][f"blender:{own.name}"]["color"]
+    settings.materials[0].color = (0.9, 0.1, 0.2)
+    after = document()["materials"][f"blender:{own.name}"]["color"]
+    assert after != pytest.approx(before) and after == pytest.approx([0.9, 0.1, 0.2], abs=1e-6)
 
 
 def test_an_instance_scaled_to_nothing_and_zero_area_triangles_are_left_out_and_named() -> None:
