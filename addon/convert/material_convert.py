@@ -438,7 +438,7 @@ GRADIENTS = {  # Blender's Gradient Texture types -> the scene format's
     "QUADRATIC_SPHERE": "quadratic_sphere",
     "SPHERICAL": "spherical",
 }
-SPHERES = ("QUADRATIC_SPHERE", "SPHERICAL")  # the gradients that read z: on UVs (u, v, 0), exact on Generated never
+SPHERES = ("QUADRATIC_SPHERE", "SPHERICAL")  # the gradients that read z, which UVs from Generated coordinates lack
 # A colour fed to a factor input: Cycles takes its luminance with the scene-linear space's coefficients (Rec. 709, the
 # default OpenColorIO config's in 3.4 to 5.0)
 LUMINANCE = np.asarray([0.2126, 0.7152, 0.0722])

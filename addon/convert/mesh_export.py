@@ -250,7 +250,7 @@ class Placed:
         if found is not None:
             return found
         generated = self.source.generated() if self.source is not None else None
-        if generated is None:  # no texture space known: the positions themselves (never the case for a mesh)
+        if generated is None:  # no texture space known (a mesh read() gives has one): (0, 0), every triangle counted
             generated = np.zeros((len(self.triangles), 3, 3))
             off = len(self.triangles)
             found = self.memo[request] = (generated[:, :, :2], off)
