@@ -54,7 +54,7 @@ def rays(mesh: tf.WorldTriangles, count: int, seed: int) -> tuple[np.ndarray, np
 
 @pytest.mark.parametrize("build", [make_kernel, make_robust_kernel])
 @pytest.mark.parametrize("dtype", ["float64", "float32"])
-@pytest.mark.parametrize(("count", "seed"), [(40, 1), (300, 2), (1500, 3)])
+@pytest.mark.parametrize(("count", "seed"), [(40, 1), (300, 2), pytest.param(1500, 3, marks=pytest.mark.slow)])
 def test_the_mesh_hierarchy_finds_the_whole_mesh_tests_hits(build, dtype, count, seed) -> None:
     mesh = soup(count, seed)
     whole = build(mesh, np.dtype(dtype))
@@ -327,7 +327,7 @@ def picture_rays(mesh: tf.WorldTriangles, kind: str, count: int, seed: int) -> t
 @pytest.mark.parametrize("build", [make_kernel, make_robust_kernel])
 @pytest.mark.parametrize("dtype", ["float64", "float32"])
 @pytest.mark.parametrize("kind", ["camera", "light", "sun"])
-@pytest.mark.parametrize(("count", "seed"), [(300, 4), (1500, 5)])
+@pytest.mark.parametrize(("count", "seed"), [(300, 4), pytest.param(1500, 5, marks=pytest.mark.slow)])
 def test_the_mesh_pictures_find_the_whole_mesh_tests_hits(build, dtype, kind, count, seed, monkeypatch) -> None:
     monkeypatch.setattr(meshpicture, "MAX_DEPTH", np.inf)  # a soup is deep: pictured here all the same
     mesh = soup(count, seed)
