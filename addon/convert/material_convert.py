@@ -31,7 +31,8 @@ only the lights' highlight is kept; in between the share moves linearly: mirror 
 (1 - w) F is the highlight's weight. Where n < 1 (rho > 0.84) the highlight is as wide as a diffuse lobe and goes to D.
 
 An Image Texture on Base Color (Principled) or Color (Diffuse BSDF) read by the mesh's UV map (its Vector input
-unlinked, or from Texture Coordinate > UV or a UV Map node naming no map), flat projection, directly or through a
+unlinked, or from Texture Coordinate > UV or a UV Map node naming no map) or by Texture Coordinate > Generated (flat
+projection reads their x and y: "uv_map" GENERATED, as below), flat projection, directly or through a
 Mix (Mix or Multiply blend, a constant factor, a constant other colour), becomes the material's "texture": the
 image's linear pixels (sRGB byte images decoded; float, Non-Color and Linear images as they are) through that Mix,
 times the same factors as the colour (color = texture's mean), Closest or Linear (Cubic and Smart: Linear, named),
@@ -453,14 +454,18 @@ SEPARATE_NODES = ("ShaderNodeSeparateRGB", "ShaderNodeSeparateXYZ", "ShaderNodeS
 GRID_MEAN = 64  # a gradient's mean colour: over GRID_MEAN^2 points of the unit UV square
 
 
-def _uv_mapping(texture_node, unlinked_uv: bool = True, procedural: bool = False) -> dict | None:
+def _uv_mapping(
+    texture_node, unlinked_uv: bool = True, procedural: bool = False, generated: bool | None = None
+) -> dict | None:
     """How a texture node reads the mesh's default UV map (_uv_coordinates), straight ({}) or through a Mapping node
     of constant settings rotating about Z alone ({"uv_scale": [su, sv], "uv_offset": [ou, ov], "uv_rotation": a}
     (degrees, where not 0): Point R(u S) + L, Vector R(u S), Texture S^-1 R^-1 (u - L) where the scale is uniform in
-    u and v); None where it does not (a procedural texture also where the Mapping moves z: it reads (u, v, 0))."""
+    u and v); None where it does not (a procedural texture also where the Mapping moves z: it reads (u, v, 0)).
+    generated: whether Generated coordinates straight into the node are taken ({"uv_map": GENERATED}), by default
+    for a procedural texture; an image's flat projection reads their (x, y) too."""
     node, _ = _source(texture_node.inputs["Vector"])
     if node is None or node.bl_idname != "ShaderNodeMapping":
-        uv_map = _uv_coordinates(texture_node, unlinked_uv, generated=procedural)
+        uv_map = _uv_coordinates(texture_node, unlinked_uv, generated=procedural if generated is None else generated)
         return None if uv_map is None else ({"uv_map": uv_map} if uv_map else {})
     kind = node.vector_type
     values = {name: _constant_vector(node.inputs.get(name)) for name in ("Location", "Rotation", "Scale")}
@@ -568,7 +573,7 @@ def texture_input(
         image = node.image
         if image is None or output.name != "Color" or getattr(node, "projection", "FLAT") != "FLAT":
             return None
-        mapping = _uv_mapping(node)
+        mapping = _uv_mapping(node, generated=True)  # flat projection reads (x, y): Generated coordinates exactly
         if (uv_only and mapping is None) or node.extension not in EXTENSIONS:
             return None
         pixels = _rgba_pixels(image)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from addon import compat
-from addon.convert import export, material_convert
+from addon.convert import export, material_convert, mesh_export
 from tests.addon.f12_images import f12_exr
 
 ENGINE = "WEATHERVANE_TRACER"
@@ -96,9 +96,12 @@ def test_non_uv_coordinates_keep_the_mean_colour_named() -> None:
     tree = material.node_tree
     coordinates = tree.nodes.new("ShaderNodeTexCoord")
     texture = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage")
-    tree.links.new(coordinates.outputs["Generated"], texture.inputs["Vector"])
+    tree.links.new(coordinates.outputs["Object"], texture.inputs["Vector"])
     document, notes = material_convert.convert_material(material)
     assert "texture" not in document and notes == ["image texture on Base Color: mean colour"]
+    tree.links.new(coordinates.outputs["Generated"], texture.inputs["Vector"])  # flat projection reads their x, y
+    document, notes = material_convert.convert_material(material)
+    assert document["texture"]["uv_map"] == mesh_export.GENERATED and notes == []
 
 
 def test_a_multiply_mix_on_the_texture_is_evaluated_on_its_pixels() -> None:

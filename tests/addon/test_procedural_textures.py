@@ -438,6 +438,43 @@ def test_f12_shows_a_checker_on_generated_coordinates_of_instances_as_cycles_doe
     assert 0.3 < expected.sum() / on.sum() < 0.7 and overlap >= 0.95, f"IoU {overlap:.4f}"
 
 
+def test_f12_shows_an_image_on_generated_coordinates_as_cycles_does_on_the_default_cube(tmp_path) -> None:
+    """Texture Coordinate > Generated into an image (flat projection: it reads x and y): the cube's faces show the
+    image across x and y, where its UV map would show it whole on each face."""
+    cube = cube_from_a_corner()
+    material, shader = new_material(cube)
+    tree = material.node_tree
+    rng = np.random.default_rng(5)
+    image = bpy.data.images.new("cells", 8, 8)
+    image.pixels[:] = np.concatenate((rng.random((64, 3)), np.ones((64, 1))), axis=1).reshape(-1).tolist()
+    image.pack()
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image, texture.interpolation = image, "Closest"
+    coordinates = tree.nodes.new("ShaderNodeTexCoord")
+    tree.links.new(coordinates.outputs["Generated"], texture.inputs["Vector"])
+    tree.links.new(texture.outputs["Color"], shader.inputs["Base Color"])
+    assert material_convert.convert_material(material)[0]["texture"]["uv_map"] == mesh_export.GENERATED
+    tracer, cycles = both(tmp_path)
+    on = cycles.sum(axis=2) > 0.0
+    generated = psnr(tracer[on], cycles[on])
+    tree.links.new(coordinates.outputs["UV"], texture.inputs["Vector"])  # the same image by the cube's UV map
+    by_uv, cycles_by_uv = both(tmp_path / "uv")
+    wrong = psnr(by_uv[on], cycles[on])  # what showing the UV map where Cycles reads Generated would score
+    plain = psnr(by_uv[on], cycles_by_uv[on])  # the two engines' agreement on the UV map: the bar
+
+    def off_by(image: np.ndarray) -> float:  # the share of the cube's pixels of another texel than Cycles' (or an edge)
+        return float((np.abs(image - cycles).max(axis=2)[on] > 0.2).mean())
+
+    off, off_wrong = off_by(tracer), off_by(by_uv)
+    print(
+        f"an image on the cube, tracer against Cycles: on Generated {generated:.2f} dB ({off:.1%} of its pixels off "
+        f"by over 0.2), by UV {plain:.2f} dB; the UV map's image against Cycles' on Generated {wrong:.2f} dB "
+        f"({off_wrong:.1%} off)"
+    )
+    # the texels' edges (a pixel wide, across each side face from top to bottom) take the few dB below the UV map's
+    assert off <= 0.05 and off_wrong >= 0.3 and generated >= wrong + 10.0, (off, off_wrong, generated, wrong)
+
+
 def test_a_checker_on_generated_coordinates_of_a_sphere_is_named() -> None:
     sphere = cube_from_a_corner("sphere")
     generated_checker_on(sphere, 5.0)

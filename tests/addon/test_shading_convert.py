@@ -137,7 +137,7 @@ def test_mix_and_add_weigh_their_shaders() -> None:
 
 def test_an_image_texture_on_base_color_is_rendered_by_uv_its_mean_the_colour() -> None:
     """An Image Texture read by the mesh's UVs becomes the material's texture (not named); its mean is the
-    colour (hits without UVs); with Generated coordinates it is the mean colour, named."""
+    colour (hits without UVs); with Object coordinates it is the mean colour, named."""
     image = bpy.data.images.new("checker", 4, 4, float_buffer=True)
     pixels = [0.0] * 64
     for index in range(16):
@@ -154,7 +154,7 @@ def test_an_image_texture_on_base_color_is_rendered_by_uv_its_mean_the_colour() 
     assert notes == [] and document["texture"]["pixels"].shape == (4, 4, 3)
     texels = np.clip(np.array([[1.0, 0.5, 0.0], [0.0, 0.5, 1.0]]) * k, 0.0, 1.0)  # each clipped (3.4's k > 1)
     assert document["texture"]["pixels"].reshape(-1, 3).mean(axis=0) == pytest.approx(texels.mean(axis=0), rel=1e-5)
-    tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["Generated"], texture.inputs["Vector"])
+    tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["Object"], texture.inputs["Vector"])
     document, notes = material_convert.convert_material(material)
     assert document["color"] == pytest.approx([0.5 * k, 0.5 * k, 0.5 * k], rel=1e-5) and "texture" not in document
     assert notes == ["image texture on Base Color: mean colour"]
