@@ -108,18 +108,23 @@ def gradient(kind: str, ramp: str | None) -> bpy.types.Material:
     return material
 
 
-def image_plane(between: str | None) -> bpy.types.Material:
-    """A packed 8 x 8 image of random colours (Closest) by UV on Base Color, straight, through a Color Ramp
-    (Constant: three stops) or through a Hue/Saturation/Value node."""
-    material, shader = uv_plane()
-    tree = material.node_tree
+def cells_texture(tree) -> bpy.types.Node:
+    """A new Image Texture node (Closest) in tree, of a packed 8 x 8 image of random colours."""
     rng = np.random.default_rng(5)
     image = bpy.data.images.new("cells", 8, 8)
     image.pixels[:] = np.concatenate((rng.random((64, 3)), np.ones((64, 1))), axis=1).reshape(-1).tolist()
     image.pack()
     texture = tree.nodes.new("ShaderNodeTexImage")
     texture.image, texture.interpolation = image, "Closest"
-    output = texture.outputs["Color"]
+    return texture
+
+
+def image_plane(between: str | None) -> bpy.types.Material:
+    """A packed 8 x 8 image of random colours (Closest) by UV on Base Color, straight, through a Color Ramp
+    (Constant: three stops) or through a Hue/Saturation/Value node."""
+    material, shader = uv_plane()
+    tree = material.node_tree
+    output = cells_texture(tree).outputs["Color"]
     if between == "ramp":
         ramp = tree.nodes.new("ShaderNodeValToRGB")
         ramp.color_ramp.interpolation = "CONSTANT"
@@ -444,12 +449,7 @@ def test_f12_shows_an_image_on_generated_coordinates_as_cycles_does_on_the_defau
     cube = cube_from_a_corner()
     material, shader = new_material(cube)
     tree = material.node_tree
-    rng = np.random.default_rng(5)
-    image = bpy.data.images.new("cells", 8, 8)
-    image.pixels[:] = np.concatenate((rng.random((64, 3)), np.ones((64, 1))), axis=1).reshape(-1).tolist()
-    image.pack()
-    texture = tree.nodes.new("ShaderNodeTexImage")
-    texture.image, texture.interpolation = image, "Closest"
+    texture = cells_texture(tree)
     coordinates = tree.nodes.new("ShaderNodeTexCoord")
     tree.links.new(coordinates.outputs["Generated"], texture.inputs["Vector"])
     tree.links.new(texture.outputs["Color"], shader.inputs["Base Color"])
