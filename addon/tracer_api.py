@@ -49,6 +49,7 @@ if BUILT:
     )
     from weathervane_tracer.scene.motion import Motion, Spin, simulate
     from weathervane_tracer.scene.passes import CRYPTOMATTE_LEVELS, PASSES, cryptomatte_layers
+    from weathervane_tracer.scene.reuse import LoadedParts
     from weathervane_tracer.scene.scene import (
         AmbientLight,
         AreaLight,
@@ -97,6 +98,7 @@ else:  # the repository's package
     from tracer.scene.loader import MATRIX_MIN_DETERMINANT, SceneError, default_scene, load_scene, scene_from_dict
     from tracer.scene.motion import Motion, Spin, simulate
     from tracer.scene.passes import CRYPTOMATTE_LEVELS, PASSES, cryptomatte_layers
+    from tracer.scene.reuse import LoadedParts
     from tracer.scene.scene import (
         AmbientLight,
         AreaLight,
@@ -147,6 +149,7 @@ __all__ = [
     "Cylinder",
     "DirectionalLight",
     "Gusts",
+    "LoadedParts",
     "Motion",
     "Plane",
     "PoolClosedError",

@@ -169,6 +169,9 @@ def _render_hidden_objects() -> set[int]:
 MATERIALS_KEPT = 20_000  # conversions remembered, least recently used forgotten first
 _ATTRIBUTE_NODES = ("ShaderNodeVertexColor", "ShaderNodeAttribute")  # material_convert averages them over meshes
 _conversions: OrderedDict[tuple, tuple[dict, list[str], int, tuple[int, ...]]] = OrderedDict()
+# the last F12's document as loaded: the next F12 loads again only the materials and objects that changed, and an
+# unchanged scene is the same Scene, which the workers keep prepared (reuse.LoadedParts)
+F12_LOADED = tracer.LoadedParts()
 
 
 def _converted(material, export: _Export) -> tuple[dict, list[str]]:
@@ -1111,6 +1114,7 @@ def _forget_everything(*_arguments) -> None:
     """A file loaded, an undo or redo: data-blocks may be others at the same addresses."""
     mesh_export.CACHE.clear()
     _conversions.clear()
+    F12_LOADED.clear()  # compared by value, never stale: let go for its memory
 
 
 _HANDLERS = (

@@ -140,7 +140,7 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         try:
             moves = motion_blur.sampled(blender_scene, depsgraph, self.frame_set)  # Render > Motion Blur's poses
             document = scene_document(bpy.context, depsgraph, blender_scene, notes, budget, arrays=True, motion=moves)
-            scene = tracer.scene_from_dict(export.as_json_types(document), "scene")
+            scene = tracer.scene_from_dict(export.as_json_types(document), "scene", kept=export.F12_LOADED)
         except tracer.SceneError as error:
             self._nothing_rendered(
                 "Weathervane Tracer: " + "; ".join(named_problems(error.problems, document, blender_scene.world)[:4])

@@ -120,6 +120,7 @@ class ViewportSession:
         self.document: dict | None = None  # the scene without its camera (set by view_update)
         self.error: str | None = None  # why the scene cannot be traced (a bad scene), shown in the view
         self._scene_key = ""  # the document as JSON, made once per update: view_draw runs on every redraw
+        self._loaded = tracer.LoadedParts()  # the last view's materials and objects as loaded, for the next's
         self._shown_key: str | None = None
         self._texture_level = None  # the level whose texture _textures holds for this session
         self._drawn_at = 0.0  # when a level was last drawn (time.perf_counter)
@@ -195,7 +196,7 @@ class ViewportSession:
         from ..convert.export import as_json_types
 
         try:
-            scene = tracer.scene_from_dict(as_json_types(document), "viewport")
+            scene = tracer.scene_from_dict(as_json_types(document), "viewport", kept=self._loaded)
         except tracer.SceneError as error:
             from ..convert.export import named_problems
 

@@ -17,6 +17,7 @@ from . import scene as sc
 from . import textures as tx
 from . import wind as wi
 from .passes import CRYPTOMATTE_LEVELS_MAX, PASSES
+from .reuse import LoadedParts
 
 DEFAULT_SCENE_RESOURCE = "default_scene.json"
 
@@ -1440,35 +1441,58 @@ def _motion(reader: _Reader | None, wind_reader: _Reader | None) -> mo.Motion | 
 # ---- entry points ------------------------------------------------------------------------------------------------
 
 
-def scene_from_dict(data: Any, source: str = "scene", base: str | Path | None = None) -> sc.Scene:
+def scene_from_dict(
+    data: Any, source: str = "scene", base: str | Path | None = None, kept: LoadedParts | None = None
+) -> sc.Scene:
     """Validate a parsed JSON document and build the Scene; raises SceneError listing every problem. base: the
-    folder that textures' relative image paths start from (the scene file's; None: the current directory)."""
+    folder that textures' relative image paths start from (the scene file's; None: the current directory). kept:
+    the last load's parts (reuse.LoadedParts), used again where the document's are the same, and replaced by this
+    load's when it succeeds."""
     problems: list[str] = []
     top = _Reader(data, "", problems)
     if not isinstance(data, dict):
         raise SceneError(problems, source)
+    if kept is not None:
+        kept.reused = 0
+        whole = kept.whole(data)
+        if whole is not None:
+            return whole
     top.raw("$schema", None)
     top.raw("comment", None)
 
     materials: dict[str, sc.Material] = {}
+    built_materials: dict[str, tuple[Any, sc.Material]] = {}  # name -> (its part of the document, what it built)
+    built_objects: list[tuple[Any, sc.SceneObject | None]] = []
     raw_materials = top.raw("materials")
     if raw_materials is not ...:
         if not isinstance(raw_materials, dict) or not raw_materials:
             top.fail("materials", f"must be a non-empty object of name: material, got {_show_shape(raw_materials)}")
         else:
             for name, body in raw_materials.items():
-                materials[name] = _material(_Reader(body, f"materials.{name}", problems), base)
+                material = None if kept is None else kept.material(name, body)
+                if material is None:
+                    material = _material(_Reader(body, f"materials.{name}", problems), base)
+                materials[name] = material
+                built_materials[name] = (body, material)
 
+    raw_meshes = top.data.get("meshes")
     meshes = _mesh_table(top.reader("meshes"), materials)
     objects: list[sc.SceneObject] = []
+    object_context = (sorted(materials), raw_meshes)
     raw_objects = top.raw("objects")
     if raw_objects is not ...:
         if not isinstance(raw_objects, list):  # an empty list is a scene of background only
             top.fail("objects", f"must be a list of objects, got {_show_shape(raw_objects)}")
         else:
-            checked = _meshes_in_bulk(raw_objects)
+            prior: list[sc.SceneObject | None] = [None] * len(raw_objects)
+            if kept is not None and kept.objects_usable(*object_context):
+                prior = [kept.object(i, body) for i, body in enumerate(raw_objects)]
+            checked = _meshes_in_bulk([body for body, made in zip(raw_objects, prior, strict=True) if made is None])
             for i, body in enumerate(raw_objects):
-                made = _object(_Reader(body, f"objects[{i}]", problems), materials, i, meshes, checked)
+                made = prior[i]
+                if made is None:
+                    made = _object(_Reader(body, f"objects[{i}]", problems), materials, i, meshes, checked)
+                built_objects.append((body, made))
                 if made is not None:
                     objects.append(made)
     names = [obj.name for obj in objects]
@@ -1497,7 +1521,7 @@ def scene_from_dict(data: Any, source: str = "scene", base: str | Path | None = 
     top.finish()
     if problems:
         raise SceneError(problems, source)
-    return sc.Scene(
+    scene = sc.Scene(
         materials=materials,
         objects=tuple(objects),
         lights=tuple(lights),
@@ -1507,6 +1531,9 @@ def scene_from_dict(data: Any, source: str = "scene", base: str | Path | None = 
         vane=vane,
         motion=motion,
     )
+    if kept is not None:
+        kept.remember(data, scene, built_materials, built_objects, object_context)
+    return scene
 
 
 def load_scene(path: str | Path) -> sc.Scene:
