@@ -83,7 +83,7 @@ class ExportNotes:
     world: list[str] = field(default_factory=list)
     lights_left_out: list[str] = field(default_factory=list)  # the scene's lights beside the vane's own, not rendered
     # Blender's controls of what an object is in the render that the tracer does not express -> the objects' names
-    # (shadow catcher, holdout, indirect only, an emissive object's light linking)
+    # (shadow catcher, holdout and indirect-only collections, an emissive object's light linking)
     controls: dict[str, list[str]] = field(default_factory=dict)
 
     def not_expressed(self, control: str, name: str) -> None:
@@ -445,9 +445,8 @@ def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: Export
     )
 
 
-CONTROLS = {  # an object's setting -> what the tracer renders instead, as the F12 line says it
+CONTROLS = {  # an object's setting -> what the tracer renders instead, as the F12 line says it (a holdout: _flags)
     "is_shadow_catcher": "shadow catcher rendered as an ordinary object",
-    "is_holdout": "holdout rendered as an ordinary object",
 }
 COLLECTION_CONTROLS = {  # a view layer's collection setting (Outliner) -> the same
     "holdout": "holdout collection rendered as ordinary objects",
@@ -963,7 +962,10 @@ def scene_document(
         "zenith": list(settings.zenith),
     }
     if not own_vane:  # the scene's world is its background and, as Cycles lights with it, an ambient light
-        background, ambient, notes.world = world_convert.convert_world(blender_scene.world, blender_scene=blender_scene)
+        # the world as evaluated at the depsgraph's frame: its keyed colour or strength (an animation's frames are
+        # evaluated in the render's depsgraph, never in the original data)
+        world = blender_scene.world.evaluated_get(depsgraph) if blender_scene.world is not None else None
+        background, ambient, notes.world = world_convert.convert_world(world, blender_scene=blender_scene)
         light_list += [ambient] if ambient is not None else []
         if not arrays:  # an image background's pixels as a .npy file's path: the document stays JSON, and small
             background = world_convert.background_for_json(background)

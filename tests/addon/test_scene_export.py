@@ -217,11 +217,13 @@ def test_blender_visibility_is_followed_at_export() -> None:
     bpy.ops.mesh.primitive_torus_add()
     torus = bpy.context.object
     torus.is_holdout = True
-    objects = by_name(export())
+    notes = ExportNotes()
+    objects = by_name(export(notes))
     assert hidden.name not in objects and cone.name not in objects
     assert objects[sphere.name]["visible_camera"] is False and objects[sphere.name]["visible_reflection"] is False
     assert "visible_shadow" not in objects[sphere.name]
     assert objects[torus.name]["holdout"] is True
+    assert notes.controls == {}  # the holdout is held out: nothing to name
 
 
 @pytest.mark.parametrize("crop", [False, True])

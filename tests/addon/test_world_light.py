@@ -163,3 +163,37 @@ def test_the_cube_under_blenders_forest_picture_is_lit_as_in_cycles(tmp_path: Pa
     texture.image = bpy.data.images.load(str(FOREST), check_existing=True)
     world.node_tree.links.new(texture.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
     _regions_against_cycles(tmp_path, "forest.exr")
+
+
+def test_a_keyed_world_renders_at_each_frame_of_an_animation(tmp_path: Path) -> None:
+    """Render Animation evaluates each frame in the render's own depsgraph: the world's keyed colour and strength are
+    its values at that frame there (the original World keeps the current frame's), as Blender evaluates them."""
+    _world_scene()
+    scene = bpy.context.scene
+    scene.render.engine = "WEATHERVANE_TRACER"
+    background = scene.world.node_tree.nodes["Background"]
+    for frame, green, strength in ((1, 0.1, 1.0), (3, 0.4, 2.0)):
+        background.inputs["Color"].default_value = (0.1, green, 0.1, 1.0)
+        background.inputs["Strength"].default_value = strength
+        background.inputs["Color"].keyframe_insert("default_value", frame=frame)
+        background.inputs["Strength"].keyframe_insert("default_value", frame=frame)
+    expected = {}
+    for frame in (1, 2, 3):  # what Blender evaluates at each frame
+        scene.frame_set(frame)
+        color, strength = background.inputs["Color"].default_value[:3], background.inputs["Strength"].default_value
+        expected[frame] = np.array(color) * strength
+    scene.frame_set(1)
+    scene.frame_start, scene.frame_end = 1, 3
+    settings = scene.render.image_settings
+    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGB"
+    scene.render.filepath = str(tmp_path / "frame_")
+    bpy.ops.mesh.primitive_plane_add(size=20.0)  # the ground lit by the world: the corner pixels see only the sky
+    scene.camera.location.z, scene.camera.data.ortho_scale = 10.0, 60.0
+    assert bpy.ops.render.render(animation=True) == {"FINISHED"}
+    assert not np.allclose(expected[1], expected[2]) and not np.allclose(expected[2], expected[3])
+    for frame in (1, 2, 3):
+        image = bpy.data.images.load(str(tmp_path / f"frame_{frame:04d}.exr"), check_existing=False)
+        pixels = np.empty(PIXELS * PIXELS * 4, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        corner = pixels.reshape(PIXELS, PIXELS, 4)[0, 0, :3]
+        assert corner == pytest.approx(np.minimum(expected[frame], 1.0), abs=1e-4), frame
