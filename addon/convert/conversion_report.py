@@ -16,6 +16,10 @@ _updates = [0]  # depsgraph updates seen
 _converted: dict[tuple[str, str], list[str]] = {}  # (kind, name) -> notes, until that data-block changes
 _listing: dict[str, object] = {"update": -1, "scene": None, "rows": []}
 _glass: dict[str, bool] = {}  # material name -> whether it lets light through (transmission), as last converted
+_emits: dict[str, bool] = {}  # material name -> whether it emits light, as last converted
+# scene name -> the materials its last export (F12, the Rendered view) met: those of objects hidden from the render
+# that Geometry Nodes place (Object Info), which no object's slots hold
+_exported: dict[str, frozenset[str]] = {}
 # a glass material's note while Cycles' Light Paths > Caustics > Refractive is on (its default): the tracer's glass
 # casts the shadow Cycles casts with it off (F12's line says the same)
 GLASS_SHADOW = "shadow opaque: as Refractive Caustics off"
@@ -43,6 +47,20 @@ def _on_depsgraph_update(_scene, depsgraph) -> None:
             _converted.clear()
 
 
+def exported(scene_name: str, materials) -> None:
+    """The export of this scene met these materials (names): the listing holds them from its next redraw."""
+    names = frozenset(materials)
+    if _exported.get(scene_name) != names:
+        _exported[scene_name] = names
+        _updates[0] += 1
+
+
+def exported_forget() -> None:
+    """Another file, an undo: what the last exports met is not known."""
+    _exported.clear()
+    _updates[0] += 1
+
+
 def _notes(kind: str, name: str, convert) -> list[str]:
     key = (kind, name)
     if key not in _converted:
@@ -60,7 +78,8 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
     after an update, never on a redraw."""
     # Cycles' default lets light through glass into its shadow; the tracer's glass casts Cycles' shadow with it off
     caustics = bool(getattr(getattr(blender_scene, "cycles", None), "caustics_refractive", False))
-    if _listing["update"] == _updates[0] and _listing["scene"] == (blender_scene.name, caustics):
+    bounces = int(getattr(getattr(blender_scene, "weathervane", None), "diffuse_bounces", 0))
+    if _listing["update"] == _updates[0] and _listing["scene"] == (blender_scene.name, caustics, bounces):
         return _listing["rows"]
     rows, materials, lights = [], {}, {}
     for obj in _rendered_objects(blender_scene):
@@ -69,11 +88,17 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
         elif obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
             for material in _materials_of(obj):
                 materials.setdefault(material.name, material)
+    for name in _exported.get(blender_scene.name, ()):
+        material = bpy.data.materials.get(name)
+        if material is not None:
+            materials.setdefault(name, material)
     for name in sorted(materials):
         material = materials[name]
         notes = _notes("material", name, lambda m=material: _material_notes(m, blender_scene))
         if caustics and _glass.get(name):
             notes = [*notes, GLASS_SHADOW]
+        if bounces == 0 and _emits.get(name):
+            notes = [*notes, material_convert.UNLIT_EMISSION]
         rows.append(("MATERIAL", name, notes))
     # beside the add-on's vane the Lights panel's lights and the vane's Background render, not the scene's own
     settings = getattr(blender_scene, "weathervane", None)
@@ -97,7 +122,7 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
             lambda: world_convert.convert_world(world, blender_scene=blender_scene)[2],
         )
         rows.append(("WORLD", world.name if world else "no world (black)", notes))
-    _listing.update(update=_updates[0], scene=(blender_scene.name, caustics), rows=rows)
+    _listing.update(update=_updates[0], scene=(blender_scene.name, caustics, bounces), rows=rows)
     return rows
 
 
@@ -130,6 +155,7 @@ def _materials_of(obj):
 def _material_notes(material, blender_scene) -> list[str]:
     converted, notes = material_convert.convert_material(material, blender_scene=blender_scene)
     _glass[material.name] = converted.get("transmission", 0.0) > 0.0
+    _emits[material.name] = material_convert.emits(converted)
     return notes
 
 
@@ -156,4 +182,5 @@ def unregister() -> None:
     if _on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.remove(_on_depsgraph_update)
     _converted.clear()
+    _exported.clear()
     _listing.update(update=-1, scene=None, rows=[])

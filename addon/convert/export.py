@@ -43,7 +43,7 @@ from ..vane import build
 from ..vane import camera as camera_module
 from ..vane import materials as vane_materials
 from ..vane.animation import motion_for
-from . import light_convert, material_convert, mesh_export, motion_blur, pass_map, world_convert
+from . import conversion_report, light_convert, material_convert, mesh_export, motion_blur, pass_map, world_convert
 
 
 def _transform(matrix) -> dict:
@@ -219,6 +219,7 @@ def _material_name(material, materials: dict, notes: ExportNotes | None = None, 
             materials[name], said = material_convert.convert_material(material)
         else:
             materials[name], said = _converted(material, export)
+            said += material_convert.scene_notes(materials[name], export.scene)
         if notes is not None and material is not None:
             notes.materials[material.name] = said
     return name
@@ -323,6 +324,7 @@ class _Export:
         self.notes = notes
         self.arrays = arrays
         self.stamp = mesh_export.CACHE.clock  # taken before anything is read: a later update makes it stale
+        self.scene = depsgraph.scene  # its settings, as the original holds them
         scene = depsgraph.scene_eval
         self.frame = float(scene.frame_current) + float(scene.frame_subframe)
         self.min_determinant = tracer.MATRIX_MIN_DETERMINANT
@@ -1050,6 +1052,7 @@ def scene_document(
                 "stop": motion.spin.stop,
             },
         }
+    conversion_report.exported(blender_scene.name, notes.materials)  # those only instances of hidden objects show
     return document
 
 
@@ -1117,6 +1120,7 @@ def _forget_everything(*_arguments) -> None:
     mesh_export.CACHE.clear()
     _conversions.clear()
     F12_LOADED.clear()  # compared by value, never stale: let go for its memory
+    conversion_report.exported_forget()
 
 
 _HANDLERS = (

@@ -1041,6 +1041,22 @@ def _own(material, blender_scene, model: str, coef: float) -> dict | None:
 
 # --- the conversion --------------------------------------------------------------------------------------------------
 
+# an emitting material while no light bounces between surfaces: Cycles lights the scene with it, the tracer only shows
+# it (its diffuse bounces gather emission)
+UNLIT_EMISSION = "emission lights nothing around it (Render Properties > Weathervane Tracer > Bounces 0)"
+
+
+def emits(document: dict) -> bool:
+    """Whether a converted material emits light."""
+    return any(c > 0.0 for c in document.get("emission", ()))
+
+
+def scene_notes(document: dict, blender_scene) -> list[str]:
+    """What a converted material approximates in this scene's settings, beside its own conversion's notes: an emitting
+    material under Bounces 0 lights nothing around it."""
+    bounces = int(getattr(getattr(blender_scene, "weathervane", None), "diffuse_bounces", 0))
+    return [UNLIT_EMISSION] if emits(document) and bounces == 0 else []
+
 
 def convert_material(
     material,

@@ -13,6 +13,7 @@ import pytest
 
 from addon import compat
 from addon.convert import material_convert
+from addon.convert.export import ExportNotes, scene_document
 from tests.addon.f12_images import f12_exr, looking_down
 
 
@@ -202,6 +203,19 @@ def test_a_udim_image_is_named() -> None:
     assert "UDIM image on Diffuse BSDF Color: tile 1001 over the whole surface" in notes, notes
 
 
+def _geometry_nodes_group(name: str):
+    """An empty Geometry Nodes group with a geometry input and output (the interface as each Blender makes it) -> the
+    group, its input node and its output node."""
+    group = bpy.data.node_groups.new(name, "GeometryNodeTree")
+    if hasattr(group, "interface"):
+        group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    else:
+        group.inputs.new("NodeSocketGeometry", "Geometry")
+        group.outputs.new("NodeSocketGeometry", "Geometry")
+    return group, group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+
+
 def test_scene_conversion_lists_materials_reached_through_instances_and_geometry_nodes() -> None:
     """A material on an object that only a collection instance places, and one a Geometry Nodes Set Material gives:
     both render, so both are in Render Properties > Scene Conversion."""
@@ -219,14 +233,7 @@ def test_scene_conversion_lists_materials_reached_through_instances_and_geometry
     scene.collection.objects.link(holder)
     noded = bpy.data.objects.new("noded", bpy.data.meshes["plane"].copy())
     scene.collection.objects.link(noded)
-    group = bpy.data.node_groups.new("set", "GeometryNodeTree")
-    if hasattr(group, "interface"):
-        group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-        group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    else:
-        group.inputs.new("NodeSocketGeometry", "Geometry")
-        group.outputs.new("NodeSocketGeometry", "Geometry")
-    given, taken = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+    group, given, taken = _geometry_nodes_group("set")
     setter = group.nodes.new("GeometryNodeSetMaterial")
     setter.inputs["Material"].default_value = bpy.data.materials.new("from nodes")
     group.links.new(given.outputs[0], setter.inputs["Geometry"])
@@ -235,6 +242,48 @@ def test_scene_conversion_lists_materials_reached_through_instances_and_geometry
     bpy.context.view_layer.update()
     listed = {name for kind, name, _ in conversion_report.scene_conversion(scene) if kind == "MATERIAL"}
     assert {"instanced", "from nodes", "surface"} <= listed, listed
+
+
+def test_scene_conversion_lists_what_an_export_met_on_hidden_objects_that_geometry_nodes_place(tmp_path: Path) -> None:
+    """A hidden object that Object Info brings into Instance on Points renders only as the instances, with its own
+    material: F12 counts that material, and Scene Conversion lists it from then on with its notes."""
+    from addon.convert import conversion_report
+
+    _plane_scene()
+    scene = bpy.context.scene
+    source = bpy.data.objects.new("source", bpy.data.meshes["plane"].copy())
+    source.data.materials.clear()
+    glowing = bpy.data.materials.new("glowing")
+    compat.enable_nodes(glowing)
+    glowing.node_tree.nodes.clear()
+    emission = glowing.node_tree.nodes.new("ShaderNodeEmission")
+    output = glowing.node_tree.nodes.new("ShaderNodeOutputMaterial")
+    glowing.node_tree.links.new(emission.outputs[0], output.inputs["Surface"])
+    source.data.materials.append(glowing)
+    source.hide_render = True
+    scene.collection.objects.link(source)
+    placer = bpy.data.objects.new("placer", bpy.data.meshes["plane"].copy())
+    scene.collection.objects.link(placer)
+    group, given, taken = _geometry_nodes_group("place")
+    info, points = group.nodes.new("GeometryNodeObjectInfo"), group.nodes.new("GeometryNodeInstanceOnPoints")
+    info.inputs["Object"].default_value = source
+    group.links.new(given.outputs[0], points.inputs["Points"])
+    group.links.new(info.outputs["Geometry"], points.inputs["Instance"])
+    group.links.new(points.outputs[0], taken.inputs[0])
+    placer.modifiers.new("place", "NODES").node_group = group
+    bpy.context.view_layer.update()
+    scene.render.engine = "WEATHERVANE_TRACER"
+    notes = ExportNotes()
+    scene_document(bpy.context, notes=notes)
+    assert notes.materials["glowing"] == [material_convert.UNLIT_EMISSION]  # Bounces 0: it lights nothing
+    rows = {name: said for kind, name, said in conversion_report.scene_conversion(scene) if kind == "MATERIAL"}
+    assert rows["glowing"] == [material_convert.UNLIT_EMISSION], rows
+    scene.weathervane.diffuse_bounces = 1  # its emission now lights the plane through the bounce
+    notes = ExportNotes()
+    scene_document(bpy.context, notes=notes)
+    assert notes.materials["glowing"] == []
+    rows = {name: said for kind, name, said in conversion_report.scene_conversion(scene) if kind == "MATERIAL"}
+    assert rows["glowing"] == []
 
 
 def _both_images(tmp_path: Path) -> tuple[np.ndarray, np.ndarray]:
