@@ -79,16 +79,19 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
     # Cycles' default lets light through glass into its shadow; the tracer's glass casts Cycles' shadow with it off
     caustics = bool(getattr(getattr(blender_scene, "cycles", None), "caustics_refractive", False))
     bounces = int(getattr(getattr(blender_scene, "weathervane", None), "diffuse_bounces", 0))
-    if _listing["update"] == _updates[0] and _listing["scene"] == (blender_scene.name, caustics, bounces):
+    shown = (blender_scene.name, caustics, bounces, bpy.context.view_layer.name)
+    if _listing["update"] == _updates[0] and _listing["scene"] == shown:
         return _listing["rows"]
     rows, materials, lights = [], {}, {}
+    view_layer = bpy.context.view_layer if bpy.context.scene == blender_scene else blender_scene.view_layers[0]
+    override = view_layer.material_override  # every surface's material, as Cycles renders it
     for obj in _rendered_objects(blender_scene):
         if obj.type == "LIGHT":
             lights[obj.name] = obj
-        elif obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
+        elif obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT") and override is None:
             for material in _materials_of(obj):
                 materials.setdefault(material.name, material)
-    for name in _exported.get(blender_scene.name, ()):
+    for name in _exported.get(blender_scene.name, ()) if override is None else (override.name,):
         material = bpy.data.materials.get(name)
         if material is not None:
             materials.setdefault(name, material)
@@ -111,7 +114,7 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
             continue
         notes = _notes("light", name, lambda o=obj: light_convert.convert_light(o, blender_scene=blender_scene)[1])
         rows.append(("LIGHT", name, notes))
-    world = blender_scene.world
+    world = getattr(view_layer, "world_override", None) or blender_scene.world
     if vane:
         if world is not None:
             rows.append(("WORLD", world.name, ["vane's Background used"]))
@@ -122,7 +125,7 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
             lambda: world_convert.convert_world(world, blender_scene=blender_scene)[2],
         )
         rows.append(("WORLD", world.name if world else "no world (black)", notes))
-    _listing.update(update=_updates[0], scene=(blender_scene.name, caustics, bounces), rows=rows)
+    _listing.update(update=_updates[0], scene=shown, rows=rows)
     return rows
 
 

@@ -418,8 +418,14 @@ class ExportCancelledError(Exception):
     """The user cancelled (Esc) while the export walked the scene."""
 
 
-def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: ExportNotes) -> _Source:
-    """What the instances of one (instancer, object, data) export as, read from the first of them."""
+def scene_world(blender_scene, view_layer):
+    """The World a view layer renders: its World Override (Blender 4.2+), else the scene's."""
+    return getattr(view_layer, "world_override", None) or blender_scene.world
+
+
+def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: ExportNotes, override=None) -> _Source:
+    """What the instances of one (instancer, object, data) export as, read from the first of them. override: the view
+    layer's Material Override, which every surface takes, as in Cycles."""
     if hidden is not None:  # a viewport depsgraph: Blender's render visibility of the original placed
         placed = owner if owner is not None else original
         if placed.hide_render or placed.as_pointer() in hidden:
@@ -440,7 +446,7 @@ def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: Export
         GEOMETRY,
         original,
         owner,
-        slot_materials=[slot.material for slot in obj.material_slots] or [None],
+        slot_materials=[override] if override is not None else [slot.material for slot in obj.material_slots] or [None],
         flags=_flags(obj),
         turned=_turned_by(original, turn) or (owner is not None and _turned_by(owner, turn)),
         generated=owner is not None and owner == original,
@@ -494,6 +500,7 @@ def _collect(
     export = _Export(depsgraph, materials, notes, arrays)
     cache = mesh_export.CACHE
     hidden = _render_hidden_objects() if depsgraph.mode == "VIEWPORT" else None
+    override = depsgraph.view_layer.material_override
     sources: dict[tuple, _Source] = {}
     geometries: dict[int, _Geometry] = {}  # evaluated data pointer -> its geometry
     distinct: dict[int, int] = {}  # original object pointer -> the distinct geometries it yielded so far
@@ -518,7 +525,7 @@ def _collect(
         source = sources.get(key)
         if source is None:
             owner = parent.original if parent is not None else None
-            source = sources[key] = _classify(obj, original, owner, turn, hidden, notes)
+            source = sources[key] = _classify(obj, original, owner, turn, hidden, notes, override)
             if motion is not None and owner is not None and owner.name in motion.objects:
                 notes.not_expressed("motion blur of instances (at the frame's time)", owner.name)
         if source.action == SKIP or not getattr(instance, "show_self", True):
@@ -529,6 +536,8 @@ def _collect(
         if source.action == VANE:
             if not source.done:
                 source.done = True
+                if override is not None:  # the vane's parts are the documented model's, with its own materials
+                    notes.not_expressed("Material Override not applied to the vane", original.name)
                 body = json.loads(original["weathervane_object"])
                 unturned = _unturned(original, turn)
                 body.update(_transform(unturned))
@@ -966,7 +975,8 @@ def scene_document(
     if not own_vane:  # the scene's world is its background and, as Cycles lights with it, an ambient light
         # the world as evaluated at the depsgraph's frame: its keyed colour or strength (an animation's frames are
         # evaluated in the render's depsgraph, never in the original data)
-        world = blender_scene.world.evaluated_get(depsgraph) if blender_scene.world is not None else None
+        world = scene_world(blender_scene, depsgraph.view_layer)
+        world = world.evaluated_get(depsgraph) if world is not None else None
         background, ambient, notes.world = world_convert.convert_world(world, blender_scene=blender_scene)
         light_list += [ambient] if ambient is not None else []
         if not arrays:  # an image background's pixels as a .npy file's path: the document stays JSON, and small

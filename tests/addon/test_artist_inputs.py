@@ -432,3 +432,40 @@ def test_emission_above_1_is_the_radiance_cycles_writes(tmp_path: Path) -> None:
     print(f"emission 5: Cycles {np.round(cycles, 4)}, tracer {np.round(tracer, 4)}")
     np.testing.assert_allclose(tracer, cycles, rtol=1e-3)
     np.testing.assert_allclose(cycles, [5.0, 2.5, 1.0], rtol=1e-3)
+
+
+def test_the_view_layers_material_override_is_every_surfaces_material(tmp_path: Path) -> None:
+    """View Layer > Override > Material: F12 is the render with every object's slots holding that material (as
+    Cycles renders it), and Scene Conversion lists it alone; a World override (Blender 4.2+) is the background."""
+    from addon.convert import conversion_report
+
+    _, _, diffuse = _plane_scene()
+    diffuse.inputs["Color"].default_value = (0.8, 0.1, 0.1, 1.0)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_cube_add(size=0.5, location=(0.3, 0.2, 0.25))
+    cube_material = bpy.data.materials.new("cube")
+    cube_material.diffuse_color = (0.1, 0.8, 0.1, 1.0)
+    bpy.context.object.data.materials.append(cube_material)
+    clay = bpy.data.materials.new("clay")
+    clay.diffuse_color = (0.5, 0.45, 0.4, 1.0)
+    scene.render.engine = "WEATHERVANE_TRACER"
+    own = f12_exr(tmp_path / "own.exr")
+    bpy.context.view_layer.material_override = clay
+    overridden = f12_exr(tmp_path / "overridden.exr")
+    listed = {name for kind, name, _ in conversion_report.scene_conversion(scene) if kind == "MATERIAL"}
+    assert listed == {"clay"}
+    bpy.context.view_layer.material_override = None
+    for obj in scene.objects:
+        if obj.type == "MESH":
+            obj.material_slots[0].material = clay
+    assigned = f12_exr(tmp_path / "assigned.exr")
+    assert np.array_equal(overridden, assigned) and np.abs(overridden - own).max() > 0.2
+    if hasattr(bpy.context.view_layer, "world_override"):
+        world = bpy.data.worlds.new("override")
+        world.color = (0.2, 0.3, 0.9)
+        if world.node_tree is not None:  # a new world has nodes from Blender 5.0 on
+            world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.2, 0.3, 0.9, 1.0)
+        bpy.context.view_layer.world_override = world
+        scene.camera.data.ortho_scale = 8.0  # the plane no longer fills the view: the corner is the background
+        corner = f12_exr(tmp_path / "world.exr")[-1, 0]
+        assert corner == pytest.approx([0.2, 0.3, 0.9], abs=1e-4)
