@@ -223,6 +223,8 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
             )
             if getattr(light, "use_square", False):
                 notes.append("square spot: a round cone")
+            elif compat.cycles_spot_model() == "cycles4" and _unevenly_scaled(obj):
+                notes.append("spot scaled unevenly: a round cone")  # Cycles 4+ stretches the cone with the scale
         if kind in ("POINT", "SPOT") and light.shadow_soft_size > 0.0:
             document["radius"] = float(light.shadow_soft_size)
             if _shadow_samples(blender_scene) == 1:
@@ -244,4 +246,15 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
     for factor, what in (("diffuse_factor", "diffuse"), ("specular_factor", "specular")):
         if float(getattr(light, factor, 1.0)) != 1.0:
             notes.append(f"{what} factor {getattr(light, factor):.3g}: 1")
+    # Object > Visibility > Ray Visibility of the light: the documented model's light reaches every term
+    if not getattr(obj, "visible_diffuse", True):
+        notes.append("Diffuse ray visibility off: lights diffuse surfaces all the same")
+    if not getattr(obj, "visible_glossy", True):
+        notes.append("Glossy ray visibility off: its highlights shown all the same")
     return document, notes
+
+
+def _unevenly_scaled(obj) -> bool:
+    """Whether a light object's local x, y and z axes have different lengths in the world (its scale)."""
+    lengths = [column.length for column in obj.matrix_world.to_3x3().col]
+    return max(lengths) - min(lengths) > 1e-4 * max(lengths)
