@@ -534,25 +534,31 @@ def test_a_principled_alpha_half_card_is_half_there(tmp_path: Path) -> None:
 
 def test_the_scene_document_carries_the_fields_the_tracer_loads() -> None:
     """F12's document: the glass and alpha materials' fields load into the tracer's materials as they were given,
-    and its warning line names no material (a rough glass is named again)."""
+    and its warning line names none of them (a rough glass is named again); the checker's emissions are named, as
+    lighting nothing around them."""
     from tracer.scene.loader import scene_from_dict
 
+    def named(notes: export.ExportNotes) -> dict[str, list[str]]:
+        return {name: said for name, said in notes.materials.items() if said}
+
+    emissions = {name: [material_convert.UNLIT_EMISSION] for name in ("dark", "bright")}
     checker_wall(y=6.0, squares=4)
     sphere = glass_sphere(ior=1.45)
     camera_and_settings()
     red_card(0.25)
     notes = export.ExportNotes()
     scene = scene_from_dict(export.scene_document(bpy.context, notes=notes))
-    assert notes.line() == ""
+    assert named(notes) == emissions
     sphere.data.materials[0].node_tree.nodes["Glass BSDF"].inputs["Roughness"].default_value = 0.05  # sharp, named
     notes = export.ExportNotes()
     export.scene_document(bpy.context, notes=notes)
-    assert notes.line() == "approximated: 1 material (Render Properties > Scene Conversion says how)"
+    assert named(notes).keys() == {*emissions, "glassy"}
+    assert notes.line() == "approximated: 3 materials (Render Properties > Scene Conversion says how)"
     bpy.context.scene.render.film_transparent = True  # glass is opaque in the alpha, as Cycles' by default
     bpy.context.scene.cycles.film_transparent_glass = True  # Cycles' Film > Transparent Glass: not so
     notes = export.ExportNotes()
     export.scene_document(bpy.context, notes=notes)
-    assert notes.line().startswith("Film > Transparent Glass: glass opaque in the alpha; approximated: 1 material")
+    assert notes.line().startswith("Film > Transparent Glass: glass opaque in the alpha; approximated: 3 materials")
     bpy.context.scene.cycles.caustics_refractive = True  # Cycles' default: light through glass into its shadow
     notes = export.ExportNotes()
     export.scene_document(bpy.context, notes=notes)
