@@ -83,7 +83,7 @@ class ExportNotes:
     world: list[str] = field(default_factory=list)
     lights_left_out: list[str] = field(default_factory=list)  # the scene's lights beside the vane's own, not rendered
     # Blender's controls of what an object is in the render that the tracer does not express -> the objects' names
-    # (shadow catcher, holdout and indirect-only collections, an emissive object's light linking)
+    # (shadow catcher, an emissive object's light linking)
     controls: dict[str, list[str]] = field(default_factory=dict)
 
     def not_expressed(self, control: str, name: str) -> None:
@@ -423,9 +423,12 @@ def scene_world(blender_scene, view_layer):
     return getattr(view_layer, "world_override", None) or blender_scene.world
 
 
-def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: ExportNotes, override=None) -> _Source:
+def _classify(
+    obj, original, owner, turn, hidden: set[int] | None, notes: ExportNotes, override=None, view_layer=None
+) -> _Source:
     """What the instances of one (instancer, object, data) export as, read from the first of them. override: the view
-    layer's Material Override, which every surface takes, as in Cycles."""
+    layer's Material Override, which every surface takes, as in Cycles; view_layer: the one whose collections' Holdout
+    and Indirect Only the object (or its instancer) takes."""
     if hidden is not None:  # a viewport depsgraph: Blender's render visibility of the original placed
         placed = owner if owner is not None else original
         if placed.hide_render or placed.as_pointer() in hidden:
@@ -447,7 +450,7 @@ def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: Export
         original,
         owner,
         slot_materials=[override] if override is not None else [slot.material for slot in obj.material_slots] or [None],
-        flags=_flags(obj),
+        flags=_flags(obj) | _collection_flags(original, owner, view_layer),
         turned=_turned_by(original, turn) or (owner is not None and _turned_by(owner, turn)),
         generated=owner is not None and owner == original,
     )
@@ -455,10 +458,6 @@ def _classify(obj, original, owner, turn, hidden: set[int] | None, notes: Export
 
 CONTROLS = {  # an object's setting -> what the tracer renders instead, as the F12 line says it (a holdout: _flags)
     "is_shadow_catcher": "shadow catcher rendered as an ordinary object",
-}
-COLLECTION_CONTROLS = {  # a view layer's collection setting (Outliner) -> the same
-    "holdout": "holdout collection rendered as ordinary objects",
-    "indirect_only": "indirect-only collection seen by the camera",
 }
 
 
@@ -473,15 +472,19 @@ def _name_controls(original, owner, notes: ExportNotes) -> None:
             notes.not_expressed("light linking of an emissive object ignored", placed.name)
 
 
-def _collection_controls(view_layer, notes: ExportNotes) -> None:
-    """Name the view layer's collections set to holdout or indirect only that hold something rendered."""
-    stack = [view_layer.layer_collection]
-    while stack:
-        layer = stack.pop()
-        stack.extend(layer.children)
-        for setting, what in COLLECTION_CONTROLS.items():
-            if getattr(layer, setting, False) and not layer.exclude and layer.collection.all_objects:
-                notes.not_expressed(what, layer.collection.name)
+def _collection_flags(original, owner, view_layer) -> dict:
+    """The view layer's Holdout and Indirect Only (Outliner, a collection's) as an object's scene-file flags: a holdout,
+    or hidden from camera rays alone (Cycles' indirect only: seen in shadows and reflections). An instance takes its
+    instancer's."""
+    if view_layer is None:
+        return {}
+    flags = {}
+    for placed in filter(None, (original, owner)):
+        if placed.holdout_get(view_layer=view_layer):
+            flags["holdout"] = True
+        if placed.indirect_only_get(view_layer=view_layer):
+            flags["visible_camera"] = False
+    return flags
 
 
 def _collect(
@@ -500,7 +503,8 @@ def _collect(
     export = _Export(depsgraph, materials, notes, arrays)
     cache = mesh_export.CACHE
     hidden = _render_hidden_objects() if depsgraph.mode == "VIEWPORT" else None
-    override = depsgraph.view_layer.material_override
+    view_layer = depsgraph.view_layer
+    override = view_layer.material_override
     sources: dict[tuple, _Source] = {}
     geometries: dict[int, _Geometry] = {}  # evaluated data pointer -> its geometry
     distinct: dict[int, int] = {}  # original object pointer -> the distinct geometries it yielded so far
@@ -525,7 +529,7 @@ def _collect(
         source = sources.get(key)
         if source is None:
             owner = parent.original if parent is not None else None
-            source = sources[key] = _classify(obj, original, owner, turn, hidden, notes, override)
+            source = sources[key] = _classify(obj, original, owner, turn, hidden, notes, override, view_layer)
             if motion is not None and owner is not None and owner.name in motion.objects:
                 notes.not_expressed("motion blur of instances (at the frame's time)", owner.name)
         if source.action == SKIP or not getattr(instance, "show_self", True):
@@ -960,7 +964,6 @@ def scene_document(
     if budget is True:
         budget = MemoryBudget(blender_scene)
     collected = _collect(depsgraph, turn, materials, notes, budget or None, arrays, motion)
-    _collection_controls(depsgraph.view_layer, notes)
     objects, parts = collected.objects, collected.parts
     own_vane = any("weathervane_object" in obj for obj in bpy.data.objects)
     light_list = _light_documents(settings, collected, own_vane, notes)

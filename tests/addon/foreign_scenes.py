@@ -393,6 +393,29 @@ def holdout_object() -> Built:
     return Built()
 
 
+def holdout_collection() -> Built:
+    """The cube in a collection set to Holdout in the view layer (the Outliner's toggle): alpha 0 where it covers."""
+    _, cube = _visibility_stage()
+    _move_to_collection(cube, "Masks")
+    bpy.context.view_layer.layer_collection.children["Masks"].holdout = True
+    return Built()
+
+
+def indirect_only_collection() -> Built:
+    """A sphere over a white ground under a sun, in a collection set to Indirect Only in the view layer: the camera
+    sees the ground through it, and its shadow stays."""
+    _frame()
+    clay = _material("Clay", (0.8, 0.8, 0.8))
+    _assign(_ground(size=8.0), clay)
+    sphere = _add(bpy.ops.mesh.primitive_uv_sphere_add, radius=0.8, location=(0.0, 0.0, 1.2))
+    _assign(sphere, clay)
+    _move_to_collection(sphere, "Ghosts")
+    bpy.context.view_layer.layer_collection.children["Ghosts"].indirect_only = True
+    _sun(rotation=(35.0, 0.0, 30.0), strength=2.0)
+    _camera((0.0, -7.0, 4.0), (0.0, 0.0, 0.4))
+    return Built(bounces=0)
+
+
 def film_transparent() -> Built:
     """The stage with Film > Transparent: alpha 0 wherever camera rays miss (the ground does not fill the frame)."""
     _visibility_stage()
@@ -602,6 +625,8 @@ SCENES = {
         collection_disabled_in_renders,
         camera_ray_visibility_off,
         holdout_object,
+        holdout_collection,
+        indirect_only_collection,
         film_transparent,
         back_facing_plane,
         viewport_disabled_moved,
@@ -630,6 +655,8 @@ VISIBILITY = [
     "collection_disabled_in_renders",
     "camera_ray_visibility_off",
     "holdout_object",
+    "holdout_collection",
+    "indirect_only_collection",
     "film_transparent",
 ]
 COVERAGE = [
