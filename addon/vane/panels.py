@@ -65,6 +65,16 @@ def panel_room(width: int, indent: int = 0) -> float:
     return width - (2 * 14 + 12 + indent) * messages.interface_scale()
 
 
+# the sidebar's category tabs (Item, Tool, View, Weathervane) take a strip at the right of its region: in Blender
+# 3.4.1's window at an interface scale of 1.04 the region is 229 px wide and its panels 205 px (a screenshot's pixels)
+SIDEBAR_TABS = 23.0
+
+
+def sidebar_width(region) -> float:
+    """The width the sidebar's panels have in pixels: its region's, less the category tabs' strip."""
+    return (region.width if region is not None else 229) - SIDEBAR_TABS * messages.interface_scale()
+
+
 def wrapped(text: str, width: int, indent: int = 0) -> list[str]:
     """text wrapped into lines that fit a panel of width pixels, less indent pixels, as Blender's font measures them
     (a word too long for a line, a file's path, broken after a '/', '_' or '.')."""
@@ -98,7 +108,7 @@ class WEATHERVANE_PT_main(WeathervanePanel, bpy.types.Panel):
         line, kind = result_line()
         if line:
             column = layout.box().column(align=True)
-            width = context.region.width if context.region else 229
+            width = sidebar_width(context.region)
             for index, text in enumerate(wrapped(line, width, indent=30)):
                 column.label(text=text, icon=RESULT_ICONS.get(kind, "INFO") if index == 0 else "BLANK1")
 
@@ -188,7 +198,7 @@ class WEATHERVANE_PT_materials(WeathervanePanel, bpy.types.Panel):
             column.prop(entry, "color")
             column.prop(entry, "specular")
             column.prop(entry, "reflective")
-            for line in wrapped(f"Parts: {entry.parts}", context.region.width if context.region else 229):
+            for line in wrapped(f"Parts: {entry.parts}", sidebar_width(context.region)):
                 column.label(text=line)
 
 

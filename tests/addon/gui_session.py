@@ -163,7 +163,8 @@ def measure_labels() -> None:
     sidebar = next(r for r in area.regions if r.type == "UI")
     editor = next(a for a in window.screen.areas if a.type == "PROPERTIES")
     properties = next(r for r in editor.regions if r.type == "WINDOW")
-    found, tips = gui_measure.measure(bpy.context, sidebar.width, properties.width)
+    panels = sys.modules["weathervane.vane.panels"]
+    found, tips = gui_measure.measure(bpy.context, panels.sidebar_width(sidebar), properties.width)
     too_wide = sorted((text, where, share) for text, (share, where) in found.items() if share > 1.0)
     widest = max(found, key=lambda text: found[text][0])
     print(

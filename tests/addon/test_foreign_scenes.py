@@ -367,10 +367,11 @@ def test_keyed_motion_animation_render(name: str, folder: Path) -> None:
 
 @pytest.mark.parametrize("name", ["excluded_collection", "shadow_ray_visibility_off", "indirect_only_collection"])
 def test_excluded_light_and_shadow_visibility_shade_as_cycles(name: str, folder: Path) -> None:
-    """The 1000 W point light in the excluded collection lights nothing; a sphere with Shadow ray
-    visibility off casts no shadow; a sphere in an Indirect Only collection is not seen but casts its shadow. After one least-squares gain (sun units: the other part's) the shading differs
-    from Cycles' by at most 5% of its mean and by more than a quarter of the mean on at most 1% of the pixels (with the
-    excluded light used: 0.45 and 74%; with the sphere's shadow cast: 0.037 and 3.5%)."""
+    """The 1000 W point light in the excluded collection lights nothing; a sphere with Shadow ray visibility off
+    casts no shadow; a sphere in an Indirect Only collection is not seen but casts its shadow. After one least-squares
+    gain (sun units: the other part's) the shading differs from Cycles' by at most 5% of its mean and by more than a
+    quarter of the mean on at most 1% of the pixels (with the excluded light used: 0.45 and 74%; with the sphere's
+    shadow cast: 0.037 and 3.5%)."""
     result = renders(name, folder)
     image, truth = tracer_frame(result, name), result.cycles[1]
     where = mask(image) & mask(truth)
