@@ -45,9 +45,14 @@ _closing = [False]  # set while the add-on is disabled or Blender quits: no pool
 
 def _renderer(workers: int):
     """The pool for a worker count, kept across frames; none once the engine is closing (Blender quits during a
-    render: its thread would otherwise start new worker processes after the pools were closed)."""
+    render: its thread would otherwise start new worker processes after the pools were closed). A pool of another
+    count is closed first: Processes set to 64 and back would otherwise keep 64 idle workers (8.5 GB) until Blender
+    quits."""
     if _closing[0]:
         raise RenderCancelledError
+    for count in [count for count in _renderers if count != workers]:
+        _renderers.pop(count).close()
+        _turning.pop(count, None)
     if workers not in _renderers:
         _renderers[workers] = tracer.Renderer(workers, start_method=spawn_with_blenders_python())
     return _renderers[workers]

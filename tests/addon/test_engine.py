@@ -221,6 +221,12 @@ def test_the_engines_workers_are_started_afresh_not_forked_from_blender(tmp_path
         assert "spawn_main" in command, command
     expected = render(default_scene().with_render(width=64, height=48), workers=1).image
     assert np.abs(read_exr(tmp_path / "two.exr") - expected).max() < 1e-4
+    # another number of Processes: the pool of two is closed, its workers gone (not kept idle until Blender quits)
+    scene.weathervane.workers = 1
+    scene.render.filepath = str(tmp_path / "one.exr")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    assert list(engine._renderers) == [1]
+    assert not any(Path(f"/proc/{pid}").exists() for pid in pids)
 
 
 @pytest.mark.parametrize("seconds", [0.0, 1e9], ids=["every-band", "first-and-last"])
