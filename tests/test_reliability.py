@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from tracer import cli, default_scene
+from tracer.scene import scene as sc
 from tracer.tracing.images import write_image
 from tracer.tracing.wavefront import TracedScene
 from tracer.workers import resources as rs
@@ -325,6 +326,23 @@ def test_a_scene_whose_meshes_cannot_fit_is_refused_naming_them(monkeypatch, tmp
     assert "of 50,000 triangles and 1,000 instances needs about" in err, err
     assert "100.0 MB is available; the largest: sheet (50,000 triangles); try fewer triangles" in err, err
     assert rs.scene_bytes(50_000, 1000) == 50_000 * rs.BYTES_PER_TRIANGLE + 1000 * rs.BYTES_PER_INSTANCE
+
+
+def test_a_refusal_names_what_needs_the_memory_and_the_margin_it_keeps() -> None:
+    """A huge image of a small scene is refused for its image (no triangle counts, no "fewer triangles"), and one
+    that fits the memory but not the margin kept beside it says the margin, not a need below what is free."""
+    huge = sc.RenderSettings(width=30000, height=30000)
+    needed = rs.memory_needed(huge, 2) + rs.scene_bytes(8, 0)
+    line = rs.refusal(huge, 2, needed, int(needed * 1.05), 8, 0, (("Ground", 8),), blender=True)
+    assert line == (
+        f"a 30000x30000 float64 render with 2 workers needs about {rs._size(round(needed * rs.HEADROOM))} of memory "
+        f"({rs._size(needed)} and a 10% margin) and {rs._size(int(needed * 1.05))} is available; try Precision "
+        "32-bit, fewer Processes, a lower Resolution %"
+    )
+    small = sc.RenderSettings(width=64, height=48)
+    needed = rs.memory_needed(small, 2) + rs.scene_bytes(50_000, 0)
+    line = rs.refusal(small, 2, needed, needed // 2, 50_000, 0, (("sheet", 50_000),))
+    assert "of 50,000 triangles needs about" in line and "the largest: sheet (50,000 triangles); try fewer" in line
 
 
 def test_an_output_larger_than_the_free_disk_is_refused(monkeypatch, tmp_path: Path) -> None:

@@ -29,8 +29,8 @@ BREAKS = "/\\_.-,"  # where a word too long for a line may be broken: after one 
 VIEW_TEXT_BYTES = 500  # Blender keeps 511 bytes of an engine's text (RenderEngine.text); more is cut silently
 VIEW_MORE = "... (F12 reports the whole message to the Info editor)"
 VIEW_TEXT: dict = {}  # the last text of the Rendered view: "status" as the engine had it, "shown" as wrapped; for tests
-_MEMORY = re.compile(r"^(?P<head>.*?not started: ).*?needs about (?P<needed>[^;]+?) of memory and (?P<free>[^;]+?) is "
-                     r"available")  # fmt: skip
+_MEMORY = re.compile(r"^(?P<head>.*?not started: ).*?needs about (?P<needed>[^;(]+?) of memory(?: \([^)]*\))? and "
+                     r"(?P<free>[^;]+?) is available")  # fmt: skip
 
 
 # ---- measuring and wrapping ------------------------------------------------------------------------------------------

@@ -12,6 +12,8 @@ import bpy
 import pytest
 
 from addon.engine import messages
+from tracer.scene.scene import RenderSettings
+from tracer.workers.resources import refusal
 
 NOTE = (
     'image "kloofendal_48d_partly_cloudy_puresky_4k.hdr" on the world not found '
@@ -51,6 +53,11 @@ def test_a_report_too_long_for_the_status_bar_gets_a_short_line_after_it(monkeyp
         " (whole message: Info editor)"
     )
     assert len(short) <= messages.STATUS_CHARACTERS
+    margin = "Weathervane Tracer: not started: " + refusal(
+        RenderSettings(width=30000, height=30000), 2, 21_800_000_000, 23_200_000_000, 8, 0, (("Ground", 2),), True
+    )
+    margin_short = messages.headline(margin)
+    assert margin_short.startswith("Weathervane Tracer: not started: not enough memory: needs about 24.0 GB, 23.2 GB free")
     cut = messages.headline("does not render: " + ", ".join(f"object number {n}" for n in range(40)))
     assert len(cut) <= messages.STATUS_CHARACTERS and cut.endswith("... (whole message: Info editor)"), cut
     reports: list = []

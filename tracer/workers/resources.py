@@ -225,17 +225,28 @@ def refusal(
     largest: tuple[tuple[str, int], ...] = (),
     blender: bool = False,
 ) -> str:
-    """The one line that refuses a render: what it would need, of what, what is free, and what to change."""
+    """The one line that refuses a render: what it would need, of what, what is free, and what to change. The scene
+    (its counts, its largest meshes, fewer triangles as the first advice) is named where it needs at least as much as
+    the image (a 30000x30000 render of a few meshes is refused for its image); a render refused by the margin alone
+    says the margin."""
+    scene_part = scene_bytes(triangles, instances)
+    scene_first = scene_part > 0 and scene_part >= image_bytes(settings)
     counts = [f"{triangles:,} triangles"] if triangles else []
     counts += [f"{instances:,} instances"] if instances else []
-    scene = f" of {' and '.join(counts)}" if counts else ""
+    scene = f" of {' and '.join(counts)}" if counts and scene_first else ""
     advice = _advice(settings, workers, blender)
-    if largest:
+    named = ""
+    if largest and scene_first:
         advice.insert(0, "fewer triangles (a lower Subdivision level) or instances")
-    named = "; the largest: " + ", ".join(f"{name} ({count:,} triangles)" for name, count in largest) if largest else ""
+        named = "; the largest: " + ", ".join(f"{name} ({count:,} triangles)" for name, count in largest)
+    amount = _size(needed)
+    if needed <= available:  # within the memory, not within the margin kept beside it
+        amount = f"{_size(round(needed * HEADROOM))} of memory ({amount} and a {round(100 * (HEADROOM - 1))}% margin)"
+    else:
+        amount += " of memory"
     return (
         f"a {settings.width}x{settings.height} {settings.dtype} render with {max(1, workers)} workers{scene} needs "
-        f"about {_size(needed)} of memory and {_size(available)} is available{named}; try {', '.join(advice)}"
+        f"about {amount} and {_size(available)} is available{named}; try {', '.join(advice)}"
     )
 
 
