@@ -627,7 +627,7 @@ def texture_input(
     factor, first, second, blend = mix
     f = _constant_value(factor)
     if f is None:
-        return None
+        return _texture_factor(node, mix, label, notes, depth, uv_only, material)
     f = min(1.0, max(0.0, f))
     found = [texture_input(part, label, notes, depth + 1, uv_only, material) for part in (first, second)]
     if (found[0] is None) == (found[1] is None):
@@ -640,6 +640,33 @@ def texture_input(
         mixed = pixels * (1.0 - f) + constant * f if found[0] is not None else constant * (1.0 - f) + pixels * f
     else:
         mixed = pixels * ((1.0 - f) + f * constant)
+    if getattr(node, "clamp_result", False) or getattr(node, "use_clamp", False):
+        mixed = np.clip(mixed, 0.0, 1.0)
+    return mixed, interpolation, extension, procedural, mapping
+
+
+def _texture_factor(
+    node, mix: tuple, label: str, notes: list[str], depth: int, uv_only: bool, material
+) -> tuple | None:
+    """A Mix (blend Mix) of two constant colours A and B by a texture's value t: the texture with each texel's colour
+    A (1 - t) + B t, t its luminance (Cycles' colour -> number) clamped to [0, 1] as the factor is. Exact: the mix is
+    affine, so it commutes with a linear image's interpolation and a gradient's stops. None where A or B varies, the
+    blend is another, or the factor is a colour attribute (its luminance is not a channel-wise map of its colour)."""
+    factor, first, second, blend = mix
+    a, b = _constant_color(first), _constant_color(second)
+    if blend != "MIX" or a is None or b is None:
+        return None
+    found = texture_input(factor, label, notes, depth + 1, uv_only, material)
+    if found is None or "attribute" in (found[3] or {}):
+        return None
+    pixels, interpolation, extension, procedural, mapping = found
+    t = pixels @ LUMINANCE
+    if getattr(node, "clamp_factor", True):  # the Mix node's Clamp Factor (on by default; MixRGB always clamps)
+        clamped = np.clip(t, 0.0, 1.0)
+        if interpolation == "linear" and procedural is None and not np.array_equal(t, clamped):
+            notes.append(f"factor clamped on a linear-interpolated image's texels on {label}")
+        t = clamped
+    mixed = a * (1.0 - t[..., None]) + b * t[..., None]
     if getattr(node, "clamp_result", False) or getattr(node, "use_clamp", False):
         mixed = np.clip(mixed, 0.0, 1.0)
     return mixed, interpolation, extension, procedural, mapping

@@ -127,8 +127,8 @@ def test_a_texture_on_a_factor_input_is_its_mean_named() -> None:
 
 
 def test_render_controls_the_tracer_does_not_express_are_named() -> None:
-    """Shadow catcher, holdout (object and collection), indirect-only collection and (4.0+) light and shadow
-    linking: F12's line and Scene Conversion name each with the objects, collections or light it concerns."""
+    """Shadow catcher and (4.0+) light and shadow linking: F12's line and Scene Conversion name each with the objects
+    or light it concerns. A holdout and indirect-only collection are expressed (its objects' flags), not named."""
     from addon.convert import export, light_convert
 
     _plane_scene()
@@ -141,11 +141,11 @@ def test_render_controls_the_tracer_does_not_express_are_named() -> None:
     layer = bpy.context.view_layer.layer_collection.children["Props"]
     layer.holdout = layer.indirect_only = True
     notes = export.ExportNotes()
-    export.scene_document(bpy.context, notes=notes)
+    document = export.scene_document(bpy.context, notes=notes)
     line = notes.line()
-    assert "shadow catcher rendered as an ordinary object (plane)" in line, line
-    assert "holdout collection rendered as ordinary objects (Props)" in line, line
-    assert "indirect-only collection seen by the camera (Props)" in line, line
+    assert line == "shadow catcher rendered as an ordinary object (plane)", line
+    prop = next(body for body in document["objects"] if body["name"] == "prop")
+    assert prop["holdout"] is True and prop["visible_camera"] is False
     sun = bpy.data.objects["sun"]
     if hasattr(sun, "light_linking"):
         sun.light_linking.receiver_collection = props

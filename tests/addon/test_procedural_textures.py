@@ -551,3 +551,53 @@ def test_f12_shows_an_emission_texture_as_cycles_does_and_the_export_carries_it(
     score = psnr(tracer, cycles)
     print(f"emission texture: PSNR {score:.2f} dB over the plane, std {tracer.reshape(-1, 3).std(axis=0).round(3)}")
     assert score >= 40.0 and tracer.reshape(-1, 3).std(axis=0).min() > 0.05
+
+
+def mixed_by(source: str, grouped: bool = False) -> bpy.types.Material:
+    """A Mix of red and blue (the Mix node) on Base Color whose factor is a checker's Fac (scale 3.7) or a linear
+    gradient's Fac, by UV; grouped: the Mix inside a node group whose input is the factor, as artists wrap it."""
+    material, shader = uv_plane()
+    tree = material.node_tree
+    texture = tree.nodes.new("ShaderNodeTexChecker" if source == "checker" else "ShaderNodeTexGradient")
+    if source == "checker":
+        texture.inputs["Scale"].default_value = 3.7
+    by_uv(material, texture)
+    inner = bpy.data.node_groups.new("two colours", "ShaderNodeTree") if grouped else tree
+    mix = inner.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    by_id = {socket.identifier: socket for socket in mix.inputs}
+    by_id["A_Color"].default_value, by_id["B_Color"].default_value = RED, BLUE
+    result = next(socket for socket in mix.outputs if socket.identifier == "Result_Color")  # 3.4 lists Float first
+    if not grouped:
+        tree.links.new(texture.outputs["Fac"], by_id["Factor_Float"])
+        tree.links.new(result, shader.inputs["Base Color"])
+        return material
+    if hasattr(inner, "interface"):
+        inner.interface.new_socket("Fac", in_out="INPUT", socket_type="NodeSocketFloat")
+        inner.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+    else:
+        inner.inputs.new("NodeSocketFloat", "Fac")
+        inner.outputs.new("NodeSocketColor", "Color")
+    given, taken = inner.nodes.new("NodeGroupInput"), inner.nodes.new("NodeGroupOutput")
+    inner.links.new(given.outputs[0], by_id["Factor_Float"])
+    inner.links.new(result, taken.inputs[0])
+    group = tree.nodes.new("ShaderNodeGroup")
+    group.node_tree = inner
+    tree.links.new(texture.outputs["Fac"], group.inputs[0])
+    tree.links.new(group.outputs[0], shader.inputs["Base Color"])
+    return material
+
+
+@pytest.mark.parametrize(("source", "grouped"), [("checker", False), ("checker", True), ("gradient", False)])
+def test_f12_shows_a_texture_on_a_mix_factor_as_cycles_does(tmp_path, source: str, grouped: bool) -> None:
+    """A texture's value mixing two colours (how artists colour a checker or a gradient): the texture with the mixed
+    colours, exact, where the Mix had been its mean colour, named as 'the input's own value'."""
+    material = mixed_by(source, grouped)
+    document, notes = material_convert.convert_material(material)
+    assert notes == [] and source in document["texture"], (notes, document.get("texture"))
+    tracer, cycles = both(tmp_path)
+    message = compare_means(tracer, cycles)
+    reddish, expected = tracer[..., 0] > tracer[..., 2], cycles[..., 0] > cycles[..., 2]
+    overlap = iou(reddish, expected)
+    print(f"{source} on a Mix factor (grouped {grouped}): {message}; IoU {overlap:.4f}, share {expected.mean():.3f}")
+    assert 0.1 < expected.mean() < 0.9 and overlap >= 0.95, f"{message}; IoU {overlap:.4f}"
