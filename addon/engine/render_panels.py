@@ -127,10 +127,13 @@ class WEATHERVANE_RENDER_PT_tracer(TracerPanel, bpy.types.Panel):
         draw_processes(layout, settings)
         layout.prop(settings, "numerics")
         layout.prop(settings, "precision")
-        # the tracer's values are display values: only Standard shows them as `python -m tracer render --srgb` does
-        transform = context.scene.view_settings.view_transform
-        icon = "CHECKMARK" if transform == "Standard" else "ERROR"
-        layout.label(text=f"View Transform: {transform}", icon=icon)
+        # the vane's documented colours are display values: only Standard shows them as `python -m tracer render
+        # --srgb` does (another is shown in red, to set it back here); a scene of the artist's own is radiance, as
+        # Cycles', for any view transform
+        if build.has_vane() and context.scene.view_settings.view_transform != "Standard":
+            column = layout.column()
+            column.alert = True
+            column.prop(context.scene.view_settings, "view_transform", text="View Transform")
 
 
 class WEATHERVANE_RENDER_PT_viewport(TracerPanel, bpy.types.Panel):
