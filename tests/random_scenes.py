@@ -117,6 +117,11 @@ def extended_scene_document(seed: int, width: int = 16, height: int = 12) -> dic
                 "spot_model": rng.choice(["cycles4", "cycles3"]),
             }
         )
+    stretch = random.Random(20_000 + seed)  # apart from rng: the documents above stay as they were
+    for light in document["lights"]:
+        if light["type"] == "spot" and stretch.random() < 0.5:  # Blender 4+'s spot scaled unevenly
+            light["cone_scale"] = [stretch.uniform(0.3, 2.5), stretch.uniform(0.3, 2.5)]
+            light["x_axis"] = _vector(stretch, -1.0, 1.0)
     names = sorted(document["materials"])
     for body in document["objects"]:
         for flag in ("visible_camera", "visible_shadow", "visible_reflection"):

@@ -96,6 +96,41 @@ def test_spot_light_follows_cycles_attenuation(model: str, blend: float) -> None
     assert colours[0][0] == pytest.approx(1.0) and colours[-1][0] == 0.0
 
 
+@pytest.mark.parametrize(("stretch", "turn"), [((1.6, 0.6), 0.0), ((0.5, 2.0), 30.0)])
+def test_a_stretched_spots_cone_is_the_cone_of_the_scaled_ray(stretch: tuple[float, float], turn: float) -> None:
+    """cone_scale (a, b) along x_axis and across it: a floor point at offset (x, y) in those axes, h below the light,
+    is inside the cone where h / sqrt((x / a)^2 + (y / b)^2 + h^2) > cos(size / 2) (Cycles 4's spot of an object
+    scaled a and b times its z): the lit ellipse's half axes a h tan(size / 2) and b h tan(size / 2)."""
+    angle = math.radians(turn)
+    axis_x, axis_y = (math.cos(angle), math.sin(angle)), (-math.sin(angle), math.cos(angle))
+    spot = sc.SpotLight(
+        location=(0.0, 0.0, 2.0),
+        direction=(0, 0, -1),
+        intensity=1.0,
+        spot_size=70.0,
+        spot_blend=0.0,
+        x_axis=(axis_x[0], axis_x[1], 0.3),  # not perpendicular to the axis: its part across it counts
+        cone_scale=stretch,
+    )
+    reach = 2.0 * math.tan(math.radians(35.0))
+    offsets = [(0.97, 0.0), (1.03, 0.0), (0.0, 0.97), (0.0, 1.03), (0.6, 0.6), (0.75, 0.75)]  # in half axes
+    points = []
+    for u, v in offsets:
+        x, y = u * stretch[0] * reach, v * stretch[1] * reach
+        points.append((x * axis_x[0] + y * axis_y[0], x * axis_x[1] + y * axis_y[1]))
+    colours = down_at(floor_scene((spot,)), points)
+    for (u, v), (px, py), colour in zip(offsets, points, colours, strict=True):
+        inside = u * u + v * v < 1.0
+        expected = 2.0 / math.sqrt(px * px + py * py + 4.0) if inside else 0.0  # N.L / |L| where lit, blend 0
+        np.testing.assert_allclose(colour, expected, rtol=1e-12, atol=1e-15)
+    document = default_scene_dict()  # the file's fields say the same
+    document["lights"] = [
+        {"type": "spot", "location": [0.0, 0.0, 2.0], "direction": [0, 0, -1], "intensity": 1.0, "spot_size": 70.0,
+         "spot_blend": 0.0, "x_axis": list(spot.x_axis), "cone_scale": list(stretch)}
+    ]  # fmt: skip
+    assert scene_from_dict(document).lights[0] == spot
+
+
 def test_spot_models_differ_by_the_cosine() -> None:
     spot = sc.SpotLight(spot_size=120.0, spot_blend=0.5)
     for c in (0.55, 0.7, 0.9, 0.99, 1.0):

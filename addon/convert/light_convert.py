@@ -224,7 +224,7 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
             if getattr(light, "use_square", False):
                 notes.append("square spot: a round cone")
             elif compat.cycles_spot_model() == "cycles4" and _unevenly_scaled(obj):
-                notes.append("spot scaled unevenly: a round cone")  # Cycles 4+ stretches the cone with the scale
+                document.update(_stretched_cone(obj))  # Cycles 4+ stretches the cone with the scale (3.4's: round)
         if kind in ("POINT", "SPOT") and light.shadow_soft_size > 0.0:
             document["radius"] = float(light.shadow_soft_size)
             if _shadow_samples(blender_scene) == 1:
@@ -252,6 +252,13 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
     if not getattr(obj, "visible_glossy", True):
         notes.append("Glossy ray visibility off: its highlights shown all the same")
     return document, notes
+
+
+def _stretched_cone(obj) -> dict:
+    """A spot light object's cone as its scale stretches it: "x_axis" its local X in the world, "cone_scale" its x and
+    y scales over its z scale (Cycles 4's spot: the ray divided by each axis's scale)."""
+    x, y, z = obj.matrix_world.to_3x3().col
+    return {"x_axis": list(x.normalized()), "cone_scale": [x.length / z.length, y.length / z.length]}
 
 
 def _unevenly_scaled(obj) -> bool:

@@ -554,6 +554,15 @@ def spot_light_1000w() -> Built:
     return _light_on_plane("SPOT", 1000.0, 6.0)
 
 
+def spot_light_stretched() -> Built:
+    """spot_light_100w with the light scaled (1.6, 0.6, 1) and turned 30 degrees about z: Cycles 4+ stretches the
+    cone into an ellipse along the light's x (3.4's stays round)."""
+    built = _light_on_plane("SPOT", 100.0, 2.0)
+    light = bpy.data.objects["Spot 100 W"]
+    light.scale, light.rotation_euler = (1.6, 0.6, 1.0), (0.0, 0.0, math.radians(30.0))
+    return built
+
+
 def emission_plane() -> Built:
     """A plane with an Emission shader only (colour (0.2, 0.5, 0.8), strength 1), no lights, no world."""
     _frame()
@@ -640,6 +649,7 @@ SCENES = {
         point_light_1000w,
         spot_light_100w,
         spot_light_1000w,
+        spot_light_stretched,
         emission_plane,
         world_colour,
         mirror_scene,
@@ -679,4 +689,4 @@ COVERAGE = [
     "mesh_without_faces",
 ]
 LIGHTS = ["point_light_100w", "point_light_1000w", "spot_light_100w", "spot_light_1000w"]
-SPOTS = ["spot_light_100w", "spot_light_1000w"]
+SPOTS = ["spot_light_100w", "spot_light_1000w", "spot_light_stretched"]

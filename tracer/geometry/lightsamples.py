@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 from ..scene import scene as sc
+from . import transforms as tf
 
 
 def grid(samples: int) -> list[tuple[float, float]]:
@@ -187,3 +188,11 @@ def glossy_pairs(samples: int) -> list[tuple[float, float]]:
     mod 1 (its angle, turning as hemisphere_directions' do). Rough glass turns them at each hit by a rotation of its
     own (camera.glass_rotation)."""
     return [((i + 0.5) / samples, (i * GOLDEN_TURN) % 1.0) for i in range(samples)]
+
+
+def cone_axes(spot: sc.SpotLight) -> tuple[sc.Vec3, sc.Vec3]:
+    """A stretched spot's unit axes across its axis (cone_scale's): x_axis made perpendicular to the axis, and the
+    axis times that."""
+    axis = tf.normalize(spot.direction)
+    x = tf.normalize(tf.sub(spot.x_axis, tf.scale(axis, tf.dot(spot.x_axis, axis))))
+    return x, tf.cross(axis, x)

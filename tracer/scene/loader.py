@@ -1026,9 +1026,29 @@ def _light(reader: _Reader) -> sc.Light | None:
             spot_blend=reader.number("spot_blend", base.spot_blend, low=0.0, high=1.0),
             spot_model=reader.choice("spot_model", sc.SPOT_MODELS, base.spot_model),
             radius=reader.number("radius", 0.0, low=0.0, high=LENGTH_RANGE[1]),
+            **_spot_cone(reader, direction),
         )
     reader.finish()
     return result
+
+
+def _spot_cone(reader: _Reader, direction: dict) -> dict:
+    """A spot's "cone_scale" (two factors > 0) and "x_axis" (required with cone_scale; not along "direction")."""
+    found = {}
+    if "cone_scale" in reader.data:
+        low, high = LENGTH_RANGE
+        found["cone_scale"] = reader.vector("cone_scale", length=2, low=0.0, low_open=True, high=high, least=low)
+        if "x_axis" not in reader.data:
+            reader.fail("x_axis", "is required with cone_scale (the light's local X, the first factor's axis)")
+    if "x_axis" not in reader.data:
+        return found
+    x_axis = found["x_axis"] = reader.vector("x_axis", **direction)
+    shine = reader.data.get("direction")
+    if all(isinstance(c, float) for c in (*x_axis, *(shine or ()))) and shine and len(shine) == 3:
+        a, b = np.asarray(shine, dtype=float), np.asarray(x_axis, dtype=float)
+        if np.linalg.norm(np.cross(a, b)) <= 1e-6 * np.linalg.norm(a) * np.linalg.norm(b):
+            reader.fail("x_axis", "must not lie along direction")
+    return found
 
 
 def _area_light(reader: _Reader, intensity: float, color: sc.Color, direction: dict) -> sc.AreaLight:

@@ -515,7 +515,8 @@ class SpotLight:
 
     direction: the cone's axis, from the light outward; spot_size: the full cone angle in degrees; spot_blend: the
     soft edge (0..1); spot_model: cycles4 (Blender 4.x, 5.0: smoothstep only) or cycles3 (Blender 3.4: smoothstep times
-    the cosine of the angle to the axis)."""
+    the cosine of the angle to the axis); cone_scale: the cone stretched along x_axis (the light's local X) and the
+    axis across it by these factors (Blender 4+: the light object's x and y scales over its z scale), (1, 1) round."""
 
     location: Vec3 = (0.0, 0.0, 5.0)
     direction: Vec3 = (0.0, 0.0, -1.0)
@@ -526,6 +527,8 @@ class SpotLight:
     spot_blend: float = 0.15
     spot_model: Literal["cycles4", "cycles3"] = "cycles4"
     radius: float = 0.0  # as a point light's
+    x_axis: Vec3 = (1.0, 0.0, 0.0)
+    cone_scale: tuple[float, float] = (1.0, 1.0)
 
 
 @dataclass(frozen=True)

@@ -104,6 +104,8 @@ class PointSample(DirectedLight):
     inverse_square: bool = False  # terms divided by |L|^2
     spot: sc.SpotLight | None = None  # terms times spot_attenuation()
     axis: np.ndarray | None = None  # a spot's unit axis (3, 1)
+    # a stretched cone (cone_scale): the unit axes across the spot's axis (3, 1) each with its factor (cone_axes)
+    cone: tuple[np.ndarray, float, np.ndarray, float] | None = None
     # one sample point of an area light: the unit normal it shines along (3, 1), its terms multiplied by the cosine
     # there (a one-sided Lambertian emitter)
     emitter: np.ndarray | None = None
@@ -133,6 +135,10 @@ class PointSample(DirectedLight):
         factor = None
         if self.spot is not None:
             cosine = -dot(L, self.axis) / length_l  # the angle at the light between its axis and the point
+            if self.cone is not None:  # the direction in the cone's unstretched frame (Cycles 4's scaled ray)
+                x, a, y, b = self.cone
+                u, v = -dot(L, x) / (length_l * a), -dot(L, y) / (length_l * b)
+                cosine = cosine / np.sqrt(u * u + v * v + cosine * cosine)
             factor = spot_attenuation(cosine, self.spot)
         if self.emitter is not None:  # an area light's sample: a one-sided cosine emitter
             factor = np.maximum(-dot(L, self.emitter) / length_l, 0.0)
@@ -285,6 +291,9 @@ def _point_samples(
         sample.inverse_square = light.falloff == "inverse_square"
         if isinstance(light, sc.SpotLight):
             sample.spot, sample.axis = light, column(tf.normalize(light.direction), dtype)
+            if light.cone_scale != (1.0, 1.0):
+                x, y = lightsamples.cone_axes(light)
+                sample.cone = (column(x, dtype), light.cone_scale[0], column(y, dtype), light.cone_scale[1])
         if len(offsets) > 1:
             sample.disk, sample.weight = (light.radius * offset[0], light.radius * offset[1]), 1.0 / len(offsets)
         made.append(sample)

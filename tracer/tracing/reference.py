@@ -488,6 +488,11 @@ class ReferenceTracer:
                 t_max = 1.0
                 if isinstance(light, sc.SpotLight):
                     cosine = -dot(light_vector, normalize(light.direction)) / length(light_vector)
+                    if light.cone_scale != (1.0, 1.0):  # in the cone's unstretched frame (Cycles 4's scaled ray)
+                        x, y = lightsamples.cone_axes(light)
+                        u = -dot(light_vector, x) / (length(light_vector) * light.cone_scale[0])
+                        v = -dot(light_vector, y) / (length(light_vector) * light.cone_scale[1])
+                        cosine = cosine / math.sqrt(u * u + v * v + cosine * cosine)
                     factor = spot_attenuation(cosine, light)
                 if light.falloff == "inverse_square":
                     falloff = 1.0 / dot(light_vector, light_vector)
