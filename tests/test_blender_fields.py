@@ -131,6 +131,27 @@ def test_a_stretched_spots_cone_is_the_cone_of_the_scaled_ray(stretch: tuple[flo
     assert scene_from_dict(document).lights[0] == spot
 
 
+@pytest.mark.parametrize("kind", ["point", "spot", "sun"])
+def test_a_lights_ray_visibility_takes_its_diffuse_or_its_highlight_away(kind: str) -> None:
+    """visible_diffuse false: the light adds its highlight alone; visible_glossy false: its diffuse term alone (a
+    matte floor's colour); both: nothing. The three add up to the light's whole colour on a shiny floor."""
+    shiny = replace(WHITE_MATTE, specular=8.0)
+    light = {
+        "point": sc.PointLight(location=(0.5, 0.0, 2.0), intensity=1.0),
+        "spot": sc.SpotLight(location=(0.5, 0.0, 2.0), direction=(0, 0, -1), intensity=1.0, spot_size=120.0),
+        "sun": sc.DirectionalLight(direction=(0.3, 0.1, 1.0), intensity=1.0),
+    }[kind]
+    points = [(0.0, 0.0), (0.4, 0.1), (1.0, -0.3)]
+    whole = down_at(floor_scene((light,), shiny), points)
+    diffuse = down_at(floor_scene((light,), WHITE_MATTE), points)
+    highlight_only = down_at(floor_scene((replace(light, visible_diffuse=False),), shiny), points)
+    diffuse_only = down_at(floor_scene((replace(light, visible_glossy=False),), shiny), points)
+    nothing = down_at(floor_scene((replace(light, visible_diffuse=False, visible_glossy=False),), shiny), points)
+    np.testing.assert_allclose(diffuse_only, diffuse, rtol=1e-12)
+    np.testing.assert_allclose(highlight_only, whole - diffuse, rtol=1e-9, atol=1e-15)
+    assert np.all(nothing == 0.0) and np.all(whole - diffuse > 1e-3)  # a highlight there to take away
+
+
 def test_spot_models_differ_by_the_cosine() -> None:
     spot = sc.SpotLight(spot_size=120.0, spot_blend=0.5)
     for c in (0.55, 0.7, 0.9, 0.99, 1.0):

@@ -246,11 +246,10 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
     for factor, what in (("diffuse_factor", "diffuse"), ("specular_factor", "specular")):
         if float(getattr(light, factor, 1.0)) != 1.0:
             notes.append(f"{what} factor {getattr(light, factor):.3g}: 1")
-    # Object > Visibility > Ray Visibility of the light: the documented model's light reaches every term
-    if not getattr(obj, "visible_diffuse", True):
-        notes.append("Diffuse ray visibility off: lights diffuse surfaces all the same")
-    if not getattr(obj, "visible_glossy", True):
-        notes.append("Glossy ray visibility off: its highlights shown all the same")
+    # Object > Visibility > Ray Visibility of the light: the terms it reaches
+    for flag in ("visible_diffuse", "visible_glossy"):
+        if not getattr(obj, flag, True):
+            document[flag] = False
     return document, notes
 
 

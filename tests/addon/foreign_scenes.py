@@ -554,6 +554,17 @@ def spot_light_1000w() -> Built:
     return _light_on_plane("SPOT", 1000.0, 6.0)
 
 
+def light_ray_visibility() -> Built:
+    """point_light_100w with its light's Glossy ray visibility off, and a 3 W/m^2 sun whose Diffuse ray visibility is
+    off: the matte plane is lit by the point light alone (the sun would double it), as in Cycles."""
+    built = _light_on_plane("POINT", 100.0, 2.0)
+    bpy.data.objects["Point 100 W"].visible_glossy = False
+    sun = _sun(rotation=(20.0, 0.0, 0.0), strength=3.0)
+    sun.visible_diffuse = False
+    built.samples = 512  # Cycles still picks the sun for its light samples and gets nothing: noise, 16 samples 15%
+    return built
+
+
 def spot_light_stretched() -> Built:
     """spot_light_100w with the light scaled (1.6, 0.6, 1) and turned 30 degrees about z: Cycles 4+ stretches the
     cone into an ellipse along the light's x (3.4's stays round)."""
@@ -650,6 +661,7 @@ SCENES = {
         spot_light_100w,
         spot_light_1000w,
         spot_light_stretched,
+        light_ray_visibility,
         emission_plane,
         world_colour,
         mirror_scene,
@@ -688,5 +700,5 @@ COVERAGE = [
     "degenerate_triangle",
     "mesh_without_faces",
 ]
-LIGHTS = ["point_light_100w", "point_light_1000w", "spot_light_100w", "spot_light_1000w"]
+LIGHTS = ["point_light_100w", "point_light_1000w", "spot_light_100w", "spot_light_1000w", "light_ray_visibility"]
 SPOTS = ["spot_light_100w", "spot_light_1000w", "spot_light_stretched"]

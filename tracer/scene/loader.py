@@ -1028,6 +1028,10 @@ def _light(reader: _Reader) -> sc.Light | None:
             radius=reader.number("radius", 0.0, low=0.0, high=LENGTH_RANGE[1]),
             **_spot_cone(reader, direction),
         )
+    if isinstance(result, sc.PointLight | sc.SpotLight | sc.DirectionalLight | sc.AreaLight):
+        seen = {flag: reader.boolean(flag, True) for flag in ("visible_diffuse", "visible_glossy")}
+        if not all(seen.values()):  # the documented light reaches every term
+            result = replace(result, **seen)
     reader.finish()
     return result
 

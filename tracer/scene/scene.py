@@ -489,6 +489,8 @@ class PointLight:
     # Blender's light radius (metres): with render.shadow_samples > 1 its shadow rays go to points on the disk of
     # this radius that faces each shaded point, each carrying intensity / samples (soft shadows)
     radius: float = 0.0
+    visible_diffuse: bool = True  # Blender's ray visibility (Object > Visibility), as a spot's
+    visible_glossy: bool = True
 
 
 @dataclass(frozen=True)
@@ -507,6 +509,8 @@ class DirectionalLight:
     # the disc's radiance: cycles4 (Blender 4.0+) i / sin^2(angle / 2) all over it; cycles3 (Blender 3.x) i /
     # (tan^2(angle / 2) cos^3 theta), theta the angle from its centre
     disc_model: Literal["cycles4", "cycles3"] = "cycles4"
+    visible_diffuse: bool = True  # Blender's ray visibility (Object > Visibility), as a spot's
+    visible_glossy: bool = True
 
 
 @dataclass(frozen=True)
@@ -529,6 +533,10 @@ class SpotLight:
     radius: float = 0.0  # as a point light's
     x_axis: Vec3 = (1.0, 0.0, 0.0)
     cone_scale: tuple[float, float] = (1.0, 1.0)
+    # Blender's ray visibility of the light (Object > Visibility): False, it adds no diffuse term (visible_diffuse) or
+    # no highlight, glossy lobe or reflection of itself (visible_glossy)
+    visible_diffuse: bool = True
+    visible_glossy: bool = True
 
 
 @dataclass(frozen=True)
@@ -549,6 +557,8 @@ class AreaLight:
     # mirror and refracted rays that meet its front see its radiance (tracing/emitters.py), as Cycles' reflections
     # show a light's shape; False: the documented model (lights are points of light, seen only in highlights)
     seen_in_mirrors: bool = False
+    visible_diffuse: bool = True  # Blender's ray visibility (Object > Visibility), as a spot's
+    visible_glossy: bool = True
 
 
 Light = AmbientLight | PointLight | DirectionalLight | SpotLight | AreaLight | WorldLight

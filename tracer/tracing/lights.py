@@ -35,6 +35,8 @@ class PreparedLight:
     weight: float = 1.0
     index: int = 0
     count: int = 1
+    adds_diffuse: bool = True  # the scene light's visible_diffuse: its diffuse term is added
+    adds_glossy: bool = True  # its visible_glossy: its highlight and its light through glossy lobes
 
     ambient: ClassVar[bool] = False  # no direction: its term is its intensity, it casts no shadow
     highlight: ClassVar[bool] = True  # a Phong / Blinn-Phong highlight besides the diffuse term
@@ -275,6 +277,8 @@ def prepare_lights(scene: sc.Scene, dtype: np.dtype) -> list[PreparedLight]:
             made = [DirectionalSample(share, color, weight=weight, vector=column(d, dtype)) for d in directions]
         for index, sample in enumerate(made):
             sample.source, sample.index, sample.count = source, index, len(made)
+            sample.adds_diffuse = getattr(light, "visible_diffuse", True)
+            sample.adds_glossy = getattr(light, "visible_glossy", True)
         lights.extend(made)
     return lights
 

@@ -521,18 +521,22 @@ class ReferenceTracer:
                 shadow_object, _, _ = self.closest_intersection(P, light_vector, SHADOW_T_MIN, t_max, "visible_shadow")
                 if shadow_object >= 0:
                     continue
-            if lobe is not None and lobe.traced and not isinstance(light, sc.WorldLight):
+            adds_diffuse = getattr(light, "visible_diffuse", True)  # Blender's ray visibility of the light
+            adds_glossy = getattr(light, "visible_glossy", True)
+            if lobe is not None and lobe.traced and not isinstance(light, sc.WorldLight) and adds_glossy:
                 through_lobe = lobe.light(light_vector)
                 shine = [shine[c] + (intensity * through_lobe[c]) * factor * color[c] for c in range(3)]
             NL = dot(N, light_vector)
-            if NL > 0.0:
+            if NL > 0.0 and adds_diffuse:
                 term = intensity * NL / (length_n * length(light_vector))
                 total += term
                 diffuse = [diffuse[c] + (term * factor) * color[c] for c in range(3)]
                 diffuse_sum += term
                 lights_diffuse = [lights_diffuse[c] + (term * factor) * color[c] for c in range(3)]
             term = None
-            if not (specular <= 0.0 or (self.settings.gate_specular and NL <= 0.0) or isinstance(light, sc.WorldLight)):
+            if adds_glossy and not (
+                specular <= 0.0 or (self.settings.gate_specular and NL <= 0.0) or isinstance(light, sc.WorldLight)
+            ):
                 if self.settings.model == "phong":
                     R = reflect_ray(light_vector, N)
                     RV = dot(R, V)
@@ -547,7 +551,7 @@ class ReferenceTracer:
                 total += term
                 highlight = [highlight[c] + (term * factor) * color[c] for c in range(3)]
                 highlight_sum += term
-            if (NL > 0.0 or term is not None) and factor > 0.0:
+            if ((NL > 0.0 and adds_diffuse) or term is not None) and factor > 0.0:
                 reached += weight * through
         if lobe is not None:
             lobe.shine = tuple(shine)

@@ -172,6 +172,13 @@ def _light_terms(
             gate &= taken
             factor = share if factor is None else factor * share
         reaches = diffuse_gate | gate
+        if not (light.adds_diffuse and light.adds_glossy):  # Blender's ray visibility of the light: a term off
+            if not light.adds_glossy:  # no highlight, nothing through the glossy lobes
+                gate = np.zeros_like(gate)
+                reaches = diffuse_gate
+            if not light.adds_diffuse:  # no diffuse term (the lobes' light still wants the shadow ray where N.L > 0)
+                diffuse_gate = np.zeros_like(diffuse_gate)
+                reaches = reaches if light.adds_glossy else gate
         needed = indices(reaches & (factor > 0.0) if light.attenuated else reaches)
         terms.append(LightTerm(L, NL, length_l, diffuse_gate, gate, cosine, needed, factor, color))
     return terms
@@ -268,7 +275,7 @@ def _glossy_light(
             continue
         light_lit = next(shadow_rays).take(rows)
         through = None if passing is None else next(passing).take(rows)
-        if not light.highlight:
+        if not light.highlight or not light.adds_glossy:
             continue
         L = term.L if term.L.shape[1] == 1 else take(term.L, rows)
         value = light.intensity * glossy.light_factor(lobes, L)
