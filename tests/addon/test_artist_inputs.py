@@ -15,6 +15,9 @@ from addon import compat
 from addon.convert import material_convert
 from addon.convert.export import ExportNotes, scene_document
 from tests.addon.f12_images import f12_exr, looking_down
+from tests.addon.node_groups import new_group
+
+GEOMETRY = [("Geometry", "NodeSocketGeometry")]
 
 
 def _plane_scene() -> tuple[bpy.types.Material, bpy.types.NodeTree, bpy.types.Node]:
@@ -203,19 +206,6 @@ def test_a_udim_image_is_named() -> None:
     assert "UDIM image on Diffuse BSDF Color: tile 1001 over the whole surface" in notes, notes
 
 
-def _geometry_nodes_group(name: str):
-    """An empty Geometry Nodes group with a geometry input and output (the interface as each Blender makes it) -> the
-    group, its input node and its output node."""
-    group = bpy.data.node_groups.new(name, "GeometryNodeTree")
-    if hasattr(group, "interface"):
-        group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-        group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    else:
-        group.inputs.new("NodeSocketGeometry", "Geometry")
-        group.outputs.new("NodeSocketGeometry", "Geometry")
-    return group, group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
-
-
 def test_scene_conversion_lists_materials_reached_through_instances_and_geometry_nodes() -> None:
     """A material on an object that only a collection instance places, and one a Geometry Nodes Set Material gives:
     both render, so both are in Render Properties > Scene Conversion."""
@@ -233,7 +223,7 @@ def test_scene_conversion_lists_materials_reached_through_instances_and_geometry
     scene.collection.objects.link(holder)
     noded = bpy.data.objects.new("noded", bpy.data.meshes["plane"].copy())
     scene.collection.objects.link(noded)
-    group, given, taken = _geometry_nodes_group("set")
+    group, given, taken = new_group("set", "GeometryNodeTree", GEOMETRY, GEOMETRY)
     setter = group.nodes.new("GeometryNodeSetMaterial")
     setter.inputs["Material"].default_value = bpy.data.materials.new("from nodes")
     group.links.new(given.outputs[0], setter.inputs["Geometry"])
@@ -264,7 +254,7 @@ def test_scene_conversion_lists_what_an_export_met_on_hidden_objects_that_geomet
     scene.collection.objects.link(source)
     placer = bpy.data.objects.new("placer", bpy.data.meshes["plane"].copy())
     scene.collection.objects.link(placer)
-    group, given, taken = _geometry_nodes_group("place")
+    group, given, taken = new_group("place", "GeometryNodeTree", GEOMETRY, GEOMETRY)
     info, points = group.nodes.new("GeometryNodeObjectInfo"), group.nodes.new("GeometryNodeInstanceOnPoints")
     info.inputs["Object"].default_value = source
     group.links.new(given.outputs[0], points.inputs["Points"])

@@ -14,6 +14,7 @@ import pytest
 
 from addon.convert import export, mesh_export
 from addon.convert.export import ExportNotes, scene_document
+from tests.addon.node_groups import new_group
 from tracer.scene.loader import scene_from_dict
 
 SPHERE_TRIANGLES = 16 * (11 - 2) * 2 + 2 * 16  # the scatter's UV sphere: 16 segments, 11 rings
@@ -25,15 +26,10 @@ def document(notes: ExportNotes | None = None) -> dict:
 
 def geometry_nodes(obj, name: str):
     """obj's new Geometry Nodes modifier's tree and its group output node (3.4's sockets or 4.0's interface)."""
-    tree = bpy.data.node_groups.new(name, "GeometryNodeTree")
-    if hasattr(tree, "interface"):
-        tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-        tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    else:
-        tree.inputs.new("NodeSocketGeometry", "Geometry")
-        tree.outputs.new("NodeSocketGeometry", "Geometry")
+    geometry = [("Geometry", "NodeSocketGeometry")]
+    tree, _, output = new_group(name, "GeometryNodeTree", geometry, geometry)
     obj.modifiers.new(name, "NODES").node_group = tree
-    return tree, tree.nodes.new("NodeGroupOutput")
+    return tree, output
 
 
 def scatter(columns: int, rows: int, spacing: float = 1.0, realize: bool = False, material=None):

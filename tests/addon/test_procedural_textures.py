@@ -17,6 +17,7 @@ import pytest
 from addon import compat
 from addon.convert import material_convert, mesh_export
 from tests.addon.f12_images import f12_exr
+from tests.addon.node_groups import new_group
 
 ENGINE = "WEATHERVANE_TRACER"
 SIZE = 96
@@ -562,7 +563,12 @@ def mixed_by(source: str, grouped: bool = False) -> bpy.types.Material:
     if source == "checker":
         texture.inputs["Scale"].default_value = 3.7
     by_uv(material, texture)
-    inner = bpy.data.node_groups.new("two colours", "ShaderNodeTree") if grouped else tree
+    if grouped:
+        inner, given, taken = new_group(
+            "two colours", "ShaderNodeTree", [("Fac", "NodeSocketFloat")], [("Color", "NodeSocketColor")]
+        )
+    else:
+        inner = tree
     mix = inner.nodes.new("ShaderNodeMix")
     mix.data_type = "RGBA"
     by_id = {socket.identifier: socket for socket in mix.inputs}
@@ -572,13 +578,6 @@ def mixed_by(source: str, grouped: bool = False) -> bpy.types.Material:
         tree.links.new(texture.outputs["Fac"], by_id["Factor_Float"])
         tree.links.new(result, shader.inputs["Base Color"])
         return material
-    if hasattr(inner, "interface"):
-        inner.interface.new_socket("Fac", in_out="INPUT", socket_type="NodeSocketFloat")
-        inner.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
-    else:
-        inner.inputs.new("NodeSocketFloat", "Fac")
-        inner.outputs.new("NodeSocketColor", "Color")
-    given, taken = inner.nodes.new("NodeGroupInput"), inner.nodes.new("NodeGroupOutput")
     inner.links.new(given.outputs[0], by_id["Factor_Float"])
     inner.links.new(result, taken.inputs[0])
     group = tree.nodes.new("ShaderNodeGroup")
