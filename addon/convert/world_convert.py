@@ -115,24 +115,31 @@ def _mapping_rotation(node, notes: list[str]) -> float | None:
     """The Z rotation (degrees) of what feeds an Environment Texture's Vector: 0 unlinked (the ray's direction) or
     from a Texture Coordinate's Generated/Object output, a Mapping (Point or Vector) of a Z rotation alone over
     that; None (named) for anything else."""
-    source, _ = node_tree.source(node.inputs["Vector"])
+    source, output = node_tree.source(node.inputs["Vector"])
     if source is None:
         return 0.0
     if source.bl_idname == "ShaderNodeTexCoord":
-        return 0.0
+        if _the_direction(source, output):
+            return 0.0
+        notes.append(f"{source.name} {output.name} on the environment texture's Vector: its mean colour")
+        return None
     if source.bl_idname == "ShaderNodeMapping" and source.vector_type in ("POINT", "VECTOR"):
         inputs = source.inputs
         names = ("Rotation", "Location", "Scale")
         rotation, location, scale = (node_tree.constant_color(inputs[name]) for name in names)
         location = location if source.vector_type == "POINT" else (0.0, 0.0, 0.0)
-        coordinates, _ = node_tree.source(inputs["Vector"])
-        plain = None not in (rotation, location, scale) and (
-            coordinates is None or coordinates.bl_idname == "ShaderNodeTexCoord"
-        )
+        coordinates, given = node_tree.source(inputs["Vector"])
+        plain = None not in (rotation, location, scale) and (coordinates is None or _the_direction(coordinates, given))
         if plain and rotation[0] == rotation[1] == 0.0 and not any(location) and all(k == 1.0 for k in scale):
             return math.degrees(rotation[2])
     notes.append(f"{source.name} on the environment texture's Vector: its mean colour")
     return None
+
+
+def _the_direction(coordinates, output) -> bool:
+    """Whether a Texture Coordinate output in a world is the ray's direction, as an unlinked Vector is: Generated, or
+    Object with no object (Window, Reflection, Camera, or an object's space, are other directions)."""
+    return output.name == "Generated" or (output.name == "Object" and coordinates.object is None)
 
 
 def _environment_background(node, strength: float, notes: list[str]) -> dict | None:

@@ -85,3 +85,30 @@ def test_a_picture_with_a_nan_is_refused_naming_the_world_and_the_image(tmp_path
     message = str(refusal.value)
     assert 'World "sky", image "broken.exr"' in message and "must be a finite number" in message, message
     assert not target.exists()
+
+
+@pytest.mark.skipif(not HDRIS, reason="this Blender has no datafiles/studiolights/world")
+def test_an_environment_read_by_other_coordinates_than_the_rays_direction_is_its_named_mean() -> None:
+    """Texture Coordinate > Generated (or Object, no object) is the ray's direction, as the Vector unlinked; Window,
+    Reflection or an object's space map the picture otherwise (Cycles shows it stretched over the screen, or turned):
+    the picture's mean colour, named, never the plain panorama."""
+    from addon.convert import world_convert
+
+    scene = _world_scene(bpy.data.images.load(str(HDRIS[0]), check_existing=True))
+    tree = scene.world.node_tree
+    coordinates = tree.nodes.new("ShaderNodeTexCoord")
+    environment = next(node for node in tree.nodes if node.bl_idname == "ShaderNodeTexEnvironment")
+    for output, expected in (("Generated", "image"), ("Object", "image"), ("Window", "solid"), ("Reflection", "solid")):
+        tree.links.new(coordinates.outputs[output], environment.inputs["Vector"])
+        background, _, notes = world_convert.convert_world(scene.world, blender_scene=scene)
+        assert background["type"] == expected, (output, background["type"], notes)
+        named = [note for note in notes if "Vector" in note]
+        assert named == (
+            []
+            if expected == "image"
+            else [f"Texture Coordinate {output} on the environment texture's Vector: its mean colour"]
+        ), notes
+    empty = bpy.data.objects.new("turned", None)
+    coordinates.object = empty  # the object's space: the picture turned with it
+    tree.links.new(coordinates.outputs["Object"], environment.inputs["Vector"])
+    assert world_convert.convert_world(scene.world, blender_scene=scene)[0]["type"] == "solid"
