@@ -343,7 +343,8 @@ def attribute_mean(material, attribute_name: str) -> tuple[float, float, float] 
 
 def _unknown_attribute(material, node) -> bool:
     """Whether an Attribute node of type Geometry names nothing that the meshes using material have (no colour or
-    other attribute, no UV map): an empty name, a typo, an attribute another object carries."""
+    other attribute, no UV map): an empty name, a typo, an attribute another object carries; never while a Geometry
+    Nodes modifier could store it."""
     if getattr(node, "attribute_type", "GEOMETRY") != "GEOMETRY":
         return False
     name = node.attribute_name
@@ -356,7 +357,8 @@ def _unknown_attribute(material, node) -> bool:
             colors = getattr(mesh, "vertex_colors", None)
             if colors is not None and colors.get(name) is not None:
                 return False
-    return True
+    # a Geometry Nodes modifier may store it on the evaluated mesh (Store Named Attribute): not known to be missing
+    return not any(modifier.type == "NODES" for obj in bpy.data.objects for modifier in getattr(obj, "modifiers", ()))
 
 
 def color_input(socket, material, label: str, notes: list[str]) -> tuple[float, float, float]:

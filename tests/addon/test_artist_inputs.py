@@ -82,6 +82,26 @@ def test_an_attribute_no_mesh_has_is_black_as_in_cycles(tmp_path: Path, name: st
     assert cycles.max() < 1e-6 and tracer.max() < 1e-6
 
 
+def test_an_attribute_geometry_nodes_may_store_is_named_not_black() -> None:
+    """An attribute that no mesh holds but that a Geometry Nodes modifier stores on the evaluated mesh (Store Named
+    Attribute): Cycles reads its values; the conversion cannot, and names it rather than rendering black unnamed."""
+    material, tree, diffuse = _plane_scene()
+    attribute = tree.nodes.new("ShaderNodeAttribute")
+    attribute.attribute_name = "paint"
+    tree.links.new(attribute.outputs["Color"], diffuse.inputs["Color"])
+    assert material_convert.convert_material(material)[0]["color"] == [0.0, 0.0, 0.0]  # no modifier: Cycles' 0
+    group, given, taken = new_group("paint", "GeometryNodeTree", GEOMETRY, GEOMETRY)
+    store = group.nodes.new("GeometryNodeStoreNamedAttribute")
+    store.data_type = "FLOAT_COLOR"
+    store.inputs["Name"].default_value = "paint"
+    group.links.new(given.outputs[0], store.inputs["Geometry"])
+    group.links.new(store.outputs[0], taken.inputs[0])
+    bpy.data.objects["plane"].modifiers.new("paint", "NODES").node_group = group
+    material_convert.clear_cache()
+    _document, notes = material_convert.convert_material(material)
+    assert notes == ["Attribute on Diffuse BSDF Color: the input's own value"], notes
+
+
 def test_a_missing_image_is_magenta_and_its_file_named(tmp_path: Path) -> None:
     material, tree, diffuse = _plane_scene()
     texture = tree.nodes.new("ShaderNodeTexImage")
