@@ -294,7 +294,27 @@ def linear_rgb(image):
     rgb = channels[..., :3] if image.channels >= 3 else np.repeat(channels[..., :1], 3, axis=2)
     if not image.is_float and image.colorspace_settings.name in ("sRGB", "sRGB - Display"):
         rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    if image.channels == 4 and getattr(image, "alpha_mode", "STRAIGHT") == "STRAIGHT":
+        # Cycles keeps such an image premultiplied and its Color output divides by the alpha again: 0 where it is 0
+        rgb = np.where(channels[..., 3:4] > 0.0, rgb, 0.0)
     return rgb
+
+
+def transparent_texels(image) -> bool:
+    """Whether a straight-alpha image has texels of alpha 0 (linear_rgb makes them black)."""
+    key = ("transparent", image.name, tuple(image.size), image.filepath)
+    if key not in _means:
+        found = False
+        if (
+            image.channels == 4
+            and getattr(image, "alpha_mode", "STRAIGHT") == "STRAIGHT"
+            and missing_file(image) is None
+        ):
+            pixels = np.empty(image.size[0] * image.size[1] * 4, dtype=np.float32)
+            image.pixels.foreach_get(pixels)
+            found = bool((pixels[3::4] == 0.0).any())
+        _means[key] = found
+    return _means[key]
 
 
 def image_mean(image) -> tuple[float, float, float] | None:
@@ -587,6 +607,8 @@ def texture_input(
             notes.append(f"UDIM image on {label}: tile {image.tiles[0].number} over the whole surface")
         if node.interpolation in ("Cubic", "Smart"):
             notes.append(f"{node.interpolation.lower()} interpolation on {label}: linear")
+        if node.interpolation != "Closest" and transparent_texels(image):  # Cycles interpolates them premultiplied
+            notes.append(f"transparent texels of the image on {label}: black, interpolated into a darker edge")
         return pixels, INTERPOLATIONS.get(node.interpolation, "linear"), EXTENSIONS[node.extension], None, mapping or {}
     if kind == "ShaderNodeTexChecker":
         colors = [_constant_color(node.inputs[name]) for name in ("Color1", "Color2")]

@@ -600,3 +600,26 @@ def test_f12_shows_a_texture_on_a_mix_factor_as_cycles_does(tmp_path, source: st
     overlap = iou(reddish, expected)
     print(f"{source} on a Mix factor (grouped {grouped}): {message}; IoU {overlap:.4f}, share {expected.mean():.3f}")
     assert 0.1 < expected.mean() < 0.9 and overlap >= 0.95, f"{message}; IoU {overlap:.4f}"
+
+
+def test_f12_shows_a_straight_alpha_images_transparent_texels_black_as_cycles_does(tmp_path) -> None:
+    """An 8 x 8 RGBA image (Straight alpha, Blender's default), green everywhere but alpha 0 on a checker of its
+    texels, on Base Color (Closest): Cycles' Color output is black there (it keeps the image premultiplied); with
+    Linear the interpolation between them is named."""
+    material, shader = uv_plane()
+    image = bpy.data.images.new("leaf", 8, 8, alpha=True)
+    alpha = (np.indices((8, 8)).sum(axis=0) % 2).reshape(-1, 1).astype(float)
+    image.pixels[:] = np.concatenate((np.tile([0.1, 0.8, 0.2], (64, 1)), alpha), axis=1).reshape(-1).tolist()
+    image.pack()
+    texture = material.node_tree.nodes.new("ShaderNodeTexImage")
+    texture.image, texture.interpolation = image, "Closest"
+    material.node_tree.links.new(texture.outputs["Color"], shader.inputs["Base Color"])
+    assert material_convert.convert_material(material)[1] == []
+    tracer, cycles = both(tmp_path)
+    score = psnr(tracer, cycles)
+    dark = cycles.max(axis=2) < 0.02
+    print(f"straight alpha: PSNR {score:.2f} dB, Cycles' black share {dark.mean():.3f}")
+    assert 0.3 < dark.mean() < 0.7 and score >= 30.0, score
+    texture.interpolation = "Linear"
+    notes = material_convert.convert_material(material)[1]
+    assert notes == ["transparent texels of the image on Base Color: black, interpolated into a darker edge"], notes
