@@ -155,6 +155,9 @@ class _Lobes:
         # of the world, a glossy lobe of the world alone (glossy_source "world"), its roughness weighted as above
         self.sheen = [0.0, 0.0, 0.0]
         self.sheen_roughness = 0.0
+        # the mean weight of specular lobes of a roughness above 0 made a sharp mirror (at most ROUGH_MIRROR): Cycles
+        # shows the lights' highlight in them, a mirror shows no point of light (named)
+        self.near_mirror = 0.0
 
     def scaled(self, k: float) -> _Lobes:
         out = _Lobes()
@@ -172,6 +175,7 @@ class _Lobes:
         out.glossy_kinds = set(self.glossy_kinds) if k > 0.0 else set()
         out.sheen = [c * k for c in self.sheen]
         out.sheen_roughness = self.sheen_roughness * k
+        out.near_mirror = self.near_mirror * k
         out.iors = set(self.iors) if k > 0.0 else set()
         out.glass_kinds = set(self.glass_kinds) if k > 0.0 else set()
         for name in ("texture", "emission_texture"):
@@ -201,6 +205,7 @@ class _Lobes:
         out.glossy_kinds = self.glossy_kinds | other.glossy_kinds
         out.sheen = [a + b for a, b in zip(self.sheen, other.sheen, strict=True)]
         out.sheen_roughness = self.sheen_roughness + other.sheen_roughness
+        out.near_mirror = self.near_mirror + other.near_mirror
         out.textures_dropped = self.textures_dropped + other.textures_dropped
         for name in ("texture", "emission_texture"):
             mine, theirs = getattr(self, name), getattr(other, name)
@@ -232,6 +237,8 @@ class _Lobes:
             self.glossy_kinds.add((fresnel, energy))
             return
         share = mirror_share(roughness)
+        if 0.0 < roughness <= ROUGH_MIRROR:
+            self.near_mirror += mean
         self.mirror = [m + share * c for m, c in zip(self.mirror, weight, strict=True)]
         rest = [(1.0 - share) * c for c in weight]
         if share >= 1.0 or not any(rest):
@@ -1292,6 +1299,8 @@ def _opaque_document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -
         notes.append("diffuse brighter than white (Principled's): white")
     if lobes.rough > ROUGH_NAMED:
         notes.append("rough reflection: sharp mirror share, lights' highlight; no blurred scene or world")
+    if lobes.near_mirror > 0.0:
+        notes.append("roughness up to 0.1: a sharp mirror, no highlight of the lights in it")
     document = {"color": [min(1.0, max(0.0, c)) for c in color], "specular": 0, "reflective": reflective}
     if any(c > 0.0 for c in lobes.glossy):
         _glossy_document(document, lobes, notes)
