@@ -65,6 +65,7 @@ The add-on's own materials (vane/materials.py) convert back to exactly the value
 from __future__ import annotations
 
 import math
+import os
 
 import bpy
 import numpy as np
@@ -282,7 +283,10 @@ def missing_file(image) -> str | None:
 
 
 def missing_note(image, label: str) -> str:
-    return f'image "{image.name}" on {label} not found ({missing_file(image)}): magenta, as Cycles shows it'
+    path = missing_file(image)
+    if image.source == "SEQUENCE" and path is not None and os.path.isfile(path):  # Cycles reads the frame's file
+        return f'image sequence "{image.name}" on {label}: its frames are not read (Python gets no pixels): magenta'
+    return f'image "{image.name}" on {label} not found ({path}): magenta, as Cycles shows it'
 
 
 def linear_rgb(image):

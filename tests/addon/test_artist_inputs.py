@@ -102,6 +102,22 @@ def test_an_attribute_geometry_nodes_may_store_is_named_not_black() -> None:
     assert notes == ["Attribute on Diffuse BSDF Color: the input's own value"], notes
 
 
+def test_an_image_sequence_whose_frames_exist_is_not_called_missing(tmp_path: Path) -> None:
+    """An Image Texture of source Image Sequence: Cycles reads the frame's file; Blender's Python gets no pixels of a
+    sequence, so the tracer cannot, and says so rather than 'not found ... as Cycles shows it'."""
+    material, tree, diffuse = _plane_scene()
+    frame = bpy.data.images.new("frame", 4, 4)
+    frame.filepath_raw, frame.file_format = str(tmp_path / "seq_0001.png"), "PNG"
+    frame.save()
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image = bpy.data.images.load(str(tmp_path / "seq_0001.png"))
+    texture.image.source = "SEQUENCE"
+    tree.links.new(texture.outputs["Color"], diffuse.inputs["Color"])
+    _document, notes = material_convert.convert_material(material)
+    assert notes == ['image sequence "seq_0001.png" on Diffuse BSDF Color: its frames are not read (Python gets no '
+                     'pixels): magenta'], notes  # fmt: skip
+
+
 def test_a_missing_image_is_magenta_and_its_file_named(tmp_path: Path) -> None:
     material, tree, diffuse = _plane_scene()
     texture = tree.nodes.new("ShaderNodeTexImage")
