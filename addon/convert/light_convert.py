@@ -41,6 +41,7 @@ import bpy
 from mathutils import Vector
 
 from .. import compat
+from ..vane.lights import MIRRORS_ONLY
 from . import node_tree
 
 POINT_WATTS_PER_UNIT = 4.0 * math.pi**2  # P = 4 pi^2 i (measured: see above)
@@ -246,9 +247,12 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
     for factor, what in (("diffuse_factor", "diffuse"), ("specular_factor", "specular")):
         if float(getattr(light, factor, 1.0)) != 1.0:
             notes.append(f"{what} factor {getattr(light, factor):.3g}: 1")
-    # Object > Visibility > Ray Visibility of the light: the terms it reaches
+    # Object > Visibility > Ray Visibility of the light: the terms it reaches (Glossy set by Build from a scene file's
+    # seen_in_mirrors, while it still says the same, is that alone: the file's light keeps its highlight)
+    original = getattr(obj, "original", None) or obj
     for flag in ("visible_diffuse", "visible_glossy"):
-        if not getattr(obj, flag, True):
+        seen = getattr(obj, flag, True)
+        if not seen and not (flag == "visible_glossy" and original.get(MIRRORS_ONLY) == seen):
             document[flag] = False
     return document, notes
 

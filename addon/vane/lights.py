@@ -26,6 +26,10 @@ POINT_WATTS_PER_UNIT = 4.0 * math.pi**2
 SUN_STRENGTH_PER_UNIT = math.pi
 
 
+# a light object's property: its Glossy ray visibility was set by Build from a scene file's seen_in_mirrors
+MIRRORS_ONLY = "weathervane_glossy_is_seen_in_mirrors"
+
+
 def point_power(intensity: float) -> float:
     return intensity * POINT_WATTS_PER_UNIT
 
@@ -89,7 +93,7 @@ def create_from_scene(light, name: str, collection):
         obj = create("DIRECTIONAL", light.intensity, name, collection, light.direction)
         obj.data.angle = math.radians(light.angle)
         if light.angle > 0.0 and hasattr(obj, "visible_glossy"):  # the file's disc is seen in mirrors, or not
-            obj.visible_glossy = light.seen_in_mirrors
+            _seen_in_mirrors(obj, light.seen_in_mirrors)
     else:
         blender_type = {"PointLight": "POINT", "SpotLight": "SPOT", "AreaLight": "AREA"}[kind]
         data = bpy.data.lights.new(name, type=blender_type)
@@ -127,7 +131,15 @@ def _shape_area(obj, light) -> None:
     x = (x - z * x.dot(z)).normalized()
     obj.matrix_world = Matrix.Translation(light.location) @ Matrix((x, z.cross(x), z)).transposed().to_4x4()
     if hasattr(obj, "visible_glossy"):  # the file's light is seen in mirrors, or not, in Cycles too
-        obj.visible_glossy = light.seen_in_mirrors
+        _seen_in_mirrors(obj, light.seen_in_mirrors)
+
+
+def _seen_in_mirrors(obj, seen: bool) -> None:
+    """A scene file's light seen in mirrors, or not, as Cycles can say it: its Glossy ray visibility (which takes
+    its highlight away in Cycles too). Marked, so that the export reads it back as seen_in_mirrors alone and the
+    tracer keeps the file's highlight."""
+    obj.visible_glossy = seen
+    obj[MIRRORS_ONLY] = seen
 
 
 def apply(entry) -> None:

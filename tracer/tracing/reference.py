@@ -288,6 +288,18 @@ def world_direction(
     return tuple(local[0] * e1[k] + local[1] * e2[k] + local[2] * n[k] for k in range(3))
 
 
+def spot_cosine(spot: sc.SpotLight, light_vector: sc.Vec3) -> float:
+    """The cosine at the spot between its axis and the point light_vector came from (L, toward the light): of the
+    direction in the cone's unstretched frame where it has a cone_scale (Cycles 4's scaled ray)."""
+    cosine = -dot(light_vector, normalize(spot.direction)) / length(light_vector)
+    if spot.cone_scale != (1.0, 1.0):
+        x, y = lightsamples.cone_axes(spot)
+        u = -dot(light_vector, x) / (length(light_vector) * spot.cone_scale[0])
+        v = -dot(light_vector, y) / (length(light_vector) * spot.cone_scale[1])
+        cosine = cosine / math.sqrt(u * u + v * v + cosine * cosine)
+    return cosine
+
+
 def spot_attenuation(cosine: float, spot: sc.SpotLight) -> float:
     """Cycles' spot attenuation at a point seen from the light at this cosine to the axis (docs/scene-format.md).
 
@@ -487,13 +499,7 @@ class ReferenceTracer:
                     light_vector = add(light_vector, offset)
                 t_max = 1.0
                 if isinstance(light, sc.SpotLight):
-                    cosine = -dot(light_vector, normalize(light.direction)) / length(light_vector)
-                    if light.cone_scale != (1.0, 1.0):  # in the cone's unstretched frame (Cycles 4's scaled ray)
-                        x, y = lightsamples.cone_axes(light)
-                        u = -dot(light_vector, x) / (length(light_vector) * light.cone_scale[0])
-                        v = -dot(light_vector, y) / (length(light_vector) * light.cone_scale[1])
-                        cosine = cosine / math.sqrt(u * u + v * v + cosine * cosine)
-                    factor = spot_attenuation(cosine, light)
+                    factor = spot_attenuation(spot_cosine(light, light_vector), light)
                 if light.falloff == "inverse_square":
                     falloff = 1.0 / dot(light_vector, light_vector)
                     factor = falloff if not isinstance(light, sc.SpotLight) else factor * falloff
@@ -521,8 +527,7 @@ class ReferenceTracer:
                 shadow_object, _, _ = self.closest_intersection(P, light_vector, SHADOW_T_MIN, t_max, "visible_shadow")
                 if shadow_object >= 0:
                     continue
-            adds_diffuse = getattr(light, "visible_diffuse", True)  # Blender's ray visibility of the light
-            adds_glossy = getattr(light, "visible_glossy", True)
+            adds_diffuse, adds_glossy = getattr(light, "visible_diffuse", True), getattr(light, "visible_glossy", True)
             if lobe is not None and lobe.traced and not isinstance(light, sc.WorldLight) and adds_glossy:
                 through_lobe = lobe.light(light_vector)
                 shine = [shine[c] + (intensity * through_lobe[c]) * factor * color[c] for c in range(3)]
