@@ -19,7 +19,9 @@ _SCALARS = (int, float, str, bool, type(None))
 def same(a: Any, b: Any) -> bool:
     """Whether two parsed documents (or parts) load to the same thing: equal dicts, lists and scalars of the same
     types (1 and 1.0 differ, and NaN is never the same, so either is loaded again), and NumPy arrays of the same
-    dtype, shape and values. Lists of numbers, or of lists of numbers, are compared in C."""
+    dtype, shape and values. Lists of numbers, or of lists of numbers, are compared in C, where 1 == 1.0: a number in
+    such a list that changes its type alone is not loaded again (the engine's export writes the same types each
+    time; a fresh load would refuse a float among triangle indices)."""
     if a is b:
         return True
     kind = type(a)
