@@ -114,7 +114,7 @@ def scene_conversion(blender_scene) -> list[tuple[str, str, list[str]]]:
             continue
         notes = _notes("light", name, lambda o=obj: light_convert.convert_light(o, blender_scene=blender_scene)[1])
         rows.append(("LIGHT", name, notes))
-    world = getattr(view_layer, "world_override", None) or blender_scene.world
+    world = world_convert.scene_world(blender_scene, view_layer)
     if vane:
         if world is not None:
             rows.append(("WORLD", world.name, ["vane's Background used"]))

@@ -418,11 +418,6 @@ class ExportCancelledError(Exception):
     """The user cancelled (Esc) while the export walked the scene."""
 
 
-def scene_world(blender_scene, view_layer):
-    """The World a view layer renders: its World Override (Blender 4.2+), else the scene's."""
-    return getattr(view_layer, "world_override", None) or blender_scene.world
-
-
 def _classify(
     obj, original, owner, turn, hidden: set[int] | None, notes: ExportNotes, override=None, view_layer=None
 ) -> _Source:
@@ -978,7 +973,7 @@ def scene_document(
     if not own_vane:  # the scene's world is its background and, as Cycles lights with it, an ambient light
         # the world as evaluated at the depsgraph's frame: its keyed colour or strength (an animation's frames are
         # evaluated in the render's depsgraph, never in the original data)
-        world = scene_world(blender_scene, depsgraph.view_layer)
+        world = world_convert.scene_world(blender_scene, depsgraph.view_layer)
         world = world.evaluated_get(depsgraph) if world is not None else None
         background, ambient, notes.world = world_convert.convert_world(world, blender_scene=blender_scene)
         light_list += [ambient] if ambient is not None else []

@@ -307,25 +307,21 @@ def linear_rgb(image):
         rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
     if image.channels == 4 and getattr(image, "alpha_mode", "STRAIGHT") == "STRAIGHT":
         # Cycles keeps such an image premultiplied and its Color output divides by the alpha again: 0 where it is 0
-        rgb = np.where(channels[..., 3:4] > 0.0, rgb, 0.0)
+        transparent = ~(channels[..., 3:4] > 0.0)
+        _means[_transparent_key(image)] = bool(transparent.any())
+        rgb = np.where(transparent, 0.0, rgb)
     return rgb
 
 
+def _transparent_key(image) -> tuple:
+    return ("transparent", image.name, tuple(image.size), image.filepath)
+
+
 def transparent_texels(image) -> bool:
-    """Whether a straight-alpha image has texels of alpha 0 (linear_rgb makes them black)."""
-    key = ("transparent", image.name, tuple(image.size), image.filepath)
-    if key not in _means:
-        found = False
-        if (
-            image.channels == 4
-            and getattr(image, "alpha_mode", "STRAIGHT") == "STRAIGHT"
-            and missing_file(image) is None
-        ):
-            pixels = np.empty(image.size[0] * image.size[1] * 4, dtype=np.float32)
-            image.pixels.foreach_get(pixels)
-            found = bool((pixels[3::4] == 0.0).any())
-        _means[key] = found
-    return _means[key]
+    """Whether a straight-alpha image has texels of alpha 0 (linear_rgb, which reads its pixels once, made them
+    black)."""
+    _rgba_pixels(image)
+    return _means.get(_transparent_key(image), False)
 
 
 def image_mean(image) -> tuple[float, float, float] | None:

@@ -208,6 +208,11 @@ def _color_of(socket, notes: list[str]) -> tuple[float, float, float]:
     return own
 
 
+def scene_world(blender_scene, view_layer):
+    """The World a view layer renders: its World Override (Blender 4.2+), else the scene's."""
+    return getattr(view_layer, "world_override", None) or blender_scene.world
+
+
 def convert_world(world, *, blender_scene=None) -> tuple[dict, dict | None, list[str]]:
     """scene.world (or None) -> (tracer background dict, ambient light dict or None, notes)."""
     blender_scene = blender_scene or bpy.context.scene
