@@ -57,8 +57,9 @@ share 1 - p - g, are the documented material the tracer weighs by alpha (1 - tra
 refracted light by color: the glass's tint where no opaque diffuse shows, else the opaque colour (named where they
 differ). Glass rougher than 0.1 is the format's rough glass (transmission_roughness); below, sharp (named). A Mix
 Shader switched by Light Path's Is Camera Ray or Is Shadow Ray takes the factor camera rays see, for every ray
-(named). Subsurface, coat, sheen, thin film, normal and bump maps, and volumes are named and rendered as the opaque
-base. With no node tree the Viewport Display colour is the colour.
+(named). Subsurface, coat, sheen, thin film, normal and bump maps, and a volume beside a Surface are named and
+rendered as the opaque base; a volume alone (no Surface: Cycles renders no surface) lets every ray through, named.
+With no node tree the Viewport Display colour is the colour.
 The add-on's own materials (vane/materials.py) convert back to exactly the values the panel holds.
 """
 
@@ -1150,14 +1151,19 @@ def convert_material(
             document["two_sided"] = True
         return document, notes
     output = material_output(material.node_tree)
+    volume = output is not None and output.inputs["Volume"].is_linked
     if output is None or not output.inputs["Surface"].is_linked:
-        notes.append("no surface shader: black")
         lobes = _Lobes()
+        if volume:  # Cycles: a volume alone has no surface, every ray passes (a fog box around the scene)
+            notes.append("a volume alone, no Surface: not rendered, every ray passes through (Cycles shows the volume)")
+            lobes.clear = 1.0
+        else:
+            notes.append("no surface shader: black")
     else:
         lobes = _shader(output.inputs["Surface"], material, notes)
     if output is not None:
-        if output.inputs["Volume"].is_linked:
-            notes.append("volume: ignored")
+        if volume and output.inputs["Surface"].is_linked:
+            notes.append("volume: left out, the surface alone")
         if output.inputs["Displacement"].is_linked:
             notes.append("displacement: ignored")
     _name_normal_maps(material.node_tree, notes)

@@ -507,6 +507,35 @@ def test_a_principled_alpha_0_object_is_not_there(tmp_path: Path) -> None:
     assert np.abs(tracer[0.0] - tracer[None]).max() <= 1e-6
 
 
+def volume_box(density: float) -> bpy.types.Object:
+    """red_box's cube with a material of a Volume Absorption alone (density), on the output's Volume: no Surface."""
+    bpy.ops.mesh.primitive_cube_add(size=1.2, location=(0.0, 0.0, 0.9))
+    box = bpy.context.active_object
+    material, tree, output, (absorption,) = shader_tree("ShaderNodeVolumeAbsorption")
+    absorption.inputs["Density"].default_value = density
+    tree.links.new(absorption.outputs[0], output.inputs["Volume"])
+    box.data.materials.append(material)
+    return box
+
+
+def test_a_volume_alone_lets_every_ray_through_named(tmp_path: Path) -> None:
+    """A material of a volume and no Surface (a fog box): Cycles renders no surface there, only the volume. The
+    tracer renders no volume, so it lets camera, mirror and shadow rays through, and names it; it was black before.
+    At density 0 Cycles shows the scene without the box (within its noise, 0.01), and the tracer equals its own
+    scene without the box to 1e-6."""
+    material, tree, output, (absorption,) = shader_tree("ShaderNodeVolumeAbsorption")
+    tree.links.new(absorption.outputs[0], output.inputs["Volume"])
+    document, notes = material_convert.convert_material(material)
+    assert document["alpha"] == 0.0 and "no surface shader: black" not in notes
+    assert any(note.startswith("a volume alone, no Surface: not rendered, every ray passes") for note in notes), notes
+    tracer = render_set(tmp_path, ENGINE, volume_box, (0.0,), (30.0, -25.0))
+    cycles = render_set(tmp_path, "CYCLES", volume_box, (0.0,), (30.0, -25.0))
+    print(f"a volume alone: tracer {np.abs(tracer[0.0] - tracer[None]).max():.2e}, Cycles "
+          f"{np.abs(cycles[0.0] - cycles[None]).max():.2e} from the scene without it")  # fmt: skip
+    assert np.abs(cycles[0.0] - cycles[None]).max() <= 0.01
+    assert np.abs(tracer[0.0] - tracer[None]).max() <= 1e-6
+
+
 def test_a_principled_alpha_half_card_is_half_there(tmp_path: Path) -> None:
     """A red card of Alpha 0.5 level over the floor, the sun straight down: its pixels (seen directly, in the mirror,
     and its shadow) are the mean of the scene with it opaque and without it, as Cycles' are. No ray of a pixel crosses

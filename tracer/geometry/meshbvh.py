@@ -274,6 +274,23 @@ def _segments(ufunc: np.ufunc, values: np.ndarray, starts: np.ndarray, stops: np
     return ufunc.reduceat(padded, np.stack((starts, stops), axis=1).ravel(), axis=0)[0::2]
 
 
+def _view_groups(listed: list[View | None], which: np.ndarray) -> list[tuple[View | None, np.ndarray | None]]:
+    """Rays (n,) by the view each shares, which (n,) indexing listed (k,) -> (view, the rays' positions) per view
+    the rays name; the rays of every None view (a world light's directions) one group, and None for the positions
+    where that group is all of them. A count per view, not np.unique: its sort of millions of shadow rays' indices
+    was 3% of 3,000 cubes' frame under a world light."""
+    present = np.bincount(which, minlength=len(listed)).nonzero()[0].tolist()
+    named = [k for k in present if listed[k] is not None]
+    if not named:
+        return [(None, None)]
+    groups: list[tuple[View | None, np.ndarray | None]] = [(listed[k], (which == k).nonzero()[0]) for k in named]
+    if len(named) < len(present):
+        is_named = np.zeros(len(listed), dtype=bool)
+        is_named[named] = True
+        groups.append((None, (~is_named.take(which)).nonzero()[0]))
+    return groups
+
+
 def _picture_bytes(picture: TrianglePicture | None) -> int:
     return 0 if picture is None else picture.starts.nbytes + picture.entries.nbytes
 
@@ -342,8 +359,7 @@ class MeshKernel(Kernel):
         # every ray in the box (most, where the scene's walk chose them): no gather of the arrays again
         O_r, D_r = (O, D) if rays.size == count else (take(O, rays), take(D, rays))
         if views is not None:
-            listed, which = views[0], views[1].take(rays)
-            groups = [(listed[k], (which == k).nonzero()[0]) for k in np.unique(which).tolist()]
+            groups = _view_groups(views[0], views[1].take(rays))
         elif O.shape[1] == 1:  # camera rays
             groups = [(View("point", tuple(O[:, 0].astype(np.float64).tolist())), None)]
         elif D.shape[1] == 1:  # an orthographic camera's rays
