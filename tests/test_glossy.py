@@ -383,6 +383,28 @@ def test_shared_glossy_pairs_cost_one_ray_each_a_pixel_and_give_the_one_sample_v
     assert 0.3 < one.image[0, 0, 0] < 1.0 + 1e-9
 
 
+
+def test_rough_glass_shares_its_pairs_among_a_pixels_samples_as_a_glossy_lobe_does() -> None:
+    """A rough glass plane under a uniform white sky seen from above, one pixel: at 16 samples and 16 pairs each
+    camera sample takes one pair at the glass (a reflected and a refracted ray, 32 for the pixel as one sample
+    sends, not 512), and the pixel's value stays the sky's white within the pairs' spread (glass passes or
+    reflects all of it: each sample's value is 1 up to the microfacet weights' rounding)."""
+    glass = {"color": [1.0, 1.0, 1.0], "specular": 0, "transmission": 1.0, "ior": 1.5, "transmission_roughness": 0.5}
+    document = {
+        "materials": {"glass": glass},
+        "objects": [{"name": "plane", "type": "plane", "material": "glass"}],
+        "lights": [{"type": "ambient", "intensity": 0.0}],
+        "camera": {"location": [0.0, -30.0, 40.0], "rotation": [36.87, 0.0, 0.0], "type": "ORTHO", "ortho_scale": 0.01},
+        "background": {"type": "solid", "color": [1.0, 1.0, 1.0]},
+        "render": {"width": 1, "height": 1, "depth": 1, "glossy_samples": 16},
+    }
+    one = render(scene_from_dict(document), workers=1)
+    document["render"]["samples"] = 16
+    shared = render(scene_from_dict(document), workers=1)
+    assert shared.rays.camera == 16 and one.rays.camera == 1
+    assert 16 <= shared.rays.reflection <= 32 and 16 <= one.rays.reflection <= 32, (shared.rays, one.rays)
+    assert shared.image[0, 0] == pytest.approx(one.image[0, 0], abs=0.05)
+
 def _rough_plane_under_a_picture(roughness: float) -> sc.Scene:
     """A black dielectric plane of the given roughness that sees the world alone (glossy_source world), under a
     64 x 128 picture of seeded noise with a bright patch, seen at about 20 degrees above it: its pixels are its glossy

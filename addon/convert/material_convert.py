@@ -112,8 +112,16 @@ def specular_from_exponent(exponent: float, model: str = "blinn-phong", coef: fl
     return exponent / coef if model == "blinn-phong" else exponent / 4.0
 
 
+def sharp(roughness: float) -> bool:
+    """Whether a roughness is at most ROUGH_MIRROR as the user typed it: Blender keeps 0.1 as float32's
+    0.10000000149, which a plain comparison took for rough (rough glass's sampled rays, 16 times the time)."""
+    return compat.float32_decimal(roughness) <= ROUGH_MIRROR
+
+
 def mirror_share(roughness: float) -> float:
     """The share of a specular lobe that is a mirror: 1 up to ROUGH_MIRROR, 0 from ROUGH_HIGHLIGHT, linear between."""
+    if sharp(roughness):
+        return 1.0
     return min(1.0, max(0.0, (ROUGH_HIGHLIGHT - roughness) / (ROUGH_HIGHLIGHT - ROUGH_MIRROR)))
 
 
@@ -219,7 +227,7 @@ class _Lobes:
         """A clear dielectric lobe of this weight, tint (linear RGB), index of refraction, roughness and, where rough,
         microfacet energy (_energy)."""
         ior = min(IOR_MAX, max(IOR_MIN, ior))
-        if weight > 0.0 and roughness > ROUGH_MIRROR:
+        if weight > 0.0 and not sharp(roughness):
             self.glass_kinds.add(energy)
         self.glass += weight
         self.glass_tint = [g + weight * c for g, c in zip(self.glass_tint, tint, strict=True)]
@@ -233,13 +241,13 @@ class _Lobes:
         (GGX) where its mean weight passes ROUGH_NAMED (a metal, a Glossy BSDF), else (a dielectric's few percent)
         the documented model's mirror share and highlight, or diffuse where it is that wide."""
         mean = sum(weight) / 3.0
-        if roughness > ROUGH_MIRROR and mean > ROUGH_NAMED:
+        if not sharp(roughness) and mean > ROUGH_NAMED:
             self.glossy = [g + c for g, c in zip(self.glossy, weight, strict=True)]
             self.glossy_roughness += roughness * mean
             self.glossy_kinds.add((fresnel, energy))
             return
         share = mirror_share(roughness)
-        if 0.0 < roughness <= ROUGH_MIRROR:
+        if roughness > 0.0 and sharp(roughness):
             self.near_mirror += mean
         self.mirror = [m + share * c for m, c in zip(self.mirror, weight, strict=True)]
         rest = [(1.0 - share) * c for c in weight]
@@ -858,7 +866,7 @@ def _principled(node, material, notes: list[str]) -> _Lobes:
         ior = value_input(node.inputs["IOR"], "IOR", notes)
         rough = compat.principled_transmission_roughness(node, roughness)
         lobes.add_glass(glass, compat.principled_transmission_tint(base), ior, rough)
-        if 0.0 < rough <= ROUGH_MIRROR:
+        if rough > 0.0 and sharp(rough):
             notes.append("rough transmission: sharp")
         if "Specular IOR Level" in node.inputs and abs(level - 0.5) > 1e-6:  # 4.0+: it scales the glass's Fresnel too
             notes.append("Specular IOR Level on transmission: the IOR's own reflection")
@@ -920,14 +928,14 @@ def _glass(node, material, notes: list[str]) -> _Lobes:
     if getattr(node, "distribution", "") == "SHARP":  # 3.4's Sharp ignores the roughness
         roughness = 0.0
     roughness = min(1.0, max(0.0, roughness))
-    if roughness <= ROUGH_MIRROR:
+    if sharp(roughness):
         kind = "multiscatter"
     elif getattr(node, "distribution", "") == "BECKMANN":  # the format's Beckmann rough glass, single scattering
         kind = "beckmann"
     else:
         kind = _energy(node, notes)
     lobes.add_glass(1.0, color, ior, roughness, kind)
-    if 0.0 < roughness <= ROUGH_MIRROR:
+    if roughness > 0.0 and sharp(roughness):
         notes.append(f"rough {node.bl_label}: sharp")
     if node.bl_idname == "ShaderNodeBsdfRefraction":
         notes.append("Refraction BSDF: glass, its reflection added")
@@ -1276,8 +1284,10 @@ def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
     document = _opaque_document(lobes, model, coef, notes)
     if transmission > 0.0:
         document["transmission"], document["ior"] = transmission, ior
-        if rough > ROUGH_MIRROR:  # sampled microfacets (GGX); a near-mirror stays sharp (named)
+        if not sharp(rough):  # sampled microfacets (GGX); a near-mirror stays sharp (named)
             document["transmission_roughness"] = min(1.0, rough)
+            # its rays meet the world and area lights; a point, spot or sun light is no surface to meet
+            notes.append("rough glass: no highlight of point, spot or sun lights on it (only what its rays meet)")
             if "glossy" not in document and glass_kinds and glass_kinds <= {"single", "beckmann"}:
                 document["glossy_energy"] = "single"  # the glass's distribution's energy: GGX and Beckmann lose some
             if glass_kinds == {"beckmann"}:

@@ -145,7 +145,7 @@ def test_a_rough_metal_reflects_the_checker_and_the_world_as_cycles_does(tmp_pat
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("roughness", [0.1, 0.3, 0.6])
+@pytest.mark.parametrize("roughness", [0.15, 0.3, 0.6])  # 0.1 is sharp (material_convert.sharp)
 def test_rough_metals_at_1024_cycles_samples(tmp_path: Path, roughness: float) -> None:
     _compare(tmp_path, roughness, 1024)
 
@@ -186,7 +186,7 @@ def _compare_glass(tmp_path: Path, roughness: float, samples: int, distribution:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("roughness", [0.1, 0.3, 0.6])
+@pytest.mark.parametrize("roughness", [0.15, 0.3, 0.6])  # 0.1 is sharp (material_convert.sharp)
 def test_rough_glass_at_1024_cycles_samples(tmp_path: Path, roughness: float) -> None:
     _compare_glass(tmp_path, roughness, 1024)
 

@@ -92,7 +92,30 @@ def test_a_specular_lobe_sharpened_to_a_mirror_names_the_highlight_it_loses(meta
     assert ("roughness up to 0.1: a sharp mirror, no highlight of the lights in it" in notes) == named, notes
 
 
-def test_a_rough_metal_is_a_glossy_lobe_of_its_base_colour() -> None:
+@pytest.mark.parametrize("kind", ["metal", "glass", "glass bsdf"])
+def test_a_roughness_typed_as_0_1_is_sharp_as_documented(kind) -> None:
+    """Blender keeps a typed 0.1 as float32's 0.10000000149: still "up to 0.1", so a sharp mirror or sharp glass
+    (named), not sampled microfacets (rough glass's rays took 16 times as long); 0.1001 is rough."""
+    for roughness, is_sharp in ((0.1, True), (0.1001, False)):
+        if kind == "glass bsdf":
+            material, (output, glass) = shader_material("G", "ShaderNodeBsdfGlass")
+            material.node_tree.links.new(glass.outputs[0], output.inputs["Surface"])
+            glass.inputs["Roughness"].default_value = roughness
+        else:
+            material = principled(**{"Metallic": 1.0 if kind == "metal" else 0.0, "Roughness": roughness})
+            if kind == "glass":
+                node = next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+                compat.principled_input(node, "transmission").default_value = 1.0
+        stored = (
+            material.node_tree.nodes["Glass BSDF" if kind == "glass bsdf" else "Principled BSDF"]
+            .inputs["Roughness"].default_value
+        )  # fmt: skip
+        assert (stored > 0.1) == (roughness == 0.1 or not is_sharp)  # float32 keeps 0.1 above 0.1
+        document, notes = material_convert.convert_material(material)
+        rough_keys = {"glossy", "transmission_roughness"} & set(document)
+        assert (not rough_keys) == is_sharp, (roughness, document, notes)
+        if is_sharp:
+            assert any("sharp" in note for note in notes), notes
     """Above the mirror's roughness a metal is the format's glossy lobe (GGX, Schlick's Fresnel from the base
     colour, Principled's distribution's energy): no mirror, no documented highlight, nothing to name."""
     document, notes = material_convert.convert_material(

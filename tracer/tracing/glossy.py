@@ -265,15 +265,22 @@ def diffuse_rays(
 
 
 def glass_rays(
-    scene: PreparedScene, hits: Hits, rows: np.ndarray, D: np.ndarray, chosen: np.ndarray, rotation: np.ndarray
+    scene: PreparedScene,
+    hits: Hits,
+    rows: np.ndarray,
+    D: np.ndarray,
+    chosen: np.ndarray,
+    rotation: np.ndarray,
+    keys: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The rays of rough glass hits rows (k,) met along D (3, k): for every pair at a path's first glossy surface
-    (chosen -1), else the path's pair, each pair turned by the hit's Cranley-Patterson rotation (2, k) (rotated(): its
-    own for every camera sample and depth, camera.glass_rotations, so that neither the pixels nor a path's entry and
-    exit share one pattern), a microfacet normal m sampled about the shading normal turned to face the
-    ray (as the sharp glass bends by it), then a reflected ray of weight F G2 / G1(v) and a refracted one of weight
-    (1 - F) G2 / G1(v) (Walter et al. 2007; F the dielectric Fresnel at v.m, eta = ior entering by the geometric
-    normal, 1 / ior leaving), each divided by the hit's number of pairs, and for multiscatter energy by E, the mean
+    """The rays of rough glass hits rows (k,) met along D (3, k): at a path's first glossy surface (chosen -1) the
+    pairs its camera sample takes (keys (k,): their sharing keys, lightsamples.shared_pairs, as a glossy lobe's),
+    else the path's pair, each pair turned by the hit's Cranley-Patterson rotation (2, k) (rotated(): its own for
+    every camera sample and depth, camera.glass_rotations, so that neither the pixels nor a path's entry and exit
+    share one pattern), a microfacet normal m sampled about the shading normal turned to face the ray (as the sharp
+    glass bends by it), then a reflected ray of weight F G2 / G1(v) and a refracted one of weight (1 - F) G2 / G1(v)
+    (Walter et al. 2007; F the dielectric Fresnel at v.m, eta = ior entering by the geometric normal, 1 / ior
+    leaving), at a first hit each times its pairs' share (share / count), and for multiscatter energy by E, the mean
     of both weights over every pair (what single scattering keeps: Cycles' Multiscatter GGX glass loses nothing); a
     ray on the wrong side of the surface, or refracted in total internal reflection, is dropped -> the rays' hits
     (j,) (indices into rows), pairs (j,), unit directions (3, j), weights (j,) and whether each is refracted (j,)."""
@@ -300,12 +307,12 @@ def glass_rays(
         albedo = (weight_r + weight_t).mean(axis=0)
         gain = np.where(multiscatter & (albedo > 0.0), 1.0 / np.where(albedo > 0.0, albedo, 1.0), 1.0)
     fresh = chosen < 0
-    hit, pair, _ = _ray_pairs(chosen, count, np.zeros(chosen.size, dtype=np.int64), 1)
+    hit, pair, every_share = _ray_pairs(chosen, count, keys, lightsamples.world_share(scene.scene.render, count))
     u1 = rotated(pairs[:, 0].take(pair), rotation[0].take(hit))
     u2 = rotated(pairs[:, 1].take(pair), rotation[1].take(hit))
     split = _glass_split(v[:, hit], eta.take(hit), alpha.take(hit), u1, u2, separable.take(hit), beckmann.take(hit))
     reflected, T, weight_r, weight_t = split
-    scale = np.where(fresh.take(hit), 1.0 / count, 1.0) * gain.take(hit)
+    scale = np.where(fresh.take(hit), every_share, 1.0) * gain.take(hit)
     weight_r, weight_t = weight_r * scale, weight_t * scale
     world = lambda local: (  # noqa: E731
         local[0] * e1[:, hit] + local[1] * e2[:, hit] + local[2] * n[:, hit]

@@ -241,7 +241,8 @@ def glass(
     the tracer's camera sample and this depth (camera.glass_rotation). The reason for 9 parameters: the tracer, the
     hit and the ray's state as trace_ray carries them."""
     rotation = cam.glass_rotation(tracer.settings.seed, tracer.serial, depth)
-    rays = [ray[:3] for ray in glass_rays(tracer.glossy_pairs, D, N, S, material, path, rotation)]
+    first = lightsamples.shared_pairs(tracer.settings, len(tracer.glossy_pairs), tracer.camera_sample)
+    rays = [ray[:3] for ray in glass_rays(tracer.glossy_pairs, D, N, S, material, path, rotation, first)]
     return traced(tracer, P, rays, depth, layers)
 
 
@@ -253,11 +254,13 @@ def glass_rays(
     material: sc.Material,
     path: tuple,
     rotation: tuple[float, float],
+    first: tuple[range, float],
 ) -> list[tuple[sc.Vec3, sc.Color, tuple[int, int, int], bool]]:
-    """A rough glass hit's rays (glossy.glass_rays, one ray at a time): per pair (all at a path's first glossy
-    surface, else the path's) turned by the hit's rotation (rotated), a visible microfacet normal m about S turned
-    to face D, a reflected ray of weight F G2 / G1(v) and a refracted one of (1 - F) G2 / G1(v) times the colour ->
-    (direction, weight, path, refracted) each (mirror-like rays: they see the lights seen in mirrors)."""
+    """A rough glass hit's rays (glossy.glass_rays, one ray at a time): per pair (at a path's first glossy surface
+    the pairs the camera sample takes and their share, first: lightsamples.shared_pairs; else the path's) turned by
+    the hit's rotation (rotated), a visible microfacet normal m about S turned to face D, a reflected ray of weight
+    F G2 / G1(v) and a refracted one of (1 - F) G2 / G1(v) times the colour -> (direction, weight, path, refracted)
+    each (mirror-like rays: they see the lights seen in mirrors)."""
     d = _unit(D)
     n = _unit(S if _dot(S, d) < 0.0 else (-S[0], -S[1], -S[2]))
     eta = material.ior if _dot(N, d) < 0.0 else 1.0 / material.ior
@@ -266,8 +269,7 @@ def glass_rays(
     if not v[2] > 0.0:
         return []
     a = material.transmission_roughness * material.transmission_roughness
-    chosen = range(len(pairs)) if path[0] < 0 else (path[0],)
-    share = 1.0 / len(pairs) if path[0] < 0 else 1.0
+    chosen, share = first if path[0] < 0 else ((path[0],), 1.0)
     separable = material.glossy_shadowing == "separable"
     beckmann = material.transmission_distribution == "beckmann"
     turned = [(rotated(u1, rotation[0]), rotated(u2, rotation[1])) for u1, u2 in pairs]

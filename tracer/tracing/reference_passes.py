@@ -238,8 +238,9 @@ class PassTracer(ReferenceTracer):
                 normal = find_normal(self.primitives[hit[0]], hit[1], P)
                 glass = a * material.transmission
                 rotation = cam.glass_rotation(self.settings.seed, self.serial, depth)
+                first = lightsamples.shared_pairs(self.settings, len(self.glossy_pairs), self.camera_sample)
                 for direction, weight, path, bent in reference_glossy.glass_rays(
-                    self.glossy_pairs, D, normal, S, material, NEW_PATH, rotation
+                    self.glossy_pairs, D, normal, S, material, NEW_PATH, rotation, first
                 ):
                     if bent:  # a refracted ray's tree, surfaces and sky alike: Transmission
                         seen = self.trace_ray(P, direction, REFLECTION_T_MIN, INF, depth - 1, False, 0, path)

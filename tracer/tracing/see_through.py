@@ -248,7 +248,7 @@ def _rough_glass_rays(
         return None
     rotation = cam.glass_rotations(scene.scene.render.seed, batch.serial.take(rows), batch.left.take(rows))
     hit, pair, D, weight, refracted = glossy.glass_rays(
-        scene, hits, rows, take(batch.direction, rows), batch.sample.take(rows), rotation
+        scene, hits, rows, take(batch.direction, rows), batch.sample.take(rows), rotation, _keys(scene, batch, rows)
     )
     if not hit.size:
         return None
