@@ -383,7 +383,6 @@ def test_shared_glossy_pairs_cost_one_ray_each_a_pixel_and_give_the_one_sample_v
     assert 0.3 < one.image[0, 0, 0] < 1.0 + 1e-9
 
 
-
 def test_rough_glass_shares_its_pairs_among_a_pixels_samples_as_a_glossy_lobe_does() -> None:
     """A rough glass plane under a uniform white sky seen from above, one pixel: at 16 samples and 16 pairs each
     camera sample takes one pair at the glass (a reflected and a refracted ray, 32 for the pixel as one sample
@@ -404,6 +403,7 @@ def test_rough_glass_shares_its_pairs_among_a_pixels_samples_as_a_glossy_lobe_do
     assert shared.rays.camera == 16 and one.rays.camera == 1
     assert 16 <= shared.rays.reflection <= 32 and 16 <= one.rays.reflection <= 32, (shared.rays, one.rays)
     assert shared.image[0, 0] == pytest.approx(one.image[0, 0], abs=0.05)
+
 
 def _rough_plane_under_a_picture(roughness: float) -> sc.Scene:
     """A black dielectric plane of the given roughness that sees the world alone (glossy_source world), under a

@@ -378,8 +378,9 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     )
     glossy_samples: EnumProperty(
         name="Glossy",
-        description="Glossy samples: reflection rays from each point of a rough metal or Glossy BSDF at a path's "
-        "first glossy surface (render.glossy_samples); more rays, a smoother blurred reflection and a longer render",
+        description="Glossy samples: reflection rays from each point of a rough metal, Glossy BSDF or rough glass at "
+        "a path's first glossy surface, shared out among a pixel's samples (render.glossy_samples); more rays, a "
+        "smoother blurred reflection and a longer render",
         items=[(str(n), str(n), f"{n} reflection rays a point") for n in (4, 16, 64, 256)],
         default="16",
     )
