@@ -361,13 +361,11 @@ def test_glossy_pairs_shared_out_among_a_pixels_samples_match_the_reference(seed
     assert_matches_reference(scene)
 
 
-def test_shared_glossy_pairs_cost_one_ray_each_a_pixel_and_give_the_one_sample_value() -> None:
-    """A rough white plane under a uniform white sky, one pixel at 16 samples and 16 pairs: each pair traced once
-    for the pixel (as one sample sends), not 16 times each, and the pixel's value the one sample's (every point of
-    the plane sees the same sky)."""
-    white = {"color": [0.0, 0.0, 0.0], "specular": 0, "glossy": [1.0, 1.0, 1.0], "roughness": 0.5}
+def _one_pixel_plane_under_white_sky(material: dict):
+    """A plane of the material under a uniform white sky, one pixel looking down at it (16 glossy pairs, depth 1)
+    -> its renders at 1 sample and at 16."""
     document = {
-        "materials": {"plane": white},
+        "materials": {"plane": material},
         "objects": [{"name": "plane", "type": "plane", "material": "plane"}],
         "lights": [{"type": "ambient", "intensity": 0.0}],
         "camera": {"location": [0.0, -30.0, 40.0], "rotation": [36.87, 0.0, 0.0], "type": "ORTHO", "ortho_scale": 0.01},
@@ -376,7 +374,15 @@ def test_shared_glossy_pairs_cost_one_ray_each_a_pixel_and_give_the_one_sample_v
     }
     one = render(scene_from_dict(document), workers=1)
     document["render"]["samples"] = 16
-    shared = render(scene_from_dict(document), workers=1)
+    return one, render(scene_from_dict(document), workers=1)
+
+
+def test_shared_glossy_pairs_cost_one_ray_each_a_pixel_and_give_the_one_sample_value() -> None:
+    """A rough white plane under a uniform white sky, one pixel at 16 samples and 16 pairs: each pair traced once
+    for the pixel (as one sample sends), not 16 times each, and the pixel's value the one sample's (every point of
+    the plane sees the same sky)."""
+    white = {"color": [0.0, 0.0, 0.0], "specular": 0, "glossy": [1.0, 1.0, 1.0], "roughness": 0.5}
+    one, shared = _one_pixel_plane_under_white_sky(white)
     # (a pair whose ray would leave below the horizon sends none: 15 of the 16 here, 240 without the sharing)
     assert 12 <= shared.rays.reflection == one.rays.reflection <= 16 and shared.rays.camera == 16
     assert shared.image[0, 0, 0] == pytest.approx(one.image[0, 0, 0], abs=1e-12)
@@ -389,17 +395,7 @@ def test_rough_glass_shares_its_pairs_among_a_pixels_samples_as_a_glossy_lobe_do
     sends, not 512), and the pixel's value stays the sky's white within the pairs' spread (glass passes or
     reflects all of it: each sample's value is 1 up to the microfacet weights' rounding)."""
     glass = {"color": [1.0, 1.0, 1.0], "specular": 0, "transmission": 1.0, "ior": 1.5, "transmission_roughness": 0.5}
-    document = {
-        "materials": {"glass": glass},
-        "objects": [{"name": "plane", "type": "plane", "material": "glass"}],
-        "lights": [{"type": "ambient", "intensity": 0.0}],
-        "camera": {"location": [0.0, -30.0, 40.0], "rotation": [36.87, 0.0, 0.0], "type": "ORTHO", "ortho_scale": 0.01},
-        "background": {"type": "solid", "color": [1.0, 1.0, 1.0]},
-        "render": {"width": 1, "height": 1, "depth": 1, "glossy_samples": 16},
-    }
-    one = render(scene_from_dict(document), workers=1)
-    document["render"]["samples"] = 16
-    shared = render(scene_from_dict(document), workers=1)
+    one, shared = _one_pixel_plane_under_white_sky(glass)
     assert shared.rays.camera == 16 and one.rays.camera == 1
     assert 16 <= shared.rays.reflection <= 32 and 16 <= one.rays.reflection <= 32, (shared.rays, one.rays)
     assert shared.image[0, 0] == pytest.approx(one.image[0, 0], abs=0.05)
