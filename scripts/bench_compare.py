@@ -21,6 +21,8 @@ Cases:
                         640x480, depth 3, 2 workers, float64
   roughglass64          the built-in scene with a rough glass plinth (roughness 0.4: sampled reflection and
                         refraction at the 16 glossy pairs, turned per camera sample), 320x240, depth 3, 2 workers
+  roughglass16          the same at the F12 defaults of a scene from Blender (16 samples, adaptive 0.005): a pixel's
+                        samples share out the 16 pairs
   peer64, peer32        rt3.py's scene (4 spheres, a point light, 2 bounces, 400x300) in the scene format,
                         1 worker (one process), float64 / float32; rt3.py itself is timed in the same rounds
 The last line of the output is one JSON object with every figure.
@@ -84,12 +86,15 @@ def glass_scene() -> dict:
     return document
 
 
-def rough_glass_scene() -> dict:
+def rough_glass_scene(samples: int = 1) -> dict:
     """The built-in scene at 320x240 with its plinth rough glass (transmission 1, IOR 1.45, roughness 0.4): the
-    rough glass rays of glossy.glass_rays at every pair of its first hits, one pair at the hits after."""
+    rough glass rays of glossy.glass_rays at every pair of its first hits, one pair at the hits after; samples > 1:
+    that many a pixel, adaptive at 0.005 (the add-on's F12 defaults), the pairs shared out among them."""
     document = json.loads((ROOT / "tracer" / "scene" / "default_scene.json").read_text())
     document["materials"]["stone"].update(transmission=1.0, ior=1.45, transmission_roughness=0.4)
     document["render"].update(width=320, height=240)
+    if samples > 1:
+        document["render"].update(samples=samples, adaptive_threshold=0.005)
     return document
 
 
@@ -100,6 +105,7 @@ CASES = {
     "peer32": {"scene": PEER_SCENE, "dtype": "float32", "workers": 1},
     "glass64": {"scene": glass_scene(), "dtype": "float64", "workers": 2},
     "roughglass64": {"scene": rough_glass_scene(), "dtype": "float64", "workers": 2},
+    "roughglass16": {"scene": rough_glass_scene(samples=16), "dtype": "float64", "workers": 2},
 }
 
 # CPU seconds (user + system) of this process and its children (the workers), from /proc where there is one: on a
