@@ -123,6 +123,24 @@ def test_the_scene_walk_and_the_box_tests_in_pieces_of_rays_give_what_all_rays_a
         assert np.array_equal(found, expected_rays) and 100 < found.size < 5000
 
 
+def test_a_small_meshs_test_of_all_its_triangles_in_pieces_gives_the_same_bits(monkeypatch) -> None:
+    """TrianglesKernel._hit takes a band's millions of rays in pieces of TRIANGLE_PAIRS (triangle, ray) pairs: the
+    same t and parts, bit for bit, as all the rays at once, with one limit or one per ray and a shared origin."""
+    from tracer.geometry import kernels as kernels_module
+
+    kernel = make_kernel(soup(12, 3), np.dtype("float64"))
+    rng = np.random.default_rng(7)
+    O, D = rng.uniform(-2, 2, (3, 3000)), rng.normal(size=(3, 3000))
+    limits = rng.uniform(0.5, 5.0, 3000)
+    with quiet():
+        whole = [kernel._hit(O, D, 0.0, limit) for limit in (np.inf, limits)] + [kernel._hit(O[:, :1], D, 0.0, 4.0)]
+        monkeypatch.setattr(kernels_module, "TRIANGLE_PAIRS", 12 * 250 + 5)
+        pieces = [kernel._hit(O, D, 0.0, limit) for limit in (np.inf, limits)] + [kernel._hit(O[:, :1], D, 0.0, 4.0)]
+    for (t, part), (t_pieces, part_pieces) in zip(whole, pieces, strict=True):
+        assert np.array_equal(t, t_pieces) and np.array_equal(part, part_pieces)
+        assert 100 < np.count_nonzero(t < np.inf) < 3000
+
+
 def test_small_meshes_placed_in_one_pass_have_the_bits_of_one_at_a_time() -> None:
     """tf.world_primitives places the small meshes together (_placed_together): each mesh's world triangles,
     normals, frame and source equal world_primitive's for it alone, bit for bit, whatever its rotation and location

@@ -128,6 +128,10 @@ def box_margin(size, dtype: np.dtype):
 
 
 BOX_PIECE = 1 << 16  # rays per piece of an oriented box test (Kernel.in_box)
+# (triangle, ray) pairs per pass of a small mesh's test of all its triangles (TrianglesKernel._hit): a band's
+# millions of shadow rays against a 12-triangle cube made each of the test's temporaries hundreds of MB (a glass
+# cube under an area light at Shadows 16, 480x270: 3.9 GB peak, half the time in page faults)
+TRIANGLE_PAIRS = 1 << 18
 
 
 def slab(O: np.ndarray, inverse: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -559,6 +563,19 @@ class TrianglesKernel(Kernel):
         return self.lower, self.upper
 
     def _hit(self, O, D, t_min, t_max):
+        count = ray_count(O, D)
+        piece = max(1, TRIANGLE_PAIRS // self.v0.shape[1])
+        if count > piece:  # each ray's answer is its own: the same numbers in pieces
+            found = [
+                self._hit(
+                    O if O.shape[1] == 1 else O[:, start : start + piece],
+                    D if D.shape[1] == 1 else D[:, start : start + piece],
+                    t_min,
+                    t_max[start : start + piece] if isinstance(t_max, np.ndarray) else t_max,
+                )
+                for start in range(0, count, piece)
+            ]
+            return np.concatenate([t for t, _ in found]), np.concatenate([part for _, part in found])
         # (T, N): (T, 1) triangles broadcast against (1, N) rays, so that NumPy's inner loops run along the rays
         t, ok = moller_trumbore(
             (O[0][None], O[1][None], O[2][None]), (D[0][None], D[1][None], D[2][None]), self.v0, self.e1, self.e2, t_min
