@@ -572,3 +572,27 @@ def test_shared_world_directions_cost_one_ray_each_a_pixel_and_give_the_one_samp
     assert one.rays.shadow == 16 and shared.rays.shadow == 16 and shared.rays.camera == 16
     assert shared.image[0, 0, 0] == pytest.approx(one.image[0, 0, 0], abs=1e-12)
     assert 0.0 < one.image[0, 0, 0] < 1.0  # the sphere hides some of the directions
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_shadow_rays_in_pieces_of_points_give_the_same_image_and_passes(seed: int, monkeypatch) -> None:
+    """shadows.reached takes the points in pieces where one query of every light's shadow rays would pass
+    SHADOW_RAYS_PIECE (a band of millions): the same image and passes, bit for bit, as one query (the built-in scene
+    under a world light of 16 directions beside its own lights, a random one's world-lit scene with glass and
+    transparency; 4 samples)."""
+    from tracer.tracing import shadows
+
+    document = default_scene_dict() if seed == 0 else _world_lit_document(seed)
+    if seed == 0:
+        world = {"type": "world", "radiance": "color", "samples": 16, "intensity": 0.5, "color": [0.3, 0.4, 0.6]}
+        document["lights"].append(world)
+    document["render"].pop("border", None)
+    document["render"].update(width=40, height=30)
+    scene = scene_from_dict(document).with_render(samples=4, shadow_samples=4, passes=(*ps.WHITTED, "shadow"))
+    whole = render(scene, workers=1)
+    monkeypatch.setattr(shadows, "SHADOW_RAYS_PIECE", 97)
+    pieces = render(scene, workers=1)
+    assert whole.rays.shadow > 10 * 97 and whole.rays == pieces.rays
+    assert np.array_equal(whole.image, pieces.image)
+    for name, layer in whole.passes.items():
+        assert np.array_equal(layer, pieces.passes[name]), name
