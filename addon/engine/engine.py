@@ -26,6 +26,21 @@ def say(engine: bpy.types.RenderEngine, info: str) -> None:
     engine.update_stats("Weathervane Tracer", info)
 
 
+def remaining(elapsed: float, done: int, total: int) -> str:
+    """ ", about 3 min 20 s left" after done of total bands in elapsed seconds, at their pace so far (Cycles'
+    "Remaining"; an adaptive F12's first bands are quicker than its second pass's, so it is rough): nothing once
+    done, or while under 2 s are left."""
+    if not 0 < done < total:
+        return ""
+    left = elapsed * (total - done) / done
+    if left < 2.0:
+        return ""
+    if left < 60.0:
+        return f", about {left:.0f} s left"
+    minutes, seconds = divmod(round(left / 10.0) * 10, 60)
+    return f", about {minutes} min {seconds} s left" if seconds else f", about {minutes} min left"
+
+
 class RenderCancelledError(Exception):
     pass
 
@@ -175,10 +190,11 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         if region is not None:
             self._render_region(scene, region)
             return
+        started = time.perf_counter()
 
         def progress(done: int, total: int) -> None:
             self.update_progress(done / total)
-            say(self, f"band {done}/{total}")
+            say(self, f"band {done}/{total}" + remaining(time.perf_counter() - started, done, total))
             if cancelled(self):
                 raise RenderCancelledError
 

@@ -279,8 +279,24 @@ def test_f12_says_what_it_is_doing_from_the_export_to_the_last_band(monkeypatch)
     objects, lights = len(tracer_scene.objects), len(tracer_scene.lights)
     count = len(bands(tracer_scene.render))
     assert said[:2] == ["exporting the scene", f"preparing {objects} objects and {lights} lights"], said
-    assert said[2:-1] == [f"band {done}/{count}" for done in range(1, count + 1)], said
+    bands_said = [re.sub(r", about \d+( min)?( \d+ s)?( s)? left$", "", text) for text in said[2:-1]]
+    assert bands_said == [f"band {done}/{count}" for done in range(1, count + 1)], said
     assert re.fullmatch(r"\d+ ms, \d+ rays", said[-1]), said
+
+
+@pytest.mark.parametrize(
+    ("elapsed", "done", "total", "text"),
+    [(1.0, 1, 2, ""), (4.0, 2, 4, ", about 4 s left"), (30.0, 4, 140, ", about 17 min left"),
+     (25.0, 4, 140, ", about 14 min 10 s left"), (60.0, 1, 2, ", about 1 min left"), (59.4, 10, 11, ", about 6 s left"),
+     (9.0, 3, 3, ""), (0.0, 0, 3, "")],
+)  # fmt: skip
+def test_f12_says_about_how_long_is_left_at_the_bands_pace(elapsed, done, total, text) -> None:
+    """After done of total bands in elapsed seconds: elapsed (total - done) / done left (4 of 140 bands in 30 s:
+    30 * 136 / 4 = 1,020 s, 17 min; in 25 s, 850 s), to the nearest 10 s from a minute; nothing under 2 s, or once
+    done."""
+    from addon.engine import engine
+
+    assert engine.remaining(elapsed, done, total) == text
 
 
 def test_an_image_handed_over_as_an_openexr_file_is_read_by_blender_exactly(tmp_path: Path) -> None:
