@@ -309,8 +309,11 @@ class WEATHERVANE_OT_export(bpy.types.Operator, ExportHelper):
         wrote = f"Wrote {target}" + (f" and the World's picture beside it, {beside.name}" if beside else "")
         wrote += f"; removed {swept} temporary file(s) a killed export had left" if swept else ""
         left_out = camera.unsupported(context.scene)
-        if left_out:
-            report(self, {"WARNING"}, f"{wrote}; the tracer does not render: {', '.join(left_out)}")
+        said = [f"the tracer does not render: {', '.join(left_out)}"] if left_out else []
+        if document.get("comment"):  # what the conversion approximated, as F12's warning says it
+            said.append(document["comment"])
+        if said:
+            report(self, {"WARNING"}, f"{wrote}; {'; '.join(said)}")
         else:
             report(self, {"INFO"}, wrote)
         return {"FINISHED"}

@@ -628,3 +628,23 @@ def test_render_settings_say_what_they_do_with_the_technical_term_in_the_tooltip
     assert settings.workers == 3
     settings.workers_mode = "AUTO"
     assert settings.workers == 0
+
+
+def test_export_names_what_the_conversion_approximated_as_f12_does(tmp_path: Path) -> None:
+    """File > Export of a scene the add-on did not build (the factory cube, its light and world): the result line
+    says what the file's comment says was approximated (the README: named in the status bar); the vane's own scene
+    exports with no such line."""
+    from addon.vane import operators
+
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    path = tmp_path / "factory.json"
+    assert bpy.ops.weathervane.export(filepath=str(path)) == {"FINISHED"}
+    comment = json.loads(path.read_text())["comment"]
+    assert "approximated:" in comment
+    message, kind = operators._RESULT
+    assert kind == "WARNING" and message == f"Wrote {path}; {comment}", operators._RESULT
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    built()
+    assert bpy.ops.weathervane.export(filepath=str(tmp_path / "vane.json")) == {"FINISHED"}
+    assert "comment" not in json.loads((tmp_path / "vane.json").read_text())
+    assert [f"Wrote {tmp_path / 'vane.json'}", "INFO"] == operators._RESULT
