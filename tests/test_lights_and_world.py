@@ -228,7 +228,12 @@ def test_a_small_area_light_is_a_cosine_emitter_with_inverse_square_falloff() ->
     X, Y = np.meshgrid(x, -x)
     d2 = X**2 + Y**2 + 9.0
     expected = 2.0 * (3.0 / np.sqrt(d2)) ** 2 / d2
-    assert np.allclose(image, expected, rtol=1e-5)
+    # a pixel's pattern of 16 points sits a quarter of a cell (of 4) off the light's centre: a first-order error at
+    # each pixel (6e-5 here), which its 2 x 2 block's four patterns (64 points around the centre) cancel to the
+    # difference between its pixels' slopes (3e-6)
+    assert np.allclose(image, expected, rtol=1e-4)
+    blocks = [array[:64, :64].reshape(32, 2, 32, 2).mean(axis=(1, 3)) for array in (image, expected)]
+    assert np.allclose(*blocks, rtol=1e-5)
     # 4x the point light of the same power straight under it (P/pi along its normal against P/(4 pi) every way)
     point = sc.PointLight(location=(0.0, 0.0, 3.0), intensity=0.5, falloff="inverse_square")
     assert np.allclose(
@@ -255,6 +260,41 @@ def _penumbra(light: sc.Light) -> int:
     open_floor = render(_plane_under(light, shadow_samples=16, width=200), workers=1).image
     ratio = shadowed[100, :, 0] / open_floor[100, :, 0]
     return int(np.count_nonzero((ratio > 0.02) & (ratio < 0.98)))
+
+
+def _edge_penumbra(shadow_samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """The Shadow pass along a 512-pixel row of a floor under a 2 m square light at height 4, half of it shaded by a
+    sheet at height 2 over x < 0 (its edge along the light's y axis), and the share of the light each pixel's point
+    sees: from floor point x the sheet hides the light where x_light < x (1 - 4 / 2) = -x, a ramp over x in [-1, 1]."""
+    light = sc.AreaLight(location=(0.0, 0.0, 4.0), direction=(0.0, 0.0, -1.0), size=(2.0, 2.0), intensity=10.0)
+    objects = (
+        sc.Plane(name="floor", material="white", size=(40.0, 40.0)),
+        sc.Box(name="sheet", material="white", location=(-10.0, 0.0, 2.0005), size=(20.0, 40.0, 0.001)),
+    )
+    camera = sc.Camera(location=(0.0, 0.0, 1.0), rotation=(0.0, 0.0, 0.0), type="ORTHO", ortho_scale=3.0)
+    settings = sc.RenderSettings(width=512, height=4, shadow_samples=shadow_samples, passes=("shadow",))
+    materials = {"white": sc.Material(color=(1.0, 1.0, 1.0))}
+    scene = sc.Scene(materials, objects, (light,), camera, sc.Background(type="none"), settings)
+    shadow = render(scene, workers=1).passes["shadow"][..., 0]
+    x = (np.arange(512) + 0.5) / 512 * 3.0 - 1.5  # the ortho pixels' centres
+    return shadow, np.clip((1.0 + x) / 2.0, 0.0, 1.0)
+
+
+def test_a_penumbra_has_a_step_for_every_sample_and_its_2x2_blocks_four_times_as_many() -> None:
+    # each pixel's 16 points have an x of their own each (multi-jittered): the share it sees is within 1/16 of the
+    # light's, where the 4 x 4 grid's 4 columns were within 1/8 (5 steps, 16 hard copies of the edge that differ in
+    # y only); a 2 x 2 block's four patterns, 64 x's, step in 64ths
+    shadow, seen = _edge_penumbra(16)
+    assert np.all(np.abs(shadow - seen) <= 1.0 / 16.0 + 1e-9)
+    assert len(np.unique(shadow[:2].round(9))) == 16 + 1  # every step, both rows of a block together
+    blocks = shadow[:2].reshape(2, 256, 2).mean(axis=(0, 2))
+    assert np.all(np.abs(blocks - seen.reshape(256, 2).mean(axis=1)) <= 1.5 / 64.0)
+    # in the pass's ramp, blocks take a new value at least every 3 of them (the grid's: every 16)
+    ramp = (blocks > 0.0) & (blocks < 1.0)
+    assert len(np.unique(blocks[ramp].round(9))) >= ramp.sum() / 3
+    # one sample: the centre's hard edge at x = 0
+    hard, _ = _edge_penumbra(1)
+    assert set(np.unique(hard)) == {0.0, 1.0}
 
 
 def test_soft_shadows_grow_with_the_lights_size() -> None:
@@ -289,7 +329,11 @@ def test_the_sample_points_cover_the_lights_shape(shape: str) -> None:
         size=(2.0, 2.0) if shape in ("square", "disk") else (2.0, 1.0),
     )
     points = np.asarray(lightsamples.area_points(light, 256)) - (1.0, 2.0, 3.0)
-    assert np.allclose(points.mean(axis=0), 0.0, atol=1e-9) and np.allclose(points[:, 2], 0.0)
+    assert len(points) == lightsamples.PATTERNS * 256
+    # centred: exactly on a rectangle (the strips are symmetric), within 0.2 mm on a disk of 1 m (the concentric
+    # map of strips that are not)
+    assert np.allclose(points.mean(axis=0), 0.0, atol=1e-9 if shape in ("square", "rectangle") else 2e-4)
+    assert np.allclose(points[:, 2], 0.0)
     x_axis, y_axis = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0), np.array([-1.0, 1.0, 0.0]) / math.sqrt(2.0)
     along_x, along_y = points @ x_axis / (light.size[0] / 2), points @ y_axis / (light.size[1] / 2)
     if shape in ("disk", "ellipse"):

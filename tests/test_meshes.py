@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from tracer.frames import edits
-from tracer.geometry import meshbvh, meshpicture
+from tracer.geometry import lightsamples, meshbvh, meshpicture
 from tracer.geometry import transforms as tf
 from tracer.geometry.kernels import make_kernel, quiet
 from tracer.geometry.kernels import slab as kernels_slab
@@ -406,9 +406,9 @@ def test_a_deep_stack_of_triangles_is_walked_not_pictured() -> None:
 
 
 def test_an_area_light_at_shadows_16_gets_each_of_its_views_pictured_once(monkeypatch) -> None:
-    """A mesh under an area light at Shadows 16 is seen from 17 views (the camera and the light's 16 points): each
-    view's picture is made once in a render and kept (meshbvh.PICTURE_BYTES), not made again band after band once
-    more than PICTURES_KEPT views take turns."""
+    """A mesh under an area light at Shadows 16 is seen from 65 views (the camera and the light's 64 points, 16 in
+    each of the four patterns that a 2 x 2 block's pixels take): each view's picture is made once in a render and
+    kept (meshbvh.PICTURE_BYTES), not made again band after band once more than PICTURES_KEPT views take turns."""
     light = sc.AreaLight(location=(2.0, -2.0, 5.0), direction=(-0.3, 0.3, -1.0), size=(2.0, 2.0), intensity=8.0)
     scene = replace(uv_sphere(400), lights=(light,)).with_render(width=160, height=120, shadow_samples=16)
     made: list[View] = []
@@ -420,7 +420,8 @@ def test_an_area_light_at_shadows_16_gets_each_of_its_views_pictured_once(monkey
 
     monkeypatch.setattr(meshpicture.TrianglePicture, "build", classmethod(counted))
     render(scene, workers=1)
-    assert len(set(made)) == 17 and len(made) == 17
+    views = 1 + lightsamples.PATTERNS * 16
+    assert len(set(made)) == views and len(made) == views
 
 
 # ---- meshes as arrays: vertices, triangles and corner fields as NumPy arrays -----------------------------------------

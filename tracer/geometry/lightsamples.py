@@ -2,11 +2,14 @@
 and the equirectangular lookup of an image background. Plain Python floats, so that the vectorized tracer and the
 per-pixel reference use the very same numbers (docs/scene-format.md, "Lights of a size").
 
-A light of a size is taken as n = render.shadow_samples point (or directional) lights, each with 1/n of its
-intensity: the stratified m x m grid's cell centres ((a + 0.5) / m, (b + 0.5) / m), mapped onto the light's shape
-(a rectangle as it is, a disk or an ellipse by Shirley and Chiu's concentric map, which keeps the cells' areas
-equal). One sample is the centre: the light's hard shadow. The grid is the same for every point: its penumbra is a
-staircase of n steps (no noise), as wide as the light's.
+A light of a size at n = render.shadow_samples > 1 is taken as PATTERNS x n point (or directional) lights, each
+with 1 / (PATTERNS n) of its intensity: the cell centres of a stratified 2m x 2m grid (n = m^2) mapped onto the
+light's shape (a rectangle as it is, a disk or an ellipse by Shirley and Chiu's concentric map, which keeps the
+cells' areas equal). Each pixel of a 2 x 2 block takes one of four patterns: the centres of the same quarter of
+every cell of the m x m grid, n points that are themselves a stratified grid. The same points at every pixel made
+the penumbra a staircase of n hard steps as wide as the light (16 copies of a shadow's edge); with a pattern a
+pixel its steps are 4n, each 2 x 2 block's mean the 4n points' answer, and no noise. One sample is the centre: the
+light's hard shadow.
 """
 
 from __future__ import annotations
@@ -23,6 +26,62 @@ def grid(samples: int) -> list[tuple[float, float]]:
     """The stratified grid's cell centres in [-1, 1]^2, row by row: m x m of them for samples = m^2."""
     side = math.isqrt(samples)
     return [(2.0 * (a + 0.5) / side - 1.0, 2.0 * (b + 0.5) / side - 1.0) for b in range(side) for a in range(side)]
+
+
+PATTERNS = 4  # a light of a size's sample patterns, one for each pixel of a 2 x 2 block
+# where in its strip (of 4 parts) each pattern's samples sit along x and along y: every part once along each axis
+PATTERN_X = (0, 2, 3, 1)
+PATTERN_Y = (2, 0, 1, 3)
+
+
+def patterns(samples: int) -> int:
+    """How many patterns a light of a size takes at render.shadow_samples = samples: PATTERNS, or 1 for its
+    centre alone."""
+    return PATTERNS if samples > 1 else 1
+
+
+def patterned_grid(samples: int) -> list[tuple[float, float]]:
+    """A light of a size's sample numbers in [-1, 1]^2: grid(samples) for one sample, else PATTERNS x samples of
+    them, entry j PATTERNS + r pattern r's sample in cell j = b m + a of the m x m grid (samples = m^2). Over
+    [0, 1] its x is in strip a m + (b + sx) mod m of m^2 and its y in strip b m + (a + sy) mod m, at the quarter
+    PATTERN_X[r] (PATTERN_Y[r]) of it, with sx = r m // 4 and sy = PATTERN_Y[r] m // 4: each pattern one sample a
+    cell and one a strip along each axis (Chiu, Shirley and Wang's multi-jittered sampling), so that an edge along
+    an axis, a box's beside a rectangular light, meets them one at a time (samples + 1 steps, where the grid's m
+    columns gave m + 1); the four patterns' samples of a cell in strips and quarters of their own, so that a 2 x 2
+    block's 4 m^2 samples are spread as finely."""
+    side = math.isqrt(samples)
+    if samples == 1:
+        return grid(samples)
+    cells = side * side
+    points = []
+    for b in range(side):
+        for a in range(side):
+            for r in range(PATTERNS):
+                x_strip = a * side + (b + r * side // PATTERNS) % side
+                y_strip = b * side + (a + PATTERN_Y[r] * side // PATTERNS) % side
+                x = (x_strip + (PATTERN_X[r] + 0.5) / PATTERNS) / cells
+                y = (y_strip + (PATTERN_Y[r] + 0.5) / PATTERNS) / cells
+                points.append((2.0 * x - 1.0, 2.0 * y - 1.0))
+    return points
+
+
+def patterned(scene: sc.Scene) -> bool:
+    """Whether some light of the scene is taken in patterns: render.shadow_samples above 1 and a light of a size (an
+    area light, a sun of an angle, a point or spot light of a radius)."""
+    if scene.render.shadow_samples == 1:
+        return False
+    return any(
+        isinstance(light, sc.AreaLight)
+        or (isinstance(light, sc.DirectionalLight) and light.angle > 0.0)
+        or (isinstance(light, sc.PointLight | sc.SpotLight) and light.radius > 0.0)
+        for light in scene.lights
+    )
+
+
+def pixel_pattern(width: int, pixel: int | np.ndarray) -> int | np.ndarray:
+    """The pattern (patterned_grid) that the flat pixel (j width + i; an int or an int64 array) of an image width
+    pixels wide takes: x + 2 y for its place (x, y) = (i mod 2, j mod 2) in its 2 x 2 block."""
+    return (pixel % width) % 2 + 2 * ((pixel // width) % 2)
 
 
 def concentric(a: float, b: float) -> tuple[float, float]:
@@ -56,13 +115,13 @@ def area_frame(light: sc.AreaLight) -> tuple[sc.Vec3, sc.Vec3, sc.Vec3]:
 
 
 def area_points(light: sc.AreaLight, samples: int) -> list[sc.Vec3]:
-    """The area light's sample points (samples of them; 1: its centre)."""
+    """The area light's sample points (patterned_grid: PATTERNS x samples of them; 1: its centre)."""
     if samples == 1:
         return [tuple(float(c) for c in light.location)]
     _, x_axis, y_axis = area_frame(light)
     half_x, half_y = light.size[0] / 2.0, light.size[1] / 2.0
     points = []
-    for a, b in grid(samples):
+    for a, b in patterned_grid(samples):
         if light.shape in ("disk", "ellipse"):
             a, b = concentric(a, b)
         x, y = a * half_x, b * half_y
@@ -71,8 +130,8 @@ def area_points(light: sc.AreaLight, samples: int) -> list[sc.Vec3]:
 
 
 def sun_directions(light: sc.DirectionalLight, samples: int) -> list[sc.Vec3]:
-    """A sun's directions toward the light over its disk of angular diameter light.angle (samples of them, each
-    as long as light.direction; 1 sample or angle 0: the direction itself)."""
+    """A sun's directions toward the light over its disk of angular diameter light.angle (patterned_grid:
+    PATTERNS x samples of them, each as long as light.direction; 1 sample or angle 0: the direction itself)."""
     if samples == 1 or light.angle == 0.0:
         return [tuple(float(c) for c in light.direction)]
     d = light.direction
@@ -83,7 +142,7 @@ def sun_directions(light: sc.DirectionalLight, samples: int) -> list[sc.Vec3]:
     e2 = _cross(axis, e1)
     radius = math.tan(math.radians(light.angle) / 2.0)
     directions = []
-    for a, b in grid(samples):
+    for a, b in patterned_grid(samples):
         x, y = concentric(a, b)
         toward = _unit(tuple(axis[k] + radius * (x * e1[k] + y * e2[k]) for k in range(3)))
         directions.append(tuple(length * c for c in toward))
@@ -149,11 +208,11 @@ def equirectangular(D: sc.Vec3, rotation: float) -> tuple[float, float]:
 
 
 def disk_offsets(samples: int) -> list[tuple[float, float]]:
-    """A point or spot light's samples on the unit disk (the concentric map of the grid; 1: the centre alone),
-    scaled by its radius on the disk that faces each shaded point (facing_basis)."""
+    """A point or spot light's samples on the unit disk (the concentric map of patterned_grid; 1: the centre
+    alone), scaled by its radius on the disk that faces each shaded point (facing_basis)."""
     if samples == 1:
         return [(0.0, 0.0)]
-    return [concentric(a, b) for a, b in grid(samples)]
+    return [concentric(a, b) for a, b in patterned_grid(samples)]
 
 
 def facing_basis(w: sc.Vec3) -> tuple[sc.Vec3, sc.Vec3]:

@@ -686,8 +686,9 @@ class RenderSettings:
     mist_start: float = 5.0
     mist_depth: float = 25.0
     mist_falloff: Literal["QUADRATIC", "LINEAR", "INVERSE_QUADRATIC"] = "QUADRATIC"
-    # sample points per light of a size (area lights, a sun's angle), a perfect square: a stratified grid over the
-    # light; 1 = its centre alone (a hard shadow)
+    # samples a pixel takes of each light of a size (area lights, a sun's angle, a light's radius), a perfect square:
+    # one of four multi-jittered patterns over the light (lightsamples.patterned_grid); 1 = its centre alone (a hard
+    # shadow)
     shadow_samples: int = 1
     # reflection rays a glossy material sends from each hit of a path's first glossy surface (one from the glossy
     # surfaces after it): the lobe's fixed stratified samples (lightsamples.glossy_pairs)

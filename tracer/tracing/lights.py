@@ -27,7 +27,8 @@ class PreparedLight:
     """What every traced light has: its intensity, colour (3, 1) in the tracing dtype, the scene light it is (or is
     a sample of: its index in scene.lights), its share of that light (1 / samples for a light of a size, the
     Shadow pass's weight), and which of that light's samples it is, of how many (lightsamples.world_share gives a
-    sample of a light of a size, or a world direction, to some of a pixel's camera samples)."""
+    sample of a light of a size, or a world direction, to some of a pixel's camera samples; a pixel takes the samples
+    of one of a light of a size's patterns, lightsamples.pixel_pattern)."""
 
     intensity: float
     color: np.ndarray
@@ -35,6 +36,7 @@ class PreparedLight:
     weight: float = 1.0
     index: int = 0
     count: int = 1
+    patterns: int = 1  # a light of a size's sample patterns (lightsamples.patterned_grid): its own is index mod this
     adds_diffuse: bool = True  # the scene light's visible_diffuse: its diffuse term is added
     adds_glossy: bool = True  # its visible_glossy: its highlight and its light through glossy lobes
 
@@ -253,8 +255,8 @@ class WorldSample(DirectedLight):
 
 
 def prepare_lights(scene: sc.Scene, dtype: np.dtype) -> list[PreparedLight]:
-    """The scene's lights in its order, each light of a size as its render.shadow_samples samples (lightsamples.py),
-    each sample with 1 / samples of the intensity."""
+    """The scene's lights in its order, each light of a size as its samples (lightsamples.py: render.shadow_samples
+    times its patterns), each sample with 1 / samples of the intensity."""
     samples = scene.render.shadow_samples
     lights: list[PreparedLight] = []
     for source, light in enumerate(scene.lights):
@@ -275,8 +277,9 @@ def prepare_lights(scene: sc.Scene, dtype: np.dtype) -> list[PreparedLight]:
             share = light.intensity / len(directions) if len(directions) > 1 else light.intensity
             weight = 1.0 / len(directions)
             made = [DirectionalSample(share, color, weight=weight, vector=column(d, dtype)) for d in directions]
+        patterns = 1 if isinstance(light, sc.WorldLight) or len(made) == 1 else lightsamples.patterns(samples)
         for index, sample in enumerate(made):
-            sample.source, sample.index, sample.count = source, index, len(made)
+            sample.source, sample.index, sample.count, sample.patterns = source, index, len(made), patterns
             sample.adds_diffuse = getattr(light, "visible_diffuse", True)
             sample.adds_glossy = getattr(light, "visible_glossy", True)
         lights.extend(made)

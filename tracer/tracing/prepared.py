@@ -116,6 +116,7 @@ class PreparedScene:
     world_pairs: np.ndarray | None = field(init=False, default=None)  # a lobe of the world alone: fewer
     rough_glass: bool = field(init=False, default=False)  # some glass has a roughness (glossy.glass_rays)
     world_lit: bool = field(init=False, default=False)  # a world light: its directions turn pixel by pixel
+    patterned: bool = field(init=False, default=False)  # a light of a size's samples differ pixel by pixel
     # under an image background, what the world light is lit by (world_light.lighting)
     world_lighting: world_light.WorldLighting | None = field(init=False, default=None)
     diffuse_bounces: int = field(init=False, default=0)  # render.diffuse_bounces (glossy.diffuse_rays)
@@ -169,6 +170,7 @@ class PreparedScene:
         _textures(self, objects, placed.primitives)
         self.lights = prepare_lights(self.scene, self.dtype)
         self.world_lit = any(isinstance(light, sc.WorldLight) for light in self.scene.lights)
+        self.patterned = any(light.patterns > 1 for light in self.lights)
         self.world_lighting = world_light.lighting(self.scene)
         self.seen_lights = emitters.prepare(self.scene, self.dtype)
         self.seen_suns = emitters.prepare_suns(self.scene)

@@ -475,7 +475,7 @@ class ReferenceTracer:
         ambient, lights_diffuse = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]  # the coloured mode's terms apart (split)
         lights, reached = 0, 0
         shine = [0.0, 0.0, 0.0]  # through the glossy lobe
-        for light, where, intensity, weight, emitter, disk, index, count in self.lights:
+        for light, where, intensity, weight, emitter, disk, index, count, patterns in self.lights:
             color = light.color
             if isinstance(light, sc.AmbientLight):
                 total += light.intensity
@@ -484,11 +484,10 @@ class ReferenceTracer:
                 ambient = [ambient[c] + light.intensity * color[c] for c in range(3)]
                 continue
             if index is not None:  # a light of a size's sample or a world direction: which, of how many
-                share = lightsamples.world_share(self.settings, count)
-                if share > 1:  # shared out among the pixel's samples: this sample's, share times
-                    if index % share != lightsamples.sharing_key(self.settings, self.camera_sample) % share:
-                        continue
-                    intensity, weight = intensity * share, weight * share
+                boost = sample_boost(self.settings, self.image_pixel, self.camera_sample, index, count, patterns)
+                if not boost:
+                    continue
+                intensity, weight = intensity * boost, weight * boost
             lights += weight
             factor = 1.0
             if isinstance(light, sc.PointLight | sc.SpotLight):
@@ -899,13 +898,33 @@ def glass_split(
     return shaded, mirror, refracted, tuple(share * material.color[c] for c in range(3))
 
 
+def sample_boost(settings: sc.RenderSettings, pixel: int, sample: int, index: int, count: int, patterns: int) -> int:
+    """Whether camera sample `sample` of the flat pixel takes sample index of a light of a size (count of them in
+    patterns patterns) or of a world light's directions, and how many times: 0 where it does not. The pixel takes
+    its pattern's samples alone (lightsamples.pixel_pattern: the index mod patterns), patterns times, shared out among
+    its camera samples (lightsamples.world_share g of the pattern's count: the index within the pattern mod g is the
+    sample's sharing key mod g), g times."""
+    boost = 1
+    if patterns > 1:
+        if index % patterns != lightsamples.pixel_pattern(settings.width, pixel):
+            return 0
+        boost = patterns
+    share = lightsamples.world_share(settings, count // patterns)
+    if share > 1:
+        if (index // patterns) % share != lightsamples.sharing_key(settings, sample) % share:
+            return 0
+        boost *= share
+    return boost
+
+
 def light_samples(scene: sc.Scene) -> list[tuple]:
     """Each light as find_intensities visits it: (light, where: a point light's location or a directional
-    light's direction, intensity, weight, emitter, disk, index, count), a light of a size once per sample
+    light's direction, intensity, weight, emitter, disk, index, count, patterns), a light of a size once per sample
     (lightsamples.py) with 1 / samples of its intensity and of its weight in the Shadow pass; emitter: an area
     light's unit normal; disk: a point or spot light's sample offset (radius * (a, b)) on the disk facing each point;
     index, count: which of the light's samples (a world light's: its directions), of how many
-    (lightsamples.world_share gives it to some of a pixel's samples), None for a light of no size."""
+    (lightsamples.world_share gives it to some of a pixel's samples), None for a light of no size; patterns: a light
+    of a size's (a pixel takes the samples of one, lightsamples.pixel_pattern), 1 for the others."""
     samples = scene.render.shadow_samples
     made = []
     for light in scene.lights:
@@ -913,31 +932,34 @@ def light_samples(scene: sc.Scene) -> list[tuple]:
             points = lightsamples.area_points(light, samples)
             normal = lightsamples.area_frame(light)[0]
             share = light.intensity / len(points) if len(points) > 1 else light.intensity
+            patterns = lightsamples.patterns(len(points))
             made.extend(
-                (light, point, share, 1.0 / len(points), normal, None, i, len(points)) for i, point in enumerate(points)
+                (light, point, share, 1.0 / len(points), normal, None, i, len(points), patterns)
+                for i, point in enumerate(points)
             )
         elif isinstance(light, sc.DirectionalLight):
             directions = lightsamples.sun_directions(light, samples)
             share = light.intensity / len(directions) if len(directions) > 1 else light.intensity
+            patterns = lightsamples.patterns(len(directions))
             made.extend(
-                (light, direction, share, 1.0 / len(directions), None, None, i, len(directions))
+                (light, direction, share, 1.0 / len(directions), None, None, i, len(directions), patterns)
                 for i, direction in enumerate(directions)
             )
         elif isinstance(light, sc.WorldLight):  # directions in each point's normal frame
             directions = lightsamples.hemisphere_directions(light.samples)
             share = 2.0 * light.intensity / len(directions)
             made.extend(
-                (light, local, share, 1.0 / len(directions), None, None, i, len(directions))
+                (light, local, share, 1.0 / len(directions), None, None, i, len(directions), 1)
                 for i, local in enumerate(directions)
             )
         elif isinstance(light, sc.PointLight | sc.SpotLight) and light.radius > 0.0 and samples > 1:
             offsets = lightsamples.disk_offsets(samples)
-            share = light.intensity / len(offsets)
+            share, patterns = light.intensity / len(offsets), lightsamples.patterns(samples)
             for i, (a, b) in enumerate(offsets):
                 disk = (light.radius * a, light.radius * b)
-                made.append((light, light.location, share, 1.0 / len(offsets), None, disk, i, len(offsets)))
+                made.append((light, light.location, share, 1.0 / len(offsets), None, disk, i, len(offsets), patterns))
         else:
-            made.append((light, getattr(light, "location", None), light.intensity, 1.0, None, None, None, 1))
+            made.append((light, getattr(light, "location", None), light.intensity, 1.0, None, None, None, 1, 1))
     return made
 
 

@@ -5,6 +5,9 @@ terms (one place); which lights reach a point is shadows.py's."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+from typing import NamedTuple
+
 import numpy as np
 
 from ..geometry import camera as cam
@@ -96,11 +99,14 @@ def find_intensity(
         split["shadow"] = _shadow_share(scene, own, lit, throughs, count)
     settings = scene.scene.render
     exponent = specular * settings.coef if settings.model == "blinn-phong" else specular
+    lights = scene.lights
+    if scene.patterned:
+        lights, terms, lit, throughs = _merged(lights, terms, lit, throughs)
     if lobes is not None:
-        lobes.light = _glossy_light(scene, terms, lit, throughs, lobes, samples)
+        lobes.light = _glossy_light(scene, lights, terms, lit, throughs, lobes, samples)
     if scene.colored:
-        return _colored(scene, terms, lit, count, length_n, exponent, split, throughs)
-    return _plain(scene, terms, lit, count, length_n, exponent, split, throughs)
+        return _colored(scene, lights, terms, lit, length_n, exponent, split, throughs)
+    return _plain(scene, lights, terms, lit, length_n, exponent, split, throughs)
 
 
 def _light_terms(
@@ -109,24 +115,22 @@ def _light_terms(
     """Each light's LightTerm at the hits' points P with shading normals S and V (3, n), in the scene's order (None:
     ambient). samples: the camera samples (n,) the points belong to: a world direction or a sample of a light of a
     size shared out among a pixel's samples (lightsamples.world_share) counts at the points of its samples alone, g
-    times (N.L g, or its attenuation factor times g); a world direction is turned by its point's pixel's turn
+    times (N.L g, or its attenuation factor times g), and a light of a size's sample at the pixels of its pattern
+    alone (lightsamples.pixel_pattern), patterns times; a world direction is turned by its point's pixel's turn
     (camera.world_turns)."""
     P, N, V = hits.P, hits.S, hits.V
     settings = scene.scene.render
     keys: dict[int, np.ndarray] = {}  # each share's key mod g at the points
-    length_v = np.sqrt(dot(V, V))
-    shiny = specular > 0.0
+    points = _Points(P, N, V, specular > 0.0, length_n, np.sqrt(dot(V, V)), [])
     terms: list[LightTerm | None] = []
-    toward_eye = None  # V / |V|, the same for every light's half vector
     shared: dict[int, tuple] = {}  # what the samples of one light share at each point (a disk's, a hemisphere's axes)
     factors: dict[int, tuple] = {}  # a world light's weight in each point's frame, and its irradiance over their mean
+    groups: dict[tuple[int, int], _Term] = {}  # a light of a size's patterns' term at each place (_pattern_term)
     for light in scene.lights:
         if light.ambient:
             terms.append(None)
             continue
-        if light.highlight:
-            L = light.vector_at(P, N, shared)  # a directional L broadcasts
-        else:  # a world direction, turned by each point's pixel
+        if not light.highlight:  # the world's light, a direction turned by each point's pixel: a diffuse term only
             share = lightsamples.world_share(settings, light.count)
             if light.source not in shared:
                 turn = None
@@ -134,9 +138,8 @@ def _light_terms(
                     turn = cam.world_turns(settings, hits.image_pixel, samples % settings.samples, share)
                 shared[light.source] = light.basis(N, turn)
             L = light.vector_at(P, N, shared)
-        NL = dot(N, L)
-        length_l = np.sqrt(dot(L, L))
-        if not light.highlight:  # the world's light: a diffuse term only, its radiance where the term counts
+            NL = dot(N, L)
+            length_l = np.sqrt(dot(L, L))
             diffuse_gate = NL > 0.0
             if share > 1:
                 diffuse_gate &= _taken(keys, settings, samples, share, light)
@@ -145,32 +148,26 @@ def _light_terms(
             color = _world_color(scene, light, L, needed, shared, factors) if light.world else light.color
             terms.append(LightTerm(L, NL, length_l, diffuse_gate, np.zeros_like(diffuse_gate), NL, needed, None, color))
             continue
-        color = light.color
-        gate = shiny.copy()
-        if settings.gate_specular:
-            gate &= NL > 0.0
-        if settings.model == "phong":
-            k = 2.0 * dot(N, L)
-            R = N * k - L
-            RV = dot(R, V)
-            gate &= RV > 0.0
-            cosine = RV / (np.sqrt(dot(R, R)) * length_v)
+        share = lightsamples.world_share(settings, light.count // light.patterns)
+        if light.patterns > 1 and light.disk is None:
+            # the samples of the patterns' same place (one a pixel): one term, toward each point's pattern's sample
+            group = (light.source, light.index // light.patterns)
+            if group not in groups:
+                groups[group] = _pattern_term(scene, light, points, shared, keys, hits.image_pixel)
+            term = groups[group]
         else:
-            if toward_eye is None:
-                toward_eye = V / length_v
-            H = L / length_l + toward_eye
-            HN = dot(H, N)
-            gate &= HN > 0.0
-            cosine = HN / (np.sqrt(dot(H, H)) * length_n)
-        # a shadow ray only where this light could add something: the result is the listing's, with fewer rays
-        diffuse_gate = NL > 0.0
-        factor = light.attenuation(L, length_l)
-        share = lightsamples.world_share(settings, light.count)
-        if share > 1:  # a sample of a light of a size, shared out as the world's directions are: g times its terms
-            taken = _taken(keys, settings, samples, share, light)
-            diffuse_gate &= taken
-            gate &= taken
-            factor = share if factor is None else factor * share
+            term = _highlight_term(scene, light, points, shared)
+        if share > 1 or light.patterns > 1:
+            # a sample of a light of a size, taken by the pixels of its pattern and shared out among their samples as
+            # the world's directions are: patterns times g times its terms
+            taken = _taken(keys, settings, samples, share, light, hits.image_pixel)
+            boost = share * light.patterns
+            term = term._replace(
+                diffuse_gate=term.diffuse_gate & taken,
+                gate=term.gate & taken,
+                factor=boost if term.factor is None else term.factor * boost,
+            )
+        L, NL, length_l, diffuse_gate, gate, cosine, factor = term
         reaches = diffuse_gate | gate
         if not (light.adds_diffuse and light.adds_glossy):  # Blender's ray visibility of the light: a term off
             if not light.adds_glossy:  # no highlight, nothing through the glossy lobes
@@ -180,17 +177,148 @@ def _light_terms(
                 diffuse_gate = np.zeros_like(diffuse_gate)
                 reaches = reaches if light.adds_glossy else gate
         needed = indices(reaches & (factor > 0.0) if light.attenuated else reaches)
-        terms.append(LightTerm(L, NL, length_l, diffuse_gate, gate, cosine, needed, factor, color))
+        terms.append(LightTerm(L, NL, length_l, diffuse_gate, gate, cosine, needed, factor, light.color))
     return terms
 
 
-def _taken(keys: dict[int, np.ndarray], settings, samples: np.ndarray, share: int, light: DirectedLight) -> np.ndarray:
+class _Points(NamedTuple):
+    """The shaded points' numbers every light's term reads: P, N, V (3, n), whether each is shiny, |N| and |V| (n,),
+    and V / |V| (made once, by the first light that asks)."""
+
+    P: np.ndarray
+    N: np.ndarray
+    V: np.ndarray
+    shiny: np.ndarray
+    length_n: np.ndarray
+    length_v: np.ndarray
+    toward_eye: list  # [V / |V|] once a light's half vector has asked for it, [] before
+
+
+class _Term(NamedTuple):
+    """A light's term before its shadow rays (LightTerm's first numbers and its attenuation)."""
+
+    L: np.ndarray
+    NL: np.ndarray
+    length_l: np.ndarray
+    diffuse_gate: np.ndarray
+    gate: np.ndarray
+    cosine: np.ndarray
+    factor: np.ndarray | None
+
+
+def _highlight_term(scene: PreparedScene, light: DirectedLight, points: _Points, shared: dict[int, tuple]) -> _Term:
+    """A light with a highlight (not the world's) at points: L toward it, N.L, |L|, where its diffuse term and its
+    highlight may count, the highlight's cosine (listing 3.2, Phong's or Blinn-Phong's) and its attenuation."""
+    settings = scene.scene.render
+    P, N, V = points.P, points.N, points.V
+    L = light.vector_at(P, N, shared)  # a directional L broadcasts
+    NL = dot(N, L)
+    length_l = np.sqrt(dot(L, L))
+    gate = points.shiny.copy()
+    if settings.gate_specular:
+        gate &= NL > 0.0
+    if settings.model == "phong":
+        k = 2.0 * dot(N, L)
+        R = N * k - L
+        RV = dot(R, V)
+        gate &= RV > 0.0
+        cosine = RV / (np.sqrt(dot(R, R)) * points.length_v)
+    else:
+        if not points.toward_eye:
+            points.toward_eye.append(V / points.length_v)
+        H = L / length_l + points.toward_eye[0]
+        HN = dot(H, N)
+        gate &= HN > 0.0
+        cosine = HN / (np.sqrt(dot(H, H)) * points.length_n)
+    # a shadow ray only where this light could add something: the result is the listing's, with fewer rays
+    return _Term(L, NL, length_l, NL > 0.0, gate, cosine, light.attenuation(L, length_l))
+
+
+def _pattern_term(
+    scene: PreparedScene,
+    light: DirectedLight,
+    points: _Points,
+    shared: dict[int, tuple],
+    keys: dict[int, np.ndarray],
+    pixels: np.ndarray,
+) -> _Term:
+    """The term of a light of a size's samples at one place of its patterns (lightsamples.patterned_grid: entries
+    j PATTERNS + r, r = 0..3), each point toward its own pixel's pattern's sample: a pixel takes one pattern, so the
+    four samples' terms are this one's at their pixels (the same operations on the same numbers), worked out once."""
+    first = light.index - light.index % light.patterns
+    siblings = [
+        other
+        for other in scene.lights
+        if other.source == light.source and first <= other.index < first + light.patterns
+    ]
+    if -1 not in keys:
+        keys[-1] = lightsamples.pixel_pattern(scene.scene.render.width, pixels)
+    vectors = np.concatenate([sibling.vector for sibling in sorted(siblings, key=lambda one: one.index)], axis=1)
+    return _highlight_term(scene, replace(light, vector=take(vectors, keys[-1])), points, shared)
+
+
+def _merged(
+    lights: list, terms: list[LightTerm | None], lit: list[np.ndarray], throughs: list[np.ndarray] | None
+) -> tuple[list, list[LightTerm | None], list[np.ndarray], list[np.ndarray] | None]:
+    """The lights, their terms, where their shadow rays reached and what passed, with a light of a size's samples
+    at one place of its patterns as one (their terms share _pattern_term's numbers; each pixel takes one of them):
+    their gates, reached points and passing shares together. The sums then add each point's sample where the
+    listing's order has it, once instead of once a pattern."""
+    out_lights: list = []
+    out_terms: list[LightTerm | None] = []
+    out_lit: list[np.ndarray] = []
+    out_throughs: list = []
+    reached = iter(lit)
+    passing = None if throughs is None else iter(throughs)
+    previous = None
+    for light, term in zip(lights, terms, strict=True):
+        if term is None:
+            out_lights.append(light)
+            out_terms.append(None)
+            previous = None
+            continue
+        light_lit, through = next(reached), None if passing is None else next(passing)
+        if previous is not None and term.NL is previous.NL:  # the same place of the next pattern
+            last = out_terms[-1]
+            out_terms[-1] = last._replace(
+                diffuse_gate=last.diffuse_gate | term.diffuse_gate, gate=last.gate | term.gate
+            )
+            out_lit[-1] = out_lit[-1] | light_lit
+            if through is not None:
+                out_throughs[-1] = out_throughs[-1] + through  # 0 where the pattern is another's
+        else:
+            out_lights.append(light)
+            out_terms.append(term)
+            out_lit.append(light_lit)
+            out_throughs.append(through)
+        previous = term
+    return out_lights, out_terms, out_lit, None if throughs is None else out_throughs
+
+
+def _taken(
+    keys: dict[int, np.ndarray],
+    settings,
+    samples: np.ndarray,
+    share: int,
+    light: DirectedLight,
+    pixels: np.ndarray | None = None,
+) -> np.ndarray:
     """Whether each point's camera sample (samples (n,)) takes this sample of its light, shared out among a pixel's
-    samples g = share at a time (lightsamples.world_share): its sharing key mod g is the sample's index mod g. The
-    keys mod g are kept in keys for the other lights."""
-    if share not in keys:
-        keys[share] = lightsamples.sharing_key(settings, samples % settings.samples) % share
-    return keys[share] == light.index % share
+    samples g = share at a time (lightsamples.world_share): its sharing key mod g is the sample's index (within its
+    pattern) mod g; and for a light of patterns, whether the point's pixel (pixels (n,)) takes the sample's pattern
+    (lightsamples.pixel_pattern). The keys mod g (and the pixels' patterns, under -1) are kept in keys for the other
+    lights."""
+    taken = None
+    if share > 1:
+        if share not in keys:
+            keys[share] = lightsamples.sharing_key(settings, samples % settings.samples) % share
+        taken = keys[share] == (light.index // light.patterns) % share
+    if light.patterns > 1:
+        if -1 not in keys:
+            keys[-1] = lightsamples.pixel_pattern(settings.width, pixels)
+        mine = keys[-1] == light.index % light.patterns
+        taken = mine if taken is None else taken & mine
+    return taken
 
 
 def _world_color(
@@ -250,6 +378,7 @@ def _world_radiance(
 
 def _glossy_light(
     scene: PreparedScene,
+    lights: list,
     terms: list[LightTerm | None],
     lit: list[np.ndarray],
     throughs: list[np.ndarray] | None,
@@ -270,7 +399,7 @@ def _glossy_light(
         total[:, world] = glossy.environment(scene, lobes.take(world), np.asarray(keys, dtype=np.int64))
     shadow_rays = iter(lit)
     passing = None if throughs is None else iter(throughs)
-    for light, term in zip(scene.lights, terms, strict=True):
+    for light, term in zip(lights, terms, strict=True):
         if term is None:
             continue
         light_lit = next(shadow_rays).take(rows)
@@ -312,18 +441,20 @@ def _shadow_share(
         for light_reached in reached:
             share += light_reached
         return share / len(reached) if reached else np.ones(count, dtype=scene.dtype)
-    # a sample shared out among a pixel's samples reaches its points for g of its light's samples; its light's
-    # samples still weigh 1 together at every point (the reference's sum of the samples it takes)
+    # a sample shared out among a pixel's samples (and taken by one pattern's pixels) reaches its points for g times
+    # the patterns of its light's samples; its light's samples still weigh 1 together at every point (the
+    # reference's sum of the samples it takes)
     for light_reached, light in zip(reached, lights, strict=True):
-        share += light_reached * (light.weight * lightsamples.world_share(settings, light.count))
+        boost = lightsamples.world_share(settings, light.count // light.patterns) * light.patterns
+        share += light_reached * (light.weight * boost)
     return share / sum(light.weight for light in lights)
 
 
 def _plain(
     scene: PreparedScene,
+    lights: list,
     terms: list[LightTerm | None],
     lit: list[np.ndarray],
-    count: int,
     length_n: np.ndarray,
     exponent: np.ndarray,
     split: dict[str, np.ndarray] | None = None,
@@ -331,12 +462,13 @@ def _plain(
 ) -> np.ndarray:
     """The light-by-light sum of find_intensity in the documented arithmetic (one intensity per point, (n,));
     split: also the ambient, diffuse and specular sums apart (find_intensity)."""
+    count = length_n.shape[0]
     intensity = np.zeros(count, dtype=scene.dtype)
     if split is not None:
         ambient, diffuse_sum, specular_sum = (np.zeros(count, dtype=scene.dtype) for _ in range(3))
     shadow_rays = iter(lit)
     passing = None if throughs is None else iter(throughs)
-    for light, term in zip(scene.lights, terms, strict=True):
+    for light, term in zip(lights, terms, strict=True):
         if term is None:
             intensity = intensity + light.intensity
             if split is not None:
@@ -368,9 +500,9 @@ def _plain(
 
 def _colored(
     scene: PreparedScene,
+    lights: list,
     terms: list,
     lit: list[np.ndarray],
-    count: int,
     length_n: np.ndarray,
     exponent: np.ndarray,
     split: dict[str, np.ndarray] | None = None,
@@ -378,6 +510,7 @@ def _colored(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The light-by-light sums of find_intensity with each light's colour and attenuation: (ambient + diffuse,
     specular) (3, n) each; split: also the ambient and the diffuse sums apart (find_intensity)."""
+    count = length_n.shape[0]
     diffuse_sum = np.zeros((3, count), dtype=scene.dtype)
     specular_sum = np.zeros((3, count), dtype=scene.dtype)
     ambient = lights_diffuse = None
@@ -385,7 +518,7 @@ def _colored(
         ambient, lights_diffuse = np.zeros((3, count), dtype=scene.dtype), np.zeros((3, count), dtype=scene.dtype)
     shadow_rays = iter(lit)
     passing = None if throughs is None else iter(throughs)
-    for light, term in zip(scene.lights, terms, strict=True):
+    for light, term in zip(lights, terms, strict=True):
         if term is None:
             diffuse_sum = diffuse_sum + light.intensity * light.color
             if split is not None:

@@ -90,11 +90,11 @@ class TracedScene(PreparedScene):
             if self.rough_glass:  # each camera sample's global index: its rough glass hits' pair rotations
                 known = pixels if rows is None else cam.band_pixels(settings, rows)
                 batch.serial = np.arange(total) if known is None else cam.sample_serials(settings, known)
-        image_pixel = None  # each camera sample's flat pixel: its turn of the world light's directions
-        if self.world_lit and not settings.adaptive_flags:
+        image_pixel = None  # each camera sample's flat pixel: its world light's turn, its lights' patterns
+        if (self.world_lit and not settings.adaptive_flags) or self.patterned:
             known = pixels if rows is None else cam.band_pixels(settings, rows)
             if known is None:
-                raise ValueError("a scene with a world light traces rows or pixels it knows (their turns)")
+                raise ValueError("a scene with a world light or a light of a size traces rows or pixels it knows")
             image_pixel = np.repeat(np.asarray(known, dtype=np.int64), settings.samples)
         culling = _Culling(self, rows, pixels, frames, total)
         first = True
@@ -266,8 +266,10 @@ class TracedScene(PreparedScene):
             else:
                 directions = cam.band_directions(camera, settings, rows, columns).astype(self.dtype)
         pixels = None
-        # trace() needs them: a camera's own starts, rough glass's rotations and the world light's turns
-        if not cam.shares_origin(camera) or (columns is not None and (self.rough_glass or self.world_lit)):
+        # trace() needs them: a camera's own starts, rough glass's rotations, the world light's turns and the lights'
+        # patterns
+        keyed = self.rough_glass or self.world_lit or self.patterned
+        if not cam.shares_origin(camera) or (columns is not None and keyed):
             pixels = cam.band_pixels(settings, rows, columns)
         # whole rows: the screen rectangles cull them
         at = (

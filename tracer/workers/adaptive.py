@@ -11,6 +11,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..geometry import lightsamples
 from ..scene import scene as sc
 from ..tracing.rays import RayCounts
 
@@ -33,12 +34,16 @@ def base_samples(samples: int) -> int:
 
 def steadied(scene: sc.Scene) -> bool:
     """Whether the pixels to trace again are flagged by a pass of their own (render.adaptive_flags), with the world
-    light unshadowed and its directions the same at every point: each pixel turns them its own way, and that noise,
-    which more camera samples of a pixel do not lessen (they share the same directions out), flags nearly every
-    pixel of a contact shadow (87% of a cube on a ground at 400x300, 16 samples). Edges of objects, textures and the
-    other lights' shadows flag as in the first pass; the world light's soft shadows, which more samples would not
-    change, do not."""
-    return not scene.render.adaptive_flags and any(isinstance(light, sc.WorldLight) for light in scene.lights)
+    light unshadowed and its directions the same at every point, and each light of a size at its centre alone
+    (shadow_samples 1): each pixel turns the world's directions its own way, and a 2 x 2 block's pixels take four
+    patterns of a light's samples (lightsamples.pixel_pattern); that dither, which more camera samples of a pixel do
+    not lessen (they share the same directions and pattern out), flags nearly every pixel of a contact shadow (87% of
+    a cube on a ground at 400x300, 16 samples) and of a floor under an area light (93% at 480x270). Edges of objects
+    and textures flag as in the first pass, and a hard shadow's edge where the light's soft one lies; the soft
+    shadows, which more samples would not change, do not."""
+    if scene.render.adaptive_flags:
+        return False
+    return any(isinstance(light, sc.WorldLight) for light in scene.lights) or lightsamples.patterned(scene)
 
 
 def disagreeing(image: np.ndarray, threshold: float) -> np.ndarray:
@@ -86,7 +91,7 @@ def render(whole: Callable, again: Callable, scene: sc.Scene) -> tuple[np.ndarra
     base = _with_alpha(first)
     flags = base
     if steadied(scene):
-        steady = whole(first_scene.with_render(adaptive_flags=True), 1)
+        steady = whole(first_scene.with_render(adaptive_flags=True, shadow_samples=1), 1)
         flags = _with_alpha(steady)
         first.rays.add(steady.rays)
     flagged = grown(disagreeing(flags, settings.adaptive_threshold))
