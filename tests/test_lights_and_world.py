@@ -292,6 +292,9 @@ def test_a_penumbra_has_a_step_for_every_sample_and_its_2x2_blocks_four_times_as
     # in the pass's ramp, blocks take a new value at least every 3 of them (the grid's: every 16)
     ramp = (blocks > 0.0) & (blocks < 1.0)
     assert len(np.unique(blocks[ramp].round(9))) >= ramp.sum() / 3
+    # below PATTERNS_FROM (the Rendered view's 4) one multi-jittered set: 4 x's, within 1/8 (the 2 x 2 grid: 1/4)
+    four, _ = _edge_penumbra(4)
+    assert np.all(np.abs(four - seen) <= 1.0 / 8.0 + 1e-9) and len(np.unique(four.round(9))) == 4 + 1
     # one sample: the centre's hard edge at x = 0
     hard, _ = _edge_penumbra(1)
     assert set(np.unique(hard)) == {0.0, 1.0}

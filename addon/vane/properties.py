@@ -371,8 +371,8 @@ class WEATHERVANE_PG_settings(bpy.types.PropertyGroup):
     shadow_samples: EnumProperty(
         name="Shadows",
         description="Shadow samples: points each pixel samples on each light of a size (area lights, a sun's angle, "
-        "a light's radius) for its shadow (render.shadow_samples), from four patterns over each 2 x 2 block of "
-        "pixels: 1 is a hard shadow from the light's centre, more a penumbra as wide as the light",
+        "a light's radius) for its shadow (render.shadow_samples), multi-jittered (from 9, four patterns over each "
+        "2 x 2 block of pixels): 1 is a hard shadow from the light's centre, more a penumbra as wide as the light",
         items=_square_counts("The light's centre alone: hard shadows", " over the light"),
         default="1",
     )

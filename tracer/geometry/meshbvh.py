@@ -379,17 +379,17 @@ class MeshKernel(Kernel):
 
     def picture(self, view: View, rays: int) -> TrianglePicture | None:
         """The mesh seen in view, or None: made (for about as many rays as this query brings) once the rays that
-        asked for it add up to PICTURE_PAYOFF times the triangles, and kept (PICTURES_KEPT views, and more within
-        PICTURE_BYTES: the camera and the lights' sample points). Making one costs about a microsecond per triangle
-        and saves about two per ray, so a million-triangle mesh walks its first frame's rays and an animation's later
-        frames use the pictures."""
+        asked for it add up to PICTURE_PAYOFF times the triangles over the view's share, and kept (PICTURES_KEPT
+        views, and more within PICTURE_BYTES: the camera and the lights' sample points). Making one costs about a
+        microsecond per triangle and saves about two per ray, so a million-triangle mesh walks its first frame's
+        rays and an animation's later frames use the pictures."""
         if view in self.pictures:
             self.pictures.move_to_end(view)
             return self.pictures[view]
         if len(self.asked) > VIEWS_COUNTED:  # a moving view (the viewport's camera) asks under ever new names
             self.asked.clear()
         self.asked[view] = self.asked.get(view, 0) + rays
-        if self.asked[view] < PICTURE_PAYOFF * self.count:
+        if self.asked[view] * view.share < PICTURE_PAYOFF * self.count:
             return None
         # the corners as the test sees them: its v0, v0 + e1, v0 + e2 (3 corners, 3 axes, T), made for the picture
         v0, e1, e2 = (

@@ -35,11 +35,14 @@ HIT_TOLERANCE = {np.dtype(np.float64): 1e-6, np.dtype(np.float32): 1e-4}  # of t
 @dataclass(frozen=True)
 class View:
     """Rays that share a point or a direction: kind "point" (each ray's Q is its vector from the point, or toward
-    it with reverse) or "direction" (Q is a point of each ray, its origin); vector (3,) the point or direction."""
+    it with reverse) or "direction" (Q is a point of each ray, its origin); vector (3,) the point or direction;
+    share: the view is one of that many whose rays together are a light's (a light of a size's patterns, each
+    taken by a quarter of the pixels), so that its picture pays for itself at 1 / share of the rays."""
 
     kind: str
     vector: tuple[float, float, float]
     reverse: bool = False
+    share: int = 1
 
     @property
     def perspective(self) -> bool:

@@ -161,7 +161,7 @@ class PointSample(DirectedLight):
         faces each point (its rays end at different points: the meshes' hierarchies are walked)."""
         if self.disk is not None:
             return None
-        return View("point", tuple(self.vector.ravel().astype(np.float64).tolist()), reverse=True)
+        return View("point", tuple(self.vector.ravel().astype(np.float64).tolist()), True, self.patterns)
 
     def make_grid(self, kernels: list[int], lower: np.ndarray, upper: np.ndarray) -> CoverageGrid | None:
         if self.disk is not None:
@@ -184,7 +184,7 @@ class DirectionalSample(DirectedLight):
 
     @property
     def view(self) -> View | None:
-        return View("direction", tuple(self.vector.ravel().astype(np.float64).tolist()))
+        return View("direction", tuple(self.vector.ravel().astype(np.float64).tolist()), share=self.patterns)
 
     def make_grid(self, kernels: list[int], lower: np.ndarray, upper: np.ndarray) -> CoverageGrid | None:
         return CoverageGrid.from_direction(self.vector.ravel().astype(np.float64), kernels, lower, upper)

@@ -932,7 +932,7 @@ def light_samples(scene: sc.Scene) -> list[tuple]:
             points = lightsamples.area_points(light, samples)
             normal = lightsamples.area_frame(light)[0]
             share = light.intensity / len(points) if len(points) > 1 else light.intensity
-            patterns = lightsamples.patterns(len(points))
+            patterns = lightsamples.patterns(samples) if len(points) > 1 else 1
             made.extend(
                 (light, point, share, 1.0 / len(points), normal, None, i, len(points), patterns)
                 for i, point in enumerate(points)
@@ -940,7 +940,7 @@ def light_samples(scene: sc.Scene) -> list[tuple]:
         elif isinstance(light, sc.DirectionalLight):
             directions = lightsamples.sun_directions(light, samples)
             share = light.intensity / len(directions) if len(directions) > 1 else light.intensity
-            patterns = lightsamples.patterns(len(directions))
+            patterns = lightsamples.patterns(samples) if len(directions) > 1 else 1
             made.extend(
                 (light, direction, share, 1.0 / len(directions), None, None, i, len(directions), patterns)
                 for i, direction in enumerate(directions)
