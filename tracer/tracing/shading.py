@@ -125,7 +125,7 @@ def _light_terms(
     terms: list[LightTerm | None] = []
     shared: dict[int, tuple] = {}  # what the samples of one light share at each point (a disk's, a hemisphere's axes)
     factors: dict[int, tuple] = {}  # a world light's weight in each point's frame, and its irradiance over their mean
-    groups: dict[tuple[int, int], _Term] = {}  # a light of a size's patterns' term at each place (_pattern_term)
+    groups: dict[tuple[int, int], LightTerm] = {}  # a light of a size's patterns' term at each place (_pattern_term)
     for light in scene.lights:
         if light.ambient:
             terms.append(None)
@@ -167,7 +167,7 @@ def _light_terms(
                 gate=term.gate & taken,
                 factor=boost if term.factor is None else term.factor * boost,
             )
-        L, NL, length_l, diffuse_gate, gate, cosine, factor = term
+        diffuse_gate, gate, factor = term.diffuse_gate, term.gate, term.factor
         reaches = diffuse_gate | gate
         if not (light.adds_diffuse and light.adds_glossy):  # Blender's ray visibility of the light: a term off
             if not light.adds_glossy:  # no highlight, nothing through the glossy lobes
@@ -177,7 +177,7 @@ def _light_terms(
                 diffuse_gate = np.zeros_like(diffuse_gate)
                 reaches = reaches if light.adds_glossy else gate
         needed = indices(reaches & (factor > 0.0) if light.attenuated else reaches)
-        terms.append(LightTerm(L, NL, length_l, diffuse_gate, gate, cosine, needed, factor, light.color))
+        terms.append(term._replace(diffuse_gate=diffuse_gate, gate=gate, needed=needed))
     return terms
 
 
@@ -194,21 +194,10 @@ class _Points(NamedTuple):
     toward_eye: list  # [V / |V|] once a light's half vector has asked for it, [] before
 
 
-class _Term(NamedTuple):
-    """A light's term before its shadow rays (LightTerm's first numbers and its attenuation)."""
-
-    L: np.ndarray
-    NL: np.ndarray
-    length_l: np.ndarray
-    diffuse_gate: np.ndarray
-    gate: np.ndarray
-    cosine: np.ndarray
-    factor: np.ndarray | None
-
-
-def _highlight_term(scene: PreparedScene, light: DirectedLight, points: _Points, shared: dict[int, tuple]) -> _Term:
+def _highlight_term(scene: PreparedScene, light: DirectedLight, points: _Points, shared: dict[int, tuple]) -> LightTerm:
     """A light with a highlight (not the world's) at points: L toward it, N.L, |L|, where its diffuse term and its
-    highlight may count, the highlight's cosine (listing 3.2, Phong's or Blinn-Phong's) and its attenuation."""
+    highlight may count, the highlight's cosine (listing 3.2, Phong's or Blinn-Phong's) and its attenuation; no
+    shadow ray yet (needed empty)."""
     settings = scene.scene.render
     P, N, V = points.P, points.N, points.V
     L = light.vector_at(P, N, shared)  # a directional L broadcasts
@@ -231,7 +220,8 @@ def _highlight_term(scene: PreparedScene, light: DirectedLight, points: _Points,
         gate &= HN > 0.0
         cosine = HN / (np.sqrt(dot(H, H)) * points.length_n)
     # a shadow ray only where this light could add something: the result is the listing's, with fewer rays
-    return _Term(L, NL, length_l, NL > 0.0, gate, cosine, light.attenuation(L, length_l))
+    factor = light.attenuation(L, length_l)
+    return LightTerm(L, NL, length_l, NL > 0.0, gate, cosine, np.zeros(0, dtype=np.int64), factor, light.color)
 
 
 def _pattern_term(
@@ -241,7 +231,7 @@ def _pattern_term(
     shared: dict[int, tuple],
     keys: dict[int, np.ndarray],
     pixels: np.ndarray,
-) -> _Term:
+) -> LightTerm:
     """The term of a light of a size's samples at one place of its patterns (lightsamples.patterned_grid: entries
     j PATTERNS + r, r = 0..3), each point toward its own pixel's pattern's sample: a pixel takes one pattern, so the
     four samples' terms are this one's at their pixels (the same operations on the same numbers), worked out once."""
