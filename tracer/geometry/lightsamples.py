@@ -120,7 +120,7 @@ def area_frame(light: sc.AreaLight) -> tuple[sc.Vec3, sc.Vec3, sc.Vec3]:
 
 
 def area_points(light: sc.AreaLight, samples: int) -> list[sc.Vec3]:
-    """The area light's sample points (patterned_grid: PATTERNS x samples of them; 1: its centre)."""
+    """The area light's sample points (patterned_grid: patterns(samples) x samples of them; 1: its centre)."""
     if samples == 1:
         return [tuple(float(c) for c in light.location)]
     _, x_axis, y_axis = area_frame(light)
@@ -136,7 +136,7 @@ def area_points(light: sc.AreaLight, samples: int) -> list[sc.Vec3]:
 
 def sun_directions(light: sc.DirectionalLight, samples: int) -> list[sc.Vec3]:
     """A sun's directions toward the light over its disk of angular diameter light.angle (patterned_grid:
-    PATTERNS x samples of them, each as long as light.direction; 1 sample or angle 0: the direction itself)."""
+    patterns(samples) x samples of them, each as long as light.direction; 1 sample or angle 0: the direction itself)."""
     if samples == 1 or light.angle == 0.0:
         return [tuple(float(c) for c in light.direction)]
     d = light.direction

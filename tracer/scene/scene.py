@@ -687,8 +687,8 @@ class RenderSettings:
     mist_depth: float = 25.0
     mist_falloff: Literal["QUADRATIC", "LINEAR", "INVERSE_QUADRATIC"] = "QUADRATIC"
     # samples a pixel takes of each light of a size (area lights, a sun's angle, a light's radius), a perfect square:
-    # one of four multi-jittered patterns over the light (lightsamples.patterned_grid); 1 = its centre alone (a hard
-    # shadow)
+    # a multi-jittered set over the light, from 9 one of four (lightsamples.patterned_grid); 1 = its centre alone (a
+    # hard shadow)
     shadow_samples: int = 1
     # reflection rays a glossy material sends from each hit of a path's first glossy surface (one from the glossy
     # surfaces after it): the lobe's fixed stratified samples (lightsamples.glossy_pairs)

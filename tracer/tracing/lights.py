@@ -58,6 +58,8 @@ class DirectedLight(PreparedLight):
     its grid (None: none) tells which of the scene's bounded objects each of them can meet."""
 
     vector: np.ndarray | None = None  # (3, 1): a point's location, or the direction toward a directional light
+    # a light of a size's samples at this one's place in each of its patterns (3, patterns), or None: one pattern
+    places: np.ndarray | None = None
     grid: CoverageGrid | None = None
     t_max: ClassVar[float] = math.inf
     ends_at_point: ClassVar[bool] = False  # shadow rays end at the light (their vectors point at one place)
@@ -280,6 +282,10 @@ def prepare_lights(scene: sc.Scene, dtype: np.dtype) -> list[PreparedLight]:
         patterns = 1 if isinstance(light, sc.WorldLight) or len(made) == 1 else lightsamples.patterns(samples)
         for index, sample in enumerate(made):
             sample.source, sample.index, sample.count, sample.patterns = source, index, len(made), patterns
+            if patterns > 1:  # entries j patterns + r: the place j's vectors in each pattern r, shared
+                if index % patterns == 0:
+                    places = np.concatenate([one.vector for one in made[index : index + patterns]], axis=1)
+                sample.places = places
             sample.adds_diffuse = getattr(light, "visible_diffuse", True)
             sample.adds_glossy = getattr(light, "visible_glossy", True)
         lights.extend(made)

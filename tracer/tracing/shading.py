@@ -161,7 +161,7 @@ def _light_terms(
             # a sample of a light of a size, taken by the pixels of its pattern and shared out among their samples as
             # the world's directions are: patterns times g times its terms
             taken = _taken(keys, settings, samples, share, light, hits.image_pixel)
-            boost = share * light.patterns
+            boost = _boost(settings, light)
             term = term._replace(
                 diffuse_gate=term.diffuse_gate & taken,
                 gate=term.gate & taken,
@@ -235,16 +235,8 @@ def _pattern_term(
     """The term of a light of a size's samples at one place of its patterns (lightsamples.patterned_grid: entries
     j PATTERNS + r, r = 0..3), each point toward its own pixel's pattern's sample: a pixel takes one pattern, so the
     four samples' terms are this one's at their pixels (the same operations on the same numbers), worked out once."""
-    first = light.index - light.index % light.patterns
-    siblings = [
-        other
-        for other in scene.lights
-        if other.source == light.source and first <= other.index < first + light.patterns
-    ]
-    if -1 not in keys:
-        keys[-1] = lightsamples.pixel_pattern(scene.scene.render.width, pixels)
-    vectors = np.concatenate([sibling.vector for sibling in sorted(siblings, key=lambda one: one.index)], axis=1)
-    return _highlight_term(scene, replace(light, vector=take(vectors, keys[-1])), points, shared)
+    toward = take(light.places, _pixel_patterns(keys, scene.scene.render, pixels))
+    return _highlight_term(scene, replace(light, vector=toward), points, shared)
 
 
 def _merged(
@@ -304,11 +296,23 @@ def _taken(
             keys[share] = lightsamples.sharing_key(settings, samples % settings.samples) % share
         taken = keys[share] == (light.index // light.patterns) % share
     if light.patterns > 1:
-        if -1 not in keys:
-            keys[-1] = lightsamples.pixel_pattern(settings.width, pixels)
-        mine = keys[-1] == light.index % light.patterns
+        mine = _pixel_patterns(keys, settings, pixels) == light.index % light.patterns
         taken = mine if taken is None else taken & mine
     return taken
+
+
+def _pixel_patterns(keys: dict[int, np.ndarray], settings, pixels: np.ndarray) -> np.ndarray:
+    """The pattern (n,) each point's pixel takes of a light of a size (lightsamples.pixel_pattern), kept in keys
+    under -1 for the other lights."""
+    if -1 not in keys:
+        keys[-1] = lightsamples.pixel_pattern(settings.width, pixels)
+    return keys[-1]
+
+
+def _boost(settings, light: DirectedLight) -> int:
+    """How many times a sample of a light of a size (or a world direction) counts where it is taken: its
+    pattern's share among the pixel's samples (lightsamples.world_share g) times the light's patterns."""
+    return lightsamples.world_share(settings, light.count // light.patterns) * light.patterns
 
 
 def _world_color(
@@ -435,8 +439,7 @@ def _shadow_share(
     # the patterns of its light's samples; its light's samples still weigh 1 together at every point (the
     # reference's sum of the samples it takes)
     for light_reached, light in zip(reached, lights, strict=True):
-        boost = lightsamples.world_share(settings, light.count // light.patterns) * light.patterns
-        share += light_reached * (light.weight * boost)
+        share += light_reached * (light.weight * _boost(settings, light))
     return share / sum(light.weight for light in lights)
 
 
