@@ -233,6 +233,12 @@ def light_power(light: bpy.types.Light) -> float:
     return float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
 
 
+def light_normalized(light: bpy.types.Light) -> bool:
+    """4.5+: Normalize (on by default) keeps a light's power whatever its size; off, the power is per unit of the
+    emitter's area. Before 4.5 every light is normalized."""
+    return bool(getattr(light, "normalize", True))
+
+
 def light_casts_shadow(light: bpy.types.Light) -> bool:
     """3.x keeps the switch in Cycles' settings (cast_shadow), 4.0+ on the light (use_shadow)."""
     if hasattr(light, "use_shadow") and VERSION >= (4, 0, 0):

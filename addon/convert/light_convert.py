@@ -8,13 +8,13 @@ and 3.4.1 (Debian), both giving the same numbers (tests/addon/test_shading_conve
     spot, on its axis: the same as a point of the same power (the cone does not concentrate it)
     sun of strength 1: 0.31831, 3: 0.95493 = S / pi: a directional light of i = S / pi
 
-So a point or spot light is {"intensity": P / (4 pi^2), "falloff": "inverse_square"}, a sun a directional light of
-S / pi, every light with its colour (times the blackbody colour where Use Temperature is on, and the power times
-2^exposure, as Cycles emits them). A spot shines along the light's -Z axis in world space with Blender's spot_size
-(the full cone, here in degrees) and spot_blend. A sun's angle is the directional light's "angle" (soft shadows with
-the render's Shadows setting); where it is above 0 and the sun's Glossy ray visibility and Multiple Importance are on,
-"seen_in_mirrors" (mirrors show its disc at Cycles' radiance, "disc_model" cycles3 in Blender 3.x:
-tests/addon/test_sun_in_mirrors.py).
+So a point or spot light is {"intensity": P / (4 pi^2), "falloff": "inverse_square"}, a sun a directional light of S /
+pi, every light with its colour (times the blackbody colour where Use Temperature is on, and the power times 2^exposure
+and, where 4.5+'s Normalize is off, times the emitter's area, as Cycles emits them). A spot shines along the light's -Z
+axis in world space with Blender's spot_size (the full cone, here in degrees) and spot_blend. A sun's angle is the
+directional light's "angle" (soft shadows with the render's Shadows setting); where it is above 0 and the sun's Glossy
+ray visibility and Multiple Importance are on, "seen_in_mirrors" (mirrors show its disc at Cycles' radiance,
+"disc_model" cycles3 in Blender 3.x: tests/addon/test_sun_in_mirrors.py).
 
 An area light is the tracer's "area" light (a one-sided cosine emitter sampled over its shape, docs/scene-format.md):
 its intensity along the normal is P / pi W/sr, so {"intensity": P / pi^2} in Blender 4.0-5.0 and P / pi^2 * pi / 4 in
@@ -232,6 +232,8 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
                 notes.append(f"radius {light.shadow_soft_size:.3g} m: hard shadow")
             if compat.light_soft_falloff(light):
                 notes.append(f"radius {light.shadow_soft_size:.3g} m, soft falloff: inverse square")
+    if not compat.light_normalized(light):
+        document["intensity"] *= _emitter_area(document)
     brightest = max(color)
     if brightest > 1.0:  # the format's colours lie in [0, 1]: the excess goes into the intensity, the same light
         document["intensity"] *= brightest
@@ -255,6 +257,24 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
         if not seen and not (flag == "visible_glossy" and original.get(MIRRORS_ONLY) == seen):
             document[flag] = False
     return document, notes
+
+
+def _emitter_area(document: dict) -> float:
+    """Cycles' area of a converted light's emitter, by which Blender 4.5+ multiplies the light's power where its
+    Normalize is off: an area light's world size (times pi / 4 for a disk or an ellipse), 4 pi r^2 for a point or
+    spot of radius r (its sphere's; the object's scale does not count), pi sin^2(angle / 2) for a sun; 1 where the
+    emitter has no size. Measured in Cycles 4.5.15 and 5.0.1 on a diffuse plane: 4.0x for a 2 m square, 2.0x for a
+    1 m square scaled 2 along X, 0.785x for a 1 m disk, 3.1416x for a 0.5 m radius, 0.0313x for a 0.2 rad sun."""
+    kind = document["type"]
+    if kind == "area":
+        size = document["size"]
+        width, height = (size, size) if isinstance(size, float | int) else size
+        area = width * height * (math.pi / 4.0 if document["shape"] in ("disk", "ellipse") else 1.0)
+    elif kind in ("point", "spot"):
+        area = 4.0 * math.pi * document.get("radius", 0.0) ** 2  # a sphere's
+    else:
+        area = math.pi * math.sin(math.radians(document.get("angle", 0.0)) / 2.0) ** 2
+    return area if area > 0.0 else 1.0
 
 
 def _stretched_cone(obj) -> dict:

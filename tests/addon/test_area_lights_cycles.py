@@ -221,3 +221,30 @@ def test_the_worlds_picture_goes_to_f12_as_an_array_and_to_json_documents_as_a_n
     reported = capfd.readouterr()  # the report names both files: the scene file needs its picture
     assert f"Wrote {target} and the World's picture beside it, scene.world.npy" in reported.out + reported.err
     assert np.array_equal(load_scene(target).background.image, expected)
+
+
+@pytest.mark.skipif("normalize" not in bpy.types.Light.bl_rna.properties, reason="Normalize came with Blender 4.5")
+@pytest.mark.parametrize("kind", ["SQUARE", "DISK", "POINT", "SUN"])
+def test_a_light_with_normalize_off_is_as_bright_as_in_cycles(tmp_path: Path, kind: str) -> None:
+    """Normalize off (4.5+): Cycles emits the power per unit of the emitter's area (4x for the 2 m square, 0.79x for
+    a 1 m disk, 4 pi r^2 for the 0.5 m radius, 0.031x for a 0.2 rad sun), and the tracer's floor under the light is as
+    bright as Cycles' (means over a 1 m square of the floor); with Normalize on they differ by that factor."""
+    scene = _floor_scene(2.0, radius=0.5 if kind == "POINT" else None)
+    light = bpy.data.objects["area"]
+    if kind == "DISK":
+        light.data.shape, light.data.size = "DISK", 1.0
+    if kind == "SUN":
+        light.data = bpy.data.lights.new("sun", "SUN")
+        light.data.energy, light.data.angle = 3.0, 0.2
+    _camera(scene, (0.0, 0.0), 1.0, (8, 8))
+    means = {}
+    for normalize in (True, False):
+        light.data.normalize = normalize
+        for engine in ("CYCLES", "WEATHERVANE_TRACER"):
+            means[engine, normalize] = _render(scene, engine, tmp_path / f"{engine}-{normalize}.exr").mean()
+    cycles_factor = means["CYCLES", False] / means["CYCLES", True]
+    ratio = means["WEATHERVANE_TRACER", False] / means["CYCLES", False]
+    print(f"{kind} with Normalize off: Cycles x{cycles_factor:.4f}, tracer / Cycles {ratio:.4f}")
+    assert abs(cycles_factor - 1.0) > 0.2  # the emitter's area changes the light
+    for normalize in (True, False):
+        assert means["WEATHERVANE_TRACER", normalize] / means["CYCLES", normalize] == pytest.approx(1.0, abs=0.03)
