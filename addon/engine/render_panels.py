@@ -32,6 +32,7 @@ SKIPPED = ("preview", "volume", "_settings", "ray_visibility", "mist", "displace
            "lightprobe")  # fmt: skip
 _added: list[type] = []
 _inherited: dict[type, object] = {}  # of _added, those whose COMPAT_ENGINES came from a base class: their own poll
+_redrawn: dict[type, object] = {}  # of _added, those drawn otherwise for the tracer: their own draw
 
 
 def _poll_for_tracer(cls):
@@ -55,6 +56,48 @@ def _poll_for_tracer(cls):
                 engines.discard(ENGINE)
 
     return classmethod(poll)
+
+
+def _draw_for_tracer(cls):
+    """cls's draw, drawing draw_light_data for the tracer and as it was for any other engine."""
+    original = cls.draw
+
+    def draw(self, context):
+        if context.engine != ENGINE:
+            return original(self, context)
+        draw_light_data(self.layout, context.light, self.bl_space_type == "PROPERTIES")
+
+    return draw
+
+
+def draw_light_data(layout, light, expanded: bool) -> None:
+    """The Light panel for the tracer in Blender 3.4-4.4, whose Cycles panel holds Cycles' own settings too (Max
+    Bounces, Cast Shadow, Multiple Importance, Shadow Caustics, Portal: 4.5+ moved them to a Settings subpanel,
+    which the tracer does not show): the light's type, colour, power and size, laid out as Cycles lays them out."""
+    if expanded:
+        layout.row().prop(light, "type", expand=True)
+        layout.use_property_split = True
+    else:
+        layout.use_property_split = True
+        layout.row().prop(light, "type")
+    column = layout.column()
+    column.prop(light, "color")
+    column.prop(light, "energy")
+    column.separator()
+    if light.type in {"POINT", "SPOT"}:
+        if hasattr(light, "use_soft_falloff"):
+            column.prop(light, "use_soft_falloff")
+        column.prop(light, "shadow_soft_size", text="Radius")
+    elif light.type == "SUN":
+        column.prop(light, "angle")
+    elif light.type == "AREA":
+        column.prop(light, "shape", text="Shape")
+        sizes = column.column(align=True)
+        if light.shape in {"SQUARE", "DISK"}:
+            sizes.prop(light, "size")
+        else:
+            sizes.prop(light, "size", text="Size X")
+            sizes.prop(light, "size_y", text="Y")
 
 
 def _stock_panels() -> list[type]:
@@ -289,11 +332,20 @@ def register() -> None:
                 cls.poll = _poll_for_tracer(cls)
             cls.COMPAT_ENGINES = set(cls.COMPAT_ENGINES) | {ENGINE}
             _added.append(cls)
+            if cls.__name__ == "CYCLES_LIGHT_PT_light" and not hasattr(bpy.types, "CYCLES_LIGHT_PT_settings"):
+                _redrawn[cls] = cls.__dict__.get("draw")
+                cls.draw = _draw_for_tracer(cls)
     conversion_report.register()
 
 
 def unregister() -> None:
     conversion_report.unregister()
+    for cls, draw in _redrawn.items():
+        if draw is None:
+            del cls.draw
+        else:
+            cls.draw = draw
+    _redrawn.clear()
     for cls in _added:
         if cls in _inherited:
             del cls.COMPAT_ENGINES  # the base class's set again

@@ -525,6 +525,57 @@ def test_blenders_material_light_world_and_mesh_panels_show_for_the_engine() -> 
         addon.register()
 
 
+class _DrawnProperties:
+    """A panel layout that notes the properties drawn into it (every row, column and split is itself)."""
+
+    def __init__(self) -> None:
+        self.drawn: list[str] = []
+        self.use_property_split = self.use_property_decorate = self.active = False
+
+    def prop(self, _data, name: str, **_options) -> None:
+        self.drawn.append(name)
+
+    def row(self, **_options):
+        return self
+
+    column = split = row
+
+    def separator(self, *_arguments, **_options) -> None:
+        pass
+
+    prop_decorator = label = separator
+
+
+CYCLES_LIGHT_SETTINGS = {"max_bounces", "cast_shadow", "use_shadow", "use_multiple_importance_sampling",
+                         "is_caustics_light", "is_portal"}  # fmt: skip
+
+
+@pytest.mark.parametrize("kind", ["POINT", "SPOT", "SUN", "AREA"])
+def test_the_light_panel_shows_the_tracer_no_cycles_settings(kind: str) -> None:
+    """Light Properties' Light panel with the tracer as the engine: the light's type, colour, power and size (what
+    the conversion reads), none of Cycles' own settings (Max Bounces, Cast Shadow, Multiple Importance, Shadow
+    Caustics, Portal), which Cycles' panel holds in Blender 3.4-4.4 and a Settings subpanel from 4.5; for Cycles the
+    panel draws as Cycles has it."""
+    from types import SimpleNamespace
+
+    light = light_object(kind, 100.0).data
+    panel = bpy.types.CYCLES_LIGHT_PT_light
+    drawn = {}
+    for engine in ("WEATHERVANE_TRACER", "CYCLES"):
+        layout = _DrawnProperties()
+        context = SimpleNamespace(
+            engine=engine, light=light, scene=bpy.context.scene, preferences=bpy.context.preferences
+        )
+        panel.draw(SimpleNamespace(layout=layout, bl_space_type="PROPERTIES"), context)
+        drawn[engine] = layout.drawn
+    size = {"POINT": "shadow_soft_size", "SPOT": "shadow_soft_size", "SUN": "angle", "AREA": "size"}[kind]
+    assert {"type", "color", "energy", size} <= set(drawn["WEATHERVANE_TRACER"]), drawn
+    assert not CYCLES_LIGHT_SETTINGS & set(drawn["WEATHERVANE_TRACER"]), drawn
+    assert set(drawn["WEATHERVANE_TRACER"]) <= set(drawn["CYCLES"]) | {"color"}, drawn  # Cycles 4.5+: "Tint"/"Color"
+    if not hasattr(bpy.types, "CYCLES_LIGHT_PT_settings"):  # Cycles' own settings in its Light panel: still there
+        assert "max_bounces" in drawn["CYCLES"], drawn
+
+
 def test_the_scene_conversion_panel_converts_once_per_change(monkeypatch) -> None:
 
     scene = bpy.context.scene
