@@ -76,7 +76,8 @@ def test_a_mirror_shows_a_lights_radiance_pi_intensity_over_area_and_the_camera_
 def _sun_document(seed: int, seen: bool = True) -> dict:
     """A random scene (soft lights' scenes, or glossy, glass and bouncing ones) with a wide sun posed where the
     camera's mirrors see it: its direction toward the light the camera's view reflected in a floor (z = 0) turned a
-    little at random, its angle 20 to 60 degrees, either disc model, coloured; seen in mirrors (or not, seen False)."""
+    little at random, its angle 20 to 60 degrees, either disc model, coloured; seen in mirrors (or not, seen False);
+    the floor (added where the scene has none) a sharp mirror."""
     rng = random.Random(60_000 + seed)
     document = _soft_document(seed) if seed % 2 else _glossy_document(seed)
     camera = document["camera"]
@@ -96,6 +97,14 @@ def _sun_document(seed: int, seen: bool = True) -> dict:
     )
     for material in document["materials"].values():
         material["reflective"] = rng.choice([material.get("reflective", 0.0), 0.5, 1.0])
+    # the floor a sharp mirror, whose rays see the disc (glossy lobes' and rough glass's rays do not: the sun comes
+    # through their terms)
+    document["materials"]["mirror"] = {"color": [0.8, 0.8, 0.8], "specular": 50, "reflective": 0.9}
+    floors = [obj for obj in document["objects"] if obj["type"] == "plane"]
+    if not floors:
+        floors = [{"name": "floor", "type": "plane", "location": [0.0, 0.0, -1.0]}]
+        document["objects"].append(floors[0])
+    floors[0]["material"] = "mirror"
     document["render"].pop("border", None)  # the whole image: where the mirrors are
     return document
 

@@ -1286,8 +1286,6 @@ def _document(lobes: _Lobes, model: str, coef: float, notes: list[str]) -> dict:
         document["transmission"], document["ior"] = transmission, ior
         if not sharp(rough):  # sampled microfacets (GGX); a near-mirror stays sharp (named)
             document["transmission_roughness"] = min(1.0, rough)
-            # its rays meet the world and area lights; a point, spot or sun light is no surface to meet
-            notes.append("rough glass: no highlight of point, spot or sun lights on it (only what its rays meet)")
             if "glossy" not in document and glass_kinds and glass_kinds <= {"single", "beckmann"}:
                 document["glossy_energy"] = "single"  # the glass's distribution's energy: GGX and Beckmann lose some
             if glass_kinds == {"beckmann"}:

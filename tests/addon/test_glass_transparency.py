@@ -82,10 +82,7 @@ def test_a_glass_bsdf_is_all_transmission_of_its_ior_tinted_by_its_colour() -> N
     beckmann = getattr(node, "distribution", "") == "BECKMANN"  # 3.x's default: the format's Beckmann, single
     assert document.get("glossy_energy", "multiscatter") == ("single" if beckmann else "multiscatter")
     assert document.get("transmission_distribution", "ggx") == ("beckmann" if beckmann else "ggx")
-    assert notes == [
-        "Glass BSDF colour: tints the refraction only",
-        "rough glass: no highlight of point, spot or sun lights on it (only what its rays meet)",
-    ]
+    assert notes == ["Glass BSDF colour: tints the refraction only"]
     if hasattr(node, "distribution"):  # Beckmann, GGX (single scattering) and Multiscatter GGX, as Cycles draws them
         for distribution, energy, drawn in (
             ("BECKMANN", "single", "beckmann"),

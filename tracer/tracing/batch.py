@@ -39,7 +39,7 @@ class RayBatch:
     glossy surface after it sends its ray by (glossy.sample_rays). bounces (n,) and diffuse (n,) bool, in scenes with
     diffuse bounces: the diffuse bounces on the path so far, and whether the ray is one (its miss adds nothing: the
     world's light is the world light's). lamps (n,) bool, in scenes with area lights seen in mirrors: the ray sees
-    them (mirror, refracted and rough glass rays; not camera, glossy or diffuse ones). serial (n,), in scenes with
+    them (mirror and refracted rays; not camera, glossy, rough glass or diffuse ones). serial (n,), in scenes with
     rough glass: the global index of the camera sample a ray's tree belongs to (camera.sample_serial: its rough glass
     hits' pair rotations, camera.glass_rotations)."""
 

@@ -1,9 +1,9 @@
 """Lights that mirror rays see (a light's seen_in_mirrors, Blender's Glossy ray visibility of a light) -> where a
 wavefront's mirror and refracted rays meet an area light before any surface: its radiance times the rays' weights
 added into their samples, and those rays ended; where they meet nothing and point into a sun's disc (a directional
-light with an angle): its radiance, added to the background they see. Camera rays, glossy lobes' and diffuse bounces'
-rays do not see lights: their lights are counted where they start (the light terms through the lobe, the shadow
-rays), and Cycles' camera does not show a light either."""
+light with an angle): its radiance, added to the background they see. Camera rays, glossy lobes', rough glass's and
+diffuse bounces' rays do not see lights: their lights are counted where they start (the light terms through the lobe
+or the glass, the shadow rays), and Cycles' camera does not show a light either."""
 
 from __future__ import annotations
 

@@ -284,28 +284,11 @@ def glass_rays(
     of both weights over every pair (what single scattering keeps: Cycles' Multiscatter GGX glass loses nothing); a
     ray on the wrong side of the surface, or refracted in total internal reflection, is dropped -> the rays' hits
     (j,) (indices into rows), pairs (j,), unit directions (3, j), weights (j,) and whether each is refracted (j,)."""
-    material = hits.material.take(rows)
-    N, S = np.asarray(take(hits.N, rows), np.float64), np.asarray(take(hits.S, rows), np.float64)
-    d = np.asarray(D, np.float64)
-    d = d / np.sqrt(x_y_z_squared(d))
-    facing = np.where(_dot(S, d) < 0.0, S, -S)
-    n = facing / np.sqrt(x_y_z_squared(facing))
-    ior = scene.ior.take(material).astype(np.float64)
-    eta = np.where(_dot(N, d) < 0.0, ior, 1.0 / ior)
-    e1, e2 = facing_basis(n)
-    v = np.stack((-_dot(d, e1), -_dot(d, e2), -_dot(d, n)))
-    alpha = scene.transmission_roughness.take(material) ** 2
-    separable = scene.glossy_separable.take(material)
-    beckmann = scene.transmission_beckmann.take(material)
+    glass = glass_at(scene, hits, rows, D, rotation)
+    e1, e2, n, v, eta, alpha = glass.e1, glass.e2, glass.n, glass.v, glass.eta, glass.alpha
+    separable, beckmann, gain = glass.separable, glass.beckmann, glass.gain
     pairs = scene.glossy_pairs
     count = len(pairs)
-    gain = np.ones(rows.size)
-    multiscatter = scene.glossy_multiscatter.take(material)
-    if multiscatter.any():
-        every = rotated(pairs[:, :1], rotation[0]), rotated(pairs[:, 1:], rotation[1])  # (m, k) each
-        _, _, weight_r, weight_t = _glass_split(v, eta, alpha, *every, separable, beckmann)  # (m, k)
-        albedo = (weight_r + weight_t).mean(axis=0)
-        gain = np.where(multiscatter & (albedo > 0.0), 1.0 / np.where(albedo > 0.0, albedo, 1.0), 1.0)
     fresh = chosen < 0
     hit, pair, every_share = _ray_pairs(chosen, count, keys, lightsamples.world_share(scene.scene.render, count))
     u1 = rotated(pairs[:, 0].take(pair), rotation[0].take(hit))
@@ -325,6 +308,104 @@ def glass_rays(
     order = np.lexsort((refracted, both))  # a hit's rays together: by pair, the reflected before the refracted
     hit, pair = hit.take(both.take(order)), pair.take(both.take(order))
     return hit, pair, take(directions, order), weights.take(order), refracted.take(order)
+
+
+@dataclass
+class Glass:
+    """Rough glass at some hits (k of them), float64, as its rays and the lights see it: the frame (e1, e2, n) (3, k)
+    with n the shading normal turned to face the viewer, the unit view v (3, k) in it, eta (k,) (the ior entering
+    by the geometric normal, 1 / ior leaving), alpha (k,), Smith's separable masking-shadowing and Beckmann's
+    distribution (k,) bool, and the multiscatter gain (k,): 1 / E, E the mean of both weights over every pair at the
+    hit's rotation (1 for single scattering)."""
+
+    e1: np.ndarray
+    e2: np.ndarray
+    n: np.ndarray
+    v: np.ndarray
+    eta: np.ndarray
+    alpha: np.ndarray
+    separable: np.ndarray
+    beckmann: np.ndarray
+    gain: np.ndarray
+
+
+def glass_at(scene: PreparedScene, hits: Hits, rows: np.ndarray, D: np.ndarray, rotation: np.ndarray) -> Glass:
+    """The rough glass hits rows (k,) met along D (3, k), their pairs turned by rotation (2, k) (glass_rays)."""
+    material = hits.material.take(rows)
+    N, S = np.asarray(take(hits.N, rows), np.float64), np.asarray(take(hits.S, rows), np.float64)
+    d = np.asarray(D, np.float64)
+    d = d / np.sqrt(x_y_z_squared(d))
+    facing = np.where(_dot(S, d) < 0.0, S, -S)
+    n = facing / np.sqrt(x_y_z_squared(facing))
+    ior = scene.ior.take(material).astype(np.float64)
+    eta = np.where(_dot(N, d) < 0.0, ior, 1.0 / ior)
+    e1, e2 = facing_basis(n)
+    v = np.stack((-_dot(d, e1), -_dot(d, e2), -_dot(d, n)))
+    alpha = scene.transmission_roughness.take(material) ** 2
+    separable = scene.glossy_separable.take(material)
+    beckmann = scene.transmission_beckmann.take(material)
+    pairs = scene.glossy_pairs
+    gain = np.ones(rows.size)
+    multiscatter = scene.glossy_multiscatter.take(material)
+    if multiscatter.any():
+        every = rotated(pairs[:, :1], rotation[0]), rotated(pairs[:, 1:], rotation[1])  # (m, k) each
+        _, _, weight_r, weight_t = _glass_split(v, eta, alpha, *every, separable, beckmann)  # (m, k)
+        albedo = (weight_r + weight_t).mean(axis=0)
+        gain = np.where(multiscatter & (albedo > 0.0), 1.0 / np.where(albedo > 0.0, albedo, 1.0), 1.0)
+    return Glass(e1, e2, n, v, eta, alpha, separable, beckmann, gain)
+
+
+def glass_light_factor(glass: Glass, L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """What rough glass sends toward the viewer of a light along L (3, k) (world, any length), per unit of the
+    light's intensity as the diffuse term counts it, reflected and refracted (k,) each, times the gain: on the
+    viewer's side pi F D G2 / (4 v.z) at h = (v + l) / |v + l|; on the other pi (1 - F) D G2 (v.m) eta^2 |l.m| /
+    (v.z (v.m + eta l.m)^2) at m = (v + eta l) / |v + eta l| turned up, which is the refracted rays' weight (1 - F)
+    G2 / G1(v) times the density of sampling l by the visible normals (Walter et al. 2007), so that the light
+    through the glass is what its rays would find; F the dielectric Fresnel at v.m (1 in total internal
+    reflection), D and Lambda GGX's or Beckmann's; 0 where l is not the reflection or refraction of v by a
+    microfacet facing the viewer."""
+    L = np.asarray(L, dtype=np.float64)
+    length = np.sqrt(x_y_z_squared(L))
+    lx, ly, lz = _dot(L, glass.e1) / length, _dot(L, glass.e2) / length, _dot(L, glass.n) / length
+    vx, vy, vz = glass.v
+    eta, a2 = glass.eta, glass.alpha * glass.alpha
+    above = lz > 0.0
+    scale = np.where(above, 1.0, eta)  # the half vector v + l above, v + eta l below
+    mx, my, mz = vx + scale * lx, vy + scale * ly, vz + scale * lz
+    m_length = np.sqrt(mx * mx + my * my + mz * mz)
+    up = np.where(mz < 0.0, -1.0, 1.0) / np.where(m_length > 0.0, m_length, 1.0)
+    mx, my, mz = mx * up, my * up, mz * up
+    c = vx * mx + vy * my + vz * mz  # v.m
+    lm = lx * mx + ly * my + lz * mz  # l.m
+    g2 = eta * eta - 1.0 + c * c
+    inside = g2 > 0.0
+    g = np.sqrt(np.where(inside, g2, 1.0))
+    safe_c = np.where(c > 0.0, c, 1.0)
+    A = (g - safe_c) / (g + safe_c)
+    B = (safe_c * (g + safe_c) - 1.0) / (safe_c * (g - safe_c) + 1.0)
+    F = np.where(inside, 0.5 * A * A * (1.0 + B * B), 1.0)
+    cos2 = mz * mz
+    safe_cos2 = np.where(cos2 > 0.0, cos2, 1.0)
+    ggx = cos2 * (a2 - 1.0) + 1.0
+    D = np.where(
+        glass.beckmann,
+        np.exp(-(1.0 - cos2) / (safe_cos2 * a2)) / (math.pi * a2 * safe_cos2 * safe_cos2),
+        a2 / (math.pi * ggx * ggx),
+    )
+    seen = np.where(vz > 0.0, vz, 1.0)
+    l_cos = np.where(lz != 0.0, np.abs(lz), 1.0)
+    lambda_v, lambda_l = _smith_lambda(seen, a2), _smith_lambda(l_cos, a2)
+    if glass.beckmann.any():
+        lambda_v = np.where(glass.beckmann, _beckmann_lambda(seen, a2), lambda_v)
+        lambda_l = np.where(glass.beckmann, _beckmann_lambda(l_cos, a2), lambda_l)
+    G2 = _shadowing(lambda_v, lambda_l, glass.separable)
+    valid = (vz > 0.0) & (m_length > 0.0) & (mz > 0.0) & (c > 0.0)
+    reflected = np.where(valid & above, F * (math.pi * D * G2 / (4.0 * seen)), 0.0)
+    denominator = c + eta * lm
+    bent = valid & ~above & (lz < 0.0) & (lm < 0.0) & inside & (denominator != 0.0)
+    safe_denominator = np.where(bent, denominator, 1.0)
+    transmitted = (1.0 - F) * math.pi * D * G2 * c * (eta * eta) * -lm / (seen * safe_denominator * safe_denominator)
+    return reflected * glass.gain, np.where(bent, transmitted, 0.0) * glass.gain
 
 
 def rotated(u: np.ndarray, offset: np.ndarray) -> np.ndarray:

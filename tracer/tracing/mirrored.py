@@ -1,4 +1,4 @@
-"""A wavefront's rays that see the lights seen in mirrors (emitters.py: mirror, refracted and rough glass rays; a
+"""A wavefront's rays that see the lights seen in mirrors (emitters.py: mirror and refracted rays; a
 Whitted wavefront's all but the camera's) -> the radiance they bring, times their weights, into their samples and the
 Reflection pass (Transmission under a refracted ray): an area light's where they meet its front before any surface
 (those rays end there), a sun's disc where they meet nothing and point into it (they go on to see the background)."""

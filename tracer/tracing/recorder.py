@@ -441,6 +441,9 @@ class NoPasses:
     def environment(self, *_: object) -> None:
         pass
 
+    def add(self, *_: object) -> None:
+        pass
+
     def holdout(self, *_: object) -> None:
         pass
 

@@ -684,7 +684,7 @@ class ReferenceTracer:
             self.rays["reflection"] += 1
             seen = self.trace_ray(P, reflect_ray(V, S), REFLECTION_T_MIN, INF, depth - 1, False, layers, child)
             out = [out[c] + mirror * seen[c] for c in range(3)]
-        if depth > 0 and material.transmission > 0.0 and material.transmission_roughness > 0.0:
+        if material.transmission > 0.0 and material.transmission_roughness > 0.0:  # its lights, and its rays
             normal = find_normal(self.primitives[hit[0]], hit[1], P)
             seen = reference_glossy.glass(self, P, D, normal, S, material, depth, layers, path)
             out = [out[c] + a * material.transmission * seen[c] for c in range(3)]

@@ -15,8 +15,8 @@ from ..scene import scene as sc
 
 
 class Tracing(Protocol):
-    """What rays(), glass() and diffuse() need of the reference tracer: its pairs, its ray counts and TraceRay (path:
-    its (pair, diffuse bounces, kind: 0 mirror, 1 glossy, 2 diffuse) triple)."""
+    """What rays(), glass(), glass_light() and diffuse() need of the reference tracer: its pairs, its ray counts,
+    TraceRay (path: its (pair, diffuse bounces, kind: 0 mirror, 1 glossy, 2 diffuse) triple) and FindIntensity."""
 
     glossy_pairs: list[tuple[float, float]]
     rays: dict[str, int]
@@ -25,6 +25,10 @@ class Tracing(Protocol):
     camera_sample: int  # its sample of the pixel: which glossy pairs a path's first glossy surface takes
 
     def background(self, D: sc.Vec3, solid_angle: float | None = None) -> sc.Color: ...
+
+    def find_intensities(
+        self, P: sc.Vec3, N: sc.Vec3, V: sc.Vec3, specular: float, split: dict | None = None, lobe: object = None
+    ) -> tuple[list[float], list[float]]: ...
 
     def trace_ray(
         self,
@@ -237,13 +241,132 @@ def glass(
     layers: int,
     path: tuple[int, int, int],
 ) -> sc.Color:
-    """What a rough glass hit's sampled rays (glass_rays) bring back, before its glass share a t, at the rotation of
-    the tracer's camera sample and this depth (camera.glass_rotation). The reason for 9 parameters: the tracer, the
-    hit and the ray's state as trace_ray carries them."""
+    """What the lights add through a rough glass hit (glass_light) and, while depth lasts, what its sampled rays
+    (glass_rays) bring back, before its glass share a t, at the rotation of the tracer's camera sample and this depth
+    (camera.glass_rotation). The reason for 9 parameters: the tracer, the hit and the ray's state as trace_ray carries
+    them."""
+    light = glass_light(tracer, P, D, N, S, material, depth)
+    if depth <= 0:
+        return light
     rotation = cam.glass_rotation(tracer.settings.seed, tracer.serial, depth)
     first = lightsamples.shared_pairs(tracer.settings, len(tracer.glossy_pairs), tracer.camera_sample)
     rays = [ray[:3] for ray in glass_rays(tracer.glossy_pairs, D, N, S, material, path, rotation, first)]
-    return traced(tracer, P, rays, depth, layers)
+    seen = traced(tracer, P, rays, depth, layers)
+    return (light[0] + seen[0], light[1] + seen[1], light[2] + seen[2])
+
+
+@dataclass
+class GlassLobe:
+    """Rough glass at one hit as the lights see it (glossy.Glass): its frame (e1, e2, n), n the shading normal facing
+    the viewer, the unit view v in it, eta, alpha, masking-shadowing and distribution, its multiscatter gain, the
+    colour that tints what it refracts, and which sides count ("both", "reflected", "refracted"); shine: what the
+    lights add through it (ReferenceTracer.find_intensities sets it)."""
+
+    e1: sc.Vec3
+    e2: sc.Vec3
+    n: sc.Vec3
+    v: sc.Vec3
+    eta: float
+    alpha: float
+    separable: bool
+    beckmann: bool
+    gain: float
+    tint: sc.Color
+    sides: str = "both"
+    shine: sc.Color = (0.0, 0.0, 0.0)
+    traced: bool = True
+
+    def light(self, L: sc.Vec3) -> sc.Color:
+        """glossy.glass_light_factor for a light along L (world), the refracted part times the tint."""
+        length = math.sqrt(_dot(L, L))
+        toward = (_dot(L, self.e1) / length, _dot(L, self.e2) / length, _dot(L, self.n) / length)
+        v, eta, a2 = self.v, self.eta, self.alpha * self.alpha
+        above = toward[2] > 0.0
+        scale = 1.0 if above else eta
+        m = tuple(v[k] + scale * toward[k] for k in range(3))
+        m_length = math.sqrt(_dot(m, m))
+        if (
+            not (v[2] > 0.0 and m_length > 0.0)
+            or toward[2] == 0.0
+            or self.sides == ("refracted" if above else "reflected")
+        ):
+            return (0.0, 0.0, 0.0)
+        up = (-1.0 if m[2] < 0.0 else 1.0) / m_length
+        m = (m[0] * up, m[1] * up, m[2] * up)
+        c, lm = _dot(v, m), _dot(toward, m)
+        if not (m[2] > 0.0 and c > 0.0):
+            return (0.0, 0.0, 0.0)
+        g2 = eta * eta - 1.0 + c * c
+        F = 1.0
+        if g2 > 0.0:
+            g = math.sqrt(g2)
+            A, B = (g - c) / (g + c), (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+            F = 0.5 * A * A * (1.0 + B * B)
+        cos2 = m[2] * m[2]
+        if self.beckmann:
+            D = math.exp(-(1.0 - cos2) / (cos2 * a2)) / (math.pi * a2 * cos2 * cos2)
+        else:
+            d = cos2 * (a2 - 1.0) + 1.0
+            D = a2 / (math.pi * d * d)
+        lambda_of = beckmann_lambda if self.beckmann else smith_lambda
+        G2 = shadowing(lambda_of(v[2], a2), lambda_of(abs(toward[2]), a2), self.separable)
+        if above:
+            value = F * (math.pi * D * G2 / (4.0 * v[2])) * self.gain
+            return (value, value, value)
+        denominator = c + eta * lm
+        if not (lm < 0.0 and g2 > 0.0 and denominator != 0.0):
+            return (0.0, 0.0, 0.0)
+        value = (1.0 - F) * math.pi * D * G2 * c * (eta * eta) * -lm / (v[2] * denominator * denominator) * self.gain
+        return tuple(value * t for t in self.tint)
+
+
+def glass_lobe(
+    pairs: list[tuple[float, float]],
+    D: sc.Vec3,
+    N: sc.Vec3,
+    S: sc.Vec3,
+    material: sc.Material,
+    rotation: tuple[float, float],
+    sides: str = "both",
+) -> GlassLobe:
+    """The rough glass hit met along D (geometric normal N, shading normal S) as the lights see it, its gain at the
+    rotation's pairs (glass_rays')."""
+    d = _unit(D)
+    n = _unit(S if _dot(S, d) < 0.0 else (-S[0], -S[1], -S[2]))
+    eta = material.ior if _dot(N, d) < 0.0 else 1.0 / material.ior
+    e1, e2 = lightsamples.facing_basis(n)
+    v = (-_dot(d, e1), -_dot(d, e2), -_dot(d, n))
+    a = material.transmission_roughness * material.transmission_roughness
+    separable = material.glossy_shadowing == "separable"
+    beckmann = material.transmission_distribution == "beckmann"
+    gain = _glass_gain(pairs, v, eta, a, material, rotation)
+    return GlassLobe(e1, e2, n, v, eta, a, separable, beckmann, gain, material.color, sides)
+
+
+def _glass_gain(
+    pairs: list[tuple[float, float]], v: sc.Vec3, eta: float, a: float, material: sc.Material, rotation: tuple
+) -> float:
+    """Multiscatter glass's gain 1 / E, E both weights' mean over every pair at the rotation; 1 otherwise."""
+    if material.glossy_energy != "multiscatter" or not v[2] > 0.0:
+        return 1.0
+    separable = material.glossy_shadowing == "separable"
+    beckmann = material.transmission_distribution == "beckmann"
+    turned = [(rotated(u1, rotation[0]), rotated(u2, rotation[1])) for u1, u2 in pairs]
+    splits = [_glass_split(v, eta, a, u1, u2, separable, beckmann) for u1, u2 in turned]
+    albedo = sum(weight_r + weight_t for _, _, weight_r, weight_t in splits) / len(pairs)
+    return 1.0 / albedo if albedo > 0.0 else 1.0
+
+
+def glass_light(
+    tracer: Tracing, P: sc.Vec3, D: sc.Vec3, N: sc.Vec3, S: sc.Vec3, material: sc.Material, depth: int, sides="both"
+) -> sc.Color:
+    """What the lights (not ambient, not the world's directions) add through a rough glass hit's microfacets, per
+    unit of its glass share, at the rotation of the tracer's camera sample and this depth (shading.glass_light);
+    sides: "both", or the "reflected" or "refracted" part alone. The reason for 8 parameters: glass()'s."""
+    rotation = cam.glass_rotation(tracer.settings.seed, tracer.serial, depth)
+    lobe = glass_lobe(tracer.glossy_pairs, D, N, S, material, rotation, sides)
+    tracer.find_intensities(P, S, (-D[0], -D[1], -D[2]), 0.0, None, lobe)
+    return lobe.shine
 
 
 def glass_rays(
@@ -260,7 +383,7 @@ def glass_rays(
     the pairs the camera sample takes and their share, first: lightsamples.shared_pairs; else the path's) turned by
     the hit's rotation (rotated), a visible microfacet normal m about S turned to face D, a reflected ray of weight
     F G2 / G1(v) and a refracted one of (1 - F) G2 / G1(v) times the colour -> (direction, weight, path, refracted)
-    each (mirror-like rays: they see the lights seen in mirrors)."""
+    each (they do not see the lights: the lights through the glass are its GlassLobe's)."""
     d = _unit(D)
     n = _unit(S if _dot(S, d) < 0.0 else (-S[0], -S[1], -S[2]))
     eta = material.ior if _dot(N, d) < 0.0 else 1.0 / material.ior
@@ -274,10 +397,7 @@ def glass_rays(
     beckmann = material.transmission_distribution == "beckmann"
     turned = [(rotated(u1, rotation[0]), rotated(u2, rotation[1])) for u1, u2 in pairs]
     splits = [_glass_split(v, eta, a, u1, u2, separable, beckmann) for u1, u2 in turned]
-    gain = 1.0
-    if material.glossy_energy == "multiscatter":  # 1 / E, E both weights' mean over every pair
-        albedo = sum(weight_r + weight_t for _, _, weight_r, weight_t in splits) / len(pairs)
-        gain = 1.0 / albedo if albedo > 0.0 else 1.0
+    gain = _glass_gain(pairs, v, eta, a, material, rotation)
     made = []
     for index in chosen:
         reflected, T, weight_r, weight_t = splits[index]
@@ -286,7 +406,7 @@ def glass_rays(
             weight = weight * share * gain
             if weight > 0.0:
                 world = tuple(direction[0] * e1[k] + direction[1] * e2[k] + direction[2] * n[k] for k in range(3))
-                made.append((world, tuple(weight * c for c in tint), (index, path[1], 0), bent))
+                made.append((world, tuple(weight * c for c in tint), (index, path[1], 1), bent))  # 1: sees no light
     return made
 
 

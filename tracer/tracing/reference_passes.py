@@ -234,6 +234,13 @@ class PassTracer(ReferenceTracer):
             reflection, environment = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
             if depth > 0 and mirror > 0.0:
                 self.mirror_passes(P, reflect_ray(V, S), depth - 1, mirror, reflection, environment)
+            if material.transmission > 0.0 and material.transmission_roughness > 0.0:  # the lights through it
+                normal = find_normal(self.primitives[hit[0]], hit[1], P)
+                glass = a * material.transmission
+                shine = reference_glossy.glass_light(self, P, D, normal, S, material, depth, "reflected")
+                bent = reference_glossy.glass_light(self, P, D, normal, S, material, depth, "refracted")
+                reflection = [reflection[c] + glass * shine[c] for c in range(3)]
+                transmission = [transmission[c] + glass * bent[c] for c in range(3)]
             if depth > 0 and material.transmission > 0.0 and material.transmission_roughness > 0.0:
                 normal = find_normal(self.primitives[hit[0]], hit[1], P)
                 glass = a * material.transmission

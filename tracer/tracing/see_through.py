@@ -170,6 +170,45 @@ def add_local(
         recorder.tagged("reflection", batch.tag, lit, pixel, value)
 
 
+def add_glass_light(
+    scene: PreparedScene,
+    color: np.ndarray,
+    hits: Hits,
+    batch: RayBatch,
+    counts: RayCounts,
+    footprint: Footprint | RayStore | None,
+    frames: np.ndarray | None,
+    recorder: PassRecorder | NoPasses,
+    first: bool,
+) -> None:
+    """The glass share a t of a see-through wavefront's rough glass hits: what the lights add through the glass's
+    microfacets (shading.glass_light; the refracted part tinted by the hit's colour), times the share and the rays'
+    weights, added to their camera samples; the passes: at a camera ray's hit the reflected part into Reflection and
+    the refracted into Transmission, else by the rays' tag (add_local's). At every such hit, as the local colour,
+    whatever depth is left. The reason for 9 parameters: add_local's."""
+    glass = scene.alpha.take(hits.material) * scene.transmission.take(hits.material)
+    rough = scene.transmission_roughness.take(hits.material) > 0.0
+    rows = indices(rough & (glass > 0.0))
+    if not rows.size:
+        return
+    mine = hits.take(rows)
+    pixel = batch.pixel.take(rows)
+    rotation = cam.glass_rotations(scene.scene.render.seed, batch.serial.take(rows), batch.left.take(rows))
+    reflected, transmitted = shading.glass_light(
+        scene, mine, pixel, take(batch.direction, rows), rotation, counts, footprint, frames
+    )
+    share = glass.take(rows)
+    weight = share if batch.weight is None else take(batch.weight, rows) * share
+    reflected, transmitted = reflected * weight, transmitted * mine.colors * weight
+    value = reflected + transmitted
+    add_at(color, pixel, value)
+    if first:
+        recorder.add("reflection", pixel, reflected)
+        recorder.add("transmission", pixel, transmitted)
+    else:
+        recorder.tagged("reflection", batch.tag, rows, pixel, value)
+
+
 def continuing(scene: PreparedScene, hits: Hits, batch: RayBatch) -> RayBatch | None:
     """The rays a see-through wavefront's hits send on, in one batch ordered by camera sample: mirror rays
     (a ((1 - t) r + t F)), refracted rays (a t (1 - F) colour; none in total internal reflection) and straight ones
@@ -262,7 +301,10 @@ def _rough_glass_rays(
                batch.left.take(rows.take(part)) - 1, False, tag, pair.take(part))
         for tag in (1, 2) if (part := indices(kind == tag)).size
     ]  # fmt: skip
-    return RayBatch.joined(made)
+    rays = RayBatch.joined(made)
+    if rays.lamps is None:
+        return rays
+    return rays.with_rays(lamps=np.zeros(rays.size, dtype=bool))  # the lights came through the glass (glass_light)
 
 
 def _glossy_rays(
@@ -337,7 +379,7 @@ def _child(
     diffuse = lamps = None  # a straight continuation is still the ray it was (a diffuse one's miss adds nothing)
     if batch.diffuse is not None:
         diffuse = batch.diffuse.take(rows) if straight else np.zeros(rows.size, dtype=bool)
-    if batch.lamps is not None:  # mirror, refracted and rough glass rays see lights (glossy, diffuse: not)
+    if batch.lamps is not None:  # mirror and refracted rays see lights (glossy, rough glass, diffuse: not)
         lamps = batch.lamps.take(rows) if straight else np.ones(rows.size, dtype=bool)
     serial = None if batch.serial is None else batch.serial.take(rows)
     return RayBatch(

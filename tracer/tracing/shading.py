@@ -87,7 +87,8 @@ def find_intensity(
     P, N = hits.P, hits.S
     count = P.shape[1]
     length_n = np.sqrt(dot(N, N))
-    terms = _light_terms(scene, hits, specular, length_n, samples)
+    glass = isinstance(lobes, GlassLights)
+    terms = _light_terms(scene, hits, specular, length_n, samples, both_sides=glass)
     own = [term for term in terms if term is not None]
     normals = N if hits.geometric is None else hits.geometric
     lit = shadows.reached(scene, own, P, normals, hits.surface, counts, footprint, samples, frames)
@@ -102,7 +103,9 @@ def find_intensity(
     lights = scene.lights
     if scene.patterned:
         lights, terms, lit, throughs = _merged(lights, terms, lit, throughs)
-    if lobes is not None:
+    if glass:
+        lobes.reflected, lobes.transmitted = _glass_light(scene, lights, terms, lit, throughs, lobes.glass)
+    elif lobes is not None:
         lobes.light = _glossy_light(scene, lights, terms, lit, throughs, lobes, samples)
     if scene.colored:
         return _colored(scene, lights, terms, lit, length_n, exponent, split, throughs)
@@ -110,14 +113,21 @@ def find_intensity(
 
 
 def _light_terms(
-    scene: PreparedScene, hits: Hits, specular: np.ndarray, length_n: np.ndarray, samples: np.ndarray
+    scene: PreparedScene,
+    hits: Hits,
+    specular: np.ndarray,
+    length_n: np.ndarray,
+    samples: np.ndarray,
+    both_sides: bool = False,
 ) -> list[LightTerm | None]:
     """Each light's LightTerm at the hits' points P with shading normals S and V (3, n), in the scene's order (None:
     ambient). samples: the camera samples (n,) the points belong to: a world direction or a sample of a light of a
     size shared out among a pixel's samples (lightsamples.world_share) counts at the points of its samples alone, g
     times (N.L g, or its attenuation factor times g), and a light of a size's sample at the pixels of its pattern
     alone (lightsamples.pixel_pattern), patterns times; a world direction is turned by its point's pixel's turn
-    (camera.world_turns)."""
+    (camera.world_turns). both_sides: rough glass's points, which the lights reach from either side of the surface
+    (through its microfacets) and the world's directions not at all (its rays see the background): each light's
+    diffuse gate is N.L != 0, the world's none."""
     P, N, V = hits.P, hits.S, hits.V
     settings = scene.scene.render
     keys: dict[int, np.ndarray] = {}  # each share's key mod g at the points
@@ -140,7 +150,7 @@ def _light_terms(
             L = light.vector_at(P, N, shared)
             NL = dot(N, L)
             length_l = np.sqrt(dot(L, L))
-            diffuse_gate = NL > 0.0
+            diffuse_gate = NL > 0.0 if not both_sides else np.zeros(NL.shape, dtype=bool)
             if share > 1:
                 diffuse_gate &= _taken(keys, settings, samples, share, light)
                 NL = NL * share
@@ -157,6 +167,8 @@ def _light_terms(
             term = groups[group]
         else:
             term = _highlight_term(scene, light, points, shared)
+        if both_sides:
+            term = term._replace(diffuse_gate=term.NL != 0.0)
         if share > 1 or light.patterns > 1:
             # a sample of a light of a size, taken by the pixels of its pattern and shared out among their samples as
             # the world's directions are: patterns times g times its terms
@@ -409,6 +421,72 @@ def _glossy_light(
         color = term.color if term.color.shape[-1] == 1 else take(term.color, rows)
         total = np.where(light_lit & traced, total + value * color, total)
     return total.astype(scene.dtype, copy=False)
+
+
+class GlassLights:
+    """Rough glass hits as find_intensity takes them in place of glossy lobes: the glass (glossy.glass_at), and what
+    the lights add through its microfacets, reflected and refracted (3, k) each (find_intensity sets them)."""
+
+    def __init__(self, glass: glossy.Glass) -> None:
+        self.glass = glass
+        self.reflected: np.ndarray | None = None
+        self.transmitted: np.ndarray | None = None
+
+
+def glass_light(
+    scene: PreparedScene,
+    hits: Hits,
+    samples: np.ndarray,
+    D: np.ndarray,
+    rotation: np.ndarray,
+    counts: RayCounts,
+    footprint: Footprint | None,
+    frames: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """What the lights (not ambient, not the world's directions) add through rough glass hits (n,) met along D
+    (3, n), their pairs turned by rotation (2, n) (camera.glass_rotations): reflected and refracted (3, n) each, per
+    unit of glass share, the refracted not yet tinted; shadowed as the diffuse terms are, from either side of the
+    surface. The glass's own rays do not see the lights (its light is counted here). samples, counts, footprint,
+    frames: as find_intensity takes them. The reason for 8 parameters: the hits and their rays' directions and
+    rotations, and the bookkeeping every shading call carries."""
+    lights = GlassLights(glossy.glass_at(scene, hits, np.arange(hits.P.shape[1]), D, rotation))
+    specular = np.zeros(hits.P.shape[1], dtype=scene.dtype)
+    find_intensity(scene, hits, specular, samples, counts, footprint, frames, None, lights)
+    return lights.reflected, lights.transmitted
+
+
+def _glass_light(
+    scene: PreparedScene,
+    lights: list,
+    terms: list[LightTerm | None],
+    lit: list[np.ndarray],
+    throughs: list[np.ndarray] | None,
+    glass: glossy.Glass,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The lights' sums through rough glass (3, k) each, reflected and refracted: each light's intensity,
+    attenuation, colour and share that passes (glossy.glass_light_factor per unit of intensity), where its shadow ray
+    reached the point (_glossy_light's sums, both sides of the surface)."""
+    count = glass.eta.size
+    reflected = np.zeros((3, count), dtype=np.float64)
+    transmitted = np.zeros((3, count), dtype=np.float64)
+    shadow_rays = iter(lit)
+    passing = None if throughs is None else iter(throughs)
+    for light, term in zip(lights, terms, strict=True):
+        if term is None:
+            continue
+        light_lit = next(shadow_rays)
+        through = None if passing is None else next(passing)
+        if not light.highlight or not light.adds_glossy:
+            continue
+        value_r, value_t = glossy.glass_light_factor(glass, term.L)
+        scale = light.intensity
+        if term.factor is not None:
+            scale = scale * term.factor
+        if through is not None:
+            scale = scale * through
+        reflected = np.where(light_lit, reflected + (value_r * scale) * term.color, reflected)
+        transmitted = np.where(light_lit, transmitted + (value_t * scale) * term.color, transmitted)
+    return reflected.astype(scene.dtype, copy=False), transmitted.astype(scene.dtype, copy=False)
 
 
 def _columns(values: np.ndarray, rows: np.ndarray) -> np.ndarray:

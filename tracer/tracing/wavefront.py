@@ -130,6 +130,8 @@ class TracedScene(PreparedScene):
                 hits.image_pixel = image_pixel.take(batch.pixel)
             if glass:
                 see_through.add_local(self, color, hits, batch, counts, footprint, frames, recorder, first)
+                if self.rough_glass:
+                    see_through.add_glass_light(self, color, hits, batch, counts, footprint, frames, recorder, first)
                 batch = see_through.continuing(self, hits, batch)
             else:
                 reflective = whitted.add_local(self, color, hits, batch, counts, footprint, frames, recorder, first)
