@@ -265,26 +265,20 @@ def diffuse_rays(
 
 
 def glass_rays(
-    scene: PreparedScene,
-    hits: Hits,
-    rows: np.ndarray,
-    D: np.ndarray,
-    chosen: np.ndarray,
-    rotation: np.ndarray,
-    keys: np.ndarray,
+    scene: PreparedScene, glass: Glass, chosen: np.ndarray, rotation: np.ndarray, keys: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The rays of rough glass hits rows (k,) met along D (3, k): at a path's first glossy surface (chosen -1) the
-    pairs its camera sample takes (keys (k,): their sharing keys, lightsamples.shared_pairs, as a glossy lobe's),
-    else the path's pair, each pair turned by the hit's Cranley-Patterson rotation (2, k) (rotated(): its own for
-    every camera sample and depth, camera.glass_rotations, so that neither the pixels nor a path's entry and exit
-    share one pattern), a microfacet normal m sampled about the shading normal turned to face the ray (as the sharp
-    glass bends by it), then a reflected ray of weight F G2 / G1(v) and a refracted one of weight (1 - F) G2 / G1(v)
-    (Walter et al. 2007; F the dielectric Fresnel at v.m, eta = ior entering by the geometric normal, 1 / ior
-    leaving), at a first hit each times its pairs' share (share / count), and for multiscatter energy by E, the mean
-    of both weights over every pair (what single scattering keeps: Cycles' Multiscatter GGX glass loses nothing); a
-    ray on the wrong side of the surface, or refracted in total internal reflection, is dropped -> the rays' hits
-    (j,) (indices into rows), pairs (j,), unit directions (3, j), weights (j,) and whether each is refracted (j,)."""
-    glass = glass_at(scene, hits, rows, D, rotation)
+    """The rays of rough glass hits (k,) (glass_at: met along D, their rotation (2, k) given again here): at a path's
+    first glossy surface (chosen -1) the pairs its camera sample takes (keys (k,): their sharing keys,
+    lightsamples.shared_pairs, as a glossy lobe's), else the path's pair, each pair turned by the hit's Cranley-
+    Patterson rotation (2, k) (rotated(): its own for every camera sample and depth, camera.glass_rotations, so that
+    neither the pixels nor a path's entry and exit share one pattern), a microfacet normal m sampled about the shading
+    normal turned to face the ray (as the sharp glass bends by it), then a reflected ray of weight F G2 / G1(v) and a
+    refracted one of weight (1 - F) G2 / G1(v) (Walter et al. 2007; F the dielectric Fresnel at v.m, eta = ior entering
+    by the geometric normal, 1 / ior leaving), at a first hit each times its pairs' share (share / count), and for
+    multiscatter energy by E, the mean of both weights over every pair (what single scattering keeps: Cycles'
+    Multiscatter GGX glass loses nothing); a ray on the wrong side of the surface, or refracted in total internal
+    reflection, is dropped -> the rays' hits (j,) (indices into the hits), pairs (j,), unit directions (3, j), weights
+    (j,) and whether each is refracted (j,)."""
     e1, e2, n, v, eta, alpha = glass.e1, glass.e2, glass.n, glass.v, glass.eta, glass.alpha
     separable, beckmann, gain = glass.separable, glass.beckmann, glass.gain
     pairs = scene.glossy_pairs
@@ -327,6 +321,12 @@ class Glass:
     separable: np.ndarray
     beckmann: np.ndarray
     gain: np.ndarray
+
+    def take(self, keep: np.ndarray) -> Glass:
+        """The hits keep (j,) of these."""
+        frame = (take(array, keep) for array in (self.e1, self.e2, self.n, self.v))
+        return Glass(*frame, *(array.take(keep) for array in (self.eta, self.alpha, self.separable, self.beckmann,
+                                                              self.gain)))  # fmt: skip
 
 
 def glass_at(scene: PreparedScene, hits: Hits, rows: np.ndarray, D: np.ndarray, rotation: np.ndarray) -> Glass:

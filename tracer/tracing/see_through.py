@@ -180,23 +180,23 @@ def add_glass_light(
     frames: np.ndarray | None,
     recorder: PassRecorder | NoPasses,
     first: bool,
-) -> None:
+) -> tuple[np.ndarray, glossy.Glass] | None:
     """The glass share a t of a see-through wavefront's rough glass hits: what the lights add through the glass's
     microfacets (shading.glass_light; the refracted part tinted by the hit's colour), times the share and the rays'
     weights, added to their camera samples; the passes: at a camera ray's hit the reflected part into Reflection and
     the refracted into Transmission, else by the rays' tag (add_local's). At every such hit, as the local colour,
-    whatever depth is left. The reason for 9 parameters: add_local's."""
+    whatever depth is left -> those hits (k,) and their glass (glossy.glass_at), for their rays (continuing); None
+    where there are none. The reason for 9 parameters: add_local's."""
     glass = scene.alpha.take(hits.material) * scene.transmission.take(hits.material)
     rough = scene.transmission_roughness.take(hits.material) > 0.0
     rows = indices(rough & (glass > 0.0))
     if not rows.size:
-        return
+        return None
     mine = hits.take(rows)
     pixel = batch.pixel.take(rows)
     rotation = cam.glass_rotations(scene.scene.render.seed, batch.serial.take(rows), batch.left.take(rows))
-    reflected, transmitted = shading.glass_light(
-        scene, mine, pixel, take(batch.direction, rows), rotation, counts, footprint, frames
-    )
+    made = glossy.glass_at(scene, hits, rows, take(batch.direction, rows), rotation)
+    reflected, transmitted = shading.glass_light(scene, mine, made, pixel, counts, footprint, frames)
     share = glass.take(rows)
     weight = share if batch.weight is None else take(batch.weight, rows) * share
     reflected, transmitted = reflected * weight, transmitted * mine.colors * weight
@@ -207,13 +207,17 @@ def add_glass_light(
         recorder.add("transmission", pixel, transmitted)
     else:
         recorder.tagged("reflection", batch.tag, rows, pixel, value)
+    return rows, made
 
 
-def continuing(scene: PreparedScene, hits: Hits, batch: RayBatch) -> RayBatch | None:
+def continuing(
+    scene: PreparedScene, hits: Hits, batch: RayBatch, rough: tuple[np.ndarray, glossy.Glass] | None = None
+) -> RayBatch | None:
     """The rays a see-through wavefront's hits send on, in one batch ordered by camera sample: mirror rays
     (a ((1 - t) r + t F)), refracted rays (a t (1 - F) colour; none in total internal reflection) and straight ones
     (1 - a, the same direction, not a bounce: at most sc.TRANSPARENT_BOUNCES on a path; a camera ray's straight
-    continuation stays a camera ray); None where no hit sends any."""
+    continuation stays a camera ray); None where no hit sends any. rough: the rough glass hits and their glass
+    (add_glass_light's; None: made here)."""
     material, D = hits.material, batch.direction
     a, transmission = scene.alpha.take(material), scene.transmission.take(material)
     go = batch.left > 0
@@ -246,7 +250,7 @@ def continuing(scene: PreparedScene, hits: Hits, batch: RayBatch) -> RayBatch | 
         if rays is not None:
             made.append(rays)
     if scene.rough_glass:
-        rays = _rough_glass_rays(scene, hits, batch, go, a * transmission, base)
+        rays = _rough_glass_rays(scene, hits, batch, go, a * transmission, base, rough)
         if rays is not None:
             made.append(rays)
     if scene.diffuse_bounces:
@@ -277,17 +281,29 @@ def _diffuse_rays(
 
 
 def _rough_glass_rays(
-    scene: PreparedScene, hits: Hits, batch: RayBatch, go: np.ndarray, glass: np.ndarray, base: np.ndarray
+    scene: PreparedScene,
+    hits: Hits,
+    batch: RayBatch,
+    go: np.ndarray,
+    glass: np.ndarray,
+    base: np.ndarray,
+    known: tuple[np.ndarray, glossy.Glass] | None,
 ) -> RayBatch | None:
     """The sampled reflected and refracted rays (glossy.glass_rays) of the rough glass hits that go on (go (n,))
-    with a glass share a t (n,) > 0, weighted by it (the refracted ones also by the hit's colour)."""
+    with a glass share a t (n,) > 0, weighted by it (the refracted ones also by the hit's colour); known: the rough
+    glass hits (k,) and their glass already made (add_glass_light), or None."""
     rough = scene.transmission_roughness.take(hits.material) > 0.0
     rows = indices(go & rough & (glass > 0.0))
     if not rows.size:
         return None
     rotation = cam.glass_rotations(scene.scene.render.seed, batch.serial.take(rows), batch.left.take(rows))
+    if known is None:
+        made = glossy.glass_at(scene, hits, rows, take(batch.direction, rows), rotation)
+    else:  # rows are among the known hits, both ascending
+        every, made = known
+        made = made.take(np.searchsorted(every, rows))
     hit, pair, D, weight, refracted = glossy.glass_rays(
-        scene, hits, rows, take(batch.direction, rows), batch.sample.take(rows), rotation, _keys(scene, batch, rows)
+        scene, made, batch.sample.take(rows), rotation, _keys(scene, batch, rows)
     )
     if not hit.size:
         return None

@@ -403,15 +403,9 @@ def _glossy_light(
         settings = scene.scene.render
         keys = lightsamples.sharing_key(settings, samples.take(rows.take(world)) % settings.samples)
         total[:, world] = glossy.environment(scene, lobes.take(world), np.asarray(keys, dtype=np.int64))
-    shadow_rays = iter(lit)
-    passing = None if throughs is None else iter(throughs)
-    for light, term in zip(lights, terms, strict=True):
-        if term is None:
-            continue
-        light_lit = next(shadow_rays).take(rows)
-        through = None if passing is None else next(passing).take(rows)
-        if not light.highlight or not light.adds_glossy:
-            continue
+    for light, term, light_lit, through in _glossy_lights(lights, terms, lit, throughs):
+        light_lit = light_lit.take(rows)
+        through = None if through is None else through.take(rows)
         L = term.L if term.L.shape[1] == 1 else take(term.L, rows)
         value = light.intensity * glossy.light_factor(lobes, L)
         if term.factor is not None:
@@ -436,20 +430,17 @@ class GlassLights:
 def glass_light(
     scene: PreparedScene,
     hits: Hits,
+    glass: glossy.Glass,
     samples: np.ndarray,
-    D: np.ndarray,
-    rotation: np.ndarray,
     counts: RayCounts,
     footprint: Footprint | None,
     frames: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """What the lights (not ambient, not the world's directions) add through rough glass hits (n,) met along D
-    (3, n), their pairs turned by rotation (2, n) (camera.glass_rotations): reflected and refracted (3, n) each, per
-    unit of glass share, the refracted not yet tinted; shadowed as the diffuse terms are, from either side of the
-    surface. The glass's own rays do not see the lights (its light is counted here). samples, counts, footprint,
-    frames: as find_intensity takes them. The reason for 8 parameters: the hits and their rays' directions and
-    rotations, and the bookkeeping every shading call carries."""
-    lights = GlassLights(glossy.glass_at(scene, hits, np.arange(hits.P.shape[1]), D, rotation))
+    """What the lights (not ambient, not the world's directions) add through rough glass hits (n,), glass their
+    glass (glossy.glass_at): reflected and refracted (3, n) each, per unit of glass share, the refracted not yet
+    tinted; shadowed as the diffuse terms are, from either side of the surface. The glass's own rays do not see the
+    lights (its light is counted here). samples, counts, footprint, frames: as find_intensity takes them."""
+    lights = GlassLights(glass)
     specular = np.zeros(hits.P.shape[1], dtype=scene.dtype)
     find_intensity(scene, hits, specular, samples, counts, footprint, frames, None, lights)
     return lights.reflected, lights.transmitted
@@ -469,15 +460,7 @@ def _glass_light(
     count = glass.eta.size
     reflected = np.zeros((3, count), dtype=np.float64)
     transmitted = np.zeros((3, count), dtype=np.float64)
-    shadow_rays = iter(lit)
-    passing = None if throughs is None else iter(throughs)
-    for light, term in zip(lights, terms, strict=True):
-        if term is None:
-            continue
-        light_lit = next(shadow_rays)
-        through = None if passing is None else next(passing)
-        if not light.highlight or not light.adds_glossy:
-            continue
+    for light, term, light_lit, through in _glossy_lights(lights, terms, lit, throughs):
         value_r, value_t = glossy.glass_light_factor(glass, term.L)
         scale = light.intensity
         if term.factor is not None:
@@ -487,6 +470,20 @@ def _glass_light(
         reflected = np.where(light_lit, reflected + (value_r * scale) * term.color, reflected)
         transmitted = np.where(light_lit, transmitted + (value_t * scale) * term.color, transmitted)
     return reflected.astype(scene.dtype, copy=False), transmitted.astype(scene.dtype, copy=False)
+
+
+def _glossy_lights(lights: list, terms: list[LightTerm | None], lit: list[np.ndarray], throughs: list | None):
+    """The lights that add through glossy lobes and rough glass (a highlight, Glossy ray visibility on), each with
+    its term, where its shadow rays reached (n,) and the share that passed (n,; None: all)."""
+    shadow_rays = iter(lit)
+    passing = None if throughs is None else iter(throughs)
+    for light, term in zip(lights, terms, strict=True):
+        if term is None:
+            continue
+        light_lit = next(shadow_rays)
+        through = None if passing is None else next(passing)
+        if light.highlight and light.adds_glossy:
+            yield light, term, light_lit, through
 
 
 def _columns(values: np.ndarray, rows: np.ndarray) -> np.ndarray:

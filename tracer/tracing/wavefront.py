@@ -130,9 +130,12 @@ class TracedScene(PreparedScene):
                 hits.image_pixel = image_pixel.take(batch.pixel)
             if glass:
                 see_through.add_local(self, color, hits, batch, counts, footprint, frames, recorder, first)
+                rough = None  # the rough glass hits and their glass: its lights here, its rays in continuing
                 if self.rough_glass:
-                    see_through.add_glass_light(self, color, hits, batch, counts, footprint, frames, recorder, first)
-                batch = see_through.continuing(self, hits, batch)
+                    rough = see_through.add_glass_light(
+                        self, color, hits, batch, counts, footprint, frames, recorder, first
+                    )
+                batch = see_through.continuing(self, hits, batch, rough)
             else:
                 reflective = whitted.add_local(self, color, hits, batch, counts, footprint, frames, recorder, first)
                 batch = whitted.mirror_rays(self, hits, batch, reflective)
