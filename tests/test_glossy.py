@@ -319,6 +319,23 @@ def _rough_glass_document() -> dict:
     }
 
 
+def test_a_lamp_lights_rough_glass_through_its_microfacets_unless_its_glossy_visibility_is_off() -> None:
+    """The rough glass ball alone under a point light behind it and above, no floor: the lamp reaches the pixels only
+    through the glass (its highlight and what the ball lets through), as much as the reference finds; with the lamp's
+    Glossy visibility off (visible_glossy false) the image is the one without the lamp, with no shadow ray of it."""
+    document = _rough_glass_document()
+    document["objects"] = document["objects"][:1]
+    document["lights"] = [{"type": "point", "location": [0.5, 4, 2], "intensity": 2.0}]
+    lit = scene_from_dict(document)
+    assert_matches_reference(lit)
+    unseen = dict(document, lights=[{**document["lights"][0], "visible_glossy": False}])
+    dark = dict(document, lights=[])
+    with_lamp, without, blind = (render(scene_from_dict(d), workers=1) for d in (document, dark, unseen))
+    assert (with_lamp.image - without.image).max() > 0.05  # the glow through the ball
+    np.testing.assert_array_equal(blind.image, without.image)
+    assert blind.rays.shadow == 0 < with_lamp.rays.shadow
+
+
 def test_rough_glass_turns_its_pairs_by_camera_sample_the_same_bytes_in_any_piece() -> None:
     """Rough glass's pairs turned by a rotation of each camera sample and depth (camera.glass_rotations): the
     reference's image to 1e-9, the same bytes for 1 or 2 workers and for a few pixels traced alone (the rotation

@@ -167,8 +167,8 @@ def _light_terms(
             term = groups[group]
         else:
             term = _highlight_term(scene, light, points, shared)
-        if both_sides:
-            term = term._replace(diffuse_gate=term.NL != 0.0)
+        if both_sides:  # through the glass, where the light adds to glossy terms (Blender's Glossy visibility)
+            term = term._replace(diffuse_gate=(term.NL != 0.0) & light.adds_glossy)
         if share > 1 or light.patterns > 1:
             # a sample of a light of a size, taken by the pixels of its pattern and shared out among their samples as
             # the world's directions are: patterns times g times its terms
