@@ -123,7 +123,7 @@ def extended_scene_document(seed: int, width: int = 16, height: int = 12) -> dic
             light["cone_scale"] = [stretch.uniform(0.3, 2.5), stretch.uniform(0.3, 2.5)]
             light["x_axis"] = _vector(stretch, -1.0, 1.0)
         if light["type"] != "ambient" and stretch.random() < 0.25:  # the light's ray visibility, one term off
-            light[stretch.choice(["visible_diffuse", "visible_glossy"])] = False
+            light[stretch.choice(["visible_diffuse", "visible_glossy", "visible_transmission"])] = False
     names = sorted(document["materials"])
     for body in document["objects"]:
         for flag in ("visible_camera", "visible_shadow", "visible_reflection"):

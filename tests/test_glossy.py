@@ -319,21 +319,36 @@ def _rough_glass_document() -> dict:
     }
 
 
-def test_a_lamp_lights_rough_glass_through_its_microfacets_unless_its_glossy_visibility_is_off() -> None:
+def test_a_lamp_lights_rough_glass_through_its_microfacets_as_its_glossy_and_transmission_visibility_say() -> None:
     """The rough glass ball alone under a point light behind it and above, no floor: the lamp reaches the pixels only
-    through the glass (its highlight and what the ball lets through), as much as the reference finds; with the lamp's
-    Glossy visibility off (visible_glossy false) the image is the one without the lamp, with no shadow ray of it."""
+    through the glass (its highlight and what the ball lets through), as much as the reference finds. With a second
+    lamp in front, the lamps' Glossy visibility (visible_glossy) gives the light off the glass, their Transmission
+    visibility (visible_transmission) the light through it, each as the reference finds it, the two adding up to the
+    whole; with both off the image is the one without the lamps, with no shadow ray of them."""
     document = _rough_glass_document()
     document["objects"] = document["objects"][:1]
     document["lights"] = [{"type": "point", "location": [0.5, 4, 2], "intensity": 2.0}]
-    lit = scene_from_dict(document)
-    assert_matches_reference(lit)
-    unseen = dict(document, lights=[{**document["lights"][0], "visible_glossy": False}])
+    assert_matches_reference(scene_from_dict(document))
+    document["lights"].append({"type": "point", "location": [1.5, -3, 3], "intensity": 2.0})
+
+    def seen(**flags) -> dict:
+        return dict(document, lights=[{**light, **flags} for light in document["lights"]])
+
+    off_only, through_only = seen(visible_transmission=False), seen(visible_glossy=False)
+    for part in (off_only, through_only):
+        assert_matches_reference(scene_from_dict(part))
+    blind = seen(visible_glossy=False, visible_transmission=False)
     dark = dict(document, lights=[])
-    with_lamp, without, blind = (render(scene_from_dict(d), workers=1) for d in (document, dark, unseen))
-    assert (with_lamp.image - without.image).max() > 0.05  # the glow through the ball
-    np.testing.assert_array_equal(blind.image, without.image)
-    assert blind.rays.shadow == 0 < with_lamp.rays.shadow
+    with_lamp, without, unseen, off, through = (
+        render(scene_from_dict(d), workers=1) for d in (document, dark, blind, off_only, through_only)
+    )
+    glow = with_lamp.image - without.image
+    assert glow.max() > 0.05  # the glow through the ball
+    assert 0.0 < (off.image - without.image).max() < glow.max()  # the front lamp's highlight
+    assert 0.0 < (through.image - without.image).max() < glow.max()  # the lamp behind seen through the ball
+    np.testing.assert_allclose((off.image - without.image) + (through.image - without.image), glow, atol=1e-6)
+    np.testing.assert_array_equal(unseen.image, without.image)
+    assert unseen.rays.shadow == 0 < with_lamp.rays.shadow
 
 
 def test_rough_glass_turns_its_pairs_by_camera_sample_the_same_bytes_in_any_piece() -> None:

@@ -256,6 +256,21 @@ def convert_light(obj, *, blender_scene=None) -> tuple[dict, list[str]]:
         seen = getattr(obj, flag, True)
         if not seen and not (flag == "visible_glossy" and original.get(MIRRORS_ONLY) == seen):
             document[flag] = False
+    # Transmission ray visibility: the light through rough glass (visible_transmission); off it is Glossy's
+    glossy_flag = bool(getattr(obj, "visible_glossy", True))
+    transmission_flag = bool(getattr(obj, "visible_transmission", True))
+    transmission = transmission_flag
+    if not compat.glass_closure_splits_light_visibility():  # Cycles 4+: rough glass shows both while either is on
+        transmission = transmission_flag or glossy_flag
+        if transmission_flag and not document.get("visible_glossy", True):
+            notes.append("Glossy ray visibility off: not reflected in rough glass (Cycles reflects it there too)")
+    if not transmission:
+        document["visible_transmission"] = False
+    if document.get("seen_in_mirrors") and glossy_flag != transmission_flag:
+        notes.append(
+            f"Transmission ray visibility {'off' if glossy_flag else 'on'}: smooth glass shows the light as its"
+            f" Glossy visibility ({'on' if glossy_flag else 'off'}) says"
+        )
     return document, notes
 
 

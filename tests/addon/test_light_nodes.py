@@ -101,7 +101,17 @@ def test_a_lights_ray_visibility_and_a_spot_scaled_unevenly_export_as_the_light_
     assert notes == [] and "visible_diffuse" not in document and "visible_glossy" not in document
     lamp.visible_diffuse, lamp.visible_glossy = False, False
     document, notes = light_convert.convert_light(lamp)
-    assert notes == [] and document["visible_diffuse"] is False and document["visible_glossy"] is False
+    split = compat.glass_closure_splits_light_visibility()  # 4+: Cycles reflects it in rough glass while either is on
+    assert notes == (
+        [] if split else ["Glossy ray visibility off: not reflected in rough glass (Cycles reflects it there too)"]
+    )
+    assert document["visible_diffuse"] is False and document["visible_glossy"] is False
+    assert "visible_transmission" not in document  # Transmission on: the light through rough glass
+    lamp.visible_transmission = False
+    assert light_convert.convert_light(lamp)[0]["visible_transmission"] is False
+    lamp.visible_glossy = True  # 4+: rough glass shows it while Glossy is on; 3.x: off it only
+    assert light_convert.convert_light(lamp)[0].get("visible_transmission", True) is not split
+    lamp.visible_glossy = lamp.visible_transmission = True
     spot = bpy.data.objects.new("spot", bpy.data.lights.new("spot", "SPOT"))
     bpy.context.scene.collection.objects.link(spot)
     spot.data.shadow_soft_size = 0.0

@@ -1029,7 +1029,8 @@ def _light(reader: _Reader) -> sc.Light | None:
             **_spot_cone(reader, direction),
         )
     if isinstance(result, sc.PointLight | sc.SpotLight | sc.DirectionalLight | sc.AreaLight):
-        seen = {flag: reader.boolean(flag, True) for flag in ("visible_diffuse", "visible_glossy")}
+        flags = ("visible_diffuse", "visible_glossy", "visible_transmission")
+        seen = {flag: reader.boolean(flag, True) for flag in flags}
         if not all(seen.values()):  # the documented light reaches every term
             result = replace(result, **seen)
     reader.finish()

@@ -491,6 +491,7 @@ class PointLight:
     radius: float = 0.0
     visible_diffuse: bool = True  # Blender's ray visibility (Object > Visibility), as a spot's
     visible_glossy: bool = True
+    visible_transmission: bool = True
 
 
 @dataclass(frozen=True)
@@ -511,6 +512,7 @@ class DirectionalLight:
     disc_model: Literal["cycles4", "cycles3"] = "cycles4"
     visible_diffuse: bool = True  # Blender's ray visibility (Object > Visibility), as a spot's
     visible_glossy: bool = True
+    visible_transmission: bool = True
 
 
 @dataclass(frozen=True)
@@ -533,10 +535,12 @@ class SpotLight:
     radius: float = 0.0  # as a point light's
     x_axis: Vec3 = (1.0, 0.0, 0.0)
     cone_scale: tuple[float, float] = (1.0, 1.0)
-    # Blender's ray visibility of the light (Object > Visibility): False, it adds no diffuse term (visible_diffuse) or
-    # no highlight, glossy lobe or reflection of itself (visible_glossy)
+    # Blender's ray visibility of the light (Object > Visibility): False, it adds no diffuse term (visible_diffuse),
+    # no highlight, glossy lobe, reflection of itself or reflection in rough glass (visible_glossy), or no light
+    # through rough glass (visible_transmission)
     visible_diffuse: bool = True
     visible_glossy: bool = True
+    visible_transmission: bool = True
 
 
 @dataclass(frozen=True)
@@ -559,6 +563,7 @@ class AreaLight:
     seen_in_mirrors: bool = False
     visible_diffuse: bool = True  # Blender's ray visibility (Object > Visibility), as a spot's
     visible_glossy: bool = True
+    visible_transmission: bool = True
 
 
 Light = AmbientLight | PointLight | DirectionalLight | SpotLight | AreaLight | WorldLight

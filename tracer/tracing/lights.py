@@ -38,7 +38,8 @@ class PreparedLight:
     count: int = 1
     patterns: int = 1  # a light of a size's sample patterns (lightsamples.patterned_grid): its own is index mod this
     adds_diffuse: bool = True  # the scene light's visible_diffuse: its diffuse term is added
-    adds_glossy: bool = True  # its visible_glossy: its highlight and its light through glossy lobes
+    adds_glossy: bool = True  # its visible_glossy: its highlight, its light through glossy lobes and off rough glass
+    adds_transmission: bool = True  # its visible_transmission: its light through rough glass
 
     ambient: ClassVar[bool] = False  # no direction: its term is its intensity, it casts no shadow
     highlight: ClassVar[bool] = True  # a Phong / Blinn-Phong highlight besides the diffuse term
@@ -288,6 +289,7 @@ def prepare_lights(scene: sc.Scene, dtype: np.dtype) -> list[PreparedLight]:
                 sample.places = places
             sample.adds_diffuse = getattr(light, "visible_diffuse", True)
             sample.adds_glossy = getattr(light, "visible_glossy", True)
+            sample.adds_transmission = getattr(light, "visible_transmission", True)
         lights.extend(made)
     return lights
 

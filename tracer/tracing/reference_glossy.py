@@ -276,8 +276,9 @@ class GlassLobe:
     shine: sc.Color = (0.0, 0.0, 0.0)
     traced: bool = True
 
-    def light(self, L: sc.Vec3) -> sc.Color:
-        """glossy.glass_light_factor for a light along L (world), the refracted part times the tint."""
+    def light(self, L: sc.Vec3, reflected: bool = True, refracted: bool = True) -> sc.Color:
+        """glossy.glass_light_factor for a light along L (world), the refracted part times the tint; reflected,
+        refracted: whether the light adds off the glass (its Glossy visibility) and through it (Transmission)."""
         length = math.sqrt(_dot(L, L))
         toward = (_dot(L, self.e1) / length, _dot(L, self.e2) / length, _dot(L, self.n) / length)
         v, eta, a2 = self.v, self.eta, self.alpha * self.alpha
@@ -289,6 +290,7 @@ class GlassLobe:
             not (v[2] > 0.0 and m_length > 0.0)
             or toward[2] == 0.0
             or self.sides == ("refracted" if above else "reflected")
+            or not (reflected if above else refracted)
         ):
             return (0.0, 0.0, 0.0)
         up = (-1.0 if m[2] < 0.0 else 1.0) / m_length

@@ -167,8 +167,11 @@ def _light_terms(
             term = groups[group]
         else:
             term = _highlight_term(scene, light, points, shared)
-        if both_sides:  # through the glass, where the light adds to glossy terms (Blender's Glossy visibility)
-            term = term._replace(diffuse_gate=(term.NL != 0.0) & light.adds_glossy)
+        if both_sides:  # off the glass (Blender's Glossy visibility of the light) or through it (Transmission)
+            through_glass = light.adds_glossy or light.adds_transmission
+            term = term._replace(diffuse_gate=(term.NL != 0.0) & through_glass)
+            if not through_glass:
+                term = term._replace(gate=np.zeros_like(term.gate))
         if share > 1 or light.patterns > 1:
             # a sample of a light of a size, taken by the pixels of its pattern and shared out among their samples as
             # the world's directions are: patterns times g times its terms
@@ -181,7 +184,7 @@ def _light_terms(
             )
         diffuse_gate, gate, factor = term.diffuse_gate, term.gate, term.factor
         reaches = diffuse_gate | gate
-        if not (light.adds_diffuse and light.adds_glossy):  # Blender's ray visibility of the light: a term off
+        if not both_sides and not (light.adds_diffuse and light.adds_glossy):  # the light's ray visibility: a term off
             if not light.adds_glossy:  # no highlight, nothing through the glossy lobes
                 gate = np.zeros_like(gate)
                 reaches = diffuse_gate
@@ -460,8 +463,9 @@ def _glass_light(
     count = glass.eta.size
     reflected = np.zeros((3, count), dtype=np.float64)
     transmitted = np.zeros((3, count), dtype=np.float64)
-    for light, term, light_lit, through in _glossy_lights(lights, terms, lit, throughs):
+    for light, term, light_lit, through in _glossy_lights(lights, terms, lit, throughs, glass=True):
         value_r, value_t = glossy.glass_light_factor(glass, term.L)
+        value_r, value_t = (value_r if light.adds_glossy else 0.0), (value_t if light.adds_transmission else 0.0)
         scale = light.intensity
         if term.factor is not None:
             scale = scale * term.factor
@@ -472,9 +476,12 @@ def _glass_light(
     return reflected.astype(scene.dtype, copy=False), transmitted.astype(scene.dtype, copy=False)
 
 
-def _glossy_lights(lights: list, terms: list[LightTerm | None], lit: list[np.ndarray], throughs: list | None):
-    """The lights that add through glossy lobes and rough glass (a highlight, Glossy ray visibility on), each with
-    its term, where its shadow rays reached (n,) and the share that passed (n,; None: all)."""
+def _glossy_lights(
+    lights: list, terms: list[LightTerm | None], lit: list[np.ndarray], throughs: list | None, glass: bool = False
+):
+    """The lights that add through glossy lobes (a highlight, Glossy ray visibility on) or, glass, through rough
+    glass (Glossy or Transmission visibility on), each with its term, where its shadow rays reached (n,) and the
+    share that passed (n,; None: all)."""
     shadow_rays = iter(lit)
     passing = None if throughs is None else iter(throughs)
     for light, term in zip(lights, terms, strict=True):
@@ -482,7 +489,7 @@ def _glossy_lights(lights: list, terms: list[LightTerm | None], lit: list[np.nda
             continue
         light_lit = next(shadow_rays)
         through = None if passing is None else next(passing)
-        if light.highlight and light.adds_glossy:
+        if light.highlight and (light.adds_glossy or (glass and light.adds_transmission)):
             yield light, term, light_lit, through
 
 
