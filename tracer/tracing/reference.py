@@ -527,16 +527,9 @@ class ReferenceTracer:
                 if shadow_object >= 0:
                     continue
             adds_diffuse, adds_glossy = getattr(light, "visible_diffuse", True), getattr(light, "visible_glossy", True)
-            adds_transmission = getattr(light, "visible_transmission", True)
-            if lobe is not None and lobe.traced and not isinstance(light, sc.WorldLight):
-                through_lobe = None
-                if isinstance(lobe, reference_glossy.GlassLobe):  # off it: Glossy visibility; through: Transmission
-                    if adds_glossy or adds_transmission:
-                        through_lobe = lobe.light(light_vector, adds_glossy, adds_transmission)
-                elif adds_glossy:
-                    through_lobe = lobe.light(light_vector)
-                if through_lobe is not None:
-                    shine = [shine[c] + (intensity * through_lobe[c]) * factor * color[c] for c in range(3)]
+            through_lobe = reference_glossy.through_lobe(lobe, light, light_vector)
+            if through_lobe is not None:
+                shine = [shine[c] + (intensity * through_lobe[c]) * factor * color[c] for c in range(3)]
             NL = dot(N, light_vector)
             if NL > 0.0 and adds_diffuse:
                 term = intensity * NL / (length_n * length(light_vector))

@@ -322,6 +322,18 @@ class GlassLobe:
         return tuple(value * t for t in self.tint)
 
 
+def through_lobe(lobe: Lobe | GlassLobe | None, light: sc.Light, L: sc.Vec3) -> sc.Color | None:
+    """What a light along L adds through a hit's lobe (glossy, or rough glass's) per unit of its intensity; None for
+    no lobe, a lobe not traced, the world's directions, or where the light's ray visibility leaves it out: its Glossy
+    visibility the light off a lobe or the glass, its Transmission visibility the light through the glass."""
+    if lobe is None or not lobe.traced or isinstance(light, sc.WorldLight):
+        return None
+    glossy, transmission = getattr(light, "visible_glossy", True), getattr(light, "visible_transmission", True)
+    if isinstance(lobe, GlassLobe):
+        return lobe.light(L, glossy, transmission) if glossy or transmission else None
+    return lobe.light(L) if glossy else None
+
+
 def glass_lobe(
     pairs: list[tuple[float, float]],
     D: sc.Vec3,

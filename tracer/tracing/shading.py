@@ -169,9 +169,7 @@ def _light_terms(
             term = _highlight_term(scene, light, points, shared)
         if both_sides:  # off the glass (Blender's Glossy visibility of the light) or through it (Transmission)
             through_glass = light.adds_glossy or light.adds_transmission
-            term = term._replace(diffuse_gate=(term.NL != 0.0) & through_glass)
-            if not through_glass:
-                term = term._replace(gate=np.zeros_like(term.gate))
+            term = term._replace(diffuse_gate=(term.NL != 0.0) & through_glass, gate=term.gate & through_glass)
         if share > 1 or light.patterns > 1:
             # a sample of a light of a size, taken by the pixels of its pattern and shared out among their samples as
             # the world's directions are: patterns times g times its terms
