@@ -27,6 +27,7 @@ ADDON_LAYERS: tuple[tuple[str, ...], ...] = (
         "engine",
         "engine.workers",
         "engine.messages",
+        "engine.collector",
         "vane.camera",
         "vane.lights",
         "vane.materials",

@@ -16,6 +16,7 @@ from .. import tracer_api as tracer
 from ..convert import export, motion_blur, pass_map
 from ..vane import camera
 from . import messages, viewport
+from .collector import collector_held
 from .workers import spawn_with_blenders_python
 
 
@@ -159,8 +160,11 @@ class WEATHERVANE_RE_tracer(bpy.types.RenderEngine):
         budget = MemoryBudget(blender_scene, cancelled=lambda: cancelled(self))
         try:
             moves = motion_blur.sampled(blender_scene, depsgraph, self.frame_set)  # Render > Motion Blur's poses
-            document = scene_document(bpy.context, depsgraph, blender_scene, notes, budget, arrays=True, motion=moves)
-            scene = tracer.scene_from_dict(export.as_json_types(document), "scene", kept=export.F12_LOADED)
+            with collector_held():
+                document = scene_document(
+                    bpy.context, depsgraph, blender_scene, notes, budget, arrays=True, motion=moves
+                )
+                scene = tracer.scene_from_dict(export.as_json_types(document), "scene", kept=export.F12_LOADED)
         except tracer.SceneError as error:
             self._nothing_rendered(
                 "Weathervane Tracer: " + "; ".join(named_problems(error.problems, document, blender_scene.world)[:4])

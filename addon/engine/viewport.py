@@ -23,6 +23,7 @@ import bpy
 import numpy as np
 
 from .. import tracer_api as tracer
+from .collector import collector_held
 from .workers import spawn_with_blenders_python
 
 SENSOR = 36.0  # millimetres: any width serves, the lens is derived from it
@@ -163,7 +164,8 @@ class ViewportSession:
         try:
             # arrays as NumPy arrays (as F12's): a textured, subdivided scene's lists cost 0.3 s a change to make,
             # serialize for the key and read back, before the view could show "updating"
-            document = scene_document(context, depsgraph, depsgraph.scene, budget=budget, arrays=True)
+            with collector_held():  # an edit's answer without a collection of Blender's whole heap in it
+                document = scene_document(context, depsgraph, depsgraph.scene, budget=budget, arrays=True)
         except tracer.ResourceError as refusal:  # too large for the free memory: not read
             self.error, self.document = f"Weathervane Tracer: not started: {refusal}", None  # as F12 says it
             return
@@ -196,7 +198,8 @@ class ViewportSession:
         from ..convert.export import as_json_types
 
         try:
-            scene = tracer.scene_from_dict(as_json_types(document), "viewport", kept=self._loaded)
+            with collector_held():
+                scene = tracer.scene_from_dict(as_json_types(document), "viewport", kept=self._loaded)
         except tracer.SceneError as error:
             from ..convert.export import named_problems
 
