@@ -230,18 +230,9 @@ def test_a_mirror_shows_an_area_lights_shape_and_brightness_as_cycles_does(tmp_p
         assert f12_exr(tmp_path / f"{engine}-hidden.exr")[..., 0].max() < 0.5 * cycles.max(), engine
 
 
-@AT_THE_ENDS
-@pytest.mark.parametrize("light", ["SUN", "POINT"])
-def test_a_rough_glass_ball_shows_a_lamp_through_it_and_its_highlight_as_cycles_does(
-    tmp_path: Path, light: str
-) -> None:
-    """The rough glass sphere (roughness 0.3) under a dark world with a lamp behind it and above, which the camera sees
-    through the glass (a sun of 5 degrees or a point light of radius 0.1 m): the light comes through the glass's
-    microfacets, reflected and refracted, not from its rays meeting the lamp. Over the sphere's pixels the mean
-    within 10% of Cycles' and over the brightest tenth of them (the glow and the highlight) within 15%, and the RMS
-    difference below 2.5 times Cycles' mean (the glow's peak is far above it). 5.0.1: the sun 1.023, 1.029 and 1.70,
-    the point 1.005, 0.994 and 1.15; 3.4.1: 1.006, 1.003, 2.04 and 1.071, 1.099, 1.63. When the glass's rays had to
-    meet the lamp: a sun's disc in fireflies (1.089, 1.096, RMS 4.52), a point light never (0.320, 0.043, 4.10)."""
+def _lamp_behind_rough_glass(light: str):
+    """The rough glass sphere (roughness 0.3) under a dark world with a lamp behind it and above as the camera sees it
+    (a sun of 5 degrees shining toward the camera, down a little, or a point light of radius 0.1 m): the lamp."""
     _scene(0.3, 256)
     sphere = bpy.data.objects["Sphere"]
     sphere.data.materials.clear()
@@ -262,6 +253,23 @@ def test_a_rough_glass_ball_shows_a_lamp_through_it_and_its_highlight_as_cycles_
     scene.collection.objects.link(lamp)
     lamp.location = (0.0, 6.0, 1.2)  # behind the sphere as the camera sees it, a little above
     lamp.rotation_euler = (math.radians(-79.0), 0.0, 0.0)  # a sun shining toward the camera, down a little
+    return lamp
+
+
+@AT_THE_ENDS
+@pytest.mark.parametrize("light", ["SUN", "POINT"])
+def test_a_rough_glass_ball_shows_a_lamp_through_it_and_its_highlight_as_cycles_does(
+    tmp_path: Path, light: str
+) -> None:
+    """The rough glass sphere (roughness 0.3) under a dark world with a lamp behind it and above, which the camera sees
+    through the glass (a sun of 5 degrees or a point light of radius 0.1 m): the light comes through the glass's
+    microfacets, reflected and refracted, not from its rays meeting the lamp. Over the sphere's pixels the mean
+    within 10% of Cycles' and over the brightest tenth of them (the glow and the highlight) within 15%, and the RMS
+    difference below 2.5 times Cycles' mean (the glow's peak is far above it). 5.0.1: the sun 1.023, 1.029 and 1.70,
+    the point 1.005, 0.994 and 1.15; 3.4.1: 1.006, 1.003, 2.04 and 1.071, 1.099, 1.63. When the glass's rays had to
+    meet the lamp: a sun's disc in fireflies (1.089, 1.096, RMS 4.52), a point light never (0.320, 0.043, 4.10)."""
+    _lamp_behind_rough_glass(light)
+    scene = bpy.context.scene
     images = {engine: None for engine in ("CYCLES", "WEATHERVANE_TRACER")}
     for engine in images:
         scene.render.engine = engine
@@ -289,19 +297,8 @@ def test_a_lamps_glossy_and_transmission_visibility_light_rough_glass_as_cycles_
     (compat.glass_closure_splits_light_visibility), less the reflection where Glossy is off (named in a note).
     5.0.1: 0.212 against 0.217 (Transmission alone), 0.217 against 0.217 (Glossy alone); 3.4.1: 0.243 against 0.215,
     0.0076 against 0.0136. Before the lamp's Transmission was read, one of the two was 0 or the whole glow."""
-    _scene(0.3, 256)
-    sphere = bpy.data.objects["Sphere"]
-    sphere.data.materials.clear()
-    sphere.data.materials.append(_glass(0.3))
+    lamp = _lamp_behind_rough_glass("POINT")
     scene = bpy.context.scene
-    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.02, 0.02, 0.03, 1.0)
-    scene.weathervane.depth, scene.weathervane.glossy_samples = 8, "16"
-    scene.cycles.sample_clamp_indirect, scene.cycles.blur_glossy = 0.0, 0.0
-    data = bpy.data.lights.new("lamp", "POINT")
-    data.energy, data.shadow_soft_size = 2000.0, 0.1
-    lamp = bpy.data.objects.new("lamp", data)
-    scene.collection.objects.link(lamp)
-    lamp.location = (0.0, 6.0, 1.2)
     mask = _sphere_pixels()
     added = {}
     for glossy, transmission in ((False, False), (False, True), (True, False)):
