@@ -123,6 +123,43 @@ def test_the_scene_walk_and_the_box_tests_in_pieces_of_rays_give_what_all_rays_a
         assert np.array_equal(found, expected_rays) and 100 < found.size < 5000
 
 
+def test_a_shadow_ray_blocked_by_a_small_kernel_does_not_walk_a_hierarchy(monkeypatch) -> None:
+    """Hierarchy.occluded tests the kernels without a hierarchy first (a ground of two triangles), then the meshes'
+    hierarchies only with the rays still open: each ray's answer is the OR of every kernel's own test, and no ray
+    that the ground blocks walks the grid of cubes."""
+    from tracer.geometry.bvh import Hierarchy
+
+    ground = tf.WorldTriangles(
+        "ground",
+        np.array([[[-20, -20, 0], [20, -20, 0], [20, 20, 0]], [[-20, -20, 0], [20, 20, 0], [-20, 20, 0]]], float),
+        np.array([[0.0, 0.0, 1.0]] * 2),
+    )
+    cubes = grid_of_cubes(8, 0.0)
+    cubes = tf.WorldTriangles("grid", np.asarray(cubes.triangles) + np.array([0.0, 0.0, 0.5]), cubes.normals)
+    flat = make_kernel(ground, np.dtype("float64"))
+    grid = MeshKernel(make_kernel(cubes, np.dtype("float64")), cubes)
+    hierarchy = Hierarchy([grid, flat], np.dtype("float64"))
+    rng = np.random.default_rng(21)
+    O = np.vstack((rng.uniform(-2, 14, (2, 6000)), rng.uniform(0.1, 2.5, (1, 6000))))
+    D = rng.normal(size=(3, 6000))
+    walked = []
+    search = MeshKernel.hit
+
+    def recorded(kernel, O_r, D_r, *args, **kwargs):
+        walked.append(O_r.copy())
+        return search(kernel, O_r, D_r, *args, **kwargs)
+
+    monkeypatch.setattr(MeshKernel, "hit", recorded)
+    with quiet():
+        blocked = hierarchy.occluded(O, D, 1e-6, np.inf)
+        on_ground = flat.hit(O, D, 1e-6, np.inf)[0] < np.inf
+        on_cubes = search(grid, O, D, 1e-6, np.inf, any_hit=True)[0] < np.inf
+    assert np.array_equal(blocked, on_ground | on_cubes)
+    assert 0.2 < on_ground.mean() < 0.8 and np.count_nonzero(on_cubes & ~on_ground) > 100
+    seen = {tuple(column) for column in np.hstack(walked).T.tolist()}
+    assert seen and not seen & {tuple(column) for column in O[:, on_ground].T.tolist()}
+
+
 def test_a_small_meshs_test_of_all_its_triangles_in_pieces_gives_the_same_bits(monkeypatch) -> None:
     """TrianglesKernel._hit takes a band's millions of rays in pieces of TRIANGLE_PAIRS (triangle, ray) pairs: the
     same t and parts, bit for bit, as all the rays at once, with one limit or one per ray and a shared origin."""

@@ -551,9 +551,24 @@ class Hierarchy:
         views: tuple[list[View], np.ndarray] | None = None,
         frames: RayFrames | None = None,
     ) -> np.ndarray:
-        for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, sets, any_hit=True, views=views, frames=frames):
-            hits = indices(t < np.inf)
-            blocked[hits if rays is None else rays.take(hits)] = True
+        """blocked (N,) with the rays that a kernel of sets blocks marked. The kernels without a hierarchy go first
+        (together, in their batches), then the hierarchies, cheapest first, each walked only by the rays still open:
+        a shadow ray that the ground blocks does not walk 3,000 cubes' hierarchy (a third of those rays, there)."""
+        walked = sorted(
+            (pair for pair in sets if isinstance(self.kernels[pair[0]], MeshKernel)),
+            key=lambda pair: self.kernels[pair[0]].cost,
+        )
+        groups = [[pair for pair in sets if not isinstance(self.kernels[pair[0]], MeshKernel)]] + [[p] for p in walked]
+        for position, group in enumerate(groups):
+            if position:  # a hierarchy: only the rays nothing blocked yet
+                index, rays = group[0]
+                rays = indices(~blocked) if rays is None else rays.take(indices(~blocked.take(rays)))
+                if not rays.size:
+                    continue
+                group = [(index, rays)]
+            for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, group, any_hit=True, views=views, frames=frames):
+                hits = indices(t < np.inf)
+                blocked[hits if rays is None else rays.take(hits)] = True
         return blocked
 
     def _evaluate(
