@@ -123,6 +123,35 @@ def test_the_scene_walk_and_the_box_tests_in_pieces_of_rays_give_what_all_rays_a
         assert np.array_equal(found, expected_rays) and 100 < found.size < 5000
 
 
+def test_a_few_kernels_boxes_tested_at_once_in_pieces_give_each_kernel_its_boxs_rays(monkeypatch) -> None:
+    """A scene of at most FLAT_WALK_KERNELS bounded kernels tests their own padded boxes on every ray at once, in
+    pieces of FLAT_WALK_PAIRS pairs: each kernel gets the rays that meet its box, in order, as from one test of them
+    all, and the any-hit answers are the tree walk's."""
+    from tracer.geometry import bvh
+    from tracer.geometry.bvh import Hierarchy
+
+    meshes = [soup(60, seed) for seed in range(3)]
+    meshes = [tf.WorldTriangles(f"m{k}", np.asarray(mesh.triangles) + 3.0 * k, mesh.normals)
+              for k, mesh in enumerate(meshes)]  # fmt: skip
+    hierarchy = Hierarchy([MeshKernel(make_kernel(mesh, np.dtype("float64")), mesh) for mesh in meshes], np.float64)
+    assert len(hierarchy.boxes[0]) <= bvh.FLAT_WALK_KERNELS
+    rng = np.random.default_rng(8)
+    O, D = rng.uniform(-3, 12, (3, 5000)), rng.normal(size=(3, 5000))
+    limit = rng.uniform(1.0, 20.0, 5000)
+    rays = np.sort(rng.choice(5000, 4000, replace=False))
+    with quiet():
+        whole = dict(hierarchy._flat_walk(O, D, rays, 0.0, limit))
+        monkeypatch.setattr(bvh, "FLAT_WALK_PAIRS", 3 * 333)
+        pieces = hierarchy._walk(O, D, rays, 0.0, limit)
+        flat = hierarchy.occluded(O, D, 0.0, limit)
+        monkeypatch.setattr(bvh, "FLAT_WALK_KERNELS", 0)
+        walked = hierarchy.occluded(O, D, 0.0, limit)
+    assert sorted(index for index, _ in pieces) == sorted(whole) == [0, 1, 2]
+    for index, found in pieces:
+        assert np.array_equal(found, whole[index]) and 100 < found.size < 4000
+    assert np.array_equal(flat, walked) and 0.05 < flat.mean() < 0.95
+
+
 def test_a_shadow_ray_blocked_by_a_small_kernel_does_not_walk_a_hierarchy(monkeypatch) -> None:
     """Hierarchy.occluded tests the kernels without a hierarchy first (a ground of two triangles), then the meshes'
     hierarchies only with the rays still open: each ray's answer is the OR of every kernel's own test, and no ray

@@ -489,10 +489,15 @@ class MeshKernel(Kernel):
             )
             if not rays.size:
                 break
-            # the child entered first; for a shadow ray the one entered later: the ray starts on a surface, and the
-            # child it enters first usually holds that surface, which cannot block it (3,000 separate cubes under a
-            # world light: a third more shadow rays blocked by their first path, a third fewer pairs walked after)
-            later = near_right > near_left if any_hit else near_right < near_left
+            # the child entered first; for a shadow ray that starts inside it the one entered later: the ray starts
+            # on a surface, and the child around its start usually holds that surface, which cannot block it (3,000
+            # separate cubes under a world light: a third more shadow rays blocked by their first path, a third fewer
+            # pairs walked after; a ray from the ground below them, inside neither child, 4% fewer pairs)
+            if any_hit:
+                starts_in = np.minimum(near_left, near_right) <= t_min
+                later = np.where(starts_in, near_right > near_left, near_right < near_left)
+            else:
+                later = near_right < near_left
             go_right = meets_right & (~meets_left | later)
             both = (meets_left & meets_right).nonzero()[0]
             if both.size:
