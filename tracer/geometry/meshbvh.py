@@ -313,6 +313,10 @@ class MeshKernel(Kernel):
         self.inner = inner  # TrianglesKernel or WatertightTrianglesKernel: the test, the normals, the frame
         self.dtype = inner.dtype
         self.frame = inner.frame
+        # a mesh placed in world space (merged objects): its oriented box is its world box, whose test the scene's
+        # walk has made on the rays it hands over and the hierarchy's first level repeats on any other
+        rotation, origin = self.frame[:2]
+        self.world_placed = bool(np.array_equal(rotation, np.eye(3)) and not origin.any())
         self.lower, self.upper = inner.lower, inner.upper
         self.count = len(mesh.triangles)
         if hierarchy is None:
@@ -350,7 +354,7 @@ class MeshKernel(Kernel):
         index (N,) among them) name them for rays that do not show it (shadow rays). The others walk the
         hierarchy. Either way the same hits."""
         count = ray_count(O, D)
-        rays = self.in_box(O, D, t_min, t_max)
+        rays = np.arange(count) if self.world_placed else self.in_box(O, D, t_min, t_max)
         t = np.full(count, np.inf, dtype=self.dtype)
         part = np.zeros(count, dtype=np.int64)
         if not rays.size:
