@@ -59,6 +59,7 @@ def test_the_mesh_hierarchy_finds_the_whole_mesh_tests_hits(build, dtype, count,
     mesh = soup(count, seed)
     whole = build(mesh, np.dtype(dtype))
     kernel = MeshKernel(whole, mesh)
+    assert kernel.world_placed  # no oriented box test of its own: rays from around the mesh, missing its box too
     O, D = (array.astype(dtype) for array in rays(mesh, 4000, seed))
     with quiet():
         for t_min, t_max in ((0.5, 3.0), (0.0, np.inf)):
@@ -121,6 +122,72 @@ def test_the_scene_walk_and_the_box_tests_in_pieces_of_rays_give_what_all_rays_a
         assert np.array_equal(found, expected[index])
     for found, expected_rays in zip(box_pieces, boxes, strict=True):
         assert np.array_equal(found, expected_rays) and 100 < found.size < 5000
+
+
+def test_a_few_kernels_boxes_tested_at_once_in_pieces_give_each_kernel_its_boxs_rays(monkeypatch) -> None:
+    """A scene of at most FLAT_WALK_KERNELS bounded kernels tests their own padded boxes on every ray at once, in
+    pieces of FLAT_WALK_PAIRS pairs: each kernel gets the rays that meet its box, in order, as from one test of them
+    all, and the any-hit answers are the tree walk's."""
+    from tracer.geometry import bvh
+    from tracer.geometry.bvh import Hierarchy
+
+    meshes = [soup(60, seed) for seed in range(3)]
+    meshes = [tf.WorldTriangles(f"m{k}", np.asarray(mesh.triangles) + 3.0 * k, mesh.normals)
+              for k, mesh in enumerate(meshes)]  # fmt: skip
+    hierarchy = Hierarchy([MeshKernel(make_kernel(mesh, np.dtype("float64")), mesh) for mesh in meshes], np.float64)
+    assert len(hierarchy.boxes[0]) <= bvh.FLAT_WALK_KERNELS
+    rng = np.random.default_rng(8)
+    O, D = rng.uniform(-3, 12, (3, 5000)), rng.normal(size=(3, 5000))
+    limit = rng.uniform(1.0, 20.0, 5000)
+    rays = np.sort(rng.choice(5000, 4000, replace=False))
+    with quiet():
+        whole = dict(hierarchy._flat_walk(O, D, rays, 0.0, limit))
+        monkeypatch.setattr(bvh, "FLAT_WALK_PAIRS", 3 * 333)
+        pieces = hierarchy._walk(O, D, rays, 0.0, limit)
+        flat = hierarchy.occluded(O, D, 0.0, limit)
+        monkeypatch.setattr(bvh, "FLAT_WALK_KERNELS", 0)
+        walked = hierarchy.occluded(O, D, 0.0, limit)
+    assert sorted(index for index, _ in pieces) == sorted(whole) == [0, 1, 2]
+    for index, found in pieces:
+        assert np.array_equal(found, whole[index]) and 100 < found.size < 4000
+    assert np.array_equal(flat, walked) and 0.05 < flat.mean() < 0.95
+
+
+def test_a_shadow_ray_blocked_by_a_small_kernel_does_not_walk_a_hierarchy(monkeypatch) -> None:
+    """Hierarchy.occluded tests the kernels without a hierarchy first (a ground of two triangles), then the meshes'
+    hierarchies only with the rays still open: each ray's answer is the OR of every kernel's own test, and no ray
+    that the ground blocks walks the grid of cubes."""
+    from tracer.geometry.bvh import Hierarchy
+
+    ground = tf.WorldTriangles(
+        "ground",
+        np.array([[[-20, -20, 0], [20, -20, 0], [20, 20, 0]], [[-20, -20, 0], [20, 20, 0], [-20, 20, 0]]], float),
+        np.array([[0.0, 0.0, 1.0]] * 2),
+    )
+    cubes = grid_of_cubes(8, 0.0)
+    cubes = tf.WorldTriangles("grid", np.asarray(cubes.triangles) + np.array([0.0, 0.0, 0.5]), cubes.normals)
+    flat = make_kernel(ground, np.dtype("float64"))
+    grid = MeshKernel(make_kernel(cubes, np.dtype("float64")), cubes)
+    hierarchy = Hierarchy([grid, flat], np.dtype("float64"))
+    rng = np.random.default_rng(21)
+    O = np.vstack((rng.uniform(-2, 14, (2, 6000)), rng.uniform(0.1, 2.5, (1, 6000))))
+    D = rng.normal(size=(3, 6000))
+    walked = []
+    search = MeshKernel.hit
+
+    def recorded(kernel, O_r, D_r, *args, **kwargs):
+        walked.append(O_r.copy())
+        return search(kernel, O_r, D_r, *args, **kwargs)
+
+    monkeypatch.setattr(MeshKernel, "hit", recorded)
+    with quiet():
+        blocked = hierarchy.occluded(O, D, 1e-6, np.inf)
+        on_ground = flat.hit(O, D, 1e-6, np.inf)[0] < np.inf
+        on_cubes = search(grid, O, D, 1e-6, np.inf, any_hit=True)[0] < np.inf
+    assert np.array_equal(blocked, on_ground | on_cubes)
+    assert 0.2 < on_ground.mean() < 0.8 and np.count_nonzero(on_cubes & ~on_ground) > 100
+    seen = {tuple(column) for column in np.hstack(walked).T.tolist()}
+    assert seen and not seen & {tuple(column) for column in O[:, on_ground].T.tolist()}
 
 
 def test_a_small_meshs_test_of_all_its_triangles_in_pieces_gives_the_same_bits(monkeypatch) -> None:

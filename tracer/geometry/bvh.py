@@ -136,6 +136,10 @@ BRUTE_SCALE = 0.25
 # the tree (_flat_walk): the last bounces' few hundred rays cost the walk ~20 NumPy calls per node reached, and the
 # flat test ~20 calls in all
 FLAT_WALK_PAIRS = 1 << 16
+# Up to this many bounded kernels a query tests their boxes at once however many rays it has, in pieces of
+# FLAT_WALK_PAIRS pairs: a ground and 3,000 cubes merged (a tree of 3 nodes) walked a band's millions of shadow rays
+# in 0.80 s, tested flat in 0.54 s (1280x720, one worker)
+FLAT_WALK_KERNELS = 4
 
 
 class Hierarchy:
@@ -419,13 +423,17 @@ class Hierarchy:
         if rays.size * len(self.boxes[0]) <= FLAT_WALK_PAIRS:
             return self._flat_walk(O, D, rays, t_min, limit)
         piece = meshbvh.RAY_PIECE
+        if len(self.boxes[0]) <= FLAT_WALK_KERNELS:  # a few kernels: their boxes at once, in pieces of rays
+            walk, piece = self._flat_walk, max(1, FLAT_WALK_PAIRS // len(self.boxes[0]))
+        else:
+            walk = self._walk_piece
         if rays.size <= piece:
-            return self._walk_piece(O, D, rays, t_min, limit)
+            return walk(O, D, rays, t_min, limit)
         # in pieces: a band's shadow rays of every light (millions) made each box test a few passes over arrays
         # far larger than the caches (0.74 s of 3,000 cubes' 640x360 frame for a tree of 3 nodes)
         joined: dict[int, list[np.ndarray]] = {}
         for start in range(0, rays.size, piece):
-            for index, found in self._walk_piece(O, D, rays[start : start + piece], t_min, limit):
+            for index, found in walk(O, D, rays[start : start + piece], t_min, limit):
                 joined.setdefault(index, []).append(found)
         return [(index, found[0] if len(found) == 1 else np.concatenate(found)) for index, found in joined.items()]
 
@@ -551,9 +559,24 @@ class Hierarchy:
         views: tuple[list[View], np.ndarray] | None = None,
         frames: RayFrames | None = None,
     ) -> np.ndarray:
-        for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, sets, any_hit=True, views=views, frames=frames):
-            hits = indices(t < np.inf)
-            blocked[hits if rays is None else rays.take(hits)] = True
+        """blocked (N,) with the rays that a kernel of sets blocks marked. The kernels without a hierarchy go first
+        (together, in their batches), then the hierarchies, cheapest first, each walked only by the rays still open:
+        a shadow ray that the ground blocks does not walk 3,000 cubes' hierarchy (a third of those rays, there)."""
+        walked = sorted(
+            (pair for pair in sets if isinstance(self.kernels[pair[0]], MeshKernel)),
+            key=lambda pair: self.kernels[pair[0]].cost,
+        )
+        groups = [[pair for pair in sets if not isinstance(self.kernels[pair[0]], MeshKernel)]] + [[p] for p in walked]
+        for position, group in enumerate(groups):
+            if position:  # a hierarchy: only the rays nothing blocked yet
+                index, rays = group[0]
+                rays = indices(~blocked) if rays is None else rays.take(indices(~blocked.take(rays)))
+                if not rays.size:
+                    continue
+                group = [(index, rays)]
+            for _, rays, t, _ in self._evaluate(O, L, t_min, t_max, group, any_hit=True, views=views, frames=frames):
+                hits = indices(t < np.inf)
+                blocked[hits if rays is None else rays.take(hits)] = True
         return blocked
 
     def _evaluate(

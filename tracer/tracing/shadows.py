@@ -85,12 +85,8 @@ def reached(
         if own is not None:
             runs.append(RayFrames.of(rest, own.cuts[0], start))
         start += rest.size
-        every = light.grid is None and rest.size == needed.size  # nothing left out: no need to gather
-        origins.append(origin if every and origin.shape[1] == rest.size else take(origin, rest))
-        if vector.shape[1] == 1:
-            vectors.append(np.broadcast_to(vector, (3, rest.size)))
-        else:
-            vectors.append(vector if every and vector.shape[1] == rest.size else take(vector, rest))
+        origins.append((origin, rest))
+        vectors.append((vector, rest))
         if len(lights) > 1:
             limits.append(np.full(rest.size, light.t_max, dtype=scene.dtype))
         views.append(light.view)
@@ -101,13 +97,13 @@ def reached(
     sets = None if any(b is None for b in bits) else kernel_sets(bits)
     # which light's point or direction each ray shares, for the meshes' pictures
     which = np.repeat(np.arange(len(views)), [rest.size for *_, rest in shadows])
-    one = len(shadows) == 1  # one light: its arrays as they are, its limit one number
+    one = len(shadows) == 1  # one light: its limit one number
     blocked_by_objects = (
         np.zeros(0, dtype=bool)
         if not start
         else hierarchy.occluded(
-            origins[0] if one else np.concatenate(origins, axis=1),
-            vectors[0] if one else np.concatenate(vectors, axis=1),
+            _joined(origins, start, scene.dtype),
+            _joined(vectors, start, scene.dtype),
             t_min,
             lights[0].t_max if one else np.concatenate(limits),
             planes=False,
@@ -124,6 +120,28 @@ def reached(
         reaching[needed] = ~blocked
         lit.append(reaching)
     return lit
+
+
+def _joined(parts: list[tuple[np.ndarray, np.ndarray]], count: int, dtype: np.dtype) -> np.ndarray:
+    """Each light's rays: its array (3, k) and the columns rest (r,) of it that go on (a shared column (3, 1)
+    stands for every one of them) -> (3, count), one light after another. Gathered straight into the query's
+    array: no copy per light to join (13 million shadow rays of 3,000 cubes at 1280x720)."""
+    if len(parts) == 1:  # one light: its array as it is where it can be
+        array, rest = parts[0]
+        if array.shape[1] == rest.size:
+            return array
+        return np.broadcast_to(array, (3, rest.size)) if array.shape[1] == 1 else take(array, rest)
+    joined = np.empty((3, count), dtype=dtype)
+    start = 0
+    for array, rest in parts:
+        stop = start + rest.size
+        for row in range(3):
+            if array.shape[1] == 1 or array.shape[1] == rest.size:  # a shared column, or every ray
+                joined[row, start:stop] = array[row]
+            else:
+                array[row].take(rest, out=joined[row, start:stop], mode="wrap")
+        start = stop
+    return joined
 
 
 def _term_piece(term: LightTerm, part: slice, count: int) -> LightTerm:
