@@ -34,11 +34,14 @@ VIEWS = [
 
 def difference(image: np.ndarray, other: np.ndarray) -> str:
     """Where two images (H, W, C) differ: how many pixels, the first few (row, column), the largest difference."""
-    pixels = np.argwhere((image != other).any(axis=-1))
+    pixels = np.argwhere((image != other).any(axis=-1))  # a NaN differs from itself: counted apart below
     if not pixels.size:
         return "the same bytes"
-    largest = float(np.abs(image - other).max())
-    return f"{len(pixels)} pixels differ, first {pixels[:5].tolist()}, by up to {largest:.3g}"
+    largest = float(np.nanmax(np.abs(image - other)))
+    nans = ""
+    if np.isnan(image - other).any():
+        nans = f" (NaN in {np.isnan(image).sum()} and {np.isnan(other).sum()} values)"
+    return f"{len(pixels)} pixels differ, first {pixels[:5].tolist()}, by up to {largest:.3g}{nans}"
 
 
 def view_of(settings: dict, size: tuple[int, int], ahead: float):
