@@ -20,6 +20,7 @@ from tracer.geometry.meshpicture import View
 from tracer.geometry.robust import make_robust_kernel
 from tracer.scene import scene as sc
 from tracer.scene.loader import scene_from_dict
+from tracer.tracing import wavefront
 from tracer.tracing.reference import render_reference
 from tracer.workers import parallel
 from tracer.workers.parallel import render
@@ -489,6 +490,32 @@ def test_an_area_light_at_shadows_16_gets_each_of_its_views_pictured_once(monkey
     render(scene, workers=1)
     views = 1 + lightsamples.PATTERNS * 16
     assert len(set(made)) == views and len(made) == views
+
+
+@pytest.mark.parametrize(("dtype", "numerics"), [("float64", "documented"), ("float32", "robust")])
+def test_a_clipped_cameras_rays_search_the_meshs_picture_from_its_location_with_the_walks_bytes(
+    dtype: str, numerics: str, monkeypatch
+) -> None:
+    """A camera with a near clip plane (every Blender camera has one) starts its rays on that plane, not at its
+    location, yet each lies on a line through the location: the mesh's picture from there serves them, and the
+    image is the walk's, bit for bit."""
+    scene = uv_sphere(4000)
+    scene = replace(scene, camera=replace(scene.camera, clip_start=0.1, clip_end=50.0))
+    scene = scene.with_render(width=96, height=72, samples=4, dtype=dtype, numerics=numerics)
+    made: list[View] = []
+    build = meshpicture.TrianglePicture.build.__func__
+
+    def counted(cls, corners, lower, upper, slots, view, *rest):
+        made.append(view)
+        return build(cls, corners, lower, upper, slots, view, *rest)
+
+    monkeypatch.setattr(meshpicture.TrianglePicture, "build", classmethod(counted))
+    pictured = render(scene, workers=1).image
+    camera_view = View("point", tuple(float(x) for x in scene.camera.location))
+    assert camera_view in made
+    monkeypatch.setattr(wavefront.TracedScene, "_camera_views", lambda self, batch: None)  # the walk alone
+    walked = render(scene, workers=1).image
+    assert np.array_equal(pictured, walked) and pictured.std() > 0.05
 
 
 # ---- meshes as arrays: vertices, triangles and corner fields as NumPy arrays -----------------------------------------

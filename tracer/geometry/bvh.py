@@ -333,6 +333,7 @@ class Hierarchy:
         sets: Sets | None = None,
         walk: np.ndarray | None = None,
         frames: RayFrames | None = None,
+        views: tuple[list[View], np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rays (3, N) -> nearest t > t_min (N,), object index (N,) or -1, part (N,).
 
@@ -341,9 +342,11 @@ class Hierarchy:
         hierarchy is then neither walked nor replaced by brute force, except for the rays walk (m,), which the
         sets leave out (the mirror rays of what is not a culled plane) and which go through the hierarchy as
         without sets (walked only: a hierarchy that brute force serves is not given sets). frames: each ray's frame,
-        where kernels differ by frame (frame_of); without it every kernel sees every ray."""
+        where kernels differ by frame (frame_of); without it every kernel sees every ray. views as for occluded():
+        the points the rays lie on lines through (a clipped camera's rays start off its location), for the meshes'
+        pictures."""
         with quiet():
-            return self._closest(O, D, t_min, sets, walk, frames if self.frame_of is not None else None)
+            return self._closest(O, D, t_min, sets, walk, frames if self.frame_of is not None else None, views)
 
     def _closest(
         self,
@@ -353,6 +356,7 @@ class Hierarchy:
         sets: Sets | None,
         walk: np.ndarray | None = None,
         frames: RayFrames | None = None,
+        views: tuple[list[View], np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         count = ray_count(O, D)
         best_t = np.full(count, np.inf, dtype=self.dtype)
@@ -408,7 +412,7 @@ class Hierarchy:
             sets = self._walk(O, D, np.arange(count), t_min, best_t)
         elif walk is not None:
             sets = sets + self._walk(O, D, walk, t_min, best_t)
-        for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, sets, frames=frames):
+        for index, rays, t, part in self._evaluate(O, D, t_min, math.inf, sets, views=views, frames=frames):
             offer(index, rays, t, part)
         return best_t, best_object, best_part
 

@@ -50,13 +50,15 @@ def closest_by_kind(
     sets: list | None,
     query: RayFrames | None,
     frames: np.ndarray | None,
+    views: tuple[list, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Hierarchy.closest for a see-through wavefront: the camera rays (and their straight continuations) among the
     objects the camera sees, the others among those mirror rays see; sets: the camera rays' screen rectangles (the
-    first wavefront, all camera rays); query: the whole batch's frames."""
+    first wavefront, all camera rays); query: the whole batch's frames; views: the camera's point for the first
+    wavefront (Hierarchy.closest)."""
     O, D, camera, pixel = batch.origin, batch.direction, batch.camera, batch.pixel
     if camera.all():
-        return scene.camera_hierarchy.closest(O, D, t_min, sets, None, query)
+        return scene.camera_hierarchy.closest(O, D, t_min, sets, None, query, views)
     if scene.camera_hierarchy is scene.mirror_hierarchy or not camera.any():
         return scene.mirror_hierarchy.closest(O, D, t_min, None, None, query)
     count = pixel.size

@@ -15,6 +15,7 @@ import numpy as np
 from ..geometry import camera as cam
 from ..geometry.footprint import Footprint, Volume
 from ..geometry.kernels import indices, quiet
+from ..geometry.meshpicture import View
 from ..geometry.rayframes import RayFrames
 from . import mirrored, see_through, surfaces, whitted
 from .batch import RayBatch
@@ -154,9 +155,10 @@ class TracedScene(PreparedScene):
         camera rays (and their straight continuations) those the camera sees, the others those mirror rays see;
         the camera rays and the first mirror rays culled by their screen rectangles where culling has them."""
         query = None if frames is None else RayFrames(frames[None]) if first else RayFrames.of(batch.pixel, frames)
+        views = self._camera_views(batch) if first else None
         if batch.camera is not None:
             return see_through.closest_by_kind(
-                self, batch, t_min, culling.camera_sets() if first else None, query, frames
+                self, batch, t_min, culling.camera_sets() if first else None, query, frames, views
             )
         sets = walk = None
         if first:
@@ -165,7 +167,18 @@ class TracedScene(PreparedScene):
             sets, walk = culling.mirror_sets(batch.pixel)
             culling.came_from = None
         hierarchy = self.camera_hierarchy if first else self.mirror_hierarchy
-        return hierarchy.closest(batch.origin, batch.direction, t_min, sets, walk, query)
+        return hierarchy.closest(batch.origin, batch.direction, t_min, sets, walk, query, views)
+
+    def _camera_views(self, batch: RayBatch) -> tuple[list[View], np.ndarray] | None:
+        """The camera's location as the point that each camera ray (n,) of batch lies on a line through, for the
+        meshes' pictures from there: a pinhole camera's rays start at its near clip plane (Blender's cameras
+        always have one), not at the point, so the rays alone do not show it. None for a lens of an aperture, an
+        orthographic camera, or rays that start at the point (a shared origin names it already)."""
+        camera = self.scene.camera
+        if camera.type not in ("PERSP", "PANO") or camera.aperture != 0.0 or batch.origin.shape[1] == 1:
+            return None
+        point = View("point", tuple(float(x) for x in camera.location))
+        return [point], np.zeros(batch.size, dtype=np.int64)
 
     # ---- the bands' scheduling: pieces of camera samples, rows, pixels ------------------------------------------
 
