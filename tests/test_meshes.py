@@ -473,12 +473,8 @@ def test_a_deep_stack_of_triangles_is_walked_not_pictured() -> None:
     assert (t < np.inf).all()
 
 
-def test_an_area_light_at_shadows_16_gets_each_of_its_views_pictured_once(monkeypatch) -> None:
-    """A mesh under an area light at Shadows 16 is seen from 65 views (the camera and the light's 64 points, 16 in
-    each of the four patterns that a 2 x 2 block's pixels take): each view's picture is made once in a render and
-    kept (meshbvh.PICTURE_BYTES), not made again band after band once more than PICTURES_KEPT views take turns."""
-    light = sc.AreaLight(location=(2.0, -2.0, 5.0), direction=(-0.3, 0.3, -1.0), size=(2.0, 2.0), intensity=8.0)
-    scene = replace(uv_sphere(400), lights=(light,)).with_render(width=160, height=120, shadow_samples=16)
+def pictures_made(monkeypatch) -> list[View]:
+    """The views whose pictures the renders after this call make, in order (TrianglePicture.build counted)."""
     made: list[View] = []
     build = meshpicture.TrianglePicture.build.__func__
 
@@ -487,6 +483,16 @@ def test_an_area_light_at_shadows_16_gets_each_of_its_views_pictured_once(monkey
         return build(cls, corners, lower, upper, slots, view, *rest)
 
     monkeypatch.setattr(meshpicture.TrianglePicture, "build", classmethod(counted))
+    return made
+
+
+def test_an_area_light_at_shadows_16_gets_each_of_its_views_pictured_once(monkeypatch) -> None:
+    """A mesh under an area light at Shadows 16 is seen from 65 views (the camera and the light's 64 points, 16 in
+    each of the four patterns that a 2 x 2 block's pixels take): each view's picture is made once in a render and
+    kept (meshbvh.PICTURE_BYTES), not made again band after band once more than PICTURES_KEPT views take turns."""
+    light = sc.AreaLight(location=(2.0, -2.0, 5.0), direction=(-0.3, 0.3, -1.0), size=(2.0, 2.0), intensity=8.0)
+    scene = replace(uv_sphere(400), lights=(light,)).with_render(width=160, height=120, shadow_samples=16)
+    made = pictures_made(monkeypatch)
     render(scene, workers=1)
     views = 1 + lightsamples.PATTERNS * 16
     assert len(set(made)) == views and len(made) == views
@@ -502,14 +508,7 @@ def test_a_clipped_cameras_rays_search_the_meshs_picture_from_its_location_with_
     scene = uv_sphere(4000)
     scene = replace(scene, camera=replace(scene.camera, clip_start=0.1, clip_end=50.0))
     scene = scene.with_render(width=96, height=72, samples=4, dtype=dtype, numerics=numerics)
-    made: list[View] = []
-    build = meshpicture.TrianglePicture.build.__func__
-
-    def counted(cls, corners, lower, upper, slots, view, *rest):
-        made.append(view)
-        return build(cls, corners, lower, upper, slots, view, *rest)
-
-    monkeypatch.setattr(meshpicture.TrianglePicture, "build", classmethod(counted))
+    made = pictures_made(monkeypatch)
     pictured = render(scene, workers=1).image
     camera_view = View("point", tuple(float(x) for x in scene.camera.location))
     assert camera_view in made
