@@ -87,8 +87,7 @@ def reached(
         start += rest.size
         origins.append((origin, rest))
         vectors.append((vector, rest))
-        if len(lights) > 1:
-            limits.append(np.full(rest.size, light.t_max, dtype=scene.dtype))
+        limits.append(light.t_max)
         views.append(light.view)
     if not shadows:
         return []
@@ -97,7 +96,9 @@ def reached(
     sets = None if any(b is None for b in bits) else kernel_sets(bits)
     # which light's point or direction each ray shares, for the meshes' pictures
     which = np.repeat(np.arange(len(views)), [rest.size for *_, rest in shadows])
-    one = len(shadows) == 1  # one light: its limit one number
+    # one limit for every ray where the lights share it (suns and the world: no limit, which spares the walk its
+    # tests against each ray's limit); else each ray its light's
+    shared_limit = len(set(limits)) == 1
     blocked_by_objects = (
         np.zeros(0, dtype=bool)
         if not start
@@ -105,7 +106,9 @@ def reached(
             _joined(origins, start, scene.dtype),
             _joined(vectors, start, scene.dtype),
             t_min,
-            lights[0].t_max if one else np.concatenate(limits),
+            limits[0]
+            if shared_limit
+            else np.repeat(np.array(limits, dtype=scene.dtype), [rest.size for *_, rest in shadows]),
             planes=False,
             sets=sets,
             views=(views, which),
