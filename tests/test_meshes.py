@@ -176,9 +176,9 @@ def test_a_shadow_ray_blocked_by_a_small_kernel_does_not_walk_a_hierarchy(monkey
     walked = []
     search = MeshKernel.hit
 
-    def recorded(kernel, O_r, D_r, *args, **kwargs):
-        walked.append(O_r.copy())
-        return search(kernel, O_r, D_r, *args, **kwargs)
+    def recorded(kernel, O_r, D_r, *args, columns=None, **kwargs):
+        walked.append((O_r if columns is None else O_r[:, columns]).copy())
+        return search(kernel, O_r, D_r, *args, columns=columns, **kwargs)
 
     monkeypatch.setattr(MeshKernel, "hit", recorded)
     with quiet():
@@ -282,6 +282,38 @@ def test_a_mesh_of_many_small_parts_gets_a_leaf_per_part_and_finds_the_same_hits
     hit = expected_t < np.inf
     assert np.array_equal(t, expected_t) and np.array_equal(part[hit], expected_part[hit])
     assert np.array_equal(occluded < np.inf, hit) and 0.3 < hit.mean() < 0.95
+
+
+def test_a_mesh_given_columns_of_the_rays_finds_what_it_finds_for_those_rays_gathered() -> None:
+    """MeshKernel.hit with columns (the scene's subset of a query's rays, gathered by each view's rays or sliced
+    where they are one run) gives the same hits, bit for bit, as the same rays gathered first: a mesh in world
+    space and a turned one (its oriented box test), rays of two lights' views and of none."""
+    rng = np.random.default_rng(5)
+    cubes = grid_of_cubes(6, 0.0)
+    turned = tf.WorldTriangles(
+        "turned", cubes.triangles, cubes.normals, rotation=((0.0, -1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+    )
+    O = np.vstack((rng.uniform(-1, 10, (2, 4000)), rng.uniform(0.1, 3.0, (1, 4000))))
+    D = rng.normal(size=(3, 4000))
+    views = [View("direction", (0.0, 0.0, 1.0)), None]
+    which = (np.arange(4000) >= 1500).astype(np.int64)  # the first 1,500 rays share a view, the rest one run of none
+    for mesh in (cubes, turned):
+        kernel = MeshKernel(make_kernel(mesh, np.dtype("float64")), mesh)
+        for columns in (np.sort(rng.choice(4000, 2500, replace=False)), np.arange(700, 3900)):
+            with quiet():
+                given = kernel.hit(
+                    O, D, 1e-6, np.inf, any_hit=True, views=(views, which.take(columns)), columns=columns
+                )
+                gathered = kernel.hit(
+                    O[:, columns], D[:, columns], 1e-6, np.inf, any_hit=True, views=(views, which.take(columns))
+                )
+                nearest = kernel.hit(O, D, 1e-6, 30.0, views=(views, which.take(columns)), columns=columns)
+                nearest_gathered = kernel.hit(
+                    O[:, columns], D[:, columns], 1e-6, 30.0, views=(views, which.take(columns))
+                )
+            assert (given[0] < np.inf).any() and (given[0] == np.inf).any()
+            for found, expected in ((given, gathered), (nearest, nearest_gathered)):
+                assert np.array_equal(found[0], expected[0]) and np.array_equal(found[1], expected[1])
 
 
 def grid_of_cubes(side: int, offset: float) -> tf.WorldTriangles:

@@ -618,12 +618,13 @@ class Hierarchy:
                 continue
             if rays is None:
                 rays, O_r, D_r = np.arange(ray_count(O, D)), O, D
-            elif isinstance(kernel, MeshKernel) or not kernel.batch_attributes or kernel.frame is not None:
+            elif not isinstance(kernel, MeshKernel) and (not kernel.batch_attributes or kernel.frame is not None):
                 O_r, D_r = take(O, rays), take(D, rays)
             limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
-            if isinstance(kernel, MeshKernel):
+            if isinstance(kernel, MeshKernel):  # it gathers its rays itself, once for each view's
                 chosen = None if views is None else (views[0], views[1].take(rays))
-                results.append((index, rays, *kernel.hit(O_r, D_r, t_min, limit, any_hit=any_hit, views=chosen)))
+                found = kernel.hit(O, D, t_min, limit, any_hit=any_hit, views=chosen, columns=rays)
+                results.append((index, rays, *found))
                 continue
             if not kernel.batch_attributes:
                 results.append((index, rays, *kernel.hit(O_r, D_r, t_min, limit)))

@@ -30,6 +30,7 @@ from .kernels import (
     make_kernel,
     ray_count,
     slab,
+    take,
     unit,
     unit_or,
 )
@@ -110,15 +111,17 @@ class InstancesKernel(MeshKernel):
 
     # ---- the query ---------------------------------------------------------------------------------------------
 
-    def hit(self, O, D, t_min, t_max, any_hit: bool = False, views=None):
+    def hit(self, O, D, t_min, t_max, any_hit: bool = False, views=None, columns=None):
         """Rays (3, N) (either may be a shared column) -> (t, part) (N,); any_hit: any hit's t, not the nearest.
-        views: unused (MeshKernel.hit's signature).
+        views: unused (MeshKernel.hit's signature); columns: the rays are these columns (n,) of O and D.
 
         Front to back, all rays at once: each round every ray takes the nearest of the nodes it has met but not
         entered (no further than its best hit so far), follows the nearer child down to a leaf (keeping the other
         child it meets for a later round), and searches the leaf's instances; a round's leaves are searched in one
         batch. A ray stops once nothing it has met begins before its hit: in a dense forest, after the first leaf
         or two, however many boxes lie behind. Rays go in pieces of RAY_PIECE (each ray's hit is its own)."""
+        if columns is not None:
+            O, D = take(O, columns), take(D, columns)
         count = ray_count(O, D)
         O, D = np.broadcast_to(O, (3, count)), np.broadcast_to(D, (3, count))
         size = meshbvh.RAY_PIECE

@@ -162,7 +162,6 @@ class MeshHierarchy:
             stops = np.stack((middle, inner_stops), axis=1).ravel()
         order = orders[0]
         self.left = np.concatenate(lefts)
-        self.right = np.where(self.left >= 0, self.left + 1, -1)
         self.leaf_row = np.concatenate(leaf_rows)
         # boxes: each leaf's over its triangles, then each inner node's over its children's, deepest level first
         del columns
@@ -291,6 +290,16 @@ def _view_groups(listed: list[View | None], which: np.ndarray) -> list[tuple[Vie
     return groups
 
 
+def _columns(rays: np.ndarray, positions: np.ndarray | None) -> np.ndarray:
+    """The columns positions (k,, ascending; None: all) of rays (3, N) (a shared (3, 1) column as it is): a view of
+    them where they are one run (a query's rays of one view usually are: one light after another), else a gather."""
+    if positions is None or rays.shape[1] == 1:
+        return rays
+    if positions.size and int(positions[-1]) - int(positions[0]) + 1 == positions.size:
+        return rays[:, int(positions[0]) : int(positions[-1]) + 1]
+    return take(rays, positions)
+
+
 def _picture_bytes(picture: TrianglePicture | None) -> int:
     return 0 if picture is None else picture.starts.nbytes + picture.entries.nbytes
 
@@ -345,15 +354,29 @@ class MeshKernel(Kernel):
     def bounds(self):
         return self.lower, self.upper
 
-    def hit(self, O, D, t_min, t_max, any_hit: bool = False, views: tuple[list[View], np.ndarray] | None = None):
+    def hit(
+        self,
+        O,
+        D,
+        t_min,
+        t_max,
+        any_hit: bool = False,
+        views: tuple[list[View], np.ndarray] | None = None,
+        columns: np.ndarray | None = None,
+    ):
         """Kernel.hit (rays outside the mesh's oriented box skip the search); any_hit: stop at a ray's first hit,
         whose t is then any hit's, not the nearest.
 
         Rays that share a point or a direction are searched in the mesh's picture from there (meshpicture.py): a
         shared (3, 1) origin is a point, a shared direction a direction, and views (the views (k,) and each ray's
         index (N,) among them) name them for rays that do not show it (shadow rays). The others walk the
-        hierarchy. Either way the same hits."""
-        count = ray_count(O, D)
+        hierarchy. Either way the same hits.
+
+        columns: the rays are these columns (n,, ascending) of O and D (the caller's subset; t_max and views name
+        each of them): gathered here once for each view's rays, and not at all where those are one run of columns."""
+        if columns is not None and not self.world_placed:  # the oriented box test takes the rays themselves
+            O, D, columns = take(O, columns), take(D, columns), None
+        count = ray_count(O, D) if columns is None else columns.size
         rays = np.arange(count) if self.world_placed else self.in_box(O, D, t_min, t_max)
         t = np.full(count, np.inf, dtype=self.dtype)
         part = np.zeros(count, dtype=np.int64)
@@ -361,7 +384,8 @@ class MeshKernel(Kernel):
             return t, part
         limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
         # every ray in the box (most, where the scene's walk chose them): no gather of the arrays again
-        O_r, D_r = (O, D) if rays.size == count else (take(O, rays), take(D, rays))
+        if columns is None and rays.size < count:
+            O, D, columns = take(O, rays), take(D, rays), None
         if views is not None:
             groups = _view_groups(views[0], views[1].take(rays))
         elif O.shape[1] == 1:  # camera rays
@@ -372,10 +396,12 @@ class MeshKernel(Kernel):
             groups = [(None, None)]
         for view, members in groups:
             if members is None:
-                O_g, D_g, limit_g, chosen = O_r, D_r, limit, rays
+                positions, limit_g, chosen = columns, limit, rays
             else:
-                O_g, D_g, chosen = take(O_r, members), take(D_r, members), rays.take(members)
+                positions = members if columns is None else columns.take(members)
+                chosen = rays.take(members)
                 limit_g = limit.take(members) if isinstance(limit, np.ndarray) else limit
+            O_g, D_g = _columns(O, positions), _columns(D, positions)
             found_t, found_part = self._find(O_g, D_g, t_min, limit_g, any_hit, view)
             t[chosen] = found_t
             part[chosen] = found_part
@@ -491,7 +517,7 @@ class MeshKernel(Kernel):
         rays = np.arange(count)
         nodes = np.zeros(count, dtype=np.int64)
         while rays.size:
-            rays, nodes, (left, right, near_left, near_right, meets_left, meets_right) = self._step(
+            rays, left, (near_left, near_right, meets_left, meets_right) = self._step(
                 O, D, boxes, t_min, rays, nodes, best_t, best_part, any_hit, unlimited
             )
             if not rays.size:
@@ -507,12 +533,12 @@ class MeshKernel(Kernel):
                 later = near_right < near_left
             go_right = meets_right & (~meets_left | later)
             both = (meets_left & meets_right).nonzero()[0]
-            if both.size:
+            if both.size:  # the right child is the left one's next node
                 passed_rays.append(rays.take(both))
-                passed_nodes.append(np.where(go_right, left, right).take(both))
+                passed_nodes.append(left.take(both) + ~go_right.take(both))
                 passed_near.append(np.where(go_right, near_left, near_right).take(both))
             going = (meets_left | meets_right).nonzero()[0]
-            rays, nodes = rays.take(going), np.where(go_right, right, left).take(going)
+            rays, nodes = rays.take(going), left.take(going) + go_right.take(going)
         if not passed_rays:
             return self._found(best_t, best_part)
         rays, nodes, near = np.concatenate(passed_rays), np.concatenate(passed_nodes), np.concatenate(passed_near)
@@ -524,14 +550,14 @@ class MeshKernel(Kernel):
                 if any_hit:
                     keep &= best_part.take(rays) == BIG
             keep = keep.nonzero()[0]
-            rays, nodes, (left, right, near_left, near_right, meets_left, meets_right) = self._step(
+            rays, left, (near_left, near_right, meets_left, meets_right) = self._step(
                 O, D, boxes, t_min, rays.take(keep), nodes.take(keep), best_t, best_part, any_hit, unlimited
             )
             if not rays.size:
                 break
             on_left, on_right = meets_left.nonzero()[0], meets_right.nonzero()[0]
             rays = np.concatenate((rays.take(on_left), rays.take(on_right)))
-            nodes = np.concatenate((left.take(on_left), right.take(on_right)))
+            nodes = np.concatenate((left.take(on_left), left.take(on_right) + 1))
             near = np.concatenate((near_left.take(on_left), near_right.take(on_right)))
         return self._found(best_t, best_part)
 
@@ -548,26 +574,26 @@ class MeshKernel(Kernel):
 
     def _step(self, O, D, boxes, t_min, rays, nodes, best_t, best_part, any_hit=False, unlimited=False):
         """One level of a walk: the leaves among nodes (P,) tested with their rays (P,), and the inner nodes' rays
-        and nodes with their children's tests (_children; empty arrays where no inner node is left). unlimited:
-        no ray has a hit or a limit yet, so its children are not tested against its best t. The reason for 10
-        parameters: the walk's state, passed down rather than kept on the kernel, which every query shares."""
-        is_leaf = self.hierarchy.left.take(nodes) < 0
+        and left children with their children's tests (_children; empty arrays where no inner node is left).
+        unlimited: no ray has a hit or a limit yet, so its children are not tested against its best t. The reason for
+        10 parameters: the walk's state, passed down rather than kept on the kernel, which every query shares."""
+        left = self.hierarchy.left.take(nodes)
+        is_leaf = left < 0
         leaf = is_leaf.nonzero()[0]
         if leaf.size:
             self._test_leaves(O, D, t_min, rays.take(leaf), nodes.take(leaf), best_t, best_part, any_hit)
             inner = (~is_leaf).nonzero()[0]
-            rays, nodes = rays.take(inner), nodes.take(inner)
+            rays, left = rays.take(inner), left.take(inner)
         if not rays.size:
-            return rays, nodes, (None,) * 6
-        return rays, nodes, self._children(boxes, rays, nodes, t_min, None if unlimited else best_t)
+            return rays, left, (None,) * 4
+        return rays, left, self._children(boxes, rays, left, t_min, None if unlimited else best_t)
 
-    def _children(self, boxes: BoxRays, rays, nodes, t_min, best_t):
-        """The children (P,) of inner nodes (P,) met by rays (P,), their entry t (P,), and whether each child's
-        box meets its ray within (t_min, the ray's best t] (best_t None: within (t_min, inf))."""
-        tree = self.hierarchy
+    def _children(self, boxes: BoxRays, rays, left, t_min, best_t):
+        """The entry t (P,) of inner nodes' children, left (P,) and right (left + 1), for rays (P,), and whether
+        each child's box meets its ray within (t_min, the ray's best t] (best_t None: within (t_min, inf))."""
         O_n = boxes.origins.take(rays, axis=1, mode="wrap")  # in range: no bounds check
         inverse_n = boxes.inverses.take(rays, axis=1, mode="wrap")
-        left, right = tree.left.take(nodes), tree.right.take(nodes)
+        right = left + 1
         lower, upper = boxes.lower, boxes.upper
         near_left, far_left = slab(O_n, inverse_n, lower.take(left, 1, mode="wrap"), upper.take(left, 1, mode="wrap"))
         near_right, far_right = slab(
@@ -579,7 +605,7 @@ class MeshKernel(Kernel):
             best = best_t.take(rays)
             meets_left &= near_left <= best
             meets_right &= near_right <= best
-        return left, right, near_left, near_right, meets_left, meets_right
+        return near_left, near_right, meets_left, meets_right
 
     def _found(self, best_t, best_part):
         found = best_part != BIG
