@@ -616,6 +616,7 @@ class Hierarchy:
             if rays is None and not isinstance(kernel, MeshKernel):  # every ray, in place: brute force's test
                 results.append((index, None, *self._brute_hit(index, O, D, t_min, t_max, t_max)))
                 continue
+            columns = rays  # a mesh's subset of the rays (None: all of them)
             if rays is None:
                 rays, O_r, D_r = np.arange(ray_count(O, D)), O, D
             elif not isinstance(kernel, MeshKernel) and (not kernel.batch_attributes or kernel.frame is not None):
@@ -623,7 +624,7 @@ class Hierarchy:
             limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
             if isinstance(kernel, MeshKernel):  # it gathers its rays itself, once for each view's
                 chosen = None if views is None else (views[0], views[1].take(rays))
-                found = kernel.hit(O, D, t_min, limit, any_hit=any_hit, views=chosen, columns=rays)
+                found = kernel.hit(O, D, t_min, limit, any_hit=any_hit, views=chosen, columns=columns)
                 results.append((index, rays, *found))
                 continue
             if not kernel.batch_attributes:

@@ -375,7 +375,7 @@ class MeshKernel(Kernel):
         columns: the rays are these columns (n,, ascending) of O and D (the caller's subset; t_max and views name
         each of them): gathered here once for each view's rays, and not at all where those are one run of columns."""
         if columns is not None and not self.world_placed:  # the oriented box test takes the rays themselves
-            O, D, columns = take(O, columns), take(D, columns), None
+            O, D, columns = _columns(O, columns), _columns(D, columns), None
         count = ray_count(O, D) if columns is None else columns.size
         rays = np.arange(count) if self.world_placed else self.in_box(O, D, t_min, t_max)
         t = np.full(count, np.inf, dtype=self.dtype)
@@ -385,7 +385,7 @@ class MeshKernel(Kernel):
         limit = t_max.take(rays) if isinstance(t_max, np.ndarray) else t_max
         # every ray in the box (most, where the scene's walk chose them): no gather of the arrays again
         if columns is None and rays.size < count:
-            O, D, columns = take(O, rays), take(D, rays), None
+            O, D = take(O, rays), take(D, rays)
         if views is not None:
             groups = _view_groups(views[0], views[1].take(rays))
         elif O.shape[1] == 1:  # camera rays

@@ -95,7 +95,8 @@ def reached(
     hierarchy = scene.shadow_hierarchy
     sets = None if any(b is None for b in bits) else kernel_sets(bits)
     # which light's point or direction each ray shares, for the meshes' pictures
-    which = np.repeat(np.arange(len(views)), [rest.size for *_, rest in shadows])
+    sizes = [rest.size for *_, rest in shadows]
+    which = np.repeat(np.arange(len(views)), sizes)
     # one limit for every ray where the lights share it (suns and the world: no limit, which spares the walk its
     # tests against each ray's limit); else each ray its light's
     shared_limit = len(set(limits)) == 1
@@ -106,9 +107,7 @@ def reached(
             _joined(origins, start, scene.dtype),
             _joined(vectors, start, scene.dtype),
             t_min,
-            limits[0]
-            if shared_limit
-            else np.repeat(np.array(limits, dtype=scene.dtype), [rest.size for *_, rest in shadows]),
+            limits[0] if shared_limit else np.repeat(np.array(limits, dtype=scene.dtype), sizes),
             planes=False,
             sets=sets,
             views=(views, which),
